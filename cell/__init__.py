@@ -1,0 +1,1 @@
+"""The cell: MuJoCo build, physics, controller API, sensors, tool changer, kinematics."""

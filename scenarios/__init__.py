@@ -1,0 +1,1 @@
+"""Runnable jobs: paper, skull, assembly; offline programming, evaluation, logging, CLI."""

@@ -1,0 +1,70 @@
+"""The `twincell` command line. Imports are lazy so that `twincell --help` stays fast."""
+
+from __future__ import annotations
+
+import sys
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(
+    name="twincell",
+    help="Correlate a virtual robot cell with the real one by 3D surface matching.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import version
+
+        typer.echo(f"twincell {version('twincell')}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+    ] = False,
+) -> None:
+    """twincell: surface matching for robot cells."""
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    """The root exceptions of the project's packages: bad input a user can fix."""
+    from cell.errors import CellError
+    from models.errors import ModelError
+    from registration.errors import RegistrationError
+    from scenarios.errors import ScenarioError
+
+    return (RegistrationError, CellError, ModelError, ScenarioError)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script: user errors become one line and exit status 2."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except typer.Exit as exc:
+        return int(exc.exit_code or 0)
+    except typer.Abort:
+        typer.echo("twincell: aborted", err=True)
+        return 130
+    except Exception as exc:
+        import click
+
+        if isinstance(exc, click.ClickException):
+            exc.show()
+            return exc.exit_code
+        if isinstance(exc, _user_errors()):
+            typer.echo(f"twincell: error: {exc}", err=True)
+            return 2
+        raise
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
