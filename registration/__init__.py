@@ -1,1 +1,1 @@
-"""Surface matching on numpy arrays: robust multi-start ICP against points, meshes and parametric surfaces."""
+"""Surface matching on numpy arrays: robust multi-start ICP (points, meshes, surfaces)."""

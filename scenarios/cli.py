@@ -53,12 +53,10 @@ def main(argv: list[str] | None = None) -> int:
     except typer.Abort:
         typer.echo("twincell: aborted", err=True)
         return 130
+    except typer.TyperException as exc:  # usage errors: typer prints them the click way
+        exc.show()  # type: ignore[attr-defined]
+        return int(getattr(exc, "exit_code", 2))
     except Exception as exc:
-        import click
-
-        if isinstance(exc, click.ClickException):
-            exc.show()
-            return exc.exit_code
         if isinstance(exc, _user_errors()):
             typer.echo(f"twincell: error: {exc}", err=True)
             return 2
