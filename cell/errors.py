@@ -1,7 +1,34 @@
-"""Exceptions of the cell package."""
+"""Exceptions of the cell package.
+
+Every error a user (or a planner) can cause is a `CellError`; the subclasses also inherit the
+matching built-in exception so that callers may catch either.
+"""
 
 from __future__ import annotations
 
 
 class CellError(Exception):
     """Root of every error raised by `cell`."""
+
+
+class CellConfigError(CellError, ValueError):
+    """A configuration value outside its valid range (noise, sizes, poses, counts)."""
+
+
+class UnreachableTargetError(CellError, ValueError):
+    """A pose the arm cannot reach within its joint limits; the message gives the residual."""
+
+
+class JointLimitError(CellError, ValueError):
+    """A joint target outside the joint limits; the message names the joint and the limits."""
+
+
+class UnknownNameError(CellError, LookupError):
+    """An unknown tool or frame name; the message lists the valid names."""
+
+    def __str__(self) -> str:  # LookupError would quote the message like a dict key
+        return str(self.args[0]) if self.args else ""
+
+
+class ToolChangerError(CellError, RuntimeError):
+    """A tool-changer command that cannot be done in the current state (already holding...)."""

@@ -1,0 +1,256 @@
+"""The IRB2000-class arm as a robot-only MJCF, generated from its kinematic parameters.
+
+The numbers are those of an ABB IRB 2400 (the IRB 2000's successor): see README.md beside this
+file. The same generator writes the nominal arm (what the programmer believes) and a perturbed
+one (the real arm): link lengths and joint zero offsets are parameters.
+
+Frames: the base frame is the robot's world frame (z up, x forward). At q = 0 the upper arm
+points up and the forearm forward, the flange faces +x. The `flange` site has z out of the
+flange (ABB's tool0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+JOINT_NAMES: tuple[str, ...] = ("joint1", "joint2", "joint3", "joint4", "joint5", "joint6")
+BODY_NAMES: tuple[str, ...] = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
+FLANGE_SITE = "flange"
+
+_DEG = np.pi / 180.0
+#: Joint limits [rad], IRB 2400 (axis 6 limited to +-400 deg).
+JOINT_LOWER = np.array([-180.0, -100.0, -60.0, -200.0, -120.0, -400.0]) * _DEG
+JOINT_UPPER = np.array([180.0, 110.0, 65.0, 200.0, 120.0, 400.0]) * _DEG
+#: Joint speed limits [rad/s], IRB 2400.
+JOINT_SPEED = np.array([150.0, 150.0, 150.0, 360.0, 360.0, 450.0]) * _DEG
+#: `home` keyframe [rad]: wrist above the worktable, flange pointing down.
+Q_HOME = np.array([0.0, 0.0, 0.0, 0.0, np.pi / 2, 0.0])
+
+# Joint axes in the parent-aligned link frames.
+_AXES = ((0, 0, 1), (0, 1, 0), (0, 1, 0), (1, 0, 0), (0, 1, 0), (1, 0, 0))
+# Servo gains: stiffness [N m/rad], damping [N m s/rad], torque limit [N m], rotor inertia
+# reflected through the gearbox [kg m^2]. Gravity is compensated (body gravcomp), so the gains
+# only carry the dynamics.
+_KP = (4.0e5, 4.0e5, 2.0e5, 2.0e4, 2.0e4, 1.0e4)
+_KV = (8.0e3, 8.0e3, 4.0e3, 4.0e2, 4.0e2, 2.0e2)
+_TORQUE = (4000.0, 4000.0, 2500.0, 600.0, 600.0, 300.0)
+_ARMATURE = (8.0, 8.0, 4.0, 0.4, 0.4, 0.2)
+# Masses [kg] of the links (base is fixed and massless for dynamics purposes).
+_MASS = (0.0, 90.0, 28.0, 30.0, 10.0, 3.0, 0.6)
+
+
+@dataclass(frozen=True)
+class ArmGeometry:
+    """Kinematic parameters of the arm [m, rad].
+
+    `d1` base to shoulder height, `a1` shoulder forward offset, `a2` upper arm, `a3` elbow
+    offset, `d4` forearm (elbow to wrist centre), `d6` wrist centre to flange.
+    `joint_offsets` (6,) are zero offsets: the link turns by q + offset when the joint reads q.
+    """
+
+    d1: float = 0.615
+    a1: float = 0.100
+    a2: float = 0.705
+    a3: float = 0.135
+    d4: float = 0.755
+    d6: float = 0.085
+    joint_offsets: tuple[float, ...] = field(default=(0.0,) * 6)
+
+    def __post_init__(self) -> None:
+        lengths = (self.d1, self.a1, self.a2, self.a3, self.d4, self.d6)
+        if not all(np.isfinite(v) and v > 0.0 for v in lengths):
+            raise ValueError(f"arm lengths must be finite and positive, got {lengths}")
+        if len(self.joint_offsets) != 6 or not np.all(np.isfinite(self.joint_offsets)):
+            raise ValueError(f"joint_offsets must be 6 finite angles, got {self.joint_offsets}")
+
+    def perturbed(
+        self, d_lengths: np.ndarray | tuple[float, ...], d_offsets: np.ndarray | tuple[float, ...]
+    ) -> ArmGeometry:
+        """A copy with the six lengths and six joint offsets changed by the given amounts."""
+        dl = np.asarray(d_lengths, dtype=float).reshape(6)
+        do = np.asarray(d_offsets, dtype=float).reshape(6)
+        return replace(
+            self,
+            d1=self.d1 + dl[0],
+            a1=self.a1 + dl[1],
+            a2=self.a2 + dl[2],
+            a3=self.a3 + dl[3],
+            d4=self.d4 + dl[4],
+            d6=self.d6 + dl[5],
+            joint_offsets=tuple(float(a + b) for a, b in zip(self.joint_offsets, do, strict=True)),
+        )
+
+
+def _f(values: tuple[float, ...] | np.ndarray) -> str:
+    return " ".join(f"{float(v):.12g}" for v in values)
+
+
+def _quat_axis_angle(axis: tuple[int, int, int], angle: float) -> str:
+    s = np.sin(angle / 2.0)
+    return _f((np.cos(angle / 2.0), axis[0] * s, axis[1] * s, axis[2] * s))
+
+
+def _box_inertia(mass: float, size: tuple[float, float, float]) -> str:
+    x, y, z = (2.0 * s for s in size)
+    return _f(
+        (
+            mass * (y * y + z * z) / 12.0,
+            mass * (x * x + z * z) / 12.0,
+            mass * (x * x + y * y) / 12.0,
+        )
+    )
+
+
+def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") -> str:
+    """The robot-only MJCF of the arm (no includes; the base is the first worldbody body)."""
+    g = geometry or ArmGeometry()
+    off = g.joint_offsets
+    # Child body positions in the parent link frame.
+    pos = (
+        (0.0, 0.0, 0.0),
+        (g.a1, 0.0, g.d1),
+        (0.0, 0.0, g.a2),
+        (0.0, 0.0, g.a3),
+        (g.d4, 0.0, 0.0),
+        (g.d6, 0.0, 0.0),
+    )
+    # Per link: inertial centre, box half sizes (inertia), and geoms (visual = collision shape).
+    half_d4 = g.d4 / 2.0
+    links = (
+        # link1: turret
+        (
+            (0.05, 0.0, 0.35),
+            (0.25, 0.25, 0.3),
+            [
+                f'<geom class="collision" type="cylinder" size="0.2 0.15" pos="0 0 {0.2:.6g}"/>',
+                f'<geom class="collision" type="capsule" size="0.14" '
+                f'fromto="0 0 0.35 {g.a1:.6g} 0 {g.d1:.6g}"/>',
+            ],
+        ),
+        # link2: upper arm
+        (
+            (0.0, 0.0, g.a2 / 2.0),
+            (0.1, 0.1, g.a2 / 2.0),
+            [
+                f'<geom class="collision" type="capsule" size="0.1" '
+                f'fromto="0 -0.12 0 0 -0.12 {g.a2:.6g}"/>',
+            ],
+        ),
+        # link3: elbow housing
+        (
+            (0.1, 0.0, g.a3),
+            (0.15, 0.1, 0.1),
+            [
+                '<geom class="collision" type="capsule" size="0.1" '
+                f'fromto="-0.15 0 {g.a3:.6g} 0.15 0 {g.a3:.6g}"/>',
+            ],
+        ),
+        # link4: forearm
+        (
+            (half_d4, 0.0, 0.0),
+            (half_d4, 0.07, 0.07),
+            [
+                f'<geom class="collision" type="capsule" size="0.07" '
+                f'fromto="0.2 0 0 {g.d4 - 0.09:.6g} 0 0"/>',
+            ],
+        ),
+        # link5: wrist
+        (
+            (0.0, 0.0, 0.0),
+            (0.06, 0.06, 0.06),
+            [
+                '<geom class="collision" type="cylinder" size="0.06 0.06" '
+                'quat="0.7071068 0.7071068 0 0"/>',
+            ],
+        ),
+        # link6: flange
+        (
+            (-0.01, 0.0, 0.0),
+            (0.015, 0.04, 0.04),
+            [
+                '<geom class="collision" type="cylinder" size="0.04 0.01" pos="-0.01 0 0" '
+                'quat="0.7071068 0 0.7071068 0"/>',
+            ],
+        ),
+    )
+
+    def body(i: int, indent: str) -> str:
+        name = BODY_NAMES[i + 1]
+        com, half, geoms = links[i]
+        quat = f' quat="{_quat_axis_angle(_AXES[i], off[i])}"' if off[i] != 0.0 else ""
+        lines = [
+            f'{indent}<body name="{name}" pos="{_f(pos[i])}"{quat} gravcomp="1">',
+            f'{indent}  <inertial pos="{_f(com)}" mass="{_MASS[i + 1]}" '
+            f'diaginertia="{_box_inertia(_MASS[i + 1], half)}"/>',
+            f'{indent}  <joint name="{JOINT_NAMES[i]}" axis="{_f(_AXES[i])}" '
+            f'range="{JOINT_LOWER[i]:.12g} {JOINT_UPPER[i]:.12g}" armature="{_ARMATURE[i]}"/>',
+        ]
+        for geom in geoms:
+            lines.append(f"{indent}  {geom}")
+            visual = geom.replace('class="collision"', 'class="visual"')
+            lines.append(f"{indent}  {visual}")
+        if i == 5:
+            lines.append(
+                f'{indent}  <site name="{FLANGE_SITE}" quat="0.70710678118654757 0 '
+                '0.70710678118654757 0" size="0.01"/>'
+            )
+        else:
+            lines.append(body(i + 1, indent + "  "))
+        lines.append(f"{indent}</body>")
+        return "\n".join(lines)
+
+    actuators = "\n".join(
+        f'    <general name="{JOINT_NAMES[i]}" joint="{JOINT_NAMES[i]}" '
+        f'ctrlrange="{JOINT_LOWER[i] - 0.2:.12g} {JOINT_UPPER[i] + 0.2:.12g}" '
+        f'forcerange="{-_TORQUE[i]:g} {_TORQUE[i]:g}" gainprm="{_KP[i]:g}" '
+        f'biastype="affine" biasprm="0 {-_KP[i]:g} {-_KV[i]:g}"/>'
+        for i in range(6)
+    )
+    return f"""<mujoco model="{model_name}">
+  <compiler angle="radian" autolimits="true"/>
+
+  <default>
+    <default class="{model_name}">
+      <default class="visual">
+        <geom group="2" contype="0" conaffinity="0" rgba="0.93 0.55 0.12 1"/>
+      </default>
+      <default class="collision">
+        <geom group="3" rgba="0.5 0.5 0.5 1"/>
+      </default>
+    </default>
+  </default>
+
+  <worldbody>
+    <body name="base" childclass="{model_name}">
+      <inertial pos="0 0 0.1" mass="50" diaginertia="1 1 1"/>
+      <geom class="collision" type="cylinder" size="0.25 0.1" pos="0 0 0.1"/>
+      <geom class="visual" type="cylinder" size="0.25 0.1" pos="0 0 0.1"/>
+{body(0, "      ")}
+    </body>
+  </worldbody>
+
+  <contact>
+{_excludes()}
+  </contact>
+
+  <actuator>
+{actuators}
+  </actuator>
+
+  <keyframe>
+    <key name="home" qpos="{_f(Q_HOME)}" ctrl="{_f(Q_HOME)}"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+def _excludes() -> str:
+    """Exclude every pair of arm bodies: the arm's links never touch each other in reach."""
+    pairs = [
+        (BODY_NAMES[i], BODY_NAMES[j])
+        for i in range(len(BODY_NAMES))
+        for j in range(i + 1, len(BODY_NAMES))
+    ]
+    return "\n".join(f'    <exclude body1="{a}" body2="{b}"/>' for a, b in pairs)
