@@ -1,1 +1,61 @@
-"""The cell: MuJoCo build, physics, controller API, sensors, tool changer, kinematics."""
+"""The cell: MuJoCo build, physics, controller API, sensors, tool changer, kinematics.
+
+`make_cell(config)` returns the controller (what a robot program sees) and the truth (what
+only an evaluator reads).
+"""
+
+from cell.config import (
+    ArmErrors,
+    CellConfig,
+    EncoderNoise,
+    FixedMesh,
+    FixedPrimitive,
+    IRConfig,
+    LaserConfig,
+    LoosePart,
+    TableErrors,
+)
+from cell.controller import Controller, nominal_T_base_slot, nominal_T_base_table
+from cell.errors import (
+    CellConfigError,
+    CellError,
+    JointLimitError,
+    ToolChangerError,
+    UnknownNameError,
+    UnreachableTargetError,
+)
+from cell.factory import make_cell, nominal_kinematics
+from cell.kinematics import IKResult, Kinematics
+from cell.laser import laser_points_base
+from cell.robots import ur5_kinematics
+from cell.sensors import LaserReading
+from cell.truth import CellTruth
+
+__all__ = [
+    "ArmErrors",
+    "CellConfig",
+    "CellConfigError",
+    "CellError",
+    "CellTruth",
+    "Controller",
+    "EncoderNoise",
+    "FixedMesh",
+    "FixedPrimitive",
+    "IKResult",
+    "IRConfig",
+    "JointLimitError",
+    "Kinematics",
+    "LaserConfig",
+    "LaserReading",
+    "LoosePart",
+    "TableErrors",
+    "ToolChangerError",
+    "UnknownNameError",
+    "UnreachableTargetError",
+    "laser_points_base",
+    "make_cell",
+    "nominal_T_base_slot",
+    "nominal_T_base_table",
+    "nominal_kinematics",
+    "ur5_kinematics",
+]

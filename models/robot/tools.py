@@ -128,10 +128,10 @@ def rack_worldbody_xml() -> str:
         f'quat="{" ".join(str(v) for v in SLOT_QUAT)}" size="0.01"/>'
         for i, spec in enumerate(TOOLS)
     )
-    beam = f'size="{length / 2:.6g} 0.03 0.02" pos="{cx - x0:.6g} -0.08 {SLOT_HEIGHT + 0.02}"'
-    h = SLOT_HEIGHT / 2
-    post_l = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 - length / 2:.6g} -0.08 {h:.6g}"'
-    post_r = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 + length / 2:.6g} -0.08 {h:.6g}"'
+    beam = f'size="{length / 2:.6g} 0.03 0.02" pos="{cx - x0:.6g} -0.12 {SLOT_HEIGHT - 0.03}"'
+    h = (SLOT_HEIGHT - 0.05) / 2
+    post_l = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 - length / 2:.6g} -0.12 {h:.6g}"'
+    post_r = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 + length / 2:.6g} -0.12 {h:.6g}"'
     return f"""    <body name="rack" pos="{x0} {y0} 0">
       <geom type="box" {beam} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_l} rgba="0.4 0.4 0.45 1"/>

@@ -1,0 +1,119 @@
+"""Build the cell's MuJoCo model from a config: nominal or real (perturbed) arm, objects.
+
+The scene text comes from `models.robot`; the robot-only MJCF is generated with the real arm's
+kinematic parameters and passed as the scene's include. Objects are added with MjSpec.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from cell.config import CellConfig, FixedMesh, FixedPrimitive, LoosePart
+from cell.transforms import R_to_quat_wxyz, make_T
+from models.robot import ROBOT_FILE, TABLE_TOP_POS, ArmGeometry, arm_xml, scene_xml
+
+#: Geom group of objects' exact surfaces (seen by the rays) and of contact-only pieces.
+OBJECT_GROUP = 1
+CONTACT_ONLY_GROUP = 5
+#: Pose of the table frame (`table_top` site) in the `table` body frame.
+T_TABLEBODY_TABLE = make_T(np.eye(3), np.array([0.0, 0.0, TABLE_TOP_POS[2]]))
+
+
+@dataclass(frozen=True)
+class RealParameters:
+    """The real cell's hidden parameters drawn from the config (the truth)."""
+
+    arm: ArmGeometry
+    table_bias_m: float
+
+
+def draw_real_parameters(config: CellConfig) -> RealParameters:
+    """Draw the real arm's deviations and the table bias from `config.seed`."""
+    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 1]))
+    d_lengths = rng.normal(0.0, 1.0, 6) * config.arm.length_sigma_m
+    d_offsets = rng.normal(0.0, 1.0, 6) * config.arm.offset_sigma_rad
+    bias = float(rng.normal(0.0, 1.0)) * config.table.bias_sigma_m
+    return RealParameters(ArmGeometry().perturbed(d_lengths, d_offsets), bias)
+
+
+def _add_fixture(spec: mujoco.MjSpec, obj: FixedMesh | FixedPrimitive) -> None:
+    table = spec.body("table")
+    T = T_TABLEBODY_TABLE @ obj.T_table_object
+    pos, quat = T[:3, 3], R_to_quat_wxyz(T[:3, :3])
+    if isinstance(obj, FixedPrimitive):
+        kind = mujoco.mjtGeom.mjGEOM_SPHERE if obj.kind == "sphere" else mujoco.mjtGeom.mjGEOM_BOX
+        size = [obj.size[0], 0.0, 0.0] if obj.kind == "sphere" else list(obj.size)
+        table.add_geom(
+            name=obj.name,
+            type=kind,
+            size=size,
+            pos=pos,
+            quat=quat,
+            rgba=obj.rgba,
+            group=OBJECT_GROUP,
+            mass=0.5,
+        )
+        return
+    mesh = spec.add_mesh(name=f"{obj.name}_mesh")
+    mesh.uservert = obj.vertices.ravel().tolist()
+    mesh.userface = obj.faces.ravel().tolist()
+    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    collides = not obj.convex_pieces
+    table.add_geom(
+        name=obj.name,
+        type=mujoco.mjtGeom.mjGEOM_MESH,
+        meshname=mesh.name,
+        pos=pos,
+        quat=quat,
+        rgba=obj.rgba,
+        group=OBJECT_GROUP,
+        contype=int(collides),
+        conaffinity=int(collides),
+        mass=0.5,
+    )
+    for i, piece in enumerate(obj.convex_pieces):
+        hull = spec.add_mesh(name=f"{obj.name}_hull{i}")
+        hull.uservert = np.asarray(piece, dtype=float).ravel().tolist()
+        hull.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX
+        table.add_geom(
+            name=f"{obj.name}_hull{i}",
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=hull.name,
+            pos=pos,
+            quat=quat,
+            group=CONTACT_ONLY_GROUP,
+            rgba=(0.5, 0.5, 0.5, 0.3),
+            mass=0.1,
+        )
+
+
+def _add_part(spec: mujoco.MjSpec, part: LoosePart) -> None:
+    x, y, z = TABLE_TOP_POS
+    body = spec.worldbody.add_body(
+        name=part.name, pos=[x + part.xy_table[0], y + part.xy_table[1], z + part.half_size[2]]
+    )
+    body.add_freejoint(name=f"{part.name}_free")
+    body.add_geom(
+        name=part.name,
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=list(part.half_size),
+        mass=part.mass,
+        friction=[1.0, 0.01, 0.001],
+        condim=4,
+        rgba=(0.8, 0.3, 0.2, 1.0),
+    )
+
+
+def build_model(config: CellConfig, arm: ArmGeometry | None = None) -> mujoco.MjModel:
+    """Compile the cell's MuJoCo model with the given arm geometry (default nominal)."""
+    spec = mujoco.MjSpec.from_string(
+        scene_xml(), include={ROBOT_FILE: arm_xml(arm or ArmGeometry()).encode()}
+    )
+    for obj in config.fixtures:
+        _add_fixture(spec, obj)
+    for part in config.parts:
+        _add_part(spec, part)
+    return spec.compile()

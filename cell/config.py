@@ -1,0 +1,266 @@
+"""The cell's configuration: error sources of the real cell and the objects on the table.
+
+Every error source has its own frozen dataclass and can be set to zero (`CellConfig.ideal()`).
+Values are SI: [m], [rad].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+
+from cell.errors import CellConfigError
+
+
+def _nonneg(owner: str, **values: float) -> None:
+    for name, v in values.items():
+        if not (np.isfinite(v) and v >= 0.0):
+            raise CellConfigError(f"{owner}.{name} must be finite and >= 0, got {v!r}")
+
+
+@dataclass(frozen=True)
+class ArmErrors:
+    """Kinematic deviations of the real arm from its nominal model (drawn once per cell).
+
+    `length_sigma_m` per link length (d1, a1, a2, a3, d4, d6) and `offset_sigma_rad` per joint
+    zero offset. The defaults give an industrial arm's absolute accuracy, about 0.2-0.5 mm at
+    the TCP.
+    """
+
+    length_sigma_m: float = 1.5e-4
+    offset_sigma_rad: float = 1.0e-4
+
+    def __post_init__(self) -> None:
+        _nonneg(
+            "ArmErrors", length_sigma_m=self.length_sigma_m, offset_sigma_rad=self.offset_sigma_rad
+        )
+
+
+@dataclass(frozen=True)
+class EncoderNoise:
+    """Gaussian noise [rad] on every joint reading (encoders and the laser's joint stamp)."""
+
+    sigma_rad: float = 1.0e-5
+
+    def __post_init__(self) -> None:
+        _nonneg("EncoderNoise", sigma_rad=self.sigma_rad)
+
+
+@dataclass(frozen=True)
+class TableErrors:
+    """Positioning error of the linear axis: a constant `bias_sigma_m` drawn once per cell
+    and a per-move `repeat_sigma_m`; the table's readout does not see either."""
+
+    bias_sigma_m: float = 1.0e-4
+    repeat_sigma_m: float = 1.0e-5
+
+    def __post_init__(self) -> None:
+        _nonneg("TableErrors", bias_sigma_m=self.bias_sigma_m, repeat_sigma_m=self.repeat_sigma_m)
+
+
+@dataclass(frozen=True)
+class LaserConfig:
+    """The laser line scanner: `n_rays` in a fan of `fan_angle_rad` in the TCP's x-z plane
+    (centred on its z axis), returns only between `range_min_m` and `range_max_m`, Gaussian
+    range noise `sigma_m`, no return beyond `max_incidence_rad` from the surface normal, and a
+    random dropout probability per ray."""
+
+    n_rays: int = 256
+    fan_angle_rad: float = 0.6
+    range_min_m: float = 0.05
+    range_max_m: float = 0.6
+    sigma_m: float = 2.0e-5
+    max_incidence_rad: float = 1.3
+    dropout: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.n_rays, int) and 1 <= self.n_rays <= 100_000):
+            raise CellConfigError(
+                f"LaserConfig.n_rays must be an int in [1, 100000], got {self.n_rays!r}"
+            )
+        _nonneg("LaserConfig", sigma_m=self.sigma_m, dropout=self.dropout)
+        if not 0.0 <= self.fan_angle_rad < np.pi:
+            raise CellConfigError(
+                f"LaserConfig.fan_angle_rad must be in [0, pi), got {self.fan_angle_rad!r}"
+            )
+        if not 0.0 <= self.range_min_m < self.range_max_m:
+            raise CellConfigError(
+                f"LaserConfig needs 0 <= range_min_m < range_max_m, got {self.range_min_m!r}, "
+                f"{self.range_max_m!r}"
+            )
+        if not 0.0 < self.max_incidence_rad <= np.pi / 2:
+            raise CellConfigError(
+                "LaserConfig.max_incidence_rad must be in (0, pi/2], "
+                f"got {self.max_incidence_rad!r}"
+            )
+        if self.dropout > 1.0:
+            raise CellConfigError(f"LaserConfig.dropout must be in [0, 1], got {self.dropout!r}")
+
+    def directions_tcp(self) -> np.ndarray:
+        """(n_rays, 3) unit ray directions in the laser TCP frame."""
+        angles = np.linspace(-self.fan_angle_rad / 2, self.fan_angle_rad / 2, self.n_rays)
+        return np.stack([np.sin(angles), np.zeros_like(angles), np.cos(angles)], axis=1)
+
+
+@dataclass(frozen=True)
+class IRConfig:
+    """The IR proximity sensor: one ray along its TCP z axis, short range, Gaussian noise."""
+
+    range_min_m: float = 0.005
+    range_max_m: float = 0.15
+    sigma_m: float = 2.0e-4
+
+    def __post_init__(self) -> None:
+        _nonneg("IRConfig", sigma_m=self.sigma_m)
+        if not 0.0 <= self.range_min_m < self.range_max_m:
+            raise CellConfigError(
+                f"IRConfig needs 0 <= range_min_m < range_max_m, got {self.range_min_m!r}, "
+                f"{self.range_max_m!r}"
+            )
+
+
+def _check_T(owner: str, T: np.ndarray) -> np.ndarray:
+    T = np.asarray(T, dtype=float)
+    ok = T.shape == (4, 4) and np.all(np.isfinite(T))
+    if ok:
+        R = T[:3, :3]
+        ok = bool(np.allclose(R.T @ R, np.eye(3), atol=1e-6) and np.linalg.det(R) > 0)
+        ok = ok and bool(np.allclose(T[3], [0, 0, 0, 1]))
+    if not ok:
+        raise CellConfigError(f"{owner} must be a rigid (4, 4) transform, got {T!r}")
+    return T
+
+
+@dataclass(frozen=True, eq=False)
+class FixedMesh:
+    """A mesh object fixed on the table at `T_table_object` (its TRUE pose in the real cell).
+
+    `vertices` (N, 3) [m] and `faces` (M, 3) int in the object frame. Rays hit the exact
+    triangles. For contact, MuJoCo uses convex hulls: give `convex_pieces` (each a (K, 3)
+    vertex array in the object frame) for a concave object; without them the mesh's own hull
+    collides.
+    """
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    T_table_object: np.ndarray
+    convex_pieces: tuple[np.ndarray, ...] = ()
+    rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0)
+
+    def __post_init__(self) -> None:
+        v = np.asarray(self.vertices, dtype=float)
+        f = np.asarray(self.faces)
+        if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 4 or not np.all(np.isfinite(v)):
+            raise CellConfigError(
+                f"FixedMesh {self.name!r}: vertices must be finite (N>=4, 3), got shape {v.shape}"
+            )
+        if (
+            f.ndim != 2
+            or f.shape[1] != 3
+            or f.shape[0] < 1
+            or not np.issubdtype(f.dtype, np.integer)
+        ):
+            raise CellConfigError(
+                f"FixedMesh {self.name!r}: faces must be integer (M, 3), got shape {f.shape}"
+            )
+        if f.min() < 0 or f.max() >= v.shape[0]:
+            raise CellConfigError(
+                f"FixedMesh {self.name!r}: face indices must be in [0, {v.shape[0]}), "
+                f"got [{f.min()}, {f.max()}]"
+            )
+        for i, piece in enumerate(self.convex_pieces):
+            p = np.asarray(piece, dtype=float)
+            if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 4 or not np.all(np.isfinite(p)):
+                raise CellConfigError(
+                    f"FixedMesh {self.name!r}: convex piece {i} must be finite (K>=4, 3), "
+                    f"got {p.shape}"
+                )
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f.astype(np.int32))
+        object.__setattr__(
+            self,
+            "T_table_object",
+            _check_T(f"FixedMesh {self.name!r} T_table_object", self.T_table_object),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class FixedPrimitive:
+    """A primitive fixed on the table: a sphere (size = (radius,)) or a box (half sizes)."""
+
+    name: str
+    kind: Literal["sphere", "box"]
+    size: tuple[float, ...]
+    T_table_object: np.ndarray
+    rgba: tuple[float, float, float, float] = (0.8, 0.8, 0.85, 1.0)
+
+    def __post_init__(self) -> None:
+        n = {"sphere": 1, "box": 3}.get(self.kind)
+        if n is None:
+            raise CellConfigError(
+                f"FixedPrimitive kind must be 'sphere' or 'box', got {self.kind!r}"
+            )
+        if len(self.size) != n or not all(np.isfinite(s) and s > 0 for s in self.size):
+            raise CellConfigError(
+                f"FixedPrimitive {self.name!r} ({self.kind}) needs {n} positive sizes, "
+                f"got {self.size!r}"
+            )
+        object.__setattr__(
+            self,
+            "T_table_object",
+            _check_T(f"FixedPrimitive {self.name!r} T_table_object", self.T_table_object),
+        )
+
+
+@dataclass(frozen=True)
+class LoosePart:
+    """A free box resting on the table: half sizes [m], mass [kg], centre (x, y) in the table
+    frame [m] (it is dropped onto the top surface)."""
+
+    name: str
+    half_size: tuple[float, float, float] = (0.02, 0.02, 0.02)
+    mass: float = 0.1
+    xy_table: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if len(self.half_size) != 3 or not all(np.isfinite(s) and s > 0 for s in self.half_size):
+            raise CellConfigError(
+                f"LoosePart {self.name!r} needs 3 positive half sizes, got {self.half_size!r}"
+            )
+        if not (np.isfinite(self.mass) and self.mass > 0):
+            raise CellConfigError(
+                f"LoosePart {self.name!r} needs a positive mass, got {self.mass!r}"
+            )
+
+
+@dataclass(frozen=True)
+class CellConfig:
+    """Everything that defines a simulated cell. `seed` draws the real cell's errors."""
+
+    seed: int = 0
+    arm: ArmErrors = field(default_factory=ArmErrors)
+    encoder: EncoderNoise = field(default_factory=EncoderNoise)
+    table: TableErrors = field(default_factory=TableErrors)
+    laser: LaserConfig = field(default_factory=LaserConfig)
+    ir: IRConfig = field(default_factory=IRConfig)
+    fixtures: tuple[FixedMesh | FixedPrimitive, ...] = ()
+    parts: tuple[LoosePart, ...] = ()
+
+    def __post_init__(self) -> None:
+        names = [o.name for o in (*self.fixtures, *self.parts)]
+        if len(set(names)) != len(names):
+            raise CellConfigError(f"object names on the table must be unique, got {names}")
+
+    def ideal(self) -> CellConfig:
+        """The same cell with every error source set to zero (the nominal cell)."""
+        return replace(
+            self,
+            arm=ArmErrors(0.0, 0.0),
+            encoder=EncoderNoise(0.0),
+            table=TableErrors(0.0, 0.0),
+            laser=replace(self.laser, sigma_m=0.0, dropout=0.0),
+            ir=replace(self.ir, sigma_m=0.0),
+        )

@@ -1,0 +1,310 @@
+"""The controller-like API: the only way planning code drives and reads the real cell.
+
+It offers what a robot controller offers: joint and linear TCP moves, the tool changer, the
+table axis, encoder, IR and laser readings. Kinematics is the NOMINAL model (Pinocchio on the
+nominal robot-only MJCF). Nothing here returns the simulated truth (true kinematic parameters,
+true poses, noise): that lives in `cell.truth.CellTruth`, for evaluators only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cell.devices import Encoders, TableAxis
+from cell.errors import CellConfigError, JointLimitError, UnknownNameError, UnreachableTargetError
+from cell.kinematics import Kinematics
+from cell.sensors import IRSensor, LaserReading, LaserScanner
+from cell.simulation import Simulation
+from cell.toolchanger import ToolChanger
+from cell.trajectory import joint_trajectory, quintic, straight_path
+from cell.transforms import make_T, quat_wxyz_to_R
+from models.robot import (
+    FINGER_TRAVEL,
+    JOINT_SPEED,
+    SLOT_QUAT,
+    TABLE_SPEED,
+    TABLE_TOP_POS,
+    TABLE_TRAVEL,
+    TOOLS,
+    slot_pos,
+)
+
+_TOOL_SPECS = {t.name: t for t in TOOLS}
+#: Default settle time after a move [s].
+SETTLE_S = 0.3
+#: Approach height above a rack slot for tool changes [m].
+RACK_APPROACH_M = 0.12
+#: Control period of linear moves: the IK is solved at this period [s].
+LINEAR_PERIOD_S = 0.01
+
+
+def nominal_T_base_slot(tool: str) -> np.ndarray:
+    """(4, 4) nominal pose of `tool`'s rack slot in the robot base frame."""
+    return make_T(quat_wxyz_to_R(np.array(SLOT_QUAT)), np.array(slot_pos(_index(tool))))
+
+
+def nominal_T_base_table(table_position_m: float) -> np.ndarray:
+    """(4, 4) nominal pose of the table frame (top surface centre) in the robot base frame."""
+    return make_T(np.eye(3), np.array(TABLE_TOP_POS) + np.array([0.0, table_position_m, 0.0]))
+
+
+def _index(tool: str) -> int:
+    for i, spec in enumerate(TOOLS):
+        if spec.name == tool:
+            return i
+    raise UnknownNameError(
+        f"unknown tool {tool!r}; available tools: {', '.join(t.name for t in TOOLS)}"
+    )
+
+
+class Controller:
+    """Commands and readings of the cell, as a robot controller would offer them."""
+
+    def __init__(
+        self,
+        sim: Simulation,
+        kinematics: Kinematics,
+        encoders: Encoders,
+        table: TableAxis,
+        laser: LaserScanner,
+        ir: IRSensor,
+    ) -> None:
+        self._sim = sim
+        self._encoders = encoders
+        self._table = table
+        self._laser = laser
+        self._ir = ir
+        self._changer = ToolChanger(sim)
+        self.kinematics = kinematics
+        self.laser_directions_tcp = laser.dirs_tcp.copy()
+        self.laser_config = laser.config
+
+    # -- state --------------------------------------------------------------------------------
+    @property
+    def tools(self) -> tuple[str, ...]:
+        """Names of the tools in the cell."""
+        return tuple(t.name for t in TOOLS)
+
+    @property
+    def tool_in_hand(self) -> str | None:
+        """The tool locked on the flange, or None."""
+        return self._changer.held
+
+    @property
+    def time_s(self) -> float:
+        """The controller's clock [s]."""
+        return self._sim.time
+
+    def T_flange_tcp(self, tool: str | None = None) -> np.ndarray:
+        """(4, 4) nominal TCP of `tool` (default: the tool in hand; the flange if none)."""
+        name = tool if tool is not None else self.tool_in_hand
+        if name is None:
+            return np.eye(4)
+        return _TOOL_SPECS[self.tools[_index(name)]].T_tool_tcp
+
+    def read_joints(self) -> np.ndarray:
+        """(6,) encoder readings [rad]."""
+        return self._encoders.read()
+
+    def T_base_tcp(self) -> np.ndarray:
+        """(4, 4) TCP pose computed from the encoders with the nominal kinematics."""
+        return self.kinematics.fk(self.read_joints()) @ self.T_flange_tcp()
+
+    # -- motion -------------------------------------------------------------------------------
+    def move_joints(
+        self, q_target: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
+    ) -> None:
+        """Joint move to `q_target` (6,) [rad], peak joint speeds `speed` x the limits."""
+        if not 0.0 < speed <= 1.0:
+            raise CellConfigError(f"speed must be a fraction in (0, 1], got {speed!r}")
+        q1 = self.kinematics.check_limits(q_target)
+        sim = self._sim
+        q, qd = joint_trajectory(sim.arm_setpoint(), q1, JOINT_SPEED, sim.dt, speed)
+        sim.run(sim.arm_act, q + sim.arm_ff * qd)
+        sim.settle(settle_s)
+
+    def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
+        """Joints that put the current TCP at `T_base_tcp`, seeded from the current joints."""
+        seed = self._sim.arm_setpoint() if q_seed is None else q_seed
+        return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
+
+    def move_tcp(
+        self, T_base_tcp: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
+    ) -> np.ndarray:
+        """Joint move to the IK solution for the TCP at `T_base_tcp`; returns the joints."""
+        q = self.solve_ik(T_base_tcp)
+        self.move_joints(q, speed, settle_s)
+        return q
+
+    def move_linear(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float = 0.2,
+        angular_speed_rad_s: float = 1.0,
+        settle_s: float = SETTLE_S,
+    ) -> None:
+        """Straight TCP move to `T_base_tcp` at `speed_m_s` (slowed if a joint would exceed its
+        speed limit). Raises UnreachableTargetError if a point of the line has no IK solution."""
+        if not (speed_m_s > 0 and angular_speed_rad_s > 0):
+            raise CellConfigError(
+                f"speeds must be > 0, got {speed_m_s!r} m/s, {angular_speed_rad_s!r} rad/s"
+            )
+        sim, kin, T_tcp = self._sim, self.kinematics, self.T_flange_tcp()
+        q0 = sim.arm_setpoint()
+        T0 = kin.fk(q0) @ T_tcp
+        dist = float(np.linalg.norm(T_base_tcp[:3, 3] - T0[:3, 3]))
+        R_rel = T0[:3, :3].T @ T_base_tcp[:3, :3]
+        angle = float(np.arccos(np.clip((np.trace(R_rel) - 1) / 2, -1, 1)))
+        duration = 1.875 * max(dist / speed_m_s, angle / angular_speed_rad_s, LINEAR_PERIOD_S)
+        for _ in range(4):
+            n = max(2, math.ceil(duration / LINEAR_PERIOD_S))
+            s, _ds = quintic(n)
+            poses = straight_path(T0, T_base_tcp, s)
+            qs = np.empty((n + 1, 6))
+            qs[0] = q0
+            for k, T in enumerate(poses):
+                r = kin.ik(T, qs[k], T_tcp, extra_seeds=0)
+                if not r.success or np.max(np.abs(r.q - qs[k])) > 0.5:
+                    p = T[:3, 3]
+                    raise UnreachableTargetError(
+                        f"linear move to p_base = [{p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}] m fails at "
+                        f"{100 * s[k]:.0f}% of the line: residual {r.position_error_m:.3g} m, "
+                        f"{r.rotation_error_rad:.3g} rad (or a configuration flip)"
+                    )
+                qs[k + 1] = r.q
+            period = duration / n
+            peak = np.max(np.abs(np.diff(qs, axis=0)) / period / JOINT_SPEED)
+            if peak <= 1.0:
+                break
+            duration *= peak * 1.05
+        # Linear interpolation of the IK samples at the physics step, velocity by differences.
+        t_samples = np.arange(n + 1) * period
+        n_steps = max(1, round(duration / sim.dt))
+        t = np.arange(1, n_steps + 1) * (duration / n_steps)
+        q = np.stack([np.interp(t, t_samples, qs[:, j]) for j in range(6)], axis=1)
+        qd = np.gradient(q, t, axis=0)
+        qd[-1] = 0.0
+        sim.run(sim.arm_act, q + sim.arm_ff * qd)
+        sim.settle(settle_s)
+
+    # -- tool changer -------------------------------------------------------------------------
+    def lock(self) -> str:
+        """Lock the tool seated against the flange; returns its name."""
+        return self._changer.lock()
+
+    def unlock(self) -> str:
+        """Release the held tool into its rack slot; returns its name."""
+        return self._changer.unlock()
+
+    def return_tool(self) -> None:
+        """Put the tool in hand back into its rack slot (approach, place, unlock, leave)."""
+        name = self.tool_in_hand
+        if name is None:
+            return
+        T_slot = nominal_T_base_slot(name)
+        T_tcp = self.T_flange_tcp()
+        self._approach(T_slot)
+        self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
+        self.unlock()
+        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
+
+    def change_tool(self, tool: str) -> None:
+        """Return the tool in hand (if any), then pick `tool` from its rack slot."""
+        _index(tool)
+        if self.tool_in_hand == tool:
+            return
+        self.return_tool()
+        T_slot = nominal_T_base_slot(tool)
+        self._approach(T_slot)
+        self.move_linear(T_slot, speed_m_s=0.1)
+        self.lock()
+        self.move_linear(self._above(T_slot) @ self.T_flange_tcp(), speed_m_s=0.1)
+
+    @staticmethod
+    def _above(T_slot: np.ndarray) -> np.ndarray:
+        T = T_slot.copy()
+        T[2, 3] += RACK_APPROACH_M
+        return T
+
+    def _approach(self, T_slot: np.ndarray) -> None:
+        """Joint move to above a slot, flange seated pose shifted up (no TCP offset)."""
+        T_flange_above = self._above(T_slot)
+        q = self.kinematics.solve(T_flange_above, self._sim.arm_setpoint())
+        self.move_joints(q)
+        # Re-express the flange pose as the TCP pose for the linear moves that follow.
+
+    # -- tools' actuators ---------------------------------------------------------------------
+    def set_gripper(self, opening_m: float) -> None:
+        """Command each finger to `opening_m` [m] from the centre (0 = closed), then settle."""
+        if self.tool_in_hand != "gripper":
+            raise UnknownNameError(f"the gripper is not in hand (in hand: {self.tool_in_hand})")
+        if not 0.0 <= opening_m <= FINGER_TRAVEL:
+            raise CellConfigError(
+                f"finger opening must be in [0, {FINGER_TRAVEL}] m, got {opening_m!r}"
+            )
+        self._sim.data.ctrl[self._sim.finger_act] = opening_m
+        self._sim.settle(0.3)
+
+    def spin_screwer(self, rad_s: float, seconds: float) -> None:
+        """Run the screwer spindle at `rad_s` [rad/s] for `seconds` [s], then stop it."""
+        if self.tool_in_hand != "screwer":
+            raise UnknownNameError(f"the screwer is not in hand (in hand: {self.tool_in_hand})")
+        sim = self._sim
+        sim.data.ctrl[sim.spindle_act] = rad_s
+        sim.settle(seconds)
+        sim.data.ctrl[sim.spindle_act] = 0.0
+
+    # -- table --------------------------------------------------------------------------------
+    def move_table(
+        self, position_m: float, speed_m_s: float = TABLE_SPEED, settle_s: float = SETTLE_S
+    ) -> None:
+        """Move the table to `position_m` [m] within its travel."""
+        lo, hi = TABLE_TRAVEL
+        if not lo <= position_m <= hi:
+            raise JointLimitError(
+                f"table position {position_m!r} m is outside its travel [{lo}, {hi}] m"
+            )
+        if not 0.0 < speed_m_s <= TABLE_SPEED:
+            raise CellConfigError(
+                f"table speed must be in (0, {TABLE_SPEED}] m/s, got {speed_m_s!r}"
+            )
+        self._table.move(position_m, speed_m_s, settle_s)
+
+    def table_position(self) -> float:
+        """The table axis readout [m]."""
+        return self._table.read()
+
+    # -- sensors ------------------------------------------------------------------------------
+    def read_ir(self) -> float | None:
+        """IR distance [m] along the IR tool's axis, None for no return."""
+        self._require("ir")
+        return self._ir.cast(self._sim.data)
+
+    def read_laser(self) -> LaserReading:
+        """One laser line: distances (NaN = no return) and the encoder joints at that instant."""
+        self._require("laser")
+        sim = self._sim
+        return LaserReading(
+            distances=self._laser.cast(sim.data),
+            q_measured=self._encoders.read(),
+            table_position_m=self._table.read(),
+            time_s=sim.time,
+        )
+
+    def laser_points_base(self, reading: LaserReading) -> tuple[np.ndarray, np.ndarray]:
+        """Points (M, 3) [m] of the returns in the robot base frame and their ray indices (M,),
+        reconstructed with the NOMINAL kinematics and laser TCP from the measured joints."""
+        from cell.laser import laser_points_base
+
+        return laser_points_base(
+            reading, self.kinematics, self.T_flange_tcp("laser"), self.laser_directions_tcp
+        )
+
+    def _require(self, tool: str) -> None:
+        if self.tool_in_hand != tool:
+            raise UnknownNameError(
+                f"the {tool!r} tool is not in hand (in hand: {self.tool_in_hand}); "
+                f"call change_tool({tool!r}) first"
+            )

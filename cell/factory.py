@@ -1,0 +1,39 @@
+"""Make a simulated real cell: its controller (for planners) and its truth (for evaluators)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cell.build import build_model, draw_real_parameters
+from cell.config import CellConfig
+from cell.controller import Controller
+from cell.devices import Encoders, TableAxis
+from cell.kinematics import Kinematics
+from cell.sensors import IRSensor, LaserScanner
+from cell.simulation import Simulation
+from cell.truth import CellTruth
+from models.robot import IR, LASER, ROBOT_PATH
+
+
+def nominal_kinematics() -> Kinematics:
+    """Pinocchio kinematics of the nominal arm (robot-only MJCF), tip frame `flange`."""
+    return Kinematics.from_mjcf(ROBOT_PATH, "flange")
+
+
+def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
+    """Build the real cell described by `config` (default: default errors, seed 0).
+
+    The controller sees the cell as a robot program would; the truth is for evaluation only.
+    `make_cell(config.ideal())` gives the error-free cell.
+    """
+    config = config or CellConfig()
+    params = draw_real_parameters(config)
+    sim = Simulation(build_model(config, params.arm))
+    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 2]))
+    encoders = Encoders(sim, config.encoder.sigma_rad, rng)
+    table = TableAxis(sim, params.table_bias_m, config.table.repeat_sigma_m, rng)
+    laser = LaserScanner(sim.model, sim.tcp_site[LASER.name], config.laser, rng)
+    ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
+    sim.settle(0.2)
+    controller = Controller(sim, nominal_kinematics(), encoders, table, laser, ir)
+    return controller, CellTruth(config, params, sim, table)

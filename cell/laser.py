@@ -1,0 +1,25 @@
+"""Laser readings to points, with the NOMINAL kinematics, as a real system computes them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cell.kinematics import Kinematics
+from cell.sensors import LaserReading
+
+
+def laser_points_base(
+    reading: LaserReading,
+    kinematics: Kinematics,
+    T_flange_laser: np.ndarray,
+    directions_laser: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points (M, 3) [m] in the robot base frame and their ray indices (M,).
+
+    `T_flange_laser` (4, 4) the laser TCP in the flange frame, `directions_laser` (N, 3) the
+    unit ray directions in the laser frame. Rays without a return give no point.
+    """
+    index = np.flatnonzero(reading.valid)
+    T_base_laser = kinematics.fk(reading.q_measured) @ T_flange_laser
+    p_laser = directions_laser[index] * reading.distances[index, None]
+    return p_laser @ T_base_laser[:3, :3].T + T_base_laser[:3, 3], index

@@ -1,0 +1,117 @@
+"""The cell's range sensors: the laser line scanner and the IR proximity sensor.
+
+Both cast rays with MuJoCo from their TCP site. Rays ignore the arm (geom groups 2, 3), the
+tools (group 4) and contact-only pieces (group 5): a sensor never sees the robot or itself.
+A ray that hits nothing, or lands outside the range limits, or too grazing, is "no return"
+(NaN), never a point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from cell.config import IRConfig, LaserConfig
+
+#: Geom groups the rays see: environment (0) and objects' exact surfaces (1).
+RAY_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
+
+
+@dataclass(frozen=True)
+class LaserReading:
+    """One laser line: `distances` (n_rays,) [m], NaN where there was no return, and the
+    measured (encoder) joints `q_measured` (6,) [rad] at the same instant, with the
+    table readout `table_position_m`, the simulated time `time_s`."""
+
+    distances: np.ndarray
+    q_measured: np.ndarray
+    table_position_m: float
+    time_s: float
+
+    @property
+    def valid(self) -> np.ndarray:
+        """(n_rays,) bool: rays with a return."""
+        return np.isfinite(self.distances)
+
+
+class LaserScanner:
+    """A fan of rays from one origin (the laser TCP); range limits, noise, grazing dropout."""
+
+    def __init__(
+        self, model: mujoco.MjModel, site: int, config: LaserConfig, rng: np.random.Generator
+    ) -> None:
+        self.model = model
+        self.site = site
+        self.config = config
+        self.rng = rng
+        self.dirs_tcp = config.directions_tcp()
+        n = config.n_rays
+        self._geomid = np.zeros(n, dtype=np.int32)
+        self._dist = np.zeros(n)
+        self._normal = np.zeros(3 * n)
+        self._cos_max = float(np.cos(config.max_incidence_rad))
+
+    def cast(self, data: mujoco.MjData) -> np.ndarray:
+        """(n_rays,) measured ranges [m] at the current state, NaN for no return."""
+        c = self.config
+        R = data.site_xmat[self.site].reshape(3, 3)
+        vec = self.dirs_tcp @ R.T
+        mujoco.mj_multiRay(
+            self.model,
+            data,
+            data.site_xpos[self.site],
+            vec.reshape(-1),
+            RAY_GROUPS,
+            1,
+            -1,
+            self._geomid,
+            self._dist,
+            self._normal,
+            c.n_rays,
+            c.range_max_m,
+        )
+        d = self._dist.copy()
+        cos_incidence = -np.einsum("ij,ij->i", self._normal.reshape(-1, 3), vec)
+        ok = (self._geomid >= 0) & (d >= c.range_min_m) & (d <= c.range_max_m)
+        ok &= cos_incidence >= self._cos_max
+        if c.dropout > 0.0:
+            ok &= self.rng.random(c.n_rays) >= c.dropout
+        if c.sigma_m > 0.0:
+            d += self.rng.normal(0.0, c.sigma_m, c.n_rays)
+        d[~ok] = np.nan
+        return d
+
+
+class IRSensor:
+    """One ray along the IR TCP's z axis; short range, Gaussian noise."""
+
+    def __init__(
+        self, model: mujoco.MjModel, site: int, config: IRConfig, rng: np.random.Generator
+    ) -> None:
+        self.model = model
+        self.site = site
+        self.config = config
+        self.rng = rng
+        self._geomid = np.zeros(1, dtype=np.int32)
+
+    def cast(self, data: mujoco.MjData) -> float | None:
+        """Measured distance [m], or None when nothing is within range."""
+        c = self.config
+        direction = data.site_xmat[self.site].reshape(3, 3)[:, 2].copy()
+        dist = mujoco.mj_ray(
+            self.model,
+            data,
+            data.site_xpos[self.site],
+            direction,
+            RAY_GROUPS,
+            1,
+            -1,
+            self._geomid,
+        )
+        if self._geomid[0] < 0 or not c.range_min_m <= dist <= c.range_max_m:
+            return None
+        if c.sigma_m > 0.0:
+            dist += float(self.rng.normal(0.0, c.sigma_m))
+        return float(dist)

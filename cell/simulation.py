@@ -1,0 +1,110 @@
+"""The physics of the cell: MuJoCo model and data, indices, stepping with servo set-points.
+
+This is the real cell's engine room. The controller drives it; only the evaluator and the
+tests look inside. Python work per physics step is one set-point write and one `mj_step`.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from models.robot import FLANGE_SITE, JOINT_NAMES, Q_HOME, TOOLS
+
+
+class Simulation:
+    """A compiled cell model with its data, reset to the `home` keyframe."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.model = model
+        self.data = mujoco.MjData(model)
+        m = model
+        self.dt = float(m.opt.timestep)
+        self.arm_qadr = np.array([m.joint(n).qposadr[0] for n in JOINT_NAMES])
+        self.arm_dofadr = np.array([m.joint(n).dofadr[0] for n in JOINT_NAMES])
+        self.arm_act = np.array([m.actuator(n).id for n in JOINT_NAMES])
+        # Servo: force = kp (ctrl - q) - kv qdot, so ctrl = q_ref + kv/kp qdot_ref tracks both.
+        self.arm_ff = -m.actuator_biasprm[self.arm_act, 2] / m.actuator_gainprm[self.arm_act, 0]
+        self.table_qadr = int(m.joint("table_slide").qposadr[0])
+        self.table_act = int(m.actuator("table_slide").id)
+        self.table_ff = float(
+            -m.actuator_biasprm[self.table_act, 2] / m.actuator_gainprm[self.table_act, 0]
+        )
+        self.finger_act = np.array([m.actuator("finger_left").id, m.actuator("finger_right").id])
+        self.finger_qadr = np.array(
+            [m.joint("finger_left").qposadr[0], m.joint("finger_right").qposadr[0]]
+        )
+        self.spindle_act = int(m.actuator("screwer_spindle").id)
+        self.link6 = int(m.body("link6").id)
+        self.flange_site = int(m.site(FLANGE_SITE).id)
+        self.tool_body = {t.name: int(m.body(t.body).id) for t in TOOLS}
+        self.tcp_site = {t.name: int(m.site(t.tcp_site).id) for t in TOOLS}
+        self.slot_site = {t.name: int(m.site(f"slot_{t.name}").id) for t in TOOLS}
+        self.rack_body = int(m.body("rack").id)
+        self.rack_eq = {t.name: int(m.equality(f"rack_{t.name}").id) for t in TOOLS}
+        self.flange_eq = {t.name: int(m.equality(f"flange_{t.name}").id) for t in TOOLS}
+        self.home_key = int(m.key("home").id)
+        self.reset()
+
+    def reset(self) -> None:
+        """Home keyframe, servos holding home, table at 0, gripper open, spindle still."""
+        m, d = self.model, self.data
+        mujoco.mj_resetDataKeyframe(m, d, self.home_key)
+        d.ctrl[:] = 0.0
+        d.ctrl[self.arm_act] = Q_HOME
+        d.ctrl[self.finger_act] = m.actuator_ctrlrange[self.finger_act, 1]
+        d.qpos[self.finger_qadr] = d.ctrl[self.finger_act]
+        mujoco.mj_forward(m, d)
+
+    # -- stepping -----------------------------------------------------------------------------
+    def step(self, n: int = 1) -> None:
+        """Advance `n` physics steps with the current set-points."""
+        if n > 0:
+            mujoco.mj_step(self.model, self.data, nstep=int(n))
+
+    def settle(self, seconds: float) -> None:
+        """Hold the current set-points for `seconds` [s]."""
+        self.step(round(seconds / self.dt))
+
+    def run(self, actuators: np.ndarray, setpoints: np.ndarray) -> None:
+        """Step once per row of `setpoints` (K, len(actuators)), writing it as the set-point."""
+        m, d, ctrl = self.model, self.data, self.data.ctrl
+        for row in setpoints:
+            ctrl[actuators] = row
+            mujoco.mj_step(m, d)
+
+    # -- state (truth: only the controller's sensor models and evaluators read these) ----------
+    @property
+    def time(self) -> float:
+        """Simulated time [s]."""
+        return float(self.data.time)
+
+    def arm_q(self) -> np.ndarray:
+        """(6,) true joint positions [rad]."""
+        return self.data.qpos[self.arm_qadr].copy()
+
+    def arm_setpoint(self) -> np.ndarray:
+        """(6,) current position set-points of the arm servos [rad] (velocity term removed)."""
+        return self.data.ctrl[self.arm_act].copy()
+
+    def table_q(self) -> float:
+        """True table slide position [m]."""
+        return float(self.data.qpos[self.table_qadr])
+
+    def site_T(self, site: int) -> np.ndarray:
+        """(4, 4) world pose of site `site`."""
+        T = np.eye(4)
+        T[:3, :3] = self.data.site_xmat[site].reshape(3, 3)
+        T[:3, 3] = self.data.site_xpos[site]
+        return T
+
+    def body_T(self, body: int) -> np.ndarray:
+        """(4, 4) world pose of body `body`."""
+        T = np.eye(4)
+        T[:3, :3] = self.data.xmat[body].reshape(3, 3)
+        T[:3, 3] = self.data.xpos[body]
+        return T
+
+    def warnings(self) -> int:
+        """Number of MuJoCo warnings raised since the last reset (all kinds)."""
+        return int(sum(w.number for w in self.data.warning))

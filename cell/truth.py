@@ -1,0 +1,70 @@
+"""The simulated truth of a real cell. Only evaluators (and tests) read it; planning never does."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cell.build import RealParameters
+from cell.config import CellConfig
+from cell.devices import TableAxis
+from cell.simulation import Simulation
+from cell.toolchanger import flange_offset
+from models.robot import ArmGeometry
+
+
+class CellTruth:
+    """The real cell's hidden parameters and live true state."""
+
+    def __init__(
+        self,
+        config: CellConfig,
+        params: RealParameters,
+        sim: Simulation,
+        table: TableAxis,
+    ) -> None:
+        self.config = config
+        self.params = params
+        self._sim = sim
+        self._table = table
+
+    @property
+    def arm(self) -> ArmGeometry:
+        """The real arm's kinematic parameters."""
+        return self.params.arm
+
+    @property
+    def simulation(self) -> Simulation:
+        """The physics (MuJoCo model and data) of the real cell."""
+        return self._sim
+
+    def q(self) -> np.ndarray:
+        """(6,) true joint positions [rad]."""
+        return self._sim.arm_q()
+
+    def table_position_m(self) -> float:
+        """True table slide position [m] (readout plus the axis' positioning error)."""
+        return self._sim.table_q()
+
+    def table_error_m(self) -> float:
+        """Current positioning error of the table axis [m]."""
+        return self._table.error_m
+
+    def T_base_table(self) -> np.ndarray:
+        """(4, 4) true pose of the table frame in the robot base frame."""
+        return self._sim.site_T(self._sim.model.site("table_top").id)
+
+    def T_base_object(self, name: str) -> np.ndarray:
+        """(4, 4) true pose of a fixed object on the table in the robot base frame."""
+        for obj in self.config.fixtures:
+            if obj.name == name:
+                return self.T_base_table() @ obj.T_table_object
+        names = [o.name for o in self.config.fixtures]
+        raise KeyError(f"no fixed object {name!r}; fixed objects: {names}")
+
+    def T_base_tcp(self, tool: str) -> np.ndarray:
+        """(4, 4) true pose of `tool`'s TCP site (wherever the tool is)."""
+        return self._sim.site_T(self._sim.tcp_site[tool])
+
+    def T_flange_tool(self, tool: str) -> np.ndarray:
+        """(4, 4) true pose of `tool`'s frame in the true flange frame."""
+        return flange_offset(self._sim, tool)
