@@ -1,0 +1,422 @@
+"""Global and local surface matching behind one call: `match(data, model, mode=...)`.
+
+Search, coarse to fine:
+1. initial states (starts.py): rotations with centroids aligned (global), or anchors with
+   aligned normals and spins (local), or the caller's guess (refine);
+2. every start scored at once on a small farthest-point subsample of the data against the
+   model's surface sample (one KD-tree query for all starts); hopeless starts are dropped;
+3. the best starts run a few robust point-to-plane ICP iterations together, vectorised;
+4. the best distinct survivors are refined to convergence against the exact model (mesh,
+   points, segments or parametric surface) with the seed paper's stopping rule;
+5. the distinct minima are ranked; the best gives the pose, the second-best the ambiguity;
+   the covariance of the pose gives the predicted target registration error.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from registration.errors import InputError
+from registration.horn import absolute_orientation_batch
+from registration.icp import Variant, icp
+from registration.kernels import Kernel, Tukey
+from registration.quality import Acceptance, Verdict, decide, pose_covariance, predicted_tre
+from registration.rigid import Array, make_T_batch, transform_points
+from registration.shapes.base import Shape, check_points
+from registration.shapes.mesh import MeshModel
+from registration.shapes.points import PointModel
+from registration.starts import (
+    farthest_point_sample,
+    global_starts,
+    local_starts,
+    super_fibonacci_rotations,
+)
+
+Mode = Literal["global", "local", "refine"]
+MODES: tuple[str, ...] = ("global", "local", "refine")
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """Size of the start set and of each stage of the coarse-to-fine search.
+
+    Attributes:
+        rotations: rotations of the global start set.
+        anchors: model anchor points of the local start set.
+        spins: rotations about the aligned normal at each anchor (local).
+        normal_radius: neighbourhood radius for the local normals, as a fraction of the
+            model extent.
+        coarse_points: data points used to score every start.
+        keep_coarse: starts kept after scoring.
+        mid_points: data points of the vectorised ICP stage.
+        mid_iterations: iterations of the vectorised ICP stage.
+        refine: distinct candidates refined to convergence on all data.
+        rank_iterations: ICP iterations on the subsample for each distinct candidate, before
+            the minima are ranked.
+        trim: fraction of the smallest residuals in a start's cost (robust to outliers and
+            partial overlap).
+        distinct: two poses are distinct minima if they move the data points apart by more
+            than this fraction of the model extent (RMS).
+    """
+
+    rotations: int = 512
+    anchors: int = 96
+    spins: int = 16
+    normal_radius: float = 0.06
+    coarse_points: int = 40
+    keep_coarse: int = 48
+    mid_points: int = 200
+    mid_iterations: int = 8
+    refine: int = 4
+    rank_iterations: int = 20
+    trim: float = 0.5
+    distinct: float = 0.02
+
+
+@dataclass(frozen=True)
+class Minimum:
+    """A local minimum reached by a refined start.
+
+    Attributes:
+        T_model_data: (4, 4) pose.
+        cost: RMS of the smallest `trim` fraction of residuals [length units].
+    """
+
+    T_model_data: Array
+    cost: float
+
+
+@dataclass(frozen=True)
+class MatchResult:
+    """Result of `match`.
+
+    Attributes:
+        T_model_data: (4, 4) maps data coordinates into model coordinates.
+        rms: weighted RMS of the inlier residuals [length units].
+        inlier_fraction: fraction of data points that fit the model (Tukey weight > 0).
+        sigma: robust standard deviation of a residual [length units].
+        iterations: ICP iterations of the best refinement.
+        converged: the best refinement met the stopping rule before the cap.
+        history: RMS per iteration of the best refinement (iterations,).
+        trajectory: pose per iteration of the best refinement (iterations, 4, 4).
+        mode: "global", "local" or "refine".
+        starts: initial states evaluated.
+        best: the best minimum; second: the best minimum distinct from it, or None.
+        ambiguity: best cost / second cost in [0, 1]; 0 if no other minimum was found,
+            near 1 if two distinct poses fit equally well.
+        covariance: (6, 6) covariance of (dt, dtheta) applied in the model frame.
+        worst_predicted_tre: largest predicted TRE over the model surface [length units].
+        verdict: "accepted", "ambiguous" or "rejected"; reason: why, in words.
+        seconds: wall time of the search.
+    """
+
+    T_model_data: Array
+    rms: float
+    inlier_fraction: float
+    sigma: float
+    iterations: int
+    converged: bool
+    history: Array
+    trajectory: Array
+    mode: str
+    starts: int
+    best: Minimum
+    second: Minimum | None
+    ambiguity: float
+    covariance: Array
+    worst_predicted_tre: float
+    verdict: Verdict
+    reason: str
+    seconds: float
+    stage_seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def rotation(self) -> Array:
+        """R (3, 3) of T_model_data."""
+        return self.T_model_data[:3, :3]
+
+    @property
+    def translation(self) -> Array:
+        """t (3,) of T_model_data."""
+        return self.T_model_data[:3, 3]
+
+    def predicted_tre(self, targets_model: Array) -> Array:
+        """Predicted target registration error (K,) at targets (K, 3) in the model frame."""
+        return predicted_tre(self.covariance, targets_model)
+
+
+def as_shape(model: Shape | Array | object) -> Shape:
+    """A Shape from a Shape, an (N, 3) point array, or an object with vertices and faces."""
+    if isinstance(model, Shape):
+        return model
+    if hasattr(model, "vertices") and hasattr(model, "faces"):
+        return MeshModel(model.vertices, model.faces)  # type: ignore[attr-defined]
+    if isinstance(model, np.ndarray | list | tuple):
+        return PointModel(np.asarray(model, dtype=float))
+    raise InputError(
+        f"model must be a Shape (PointModel, SegmentModel, MeshModel, ParametricModel), an "
+        f"(N, 3) array or a mesh with vertices and faces; got {type(model).__name__}"
+    )
+
+
+def check_data(data: Array) -> Array:
+    """Validate data points: (N, 3), finite, N >= 3, not all on one line."""
+    data = check_points(data, "data points", minimum=3)
+    s = np.linalg.svd(data - data.mean(axis=0), compute_uv=False)
+    if s[0] == 0 or s[1] <= 1e-9 * s[0]:
+        raise InputError(
+            f"the {len(data)} data points are all on one line (or one point): a rigid pose "
+            f"needs points spanning at least a plane"
+        )
+    return data
+
+
+def _trimmed_rms(residuals: Array, trim: float) -> Array:
+    """RMS of the smallest `trim` fraction of |residuals| along the last axis."""
+    n = residuals.shape[-1]
+    k = max(1, int(np.ceil(trim * n)))
+    part = np.partition(np.abs(residuals), k - 1, axis=-1)[..., :k]
+    return np.sqrt(np.mean(part**2, axis=-1))
+
+
+def _batched_icp(
+    shape: Shape, points: Array, T: Array, iterations: int, trim: float
+) -> tuple[Array, Array]:
+    """A few robust ICP iterations for K poses at once against the model's surface sample.
+
+    Closest samples come from the voxel lookup; pairs without a sample within its reach get
+    no weight.
+
+    Args:
+        points: data subsample (n, 3). T: poses (K, 4, 4).
+
+    Returns:
+        Refined poses (K, 4, 4) and their trimmed costs (K,).
+    """
+    lookup = shape.sample_lookup
+    normals = shape.sample_normals
+    kernel = Tukey(min_scale=1e-4 * shape.extent)
+    for _ in range(iterations):
+        p = np.einsum("kij,nj->kni", T[:, :3, :3], points) + T[:, None, :3, 3]
+        d, idx = lookup.query(p)
+        found = idx >= 0
+        q = shape.samples[np.maximum(idx, 0)]
+        if normals is None:
+            w = kernel.weights(np.where(found, d, lookup.reach)) * found
+            R, t = absolute_orientation_batch(p, q, w)
+            step = make_T_batch(R, t)
+        else:
+            nrm = normals[np.maximum(idx, 0)]
+            r = np.where(found, np.einsum("knd,knd->kn", nrm, p - q), lookup.reach)
+            w = kernel.weights(r) * found
+            c0 = np.einsum("kn,knd->kd", w, p) / np.maximum(w.sum(1), 1e-300)[:, None]
+            pc = p - c0[:, None]
+            J = np.concatenate([nrm, np.cross(pc, nrm)], axis=2)  # (K, n, 6)
+            A = np.einsum("kni,kn,knj->kij", J, w, J)
+            b = -np.einsum("kni,kn->ki", J, w * r)
+            A += np.eye(6) * (1e-9 * np.trace(A, axis1=1, axis2=2)[:, None, None] + 1e-300)
+            xi = np.linalg.solve(A, b[..., None])[..., 0]
+            Rs = Rotation.from_rotvec(xi[:, 3:]).as_matrix()
+            t = c0 - np.einsum("kij,kj->ki", Rs, c0) + xi[:, :3]
+            step = make_T_batch(Rs, t)
+        T = step @ T
+    p = np.einsum("kij,nj->kni", T[:, :3, :3], points) + T[:, None, :3, 3]
+    d, _ = lookup.query(p)
+    return T, _trimmed_rms(np.minimum(d, lookup.reach), trim)
+
+
+def _displacement(T_a: Array, T_b: Array, points: Array) -> float:
+    """RMS distance between points moved by two poses."""
+    return float(
+        np.sqrt(
+            np.mean(np.sum((transform_points(T_a, points) - transform_points(T_b, points)) ** 2, 1))
+        )
+    )
+
+
+def _distinct(
+    T_list: list[Array], order: Array, points: Array, limit: float, count: int
+) -> list[int]:
+    """Indices, in the given order, of up to `count` mutually distinct poses."""
+    chosen: list[int] = []
+    for i in order:
+        if all(_displacement(T_list[i], T_list[j], points) > limit for j in chosen):
+            chosen.append(int(i))
+            if len(chosen) == count:
+                break
+    return chosen
+
+
+def match(
+    data: Array,
+    model: Shape | Array | object,
+    mode: Mode = "local",
+    T_init: Array | None = None,
+    variant: Variant = "point_to_plane",
+    kernel: Kernel | None = None,
+    acceptance: Acceptance | None = None,
+    settings: SearchSettings | None = None,
+    max_iterations: int = 60,
+    progress: Progress | None = None,
+) -> MatchResult:
+    """Register data points to a model surface and judge the result.
+
+    Args:
+        data: measured points (N, 3) in the data (sensor or robot) frame.
+        model: the virtual model: a Shape, an (M, 3) point array, or a mesh object.
+        mode: "global" (data cover the whole surface, eq. 9), "local" (data cover part of
+            it, eq. 10; also works on whole-surface data), or "refine" (ICP from T_init only).
+        T_init: initial guess (4, 4), required for "refine", ignored otherwise.
+        variant: "point_to_plane" (default when the model has normals) or "point_to_point".
+        kernel: robust kernel of the refinement; Tukey(c=8) with a scale floor by default.
+        acceptance: thresholds of the verdict.
+        settings: sizes of the coarse-to-fine search.
+        max_iterations: ICP iteration cap of each refinement.
+        progress: optional callable receiving one line per stage.
+
+    Returns:
+        A MatchResult; poor or ambiguous matches are reported in `verdict`, not raised.
+    """
+    t_start = time.perf_counter()
+    if mode not in MODES:
+        raise InputError(f"unknown matching mode {mode!r}; valid: {', '.join(MODES)}")
+    data = check_data(data)
+    shape = as_shape(model)
+    settings = settings or SearchSettings()
+    acceptance = acceptance or Acceptance()
+    extent = shape.extent
+    kernel = kernel or Tukey(min_scale=1e-6 * extent)
+    say = progress or (lambda _msg: None)
+    stage: dict[str, float] = {}
+
+    mid = data[farthest_point_sample(data, settings.mid_points)]
+    if mode == "refine":
+        if T_init is None:
+            raise InputError("mode 'refine' needs T_init, the (4, 4) initial pose")
+        T_init = np.asarray(T_init, dtype=float)
+        if T_init.shape != (4, 4) or not np.isfinite(T_init).all():
+            raise InputError(f"T_init must be a finite (4, 4) matrix; got shape {T_init.shape}")
+        candidates = [T_init]
+        n_starts = 1
+    else:
+        t0 = time.perf_counter()
+        if mode == "global":
+            R, t = global_starts(
+                data.mean(axis=0), shape.centroid, super_fibonacci_rotations(settings.rotations)
+            )
+        else:
+            radius = settings.normal_radius * extent
+            anchors, frames = shape.anchor_frames(settings.anchors, radius)
+            R, t = local_starts(data, anchors, frames, settings.spins, radius)
+        n_starts = len(R)
+        coarse = data[farthest_point_sample(data, settings.coarse_points)]
+        p = np.einsum("kij,nj->kni", R, coarse) + t[:, None, :]
+        lookup = shape.sample_lookup
+        d, _ = lookup.query(p)
+        cost = _trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
+        keep = np.argsort(cost)[: settings.keep_coarse]
+        stage["score"] = time.perf_counter() - t0
+        say(f"scored {n_starts} initial states, kept {len(keep)}")
+
+        t0 = time.perf_counter()
+        T_mid, cost_mid = _batched_icp(
+            shape,
+            mid,
+            make_T_batch(R[keep], t[keep]),
+            settings.mid_iterations,
+            settings.trim,
+        )
+        order = np.argsort(cost_mid)
+        T_list = list(T_mid)
+        chosen = _distinct(T_list, order, mid, settings.distinct * extent, settings.refine)
+        candidates = [T_list[i] for i in chosen]
+        stage["coarse_icp"] = time.perf_counter() - t0
+        say(f"coarse ICP on {len(keep)} starts, refining {len(candidates)} distinct candidates")
+
+    # Refine every distinct candidate on the subsample against the exact model, rank the
+    # minima there (same points for all), then refine the best one on all the data.
+    t0 = time.perf_counter()
+    runs = [
+        icp(
+            mid,
+            shape,
+            T0,
+            variant=variant,
+            kernel=kernel,
+            max_iterations=min(settings.rank_iterations, max_iterations),
+        )
+        for T0 in candidates
+    ]
+    costs = np.array([float(_trimmed_rms(run.residuals, settings.trim)) for run in runs])
+    order = np.argsort(costs)
+    best_i = int(order[0])
+    second = None
+    for i in order[1:]:
+        T_i = runs[int(i)].T_model_data
+        if _displacement(T_i, runs[best_i].T_model_data, mid) > settings.distinct * extent:
+            second = Minimum(T_i, float(costs[int(i)]))
+            break
+    trajectory: list[Array] = []
+    best_run = icp(
+        data,
+        shape,
+        runs[best_i].T_model_data,
+        variant=variant,
+        kernel=kernel,
+        max_iterations=max_iterations,
+        callback=lambda _k, T, _mse: trajectory.append(T.copy()),
+    )
+    best = Minimum(best_run.T_model_data, float(costs[best_i]))
+    ambiguity = 0.0 if second is None else best.cost / max(second.cost, 1e-300)
+    stage["refine"] = time.perf_counter() - t0
+    say(f"refined {len(runs)} candidates; best of {len(runs)} minima refined on all data")
+
+    # Quality of the best pose, from its own residuals.
+    p = transform_points(best.T_model_data, data)
+    closest = shape.closest(p)
+    if closest.normals is not None:
+        residuals = np.einsum("nd,nd->n", closest.normals, p - closest.points)
+    else:
+        residuals = closest.distances
+    weights = Tukey(c=8.0, min_scale=1e-6 * extent).weights(residuals)
+    inliers = weights > 0
+    inlier_fraction = float(inliers.mean())
+    rms = float(np.sqrt(np.mean(residuals[inliers] ** 2))) if inliers.any() else float("inf")
+    dof = max(int(inliers.sum()) - 6, 1)
+    sigma = float(np.sqrt(np.sum(weights * residuals**2) / max(weights.sum(), 1e-300)))
+    sigma *= np.sqrt(inliers.sum() / dof) if inliers.any() else 1.0
+    covariance = pose_covariance(p, closest.normals, weights, max(sigma, 1e-12 * extent))
+    worst_tre = float(
+        np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))
+    )
+    verdict, reason = decide(rms, inlier_fraction, ambiguity, worst_tre, extent, acceptance)
+    seconds = time.perf_counter() - t_start
+    say(f"{verdict}: {reason}")
+    return MatchResult(
+        T_model_data=best.T_model_data,
+        rms=rms,
+        inlier_fraction=inlier_fraction,
+        sigma=sigma,
+        iterations=best_run.iterations,
+        converged=best_run.converged,
+        history=np.sqrt(best_run.mse_history),
+        trajectory=np.asarray(trajectory),
+        mode=mode,
+        starts=n_starts,
+        best=best,
+        second=second,
+        ambiguity=float(ambiguity),
+        covariance=covariance,
+        worst_predicted_tre=worst_tre,
+        verdict=verdict,
+        reason=reason,
+        seconds=seconds,
+        stage_seconds=stage,
+    )

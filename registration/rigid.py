@@ -1,0 +1,73 @@
+"""Rigid transforms as 4x4 homogeneous matrices: build, apply, compose, measure."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+Array = NDArray[np.float64]
+
+
+def make_T(R: Array, t: Array) -> Array:
+    """Homogeneous transform (4, 4) from a rotation (3, 3) and a translation (3,)."""
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = t
+    return T
+
+
+def make_T_batch(R: Array, t: Array) -> Array:
+    """Homogeneous transforms (K, 4, 4) from rotations (K, 3, 3) and translations (K, 3)."""
+    T = np.broadcast_to(np.eye(4), (len(R), 4, 4)).copy()
+    T[:, :3, :3] = R
+    T[:, :3, 3] = t
+    return T
+
+
+def transform_points(T: Array, points: Array) -> Array:
+    """Apply T (4, 4) to points (N, 3); returns (N, 3)."""
+    return points @ T[:3, :3].T + T[:3, 3]
+
+
+def invert(T: Array) -> Array:
+    """Inverse of a rigid transform (4, 4)."""
+    R = T[:3, :3]
+    return make_T(R.T, -R.T @ T[:3, 3])
+
+
+def rotation_angle(R: Array) -> float:
+    """Angle of a rotation matrix (3, 3) [rad], in [0, pi]."""
+    c = (np.trace(R) - 1.0) / 2.0
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def pose_error(T_estimate: Array, T_truth: Array) -> tuple[float, float]:
+    """Rotation error [rad] and translation error [length units] between two transforms."""
+    dR = T_estimate[:3, :3] @ T_truth[:3, :3].T
+    return rotation_angle(dR), float(np.linalg.norm(T_estimate[:3, 3] - T_truth[:3, 3]))
+
+
+def exp_se3(xi: Array) -> Array:
+    """Transform (4, 4) from a twist xi = (translation (3,), rotation vector (3,)).
+
+    The rotation part is the exponential map; the translation is applied after it
+    (x' = R x + t), the parametrisation used by the linearised ICP steps.
+    """
+    return make_T(Rotation.from_rotvec(xi[3:]).as_matrix(), xi[:3])
+
+
+def skew(v: Array) -> Array:
+    """Cross-product matrices: (3,) -> (3, 3) or (N, 3) -> (N, 3, 3)."""
+    v = np.asarray(v, dtype=float)
+    S = np.zeros((*v.shape[:-1], 3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def random_transform(rng: np.random.Generator, translation_scale: float = 1.0) -> Array:
+    """A uniformly random rotation with a Gaussian translation of the given scale."""
+    R = Rotation.random(random_state=rng).as_matrix()
+    return make_T(R, rng.normal(scale=translation_scale, size=3))

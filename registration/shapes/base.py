@@ -1,0 +1,108 @@
+"""What every model shape offers to the matcher: the C operator and a surface sample."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from registration.errors import InputError
+from registration.lookup import VoxelLookup
+from registration.rigid import Array
+
+
+@dataclass(frozen=True)
+class Closest:
+    """Closest points on a shape to query points.
+
+    Attributes:
+        points: closest points (N, 3).
+        normals: unit normals at those points (N, 3), or None if the shape has none.
+        distances: Euclidean distances (N,) [length units].
+    """
+
+    points: Array
+    normals: Array | None
+    distances: Array
+
+
+def check_points(points: Array, what: str, minimum: int = 1) -> Array:
+    """Validate an (N, 3) array of finite numbers with N >= minimum; returns float64 copy."""
+    a = np.asarray(points, dtype=float)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InputError(f"{what} must be an (N, 3) array; got shape {a.shape}")
+    if len(a) < minimum:
+        raise InputError(f"{what} needs at least {minimum} points; got {len(a)}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        raise InputError(
+            f"{what} holds {int(bad.sum())} points with NaN or inf (first at row "
+            f"{int(np.flatnonzero(bad)[0])}); all coordinates must be finite"
+        )
+    return np.ascontiguousarray(a)
+
+
+class Shape:
+    """Base of the model shapes: a surface sample (for coarse search) and the C operator.
+
+    Subclasses set `samples` (M, 3) and `sample_normals` (M, 3) or None, and implement
+    `closest`. Normals may be unoriented (sign arbitrary) for point sets.
+    """
+
+    samples: Array
+    sample_normals: Array | None
+    has_normals: bool = False
+    #: True if the normals point outward consistently (meshes, parametric surfaces).
+    oriented: bool = False
+
+    def closest(self, points: Array) -> Closest:  # pragma: no cover - interface
+        raise TypeError(f"{type(self).__name__} does not implement closest()")
+
+    @cached_property
+    def sample_tree(self) -> cKDTree:
+        """KD-tree over the surface sample, for the vectorised coarse search."""
+        return cKDTree(self.samples)
+
+    def anchor_frames(self, count: int, radius: float) -> tuple[Array, Array]:
+        """Well-spread surface anchors (count, 3) and their local frames (count, 3, 3), cached.
+
+        The frames' third column is the surface normal by PCA within `radius` (see
+        registration.starts.local_frame).
+        """
+        from registration.starts import farthest_point_sample, local_frame
+
+        cache: dict[tuple[int, float], tuple[Array, Array]] = self.__dict__.setdefault(
+            "_anchor_cache", {}
+        )
+        key = (count, radius)
+        if key not in cache:
+            anchors = self.samples[farthest_point_sample(self.samples, count)]
+            cache[key] = (anchors, local_frame(self.samples, anchors, radius, self.sample_tree))
+        return cache[key]
+
+    @cached_property
+    def sample_lookup(self) -> VoxelLookup:
+        """Voxel lookup of the nearest surface sample, for scoring many starts at once."""
+        return VoxelLookup(self.samples, self.sample_tree)
+
+    @cached_property
+    def extent(self) -> float:
+        """Diagonal of the axis-aligned bounding box of the surface [length units]."""
+        return float(np.linalg.norm(np.ptp(self.samples, axis=0)))
+
+    @cached_property
+    def centroid(self) -> Array:
+        """Centroid of the surface sample (3,)."""
+        return self.samples.mean(axis=0)
+
+
+def estimate_normals(points: Array, k: int = 12) -> Array:
+    """Unoriented unit normals (N, 3) by principal components of the k nearest neighbours."""
+    k = int(min(k, len(points)))
+    _, idx = cKDTree(points).query(points, k=k)
+    nb = points[idx] - points[idx].mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", nb, nb)
+    _, vecs = np.linalg.eigh(cov)
+    return vecs[:, :, 0]

@@ -1,0 +1,35 @@
+"""A model given as a set of points (eq. 12): closest point by KD-tree."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from registration.rigid import Array
+from registration.shapes.base import Closest, Shape, check_points, estimate_normals
+
+
+class PointModel(Shape):
+    """Model set X as points (N, 3); normals (N, 3) optional, else estimated (unoriented)."""
+
+    def __init__(self, points: Array, normals: Array | None = None, workers: int = -1) -> None:
+        self.points = check_points(points, "model points", minimum=3)
+        self.samples = self.points
+        self.workers = workers
+        self._tree = cKDTree(self.points)
+        self.sample_tree = self._tree  # type: ignore[misc]
+        if normals is None:
+            if len(self.points) >= 6:
+                normals = estimate_normals(self.points)
+        else:
+            normals = check_points(normals, "model normals")
+            normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+        self.sample_normals = normals
+        self.has_normals = normals is not None
+
+    def closest(self, points: Array) -> Closest:
+        # Threads pay off only for large batches: their start-up costs about a millisecond.
+        workers = self.workers if len(points) > 20000 else 1
+        d, i = self._tree.query(points, workers=workers)
+        normals = None if self.sample_normals is None else self.sample_normals[i]
+        return Closest(self.points[i], normals, d)
