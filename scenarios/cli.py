@@ -53,6 +53,50 @@ def check(
         raise typer.Exit(1)
 
 
+@app.command("model")
+def model(
+    name: Annotated[
+        str,
+        typer.Argument(
+            help="A built-in model (skull, bracket, housing, lid, ellipsoid) or a mesh file "
+            "(.stl, .obj, .ply)."
+        ),
+    ],
+    real: Annotated[
+        bool, typer.Option("--real", help="The real entity: the model plus its model error.")
+    ] = False,
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, help="Seed of the skull's shape and the model error.")
+    ] = 0,
+    units: Annotated[
+        str, typer.Option("--units", help="Units of a mesh file and of --out: mm or m.")
+    ] = "mm",
+    out: Annotated[
+        str | None, typer.Option("--out", help="Write the mesh to this .stl/.obj/.ply file.")
+    ] = None,
+) -> None:
+    """Check a model (vertices, faces, watertight, size, volume, convex pieces); export it."""
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    from models import check_model, load_model, write_mesh
+
+    loaded, warnings = load_model(name, real=real, seed=seed, units=units)
+    report = check_model(loaded, warnings)
+    table = Table(title=f"model check: {report.name}", show_header=False)
+    table.add_column("item", style="bold")
+    table.add_column("value")
+    for label, value in report.rows():
+        table.add_row(Text(label), Text(value))  # Text: "[mm]" is not markup
+    Console().print(table)
+    for warning in report.warnings:
+        typer.echo(f"twincell: warning: {warning}", err=True)
+    if out is not None:
+        written = write_mesh(loaded.mesh, out, units)
+        typer.echo(f"wrote {written} ({len(loaded.mesh.faces)} triangles, {units})")
+
+
 def _user_errors() -> tuple[type[BaseException], ...]:
     """The root exceptions of the project's packages: bad input a user can fix."""
     from cell.errors import CellError

@@ -1,0 +1,48 @@
+"""The object model value: the exact surface, its convex contact pieces and its operations."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from models.errors import UnknownModelError
+from models.mesh import TriangleMesh
+from models.targets import BurrHole, OperationFrame
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectModel:
+    """An object of the cell as the planner knows it (virtual) or as it is (real).
+
+    `mesh` is the exact surface in the object's model frame [m]: rays and registration use
+    it. `convex_pieces` are closed convex meshes [m] for MuJoCo contacts (concave objects have
+    several). `burr_holes` (skull) and `frames` (parts) are the operation targets in the model
+    frame. `source` says where the model came from ("built-in", a file path, "... + model
+    error").
+    """
+
+    name: str
+    mesh: TriangleMesh
+    convex_pieces: tuple[TriangleMesh, ...]
+    burr_holes: tuple[BurrHole, ...] = ()
+    frames: tuple[OperationFrame, ...] = ()
+    source: str = "built-in"
+
+    def frame(self, name: str) -> OperationFrame:
+        """The operation frame called `name`; raises UnknownModelError listing the valid names."""
+        for frame in self.frames:
+            if frame.name == name:
+                return frame
+        names = [f.name for f in self.frames]
+        raise UnknownModelError(
+            f"model {self.name!r} has no operation frame {name!r}; its frames are {names}"
+        )
+
+    def burr_hole(self, name: str) -> BurrHole:
+        """The burr hole called `name`; raises UnknownModelError listing the valid names."""
+        for hole in self.burr_holes:
+            if hole.name == name:
+                return hole
+        names = [h.name for h in self.burr_holes]
+        raise UnknownModelError(
+            f"model {self.name!r} has no burr hole {name!r}; its burr holes are {names}"
+        )

@@ -1,0 +1,147 @@
+"""Built-in models by name, user mesh files by path, and the real entity of either.
+
+>>> model = builtin_model("skull", seed=0)            # the virtual model
+>>> real, error = real_model(model, seed=7)            # + CT-like model error (hidden truth)
+>>> model, warnings = load_model("part.stl", units="mm")
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from models.convex import convex_pieces
+from models.errors import ModelParameterError, UnknownModelError
+from models.mesh import TriangleMesh
+from models.model import ObjectModel
+from models.model_error import ModelErrorResult, ModelErrorSpec, apply_model_error
+from models.parts import Part, make_bracket, make_housing, make_lid
+from models.skull import make_skull
+from models.targets import BurrHole, OperationFrame
+from models.user_mesh import MESH_SUFFIXES, load_mesh_file
+
+
+def _skull(seed: int) -> ObjectModel:
+    phantom = make_skull(seed)
+    return ObjectModel(
+        name="skull",
+        mesh=phantom.mesh,
+        convex_pieces=convex_pieces(phantom.mesh, seed=seed),
+        burr_holes=phantom.burr_holes,
+        source=f"built-in (seed {seed})",
+    )
+
+
+def _part(make: Callable[[], Part]) -> Callable[[int], ObjectModel]:
+    def build(seed: int) -> ObjectModel:
+        part = make()
+        return ObjectModel(part.name, part.mesh, part.convex_pieces, frames=part.frames)
+
+    return build
+
+
+_BUILDERS: dict[str, Callable[[int], ObjectModel]] = {
+    "skull": _skull,
+    "bracket": _part(make_bracket),
+    "housing": _part(make_housing),
+    "lid": _part(make_lid),
+}
+
+
+def builtin_names() -> tuple[str, ...]:
+    """Names of the built-in models."""
+    return tuple(_BUILDERS)
+
+
+def _check_seed(seed: int) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ModelParameterError(f"seed must be a non-negative integer, got {seed!r}")
+    return int(seed)
+
+
+@lru_cache(maxsize=16)
+def _cached(name: str, seed: int) -> ObjectModel:
+    return _BUILDERS[name](seed)
+
+
+def builtin_model(name: str, seed: int = 0) -> ObjectModel:
+    """The built-in model `name` (see `builtin_names()`); `seed` shapes the skull (the others
+    do not depend on it). Results are cached in memory; the values are immutable."""
+    if name not in _BUILDERS:
+        raise UnknownModelError(
+            f"unknown model {name!r}; built-in models are {list(_BUILDERS)}, or give a mesh file "
+            f"({', '.join(MESH_SUFFIXES)})"
+        )
+    return _cached(name, _check_seed(seed))
+
+
+def _displaced_hole(hole: BurrHole, field: Callable[[np.ndarray], np.ndarray]) -> BurrHole:
+    p_virtual = np.array([hole.p_entry, hole.p_target])
+    p_entry, p_target = p_virtual + field(p_virtual)
+    axis = p_target - p_entry
+    return BurrHole(hole.name, p_entry, axis, float(np.linalg.norm(axis)))
+
+
+def _displaced_frame(
+    frame: OperationFrame, field: Callable[[np.ndarray], np.ndarray]
+) -> OperationFrame:
+    T = np.array(frame.T_part_frame)
+    T[:3, 3] += field(T[None, :3, 3])[0]
+    return OperationFrame(frame.name, frame.kind, T)
+
+
+def real_model(
+    model: ObjectModel, spec: ModelErrorSpec | None = None, seed: int = 0
+) -> tuple[ObjectModel, ModelErrorResult]:
+    """The real entity of `model`: its surface with the model error `spec` (seeded), the
+    contact pieces and the operation targets moved by the error's smooth deformation.
+
+    The planner never sees this: it is the simulated truth (cell and evaluator only).
+    """
+    spec = spec or ModelErrorSpec()
+    error = apply_model_error(model.mesh, spec, _check_seed(seed))
+    pieces = tuple(
+        TriangleMesh(np.asarray(p.vertices) + error.field(np.asarray(p.vertices)), p.faces)
+        for p in model.convex_pieces
+    )
+    real = replace(
+        model,
+        mesh=error.mesh,
+        convex_pieces=pieces,
+        burr_holes=tuple(_displaced_hole(h, error.field) for h in model.burr_holes),
+        frames=tuple(_displaced_frame(f, error.field) for f in model.frames),
+        source=f"{model.source} + model error ({spec.total_rms * 1e3:.2f} mm RMS, seed {seed})",
+    )
+    return real, error
+
+
+def load_model(
+    name_or_path: str | Path,
+    *,
+    real: bool = False,
+    seed: int = 0,
+    units: str | float = "mm",
+    spec: ModelErrorSpec | None = None,
+) -> tuple[ObjectModel, tuple[str, ...]]:
+    """A built-in model by name or a user mesh file by path (in `units`), optionally as its
+    real entity (`real=True`, model error seeded by `seed`). Returns the model and the
+    warnings found while loading."""
+    warnings: tuple[str, ...] = ()
+    name = str(name_or_path)
+    if name in _BUILDERS:
+        model = builtin_model(name, seed)
+    elif Path(name).suffix or Path(name).exists() or "/" in name:
+        model, report = load_mesh_file(name, units)
+        warnings = report.warnings
+    else:
+        raise UnknownModelError(
+            f"unknown model {name!r}; built-in models are {list(_BUILDERS)}, or give a mesh file "
+            f"({', '.join(MESH_SUFFIXES)})"
+        )
+    if real:
+        model, _ = real_model(model, spec, seed)
+    return model, warnings
