@@ -1,0 +1,187 @@
+"""The controller API: the real/nominal boundary, each error source and its zero setting,
+sensors against known geometry, and bad input refused with clear messages."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from cell import (
+    CellConfig,
+    CellConfigError,
+    CellTruth,
+    Controller,
+    EncoderNoise,
+    FixedMesh,
+    JointLimitError,
+    LaserConfig,
+    TableErrors,
+    ToolChangerError,
+    UnknownNameError,
+    UnreachableTargetError,
+    make_cell,
+    nominal_kinematics,
+)
+from cell.build import RealParameters, draw_real_parameters
+from cell.simulation import Simulation
+from cell.transforms import make_T
+from models.robot import ArmGeometry, arm_xml
+
+R_DOWN = np.diag([1.0, -1.0, -1.0])
+
+
+@pytest.fixture(scope="module")
+def laser_cell() -> tuple[Controller, CellTruth]:
+    """Default errors, laser in hand, above the bare table."""
+    controller, truth = make_cell(CellConfig(seed=4))
+    controller.change_tool("laser")
+    return controller, truth
+
+
+def test_controller_exposes_no_truth() -> None:
+    controller, _ = make_cell(CellConfig(seed=1))
+    hidden = (Simulation, CellTruth, RealParameters, ArmGeometry, mujoco.MjModel, mujoco.MjData)
+    public = [name for name in dir(controller) if not name.startswith("_")]
+    for name in public:
+        value = getattr(controller, name)
+        assert not isinstance(value, hidden), name
+
+
+def test_real_arm_deviates_by_an_industrial_arms_accuracy() -> None:
+    kin = nominal_kinematics()
+    params = draw_real_parameters(CellConfig(seed=0))
+    m = mujoco.MjModel.from_xml_string(arm_xml(params.arm))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(0)
+    errors = []
+    for _ in range(200):
+        q = kin.random_configuration(rng)
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        errors.append(np.linalg.norm(d.site_xpos[m.site("flange").id] - kin.fk(q)[:3, 3]))
+    assert 0.1e-3 < np.mean(errors) < 0.6e-3  # IRB 2400: mean 0.18 mm, max 0.38 mm per unit
+    assert np.max(errors) < 1.5e-3
+
+
+def test_ideal_config_zeroes_every_error() -> None:
+    controller, truth = make_cell(CellConfig(seed=3).ideal())
+    assert truth.arm == ArmGeometry()
+    controller.move_table(0.3)
+    assert controller.table_position() == truth.table_position_m()
+    np.testing.assert_array_equal(controller.read_joints(), truth.q())
+
+
+def test_encoder_noise_has_the_configured_sigma() -> None:
+    controller, truth = make_cell(CellConfig(seed=2, encoder=EncoderNoise(1e-4)))
+    noise = np.array([controller.read_joints() - truth.q() for _ in range(500)])
+    assert abs(noise.std() / 1e-4 - 1.0) < 0.1  # 3000 samples: sigma within 10 %
+    assert abs(noise.mean()) < 1.5e-5
+
+
+def test_table_error_is_hidden_from_the_readout() -> None:
+    config = CellConfig(seed=7, table=TableErrors(bias_sigma_m=1e-3, repeat_sigma_m=0.0))
+    controller, truth = make_cell(config)
+    controller.move_table(0.2)
+    assert abs(controller.table_position() - 0.2) < 1e-6  # the axis believes it is there
+    bias = truth.params.table_bias_m
+    assert abs(bias) > 1e-5
+    assert abs(truth.table_position_m() - (0.2 + bias)) < 1e-6  # it is off by the bias
+
+
+def test_laser_noise_and_plane(laser_cell) -> None:
+    controller, truth = laser_cell
+    controller.move_tcp(make_T(R_DOWN, np.array([1.0, -0.2, 0.7])))
+    z = []
+    for _ in range(5):
+        points, index = controller.laser_points_base(controller.read_laser())
+        assert len(index) == controller.laser_config.n_rays  # all rays hit the table top
+        z.append(points[:, 2])
+    z = np.concatenate(z) - truth.T_base_table()[2, 3]
+    # Range noise 20 um plus the arm's 0.3 mm kinematic error (a bias and a tilt).
+    assert np.abs(z).max() < 2e-3
+    residual = z - np.mean(z)
+    assert residual.std() > 1e-5  # noisy, not exact
+
+
+def test_laser_drops_grazing_rays(laser_cell) -> None:
+    controller, truth = laser_cell
+    tilt = 1.15  # rad from the vertical about the tool's y axis: incidences 0.85 .. 1.45 rad
+    c, s = np.cos(tilt), np.sin(tilt)
+    R = R_DOWN @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    controller.move_tcp(make_T(R, np.array([0.95, -0.2, 0.5])))
+    reading = controller.read_laser()
+    T_base_laser = controller.T_base_tcp()
+    directions = controller.laser_directions_tcp @ T_base_laser[:3, :3].T
+    incidence = np.arccos(np.clip(-directions[:, 2], -1, 1))  # table normal is +z
+    max_incidence = controller.laser_config.max_incidence_rad
+    height = T_base_laser[2, 3] - truth.T_base_table()[2, 3]
+    in_range = height / np.cos(np.minimum(incidence, 1.5)) < controller.laser_config.range_max_m
+    steep = (incidence < max_incidence - 0.01) & in_range
+    grazing = incidence > max_incidence + 0.01
+    assert steep.any() and grazing.any()
+    assert np.all(np.isfinite(reading.distances[steep]))
+    assert np.all(np.isnan(reading.distances[grazing]))
+
+
+def test_laser_ray_into_the_void_is_no_return(laser_cell) -> None:
+    controller, _ = laser_cell
+    up = np.diag([1.0, 1.0, 1.0])  # pointing at the sky
+    controller.move_tcp(make_T(up, np.array([0.8, 0.0, 1.3])))
+    reading = controller.read_laser()
+    assert np.all(np.isnan(reading.distances))
+    points, index = controller.laser_points_base(reading)
+    assert points.shape == (0, 3) and index.shape == (0,)
+
+
+def test_ir_reads_the_distance_to_the_table() -> None:
+    controller, _ = make_cell(CellConfig(seed=5).ideal())
+    controller.change_tool("ir")
+    controller.move_tcp(make_T(R_DOWN, np.array([1.1, 0.1, 0.5])))
+    assert abs(controller.read_ir() - 0.1) < 1e-9  # 0.5 m above a table top at 0.4 m
+    controller.move_tcp(make_T(R_DOWN, np.array([1.1, 0.1, 0.7])))
+    assert controller.read_ir() is None  # 0.3 m: beyond its 0.15 m range
+
+
+def test_bad_commands_are_refused_with_clear_messages(laser_cell) -> None:
+    controller, _ = laser_cell
+    far = make_T(R_DOWN, np.array([2.5, 0.0, 0.5]))
+    with pytest.raises(UnreachableTargetError, match=r"2\.5000.*residual"):
+        controller.move_tcp(far)
+    with pytest.raises(UnreachableTargetError, match="residual"):
+        controller.move_linear(far)
+    with pytest.raises(JointLimitError, match=r"joint2 = 2"):
+        controller.move_joints(np.array([0.0, 2.0, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(JointLimitError, match="travel"):
+        controller.move_table(0.8)
+    with pytest.raises(ToolChangerError, match="already holds the 'laser' tool"):
+        controller.lock()
+    with pytest.raises(ToolChangerError, match="would fall"):
+        controller.unlock()
+    with pytest.raises(UnknownNameError, match="available tools: gripper, screwer, ir, laser"):
+        controller.change_tool("welder")
+    with pytest.raises(UnknownNameError, match="'ir' tool is not in hand"):
+        controller.read_ir()
+    assert controller.tool_in_hand == "laser"
+
+
+def test_lock_without_a_tool_at_the_flange_is_refused() -> None:
+    controller, _ = make_cell(CellConfig(seed=6))
+    with pytest.raises(ToolChangerError, match="no tool is seated"):
+        controller.lock()
+    with pytest.raises(ToolChangerError, match="holds no tool"):
+        controller.unlock()
+
+
+def test_bad_config_is_refused() -> None:
+    with pytest.raises(CellConfigError, match="n_rays"):
+        LaserConfig(n_rays=0)
+    with pytest.raises(CellConfigError, match="range_min_m < range_max_m"):
+        LaserConfig(range_min_m=0.5, range_max_m=0.1)
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    with pytest.raises(CellConfigError, match="face indices"):
+        FixedMesh("m", v, np.array([[0, 1, 7]]), np.eye(4))
+    with pytest.raises(CellConfigError, match="rigid"):
+        FixedMesh("m", v, np.array([[0, 1, 2]]), 2 * np.eye(4))
+    with pytest.raises(CellConfigError, match="unique"):
+        CellConfig(fixtures=(FixedMesh("m", v, np.array([[0, 1, 2]]), np.eye(4)),) * 2)
