@@ -25,7 +25,7 @@ def scene_xml(robot_file: str = ROBOT_FILE) -> str:
     )
     return f"""<mujoco model="twincell">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{TIMESTEP}" integrator="implicitfast"/>
+  <option timestep="{TIMESTEP}" integrator="implicitfast" cone="elliptic" impratio="10"/>
 
   <include file="{robot_file}"/>
 
@@ -39,7 +39,8 @@ def scene_xml(robot_file: str = ROBOT_FILE) -> str:
     <default class="tool">
       <geom group="{TOOL_GROUP}" rgba="0.2 0.45 0.7 1" friction="1 0.005 0.0001"/>
       <default class="finger">
-        <geom rgba="0.15 0.15 0.15 1" friction="1.5 0.01 0.001" condim="4" mass="0.05"/>
+        <geom rgba="0.15 0.15 0.15 1" friction="1.5 0.01 0.001" condim="4" mass="0.05"
+              solref="0.004 1" solimp="0.95 0.99 0.0005"/>
       </default>
     </default>
     <default class="changer">
