@@ -137,7 +137,7 @@ class Kinematics:
         tol_position_m: float = 1e-9,
         tol_rotation_rad: float = 1e-9,
         max_iterations: int = 60,
-        extra_seeds: int = 12,
+        extra_seeds: int = 30,
         rng: np.random.Generator | None = None,
     ) -> IKResult:
         """Solve for q such that the TCP (tip frame times `T_tip_tcp`) is at `T_base_target`.
@@ -178,6 +178,7 @@ class Kinematics:
         eye6 = np.eye(6)
         q = q.copy()
         dp = dr = np.inf
+        history: list[float] = []
         for it in range(1, max_iterations + 1):
             pin.framesForwardKinematics(model, data, q)
             iMd = data.oMf[fid].actInv(oMdes)
@@ -185,6 +186,10 @@ class Kinematics:
             dp = float(np.linalg.norm(iMd.translation))
             dr = float(np.linalg.norm(err[3:]))
             if dp <= tol_p and dr <= tol_r:
+                return q, dp, dr, it
+            # Stalled (typically pinned on a joint limit): give this seed up.
+            history.append(dp + dr)
+            if it > 15 and history[-1] > 0.5 * history[-6] and history[-1] > 1e-4:
                 return q, dp, dr, it
             J = pin.computeFrameJacobian(model, data, q, fid, pin.ReferenceFrame.LOCAL)
             J = -pin.Jlog6(iMd.inverse()) @ J
