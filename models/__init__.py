@@ -34,6 +34,8 @@ _EXPORTS = {
     "ModelErrorResult": "models.model_error",
     "apply_model_error": "models.model_error",
     "convex_pieces": "models.convex",
+    "AnalyticSurface": "models.surfaces",
+    "ellipsoid_surface": "models.surfaces",
     "LoadReport": "models.user_mesh",
     "load_mesh_file": "models.user_mesh",
     "ModelCheck": "models.check",

@@ -13,13 +13,23 @@ import igl
 import numpy as np
 import trimesh
 from scipy.cluster.vq import kmeans2
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from models.errors import ModelParameterError
 from models.mesh import TriangleMesh
 
 # A mesh whose volume is at least this fraction of its hull's is treated as convex.
 CONVEX_VOLUME_RATIO = 0.97
+
+
+def _closed_hull(points: np.ndarray) -> trimesh.Trimesh | None:
+    """Convex hull of `points` as a closed mesh, or None if flat or not closed."""
+    try:
+        hull = trimesh.convex.convex_hull(points)
+    except Exception:  # qhull refuses flat or degenerate sets
+        return None
+    # qhull may return a sliver facet that trimesh drops, leaving a hole: not a usable piece.
+    return hull if hull.is_watertight and hull.volume > 0 else None
 
 
 def _hull(points: np.ndarray, max_vertices: int) -> trimesh.Trimesh | None:
@@ -31,26 +41,25 @@ def _hull(points: np.ndarray, max_vertices: int) -> trimesh.Trimesh | None:
     if len(points) < 4:
         return None
     try:
-        hull = trimesh.convex.convex_hull(points)
-    except Exception:  # qhull refuses flat or degenerate sets
+        v = points[ConvexHull(points).vertices]
+    except QhullError:  # flat or degenerate set
         return None
-    if len(hull.vertices) > max_vertices:
-        v = np.asarray(hull.vertices)
-        chosen = [int(np.argmax(np.linalg.norm(v - v.mean(axis=0), axis=1)))]
-        d = np.linalg.norm(v - v[chosen[0]], axis=1)
-        for _ in range(max_vertices - 1):
-            chosen.append(int(np.argmax(d)))
-            d = np.minimum(d, np.linalg.norm(v - v[chosen[-1]], axis=1))
-        hull = trimesh.convex.convex_hull(v[chosen])
-    if not hull.volume > 0:
-        return None
-    return hull
+    chosen = [int(np.argmax(np.linalg.norm(v - v.mean(axis=0), axis=1)))]
+    d = np.linalg.norm(v - v[chosen[0]], axis=1)
+    for _ in range(min(max_vertices, len(v)) - 1):
+        chosen.append(int(np.argmax(d)))
+        d = np.minimum(d, np.linalg.norm(v - v[chosen[-1]], axis=1))
+    for count in range(len(chosen), max(len(chosen) - 16, 3), -1):  # qhull slivers: drop one
+        hull = _closed_hull(v[chosen[:count]])
+        if hull is not None:
+            return hull
+    return None
 
 
 def convex_pieces(
     mesh: TriangleMesh,
     max_pieces: int = 24,
-    max_hull_vertices: int = 64,
+    max_hull_vertices: int = 256,
     samples: int = 40_000,
     seed: int = 0,
 ) -> tuple[TriangleMesh, ...]:

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from models.errors import UnknownModelError
 from models.mesh import TriangleMesh
+from models.surfaces import AnalyticSurface
 from models.targets import BurrHole, OperationFrame
 
 
@@ -16,8 +19,9 @@ class ObjectModel:
     `mesh` is the exact surface in the object's model frame [m]: rays and registration use
     it. `convex_pieces` are closed convex meshes [m] for MuJoCo contacts (concave objects have
     several). `burr_holes` (skull) and `frames` (parts) are the operation targets in the model
-    frame. `source` says where the model came from ("built-in", a file path, "... + model
-    error").
+    frame. `points` (K, 3) [m] is a reference point set of the model (the paper's 55 points
+    on the ellipsoid), `surface` its analytic surface r(u, v) where it has one. `source` says
+    where the model came from ("built-in", a file path, "... + model error").
     """
 
     name: str
@@ -25,6 +29,8 @@ class ObjectModel:
     convex_pieces: tuple[TriangleMesh, ...]
     burr_holes: tuple[BurrHole, ...] = ()
     frames: tuple[OperationFrame, ...] = ()
+    points: np.ndarray | None = None
+    surface: AnalyticSurface | None = None
     source: str = "built-in"
 
     def frame(self, name: str) -> OperationFrame:

@@ -13,7 +13,9 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
+from models import ellipsoid
 from models.convex import convex_pieces
 from models.errors import ModelParameterError, UnknownModelError
 from models.mesh import TriangleMesh
@@ -21,6 +23,7 @@ from models.model import ObjectModel
 from models.model_error import ModelErrorResult, ModelErrorSpec, apply_model_error
 from models.parts import Part, make_bracket, make_housing, make_lid
 from models.skull import make_skull
+from models.surfaces import ellipsoid_radii, ellipsoid_surface
 from models.targets import BurrHole, OperationFrame
 from models.user_mesh import MESH_SUFFIXES, load_mesh_file
 
@@ -44,11 +47,27 @@ def _part(make: Callable[[], Part]) -> Callable[[int], ObjectModel]:
     return build
 
 
+def _ellipsoid(seed: int) -> ObjectModel:
+    """The paper's ellipsoid, 200 x 120 x 80 mm: an icosphere (20480 triangles) scaled onto
+    it, so that every vertex lies on the analytic surface; the 55 model points; r(u, v)."""
+    radii = np.array(ellipsoid_radii())
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    mesh = TriangleMesh(np.asarray(sphere.vertices) * radii, sphere.faces)
+    return ObjectModel(
+        name="ellipsoid",
+        mesh=mesh,
+        convex_pieces=convex_pieces(mesh),
+        points=ellipsoid.model_points(55, tuple(radii)),
+        surface=ellipsoid_surface(),
+    )
+
+
 _BUILDERS: dict[str, Callable[[int], ObjectModel]] = {
     "skull": _skull,
     "bracket": _part(make_bracket),
     "housing": _part(make_housing),
     "lid": _part(make_lid),
+    "ellipsoid": _ellipsoid,
 }
 
 
@@ -114,6 +133,8 @@ def real_model(
         convex_pieces=pieces,
         burr_holes=tuple(_displaced_hole(h, error.field) for h in model.burr_holes),
         frames=tuple(_displaced_frame(f, error.field) for f in model.frames),
+        points=None if model.points is None else model.points + error.field(model.points),
+        surface=None,  # the real entity has no exact analytic form
         source=f"{model.source} + model error ({spec.total_rms * 1e3:.2f} mm RMS, seed {seed})",
     )
     return real, error
