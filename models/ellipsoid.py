@@ -1,9 +1,10 @@
 """The seed paper's test object: an ellipsoid, its 55 model points and its analytic surface.
 
-The paper does not give the ellipsoid's size; its noise is stated relative to the largest
-coordinate of the data, so the experiments are scale-free. The semi-axes here are
-(10, 6, 4) in the paper's abstract units, a triaxial ellipsoid (its symmetry group is the
-four rotations by 0 or 180 deg about its axes).
+The paper gives neither the ellipsoid's size nor its units, and states the noise as a
+variance equal to 1/20 of the largest absolute coordinate: a rule that depends on the unit.
+We read its lengths in millimetres, the unit of its robot cell, and take semi-axes of
+100, 60 and 40 mm: a triaxial ellipsoid, whose symmetry group is the four rotations by 0 or
+180 deg about its axes. Inside the code lengths are in metres, as everywhere.
 """
 
 from __future__ import annotations
@@ -13,8 +14,8 @@ from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 
-#: Semi-axes (a, b, c) of the paper's ellipsoid, in the paper's abstract units.
-RADII: tuple[float, float, float] = (10.0, 6.0, 4.0)
+#: Semi-axes (a, b, c) of the paper's ellipsoid [m].
+RADII: tuple[float, float, float] = (0.10, 0.06, 0.04)
 #: Parameter domain of r(u, v): u is the longitude, v the colatitude.
 U_RANGE: tuple[float, float] = (0.0, 2.0 * np.pi)
 V_RANGE: tuple[float, float] = (0.0, np.pi)
@@ -27,16 +28,16 @@ def surface_point(u: Array, v: Array, radii: tuple[float, float, float] = RADII)
     return np.stack([a * np.cos(u) * np.sin(v), b * np.sin(u) * np.sin(v), c * np.cos(v)], -1)
 
 
-def model_points(count: int = 55, radii: tuple[float, float, float] = RADII) -> Array:
-    """The model set X: `count` points spread over the ellipsoid (Fibonacci lattice), (N, 3).
+def model_points(
+    count: int = 55, seed: int = 1995, radii: tuple[float, float, float] = RADII
+) -> Array:
+    """The model set X: `count` random points on the ellipsoid (seeded), (N, 3).
 
-    Deterministic; not symmetric under the ellipsoid's 180-degree rotations, so the true pose
-    of a noise-free copy is the unique exact match.
+    Random rather than a regular lattice: a lattice nearly maps onto itself under the
+    ellipsoid's 180-degree rotations, which would make the true pose only one of four
+    equally good fits once noise is added.
     """
-    k = np.arange(count) + 0.5
-    v = np.arccos(1.0 - 2.0 * k / count)
-    u = np.mod(np.pi * (1.0 + 5.0**0.5) * k, 2.0 * np.pi)
-    return surface_point(u, v, radii)
+    return sample_surface(count, seed, radii)
 
 
 def symmetry_rotations() -> Array:

@@ -34,6 +34,7 @@ from registration.shapes.points import PointModel
 from registration.starts import (
     farthest_point_sample,
     global_starts,
+    grid_local_starts,
     local_starts,
     super_fibonacci_rotations,
 )
@@ -54,10 +55,15 @@ class SearchSettings:
         normal_radius: neighbourhood radius for the local normals, as a fraction of the
             model extent.
         coarse_points: data points used to score every start.
-        keep_coarse: starts kept after scoring.
+        keep_coarse: starts kept after scoring (at least).
+        mid_budget: point evaluations per iteration of the vectorised ICP stage; data sets
+            smaller than mid_points keep more starts (mid_budget / points).
         mid_points: data points of the vectorised ICP stage.
         mid_iterations: iterations of the vectorised ICP stage.
         refine: distinct candidates refined to convergence on all data.
+        dense_data, dense_model: below these numbers of data points or model surface samples,
+            local normals are unreliable and the local start set is every rotation at every
+            anchor instead of normal-aligned spins.
         rank_iterations: ICP iterations on the subsample for each distinct candidate, before
             the minima are ranked.
         trim: fraction of the smallest residuals in a start's cost (robust to outliers and
@@ -72,11 +78,14 @@ class SearchSettings:
     normal_radius: float = 0.06
     coarse_points: int = 40
     keep_coarse: int = 48
+    mid_budget: int = 10000
     mid_points: int = 200
     mid_iterations: int = 8
     refine: int = 4
     rank_iterations: int = 20
-    trim: float = 0.5
+    dense_data: int = 50
+    dense_model: int = 2000
+    trim: float = 0.7
     distinct: float = 0.02
 
 
@@ -314,14 +323,21 @@ def match(
         else:
             radius = settings.normal_radius * extent
             anchors, frames = shape.anchor_frames(settings.anchors, radius)
-            R, t = local_starts(data, anchors, frames, settings.spins, radius)
+            dense = len(data) >= settings.dense_data and len(shape.samples) >= settings.dense_model
+            if dense:
+                R, t = local_starts(data, anchors, frames, settings.spins, radius)
+            else:
+                rotations = super_fibonacci_rotations(settings.rotations)
+                R, t = grid_local_starts(data, anchors, rotations)
         n_starts = len(R)
         coarse = data[farthest_point_sample(data, settings.coarse_points)]
         p = np.einsum("kij,nj->kni", R, coarse) + t[:, None, :]
         lookup = shape.sample_lookup
         d, _ = lookup.query(p)
         cost = _trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
-        keep = np.argsort(cost)[: settings.keep_coarse]
+        # Small data sets afford more survivors for the same work.
+        n_keep = max(settings.keep_coarse, settings.mid_budget // len(mid))
+        keep = np.argsort(cost)[:n_keep]
         stage["score"] = time.perf_counter() - t0
         say(f"scored {n_starts} initial states, kept {len(keep)}")
 

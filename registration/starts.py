@@ -4,8 +4,9 @@ Global matching (the data cover the whole surface) starts from a near-uniform se
 rotations with the centroids aligned. Local matching (the data cover only part of the
 surface) adds initial translations: a data point near the middle of the scan is placed on
 each of a set of well-spread model anchor points, the scan's local normal aligned with the
-anchor's normal (both signs), and the scan spun about that normal. Both sets are built as
-arrays so that all starts are scored at once.
+anchor's normal (both signs), and the scan spun about that normal. Sparse data or models, whose
+normals cannot be trusted, use every rotation of the global set at every anchor instead.
+Both sets are built as arrays so that all starts are scored at once.
 """
 
 from __future__ import annotations
@@ -70,6 +71,18 @@ def global_starts(
     """Starts (R (K, 3, 3), t (K, 3)) that map the data centroid onto the model centroid."""
     t = model_centroid - rotations @ data_centroid
     return rotations, t
+
+
+def grid_local_starts(data: Array, model_anchors: Array, rotations: Array) -> tuple[Array, Array]:
+    """Starts (R, t) for partial data: every rotation times every anchor translation.
+
+    The data point nearest the data centroid is placed on each model anchor. The seed
+    paper's set of initial rotations and translations; K = rotations * anchors.
+    """
+    p_anchor = data[np.argmin(np.linalg.norm(data - data.mean(axis=0), axis=1))]
+    R = np.repeat(rotations[None], len(model_anchors), axis=0).reshape(-1, 3, 3)
+    t = np.repeat(model_anchors, len(rotations), axis=0) - R @ p_anchor
+    return R, t
 
 
 def local_starts(

@@ -97,6 +97,50 @@ def model(
         typer.echo(f"wrote {written} ({len(loaded.mesh.faces)} triangles, {units})")
 
 
+@app.command("register")
+def register(
+    data: Annotated[str, typer.Argument(help="Data points: .xyz, .txt, .csv, .npy or .ply.")],
+    model: Annotated[str, typer.Argument(help="Model: a mesh (.stl, .obj, .ply) or a point file.")],
+    mode: Annotated[
+        str,
+        typer.Option(
+            "--mode",
+            help="global (data cover the whole model), local (part of it), refine (no search).",
+        ),
+    ] = "local",
+    json_file: Annotated[
+        str | None, typer.Option("--json", help="Write the result to this JSON file.")
+    ] = None,
+) -> None:
+    """Register data points to a model surface and print the transform and its quality."""
+    from scenarios.register import register_files, render_result, write_result_json
+
+    result = register_files(data, model, mode)
+    render_result(result)
+    if json_file is not None:
+        write_result_json(result, json_file)
+
+
+@app.command("run")
+def run(
+    name: Annotated[str, typer.Argument(help="The job to run: paper.")],
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of all random draws.")] = 0,
+    out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
+) -> None:
+    """Run a job headless and write a run folder (results, table, figures)."""
+    from scenarios.runner import run_job
+
+    def progress(message: str) -> None:
+        if not quiet:
+            typer.echo(f"  {message}", err=True)
+
+    folder, results = run_job(name, seed=seed, out=out, progress=progress)
+    if "table" in results:
+        typer.echo(results["table"])
+    typer.echo(f"run folder: {folder}")
+
+
 def _user_errors() -> tuple[type[BaseException], ...]:
     """The root exceptions of the project's packages: bad input a user can fix."""
     from cell.errors import CellError

@@ -10,16 +10,27 @@ from registration.shapes.base import Closest, Shape, check_points, estimate_norm
 
 
 class PointModel(Shape):
-    """Model set X as points (N, 3); normals (N, 3) optional, else estimated (unoriented)."""
+    """Model set X as points (N, 3).
 
-    def __init__(self, points: Array, normals: Array | None = None, workers: int = -1) -> None:
+    Normals (N, 3) are optional; without them they are estimated (unoriented) for dense sets
+    of at least `dense` points, which then allow point-to-plane ICP. Sparse sets have no
+    normals and are matched point to point, as in the seed paper.
+    """
+
+    def __init__(
+        self,
+        points: Array,
+        normals: Array | None = None,
+        workers: int = -1,
+        dense: int = 2000,
+    ) -> None:
         self.points = check_points(points, "model points", minimum=3)
         self.samples = self.points
         self.workers = workers
         self._tree = cKDTree(self.points)
         self.sample_tree = self._tree  # type: ignore[misc]
         if normals is None:
-            if len(self.points) >= 6:
+            if len(self.points) >= dense:
                 normals = estimate_normals(self.points)
         else:
             normals = check_points(normals, "model normals")

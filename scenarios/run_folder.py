@@ -1,0 +1,86 @@
+"""A run folder: runs/<name>-<timestamp>/, files written completely or not at all.
+
+Every file goes to a temporary name in the folder and is renamed into place, so a reader
+never sees half a file. results.json says "status": "incomplete" with the reason until the
+run finishes; `runs/latest` points at the newest finished or failed run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def write_atomic(path: Path, write: Callable[[Path], None]) -> Path:
+    """Call write(tmp_path) on a temporary file beside `path`, then rename it into place."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_json(path: Path, data: Any) -> Path:
+    """Write data as indented JSON, atomically; numpy values become plain numbers."""
+    text = json.dumps(_jsonable(data), indent=2) + "\n"
+    return write_atomic(path, lambda tmp: tmp.write_text(text))
+
+
+class RunFolder:
+    """The folder of one run, created under `root` as <name>-<YYYYmmdd-HHMMSS>[-k]."""
+
+    def __init__(self, root: str | Path, name: str) -> None:
+        self.root = Path(root)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = self.root / f"{name}-{stamp}"
+        k = 1
+        while path.exists():
+            k += 1
+            path = self.root / f"{name}-{stamp}-{k}"
+        path.mkdir(parents=True)
+        self.path = path
+
+    def file(self, name: str) -> Path:
+        """Path of a file in the run folder."""
+        return self.path / name
+
+    def write_text(self, name: str, text: str) -> Path:
+        return write_atomic(self.file(name), lambda tmp: tmp.write_text(text))
+
+    def write_json(self, name: str, data: Any) -> Path:
+        return write_json(self.file(name), data)
+
+    def link_latest(self) -> None:
+        """Point root/latest at this run (a symbolic link, replaced atomically)."""
+        link = self.root / "latest"
+        tmp = self.root / f".latest.{os.getpid()}"
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(self.path.name)
+        os.replace(tmp, link)
