@@ -13,7 +13,13 @@ import math
 import numpy as np
 
 from cell.devices import Encoders, TableAxis
-from cell.errors import CellConfigError, JointLimitError, UnknownNameError, UnreachableTargetError
+from cell.errors import (
+    CellConfigError,
+    JointLimitError,
+    ToolChangerError,
+    UnknownNameError,
+    UnreachableTargetError,
+)
 from cell.kinematics import Kinematics
 from cell.sensors import IRSensor, LaserReading, LaserScanner
 from cell.simulation import Simulation
@@ -147,10 +153,40 @@ class Controller:
     ) -> None:
         """Straight TCP move to `T_base_tcp` at `speed_m_s` (slowed if a joint would exceed its
         speed limit). Raises UnreachableTargetError if a point of the line has no IK solution."""
+        setpoints = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s)
+        sim = self._sim
+        sim.run(sim.arm_act, setpoints)
+        sim.settle(settle_s)
+
+    def scan_linear(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float = 0.05,
+        period_s: float = 0.01,
+        settle_s: float = SETTLE_S,
+    ) -> list[LaserReading]:
+        """Straight TCP move with the laser in hand, reading a laser line every `period_s` [s]
+        while moving (each reading stamped with the encoder joints of its instant)."""
+        self._require("laser")
+        sim = self._sim
+        every = max(1, round(period_s / sim.dt))
+        setpoints = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
+        readings = []
+        for start in range(0, len(setpoints), every):
+            sim.run(sim.arm_act, setpoints[start : start + every])
+            readings.append(self.read_laser())
+        sim.settle(settle_s)
+        return readings
+
+    def _linear_setpoints(
+        self, T_base_tcp: np.ndarray, speed_m_s: float, angular_speed_rad_s: float
+    ) -> np.ndarray:
+        """Servo set-points (K, 6) of a straight TCP line from the current set-point."""
         if not (speed_m_s > 0 and angular_speed_rad_s > 0):
             raise CellConfigError(
                 f"speeds must be > 0, got {speed_m_s!r} m/s, {angular_speed_rad_s!r} rad/s"
             )
+        T_base_tcp = np.asarray(T_base_tcp, dtype=float)
         sim, kin, T_tcp = self._sim, self.kinematics, self.T_flange_tcp()
         q0 = sim.arm_setpoint()
         T0 = kin.fk(q0) @ T_tcp
@@ -161,10 +197,9 @@ class Controller:
         for _ in range(4):
             n = max(2, math.ceil(duration / LINEAR_PERIOD_S))
             s, _ds = quintic(n)
-            poses = straight_path(T0, T_base_tcp, s)
             qs = np.empty((n + 1, 6))
             qs[0] = q0
-            for k, T in enumerate(poses):
+            for k, T in enumerate(straight_path(T0, T_base_tcp, s)):
                 r = kin.ik(T, qs[k], T_tcp, extra_seeds=0)
                 if not r.success or np.max(np.abs(r.q - qs[k])) > 0.5:
                     p = T[:3, 3]
@@ -174,20 +209,18 @@ class Controller:
                         f"{r.rotation_error_rad:.3g} rad (or a configuration flip)"
                     )
                 qs[k + 1] = r.q
-            period = duration / n
-            peak = np.max(np.abs(np.diff(qs, axis=0)) / period / JOINT_SPEED)
+            peak = np.max(np.abs(np.diff(qs, axis=0)) / (duration / n) / JOINT_SPEED)
             if peak <= 1.0:
                 break
             duration *= peak * 1.05
         # Linear interpolation of the IK samples at the physics step, velocity by differences.
-        t_samples = np.arange(n + 1) * period
+        t_samples = np.linspace(0.0, duration, n + 1)
         n_steps = max(1, round(duration / sim.dt))
         t = np.arange(1, n_steps + 1) * (duration / n_steps)
         q = np.stack([np.interp(t, t_samples, qs[:, j]) for j in range(6)], axis=1)
-        qd = np.gradient(q, t, axis=0)
+        qd = np.gradient(q, t, axis=0) if n_steps > 1 else np.zeros_like(q)
         qd[-1] = 0.0
-        sim.run(sim.arm_act, q + sim.arm_ff * qd)
-        sim.settle(settle_s)
+        return q + sim.arm_ff * qd
 
     # -- tool changer -------------------------------------------------------------------------
     def lock(self) -> str:
@@ -233,13 +266,11 @@ class Controller:
         T_flange_above = self._above(T_slot)
         q = self.kinematics.solve(T_flange_above, self._sim.arm_setpoint())
         self.move_joints(q)
-        # Re-express the flange pose as the TCP pose for the linear moves that follow.
 
     # -- tools' actuators ---------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:
         """Command each finger to `opening_m` [m] from the centre (0 = closed), then settle."""
-        if self.tool_in_hand != "gripper":
-            raise UnknownNameError(f"the gripper is not in hand (in hand: {self.tool_in_hand})")
+        self._require("gripper")
         if not 0.0 <= opening_m <= FINGER_TRAVEL:
             raise CellConfigError(
                 f"finger opening must be in [0, {FINGER_TRAVEL}] m, got {opening_m!r}"
@@ -249,8 +280,7 @@ class Controller:
 
     def spin_screwer(self, rad_s: float, seconds: float) -> None:
         """Run the screwer spindle at `rad_s` [rad/s] for `seconds` [s], then stop it."""
-        if self.tool_in_hand != "screwer":
-            raise UnknownNameError(f"the screwer is not in hand (in hand: {self.tool_in_hand})")
+        self._require("screwer")
         sim = self._sim
         sim.data.ctrl[sim.spindle_act] = rad_s
         sim.settle(seconds)
@@ -304,7 +334,7 @@ class Controller:
 
     def _require(self, tool: str) -> None:
         if self.tool_in_hand != tool:
-            raise UnknownNameError(
+            raise ToolChangerError(
                 f"the {tool!r} tool is not in hand (in hand: {self.tool_in_hand}); "
                 f"call change_tool({tool!r}) first"
             )

@@ -19,7 +19,7 @@ from cell.config import IRConfig, LaserConfig
 RAY_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LaserReading:
     """One laser line: `distances` (n_rays,) [m], NaN where there was no return, and the
     measured (encoder) joints `q_measured` (6,) [rad] at the same instant, with the
@@ -56,6 +56,7 @@ class LaserScanner:
     def cast(self, data: mujoco.MjData) -> np.ndarray:
         """(n_rays,) measured ranges [m] at the current state, NaN for no return."""
         c = self.config
+        mujoco.mj_kinematics(self.model, data)  # poses of the current qpos (mj_step lags one)
         R = data.site_xmat[self.site].reshape(3, 3)
         vec = self.dirs_tcp @ R.T
         mujoco.mj_multiRay(
@@ -99,6 +100,7 @@ class IRSensor:
     def cast(self, data: mujoco.MjData) -> float | None:
         """Measured distance [m], or None when nothing is within range."""
         c = self.config
+        mujoco.mj_kinematics(self.model, data)
         direction = data.site_xmat[self.site].reshape(3, 3)[:, 2].copy()
         dist = mujoco.mj_ray(
             self.model,

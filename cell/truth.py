@@ -7,6 +7,7 @@ import numpy as np
 from cell.build import RealParameters
 from cell.config import CellConfig
 from cell.devices import TableAxis
+from cell.errors import UnknownNameError
 from cell.simulation import Simulation
 from cell.toolchanger import flange_offset
 from models.robot import ArmGeometry
@@ -58,8 +59,8 @@ class CellTruth:
         for obj in self.config.fixtures:
             if obj.name == name:
                 return self.T_base_table() @ obj.T_table_object
-        names = [o.name for o in self.config.fixtures]
-        raise KeyError(f"no fixed object {name!r}; fixed objects: {names}")
+        names = ", ".join(o.name for o in self.config.fixtures) or "none"
+        raise UnknownNameError(f"no fixed object {name!r}; fixed objects: {names}")
 
     def T_base_tcp(self, tool: str) -> np.ndarray:
         """(4, 4) true pose of `tool`'s TCP site (wherever the tool is)."""

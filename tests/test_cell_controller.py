@@ -160,7 +160,7 @@ def test_bad_commands_are_refused_with_clear_messages(laser_cell) -> None:
         controller.unlock()
     with pytest.raises(UnknownNameError, match="available tools: gripper, screwer, ir, laser"):
         controller.change_tool("welder")
-    with pytest.raises(UnknownNameError, match="'ir' tool is not in hand"):
+    with pytest.raises(ToolChangerError, match="'ir' tool is not in hand"):
         controller.read_ir()
     assert controller.tool_in_hand == "laser"
 

@@ -127,3 +127,33 @@ def test_laser_pass_over_a_mesh_object_gives_points_on_its_surface(ideal: bool) 
     else:
         # Arm accuracy (~0.3-0.9 mm), table error (0.1 mm), encoder and range noise.
         assert np.median(distance) < 1e-3 and distance.max() < 3e-3
+
+
+def test_scanning_while_moving_gives_points_on_a_sphere() -> None:
+    """Each line is stamped with the joints of its own instant: no motion blur in the points."""
+    T_table_ball = make_T(np.eye(3), np.array([0.1, 0.05, 0.06]))
+    ball = FixedPrimitive("ball", "sphere", (0.06,), T_table_ball)
+    controller, truth = make_cell(CellConfig(seed=15, fixtures=(ball,)).ideal())
+    controller.change_tool("laser")
+    c = truth.T_base_object("ball")[:3, 3]
+    controller.move_linear(make_T(R_DOWN, c + np.array([0.0, -0.08, 0.3])))
+    readings = controller.scan_linear(
+        make_T(R_DOWN, c + np.array([0.0, 0.08, 0.3])), speed_m_s=0.1, period_s=0.02
+    )
+    assert len(readings) > 50
+    P = np.concatenate([controller.laser_points_base(r)[0] for r in readings])
+    on_ball = P[P[:, 2] > truth.T_base_table()[2, 3] + 1e-3]
+    assert len(on_ball) > 1000
+    radial = np.abs(np.linalg.norm(on_ball - c, axis=1) - 0.06)
+    assert radial.max() < 1e-6  # 0.1 m/s: 0.2 mm per physics step if the stamp lagged
+
+
+def test_screwer_spindle_turns_at_the_commanded_speed() -> None:
+    controller, truth = make_cell(CellConfig(seed=16).ideal())
+    controller.change_tool("screwer")
+    sim = truth.simulation
+    qadr = sim.model.joint("screwer_spindle").qposadr[0]
+    angle0 = sim.data.qpos[qadr]
+    controller.spin_screwer(20.0, 1.0)
+    turned = sim.data.qpos[qadr] - angle0
+    assert abs(turned - 20.0) < 0.5  # 20 rad/s for 1 s, minus the spin-up

@@ -108,7 +108,7 @@ def tools_worldbody_xml() -> str:
       </body>"""
     screwer = """      <geom type="cylinder" size="0.03 0.06" pos="0 0 0.076" mass="1.3"/>
       <body name="screwer_spindle" pos="0 0 0.136" gravcomp="1">
-        <joint name="screwer_spindle" type="hinge" axis="0 0 1" damping="0.01"/>
+        <joint name="screwer_spindle" type="hinge" axis="0 0 1" armature="1e-4"/>
         <geom type="cylinder" size="0.012 0.02" pos="0 0 0.02" mass="0.1"/>
         <geom type="capsule" size="0.003" fromto="0 0 0.04 0 0 0.064" mass="0.01"/>
       </body>"""
