@@ -108,7 +108,8 @@ class Controller:
         name = tool if tool is not None else self.tool_in_hand
         if name is None:
             return np.eye(4)
-        return _TOOL_SPECS[self.tools[_index(name)]].T_tool_tcp
+        _index(name)  # an unknown name lists the tools
+        return _TOOL_SPECS[name].T_tool_tcp
 
     def read_joints(self) -> np.ndarray:
         """(6,) encoder readings [rad]."""
@@ -135,6 +136,10 @@ class Controller:
         """Joints that put the current TCP at `T_base_tcp`, seeded from the current joints."""
         seed = self._sim.arm_setpoint() if q_seed is None else q_seed
         return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
+
+    def reachable(self, T_base_tcp: np.ndarray) -> bool:
+        """Whether the current TCP can reach `T_base_tcp` within the joint limits."""
+        return self.kinematics.reachable(T_base_tcp, self._sim.arm_setpoint(), self.T_flange_tcp())
 
     def move_tcp(
         self, T_base_tcp: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
