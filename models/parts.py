@@ -4,7 +4,8 @@ Each part is made of boxes and cylinders joined and drilled with manifold3d's bo
 watertight results). Its convex contact pieces are the solid primitives it is made of (holes
 are ignored for contact), and its operation frames (grasp, insert, screw) are 4x4 transforms
 in the part frame: origin at the centre of the part's bottom face, z up, dimensions in metres.
-The meshes are refined to edges of 3 mm at most (about 20-30k triangles per part).
+The meshes are refined so that their edges are about 3 mm long (every edge longer than 3 mm is
+split; the new diagonals stay under 8 mm): about 17-30k triangles per part.
 For insert and screw frames z points along the approach, into the part.
 """
 
@@ -60,8 +61,8 @@ def _frame(name: str, kind: str, R: np.ndarray, p_mm: tuple[float, float, float]
 
 
 def _solid(solids: list[trimesh.Trimesh], holes: list[trimesh.Trimesh]) -> TriangleMesh:
-    """Union of `solids` minus `holes`, refined to edges of at most `_MAX_EDGE_MM`: a laser
-    scan and the model error need vertices on the large flat faces too."""
+    """Union of `solids` minus `holes`, refined by splitting edges longer than `_MAX_EDGE_MM`:
+    a laser scan and the model error need vertices on the large flat faces too."""
     body = trimesh.boolean.union(solids, engine="manifold")
     if holes:
         body = trimesh.boolean.difference([body, *holes], engine="manifold")

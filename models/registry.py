@@ -57,7 +57,7 @@ def _ellipsoid(seed: int) -> ObjectModel:
         name="ellipsoid",
         mesh=mesh,
         convex_pieces=convex_pieces(mesh),
-        points=ellipsoid.model_points(55, tuple(radii)),
+        points=ellipsoid.model_points(55, radii=(radii[0], radii[1], radii[2])),
         surface=ellipsoid_surface(),
     )
 

@@ -12,9 +12,6 @@ from models.errors import ModelParameterError
 
 SurfaceFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
-#: Metres per unit of the seed paper's ellipsoid: semi-axes (10, 6, 4) become 100, 60, 40 mm.
-ELLIPSOID_UNIT = 0.01
-
 
 @dataclass(frozen=True, eq=False)
 class AnalyticSurface:
@@ -38,9 +35,9 @@ class AnalyticSurface:
 
 
 def ellipsoid_radii() -> tuple[float, float, float]:
-    """Semi-axes of the paper's ellipsoid in the cell [m]."""
+    """Semi-axes of the paper's ellipsoid in the cell [m] (100, 60 and 40 mm)."""
     a, b, c = ellipsoid.RADII
-    return (a * ELLIPSOID_UNIT, b * ELLIPSOID_UNIT, c * ELLIPSOID_UNIT)
+    return (float(a), float(b), float(c))
 
 
 def ellipsoid_surface() -> AnalyticSurface:
