@@ -26,7 +26,7 @@ from cell.errors import (
 )
 from cell.factory import make_cell, nominal_kinematics
 from cell.kinematics import IKResult, Kinematics
-from cell.laser import laser_points_base
+from cell.laser import laser_points_base, points_in_table_frame
 from cell.robots import ur5_kinematics
 from cell.sensors import LaserReading
 from cell.truth import CellTruth
@@ -57,5 +57,6 @@ __all__ = [
     "nominal_T_base_slot",
     "nominal_T_base_table",
     "nominal_kinematics",
+    "points_in_table_frame",
     "ur5_kinematics",
 ]

@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 
 from cell.config import CellConfig, FixedMesh, FixedPrimitive, LoosePart
+from cell.errors import CellConfigError
 from cell.transforms import R_to_quat_wxyz, make_T
 from models.robot import ROBOT_FILE, TABLE_TOP_POS, ArmGeometry, arm_xml, scene_xml
 
@@ -116,4 +117,7 @@ def build_model(config: CellConfig, arm: ArmGeometry | None = None) -> mujoco.Mj
         _add_fixture(spec, obj)
     for part in config.parts:
         _add_part(spec, part)
-    return spec.compile()
+    try:
+        return spec.compile()
+    except ValueError as exc:  # MuJoCo's compiler names the element it rejects
+        raise CellConfigError(f"the cell does not compile: {exc}") from exc

@@ -23,3 +23,10 @@ def laser_points_base(
     T_base_laser = kinematics.fk(reading.q_measured) @ T_flange_laser
     p_laser = directions_laser[index] * reading.distances[index, None]
     return p_laser @ T_base_laser[:3, :3].T + T_base_laser[:3, 3], index
+
+
+def points_in_table_frame(points_base: np.ndarray, T_base_table: np.ndarray) -> np.ndarray:
+    """Points (M, 3) [m] from the robot base frame into the table frame, given the table's
+    pose (4, 4) in the base frame (for a planner: `nominal_T_base_table(readout)`)."""
+    R, p = T_base_table[:3, :3], T_base_table[:3, 3]
+    return (np.asarray(points_base) - p) @ R

@@ -21,7 +21,7 @@ from rich.table import Table
 from cell.build import build_model
 from cell.config import CellConfig, FixedPrimitive
 from cell.controller import Controller
-from cell.errors import CellError
+from cell.errors import CellConfigError, CellError
 from cell.factory import make_cell, nominal_kinematics
 from cell.kinematics import Kinematics
 from cell.simulation import Simulation
@@ -238,6 +238,11 @@ def run_check() -> CheckReport:
 def write_json(report: CheckReport, path: str | Path) -> None:
     """Write the report's JSON completely or not at all (temporary file, then rename)."""
     path = Path(path)
+    if not path.parent.is_dir():
+        raise CellConfigError(
+            f"cannot write the check report to {str(path)!r}: folder {str(path.parent)!r} "
+            "does not exist"
+        )
     fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as f:

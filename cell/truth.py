@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 
 from cell.build import RealParameters
 from cell.config import CellConfig
 from cell.devices import TableAxis
 from cell.errors import UnknownNameError
+from cell.kinematics import Kinematics
 from cell.simulation import Simulation
 from cell.toolchanger import flange_offset
-from models.robot import ArmGeometry
+from models.robot import ArmGeometry, arm_xml
 
 
 class CellTruth:
@@ -65,6 +69,13 @@ class CellTruth:
     def T_base_tcp(self, tool: str) -> np.ndarray:
         """(4, 4) true pose of `tool`'s TCP site (wherever the tool is)."""
         return self._sim.site_T(self._sim.tcp_site[tool])
+
+    def kinematics(self) -> Kinematics:
+        """Pinocchio kinematics of the REAL arm (its perturbed robot-only MJCF)."""
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "real_arm.xml"
+            path.write_text(arm_xml(self.params.arm))
+            return Kinematics.from_mjcf(path, "flange")
 
     def T_flange_tool(self, tool: str) -> np.ndarray:
         """(4, 4) true pose of `tool`'s frame in the true flange frame."""

@@ -185,3 +185,71 @@ def test_bad_config_is_refused() -> None:
         FixedMesh("m", v, np.array([[0, 1, 2]]), 2 * np.eye(4))
     with pytest.raises(CellConfigError, match="unique"):
         CellConfig(fixtures=(FixedMesh("m", v, np.array([[0, 1, 2]]), np.eye(4)),) * 2)
+
+
+def test_truth_kinematics_is_the_real_arm() -> None:
+    controller, truth = make_cell(CellConfig(seed=8))
+    controller.move_joints(np.array([0.3, 0.2, -0.1, 0.5, 1.0, -0.3]))
+    sim = truth.simulation
+    mujoco.mj_forward(sim.model, sim.data)
+    T_real = truth.kinematics().fk(truth.q())
+    np.testing.assert_allclose(T_real, sim.site_T(sim.flange_site), atol=1e-12)
+    T_nominal = controller.kinematics.fk(truth.q())
+    assert np.linalg.norm(T_real[:3, 3] - T_nominal[:3, 3]) > 1e-5  # the two differ
+
+
+def test_points_in_table_frame_with_the_nominal_table_pose() -> None:
+    from cell import nominal_T_base_table, points_in_table_frame
+
+    T = nominal_T_base_table(0.25)
+    p_table = np.array([[0.1, -0.2, 0.05], [0.0, 0.0, 0.0]])
+    p_base = p_table @ T[:3, :3].T + T[:3, 3]
+    np.testing.assert_allclose(p_base[1], [1.15, 0.25, 0.4])  # table frame origin
+    np.testing.assert_allclose(points_in_table_frame(p_base, T), p_table, atol=1e-15)
+
+
+def test_mesh_with_convex_pieces_collides_by_its_pieces_and_is_seen_exactly() -> None:
+    v = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (0.0, 0.1)])
+    faces = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+    )
+    lower, upper = v * [1, 1, 0.5], v * [1, 1, 0.5] + [0, 0, 0.05]  # two boxes, 5 cm each
+    obj = FixedMesh("crate", v, faces, np.eye(4), convex_pieces=(lower, upper))
+    controller, truth = make_cell(CellConfig(seed=9, fixtures=(obj,)).ideal())
+    m = truth.simulation.model
+    exact = m.geom("crate")
+    assert exact.contype[0] == 0 and exact.conaffinity[0] == 0 and exact.group[0] == 1
+    hull = m.geom("crate_hull1")
+    assert hull.contype[0] == 1 and hull.group[0] == 5
+    controller.change_tool("ir")
+    controller.move_tcp(make_T(R_DOWN, np.array([1.15, 0.0, 0.6])))
+    assert abs(controller.read_ir() - 0.1) < 1e-6  # top face at 0.4 + 0.1 m, IR 0.6 m up
+    flat = FixedMesh("flat", v, faces, np.eye(4), convex_pieces=(v[:4],))  # coplanar piece
+    with pytest.raises(CellConfigError, match="flat_hull0"):
+        make_cell(CellConfig(fixtures=(flat,)))
+    flat = FixedMesh("flat", v, faces, np.eye(4), convex_pieces=(v[:4],))  # coplanar piece
+    with pytest.raises(CellConfigError, match="flat_hull0"):
+        make_cell(CellConfig(fixtures=(flat,)))
+
+
+def test_check_report_to_a_missing_folder_is_refused(tmp_path) -> None:
+    from cell.selfcheck import CheckReport, write_json
+
+    report = CheckReport(0, 0.0, 1.0, 0.0, {}, 1.0, 0.0, 0.0, 0.0)
+    with pytest.raises(CellConfigError, match="does not exist"):
+        write_json(report, tmp_path / "no" / "check.json")
+    write_json(report, tmp_path / "check.json")
+    assert (tmp_path / "check.json").read_text().startswith("{")
