@@ -173,3 +173,12 @@ def test_unknown_frame_lists_the_frames() -> None:
     kin = nominal_kinematics()
     with pytest.raises(UnknownNameError, match=r"available frames: .*flange"):
         kin.fk(np.zeros(6), "no_such_frame")
+
+
+def test_missing_robot_files_are_refused(tmp_path) -> None:
+    from cell import CellConfigError
+
+    with pytest.raises(CellConfigError, match="does not exist"):
+        Kinematics.from_mjcf(tmp_path / "no_robot.xml")
+    with pytest.raises(CellConfigError, match="does not exist"):
+        Kinematics.from_urdf(tmp_path / "no_robot.urdf", "tool0")
