@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from models.mesh import component_labels
 from models.model import ObjectModel
 
 
@@ -66,7 +67,7 @@ def check_model(model: ObjectModel, warnings: tuple[str, ...] = ()) -> ModelChec
         vertices=len(model.mesh.vertices),
         faces=len(model.mesh.faces),
         watertight=watertight,
-        components=len(tm.split(only_watertight=False)),
+        components=int(component_labels(tm).max()) + 1,
         degenerate_faces=int((tm.area_faces <= area_tol).sum()),
         extents=(float(extents[0]), float(extents[1]), float(extents[2])),
         volume=volume,

@@ -67,8 +67,9 @@ def convex_pieces(
 
     `max_pieces` bounds the number of pieces, `max_hull_vertices` the vertices of each,
     `samples` the voxel cells over the bounding box. A nearly convex mesh gives one piece (its
-    hull). An open (not watertight) mesh has no inside: its surface vertices are clustered.
-    Deterministic for a given `seed`.
+    hull); so does a mesh with no inside to split (an open sheet, a shell thinner than the
+    voxels). The inside of an open mesh comes from its generalised winding number, which
+    bridges small holes. Deterministic for a given `seed`.
     """
     if max_pieces < 1 or max_hull_vertices < 4 or samples < 100:
         raise ModelParameterError(
@@ -80,22 +81,23 @@ def convex_pieces(
     whole = _hull(vertices, max_hull_vertices)
     if whole is None:
         return ()
-    watertight = tm.is_watertight
-    if max_pieces == 1 or (watertight and abs(tm.volume) >= CONVEX_VOLUME_RATIO * whole.volume):
+    if max_pieces == 1 or (
+        tm.is_watertight and abs(tm.volume) >= CONVEX_VOLUME_RATIO * whole.volume
+    ):
         return (TriangleMesh.from_trimesh(whole),)
 
-    if watertight:
-        lower, upper = vertices.min(axis=0), vertices.max(axis=0)
-        pitch = float(np.prod(upper - lower) / samples) ** (1.0 / 3.0)
-        axes = [np.arange(lo + pitch / 2, hi, pitch) for lo, hi in zip(lower, upper, strict=True)]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        winding = igl.fast_winding_number(vertices, np.asarray(mesh.faces), grid)
-        inside = grid[np.abs(winding) > 0.5]
-    else:
-        inside = np.empty((0, 3))
-    points = inside if len(inside) >= 4 * max_pieces else vertices
-    k = min(max_pieces, len(points) // 4)
-    centres, labels = kmeans2(points, k, minit="++", seed=seed)
+    # Inside samples by the generalised winding number, which also fills small holes of an
+    # almost closed mesh.
+    lower, upper = vertices.min(axis=0), vertices.max(axis=0)
+    pitch = float(np.prod(np.maximum(upper - lower, 1e-9)) / samples) ** (1.0 / 3.0)
+    axes = [np.arange(lo + pitch / 2, hi, pitch) for lo, hi in zip(lower, upper, strict=True)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    winding = igl.fast_winding_number(vertices, np.asarray(mesh.faces), grid)
+    points = grid[np.abs(winding) > 0.5]
+    voxel_volume = len(points) * pitch**3
+    if len(points) < 4 * max_pieces or voxel_volume >= CONVEX_VOLUME_RATIO * whole.volume:
+        return (TriangleMesh.from_trimesh(whole),)  # no volume to split, or nearly convex
+    centres, labels = kmeans2(points, max_pieces, minit="++", seed=seed)
     # Each surface vertex joins the cluster of its nearest sample, so that a piece follows
     # the solid instead of reaching across a gap to the nearest cluster centre.
     vertex_labels = labels[cKDTree(points).query(vertices)[1]]

@@ -10,6 +10,11 @@ import trimesh
 from models.errors import MeshDataError
 
 
+def component_labels(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Connected component of each face (faces sharing an edge are connected), (M,) int."""
+    return trimesh.graph.connected_component_labels(mesh.face_adjacency, node_count=len(mesh.faces))
+
+
 def _frozen(array: np.ndarray) -> np.ndarray:
     array = np.array(array, copy=True)
     array.setflags(write=False)

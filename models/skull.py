@@ -24,7 +24,7 @@ from models.implicit import (
     smooth_union,
     tube,
 )
-from models.mesh import TriangleMesh
+from models.mesh import TriangleMesh, component_labels
 from models.targets import BurrHole
 
 MM = 1e-3
@@ -204,9 +204,11 @@ def make_skull(
     mesh = mesh_implicit(lambda p: skull_sdf(p, shape), _LOWER_MM, _UPPER_MM, spacing_mm)
     if smoothing_iterations > 0:
         trimesh.smoothing.filter_taubin(mesh, lamb=0.5, nu=0.53, iterations=smoothing_iterations)
-    parts = mesh.split(only_watertight=False)
-    if len(parts) != 1:  # keep the skull, drop specks of the level set (none expected)
-        mesh = max(parts, key=lambda m: abs(m.volume))
+    labels = component_labels(mesh)
+    if labels.max() > 0:  # keep the skull, drop specks of the level set (none expected)
+        largest = np.argmax(np.bincount(labels))
+        mesh.update_faces(labels == largest)
+        mesh.remove_unreferenced_vertices()
     if not mesh.is_watertight:
         raise ModelError("the generated skull is not watertight (try another grid spacing)")
     mesh.apply_scale(MM)

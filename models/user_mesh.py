@@ -17,7 +17,7 @@ import trimesh
 
 from models.convex import convex_pieces
 from models.errors import MeshDataError, MeshFileError
-from models.mesh import TriangleMesh
+from models.mesh import TriangleMesh, component_labels
 from models.model import ObjectModel
 from models.units import unit_scale
 
@@ -119,12 +119,12 @@ def load_mesh_file(
     if not mesh.is_watertight:
         warnings.append(
             f"{path}: the mesh is not watertight (open or non-manifold): fine for rays and "
-            "registration, but it has no volume and its contact pieces hug the surface"
+            "registration; its volume and contact pieces are approximate"
         )
     if mesh.is_watertight and mesh.volume < 0:
         mesh.invert()
         warnings.append(f"{path}: the faces were oriented inwards; flipped")
-    components = len(mesh.split(only_watertight=False))
+    components = int(component_labels(mesh).max()) + 1
     if components > 1:
         warnings.append(f"{path}: the mesh has {components} separate parts")
     if degenerate:
