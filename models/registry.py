@@ -25,6 +25,7 @@ from models.parts import Part, make_bracket, make_housing, make_lid
 from models.skull import make_skull
 from models.surfaces import ellipsoid_radii, ellipsoid_surface
 from models.targets import BurrHole, OperationFrame
+from models.units import unit_scale
 from models.user_mesh import MESH_SUFFIXES, load_mesh_file
 
 
@@ -151,6 +152,7 @@ def load_model(
     """A built-in model by name or a user mesh file by path (in `units`), optionally as its
     real entity (`real=True`, model error seeded by `seed`). Returns the model and the
     warnings found while loading."""
+    unit_scale(units)  # refuse bad units even when a built-in model does not need them
     warnings: tuple[str, ...] = ()
     name = str(name_or_path)
     if name in _BUILDERS:
