@@ -32,7 +32,6 @@ from registration.shapes.base import Shape, check_points
 from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
 from registration.starts import (
-    farthest_point_sample,
     global_starts,
     grid_local_starts,
     local_starts,
@@ -85,7 +84,7 @@ class SearchSettings:
     rank_iterations: int = 20
     dense_data: int = 50
     dense_model: int = 2000
-    trim: float = 0.7
+    trim: float = 0.6
     distinct: float = 0.02
 
 
@@ -185,6 +184,13 @@ def check_data(data: Array) -> Array:
             f"needs points spanning at least a plane"
         )
     return data
+
+
+def _subsample(points: Array, count: int, rng: np.random.Generator) -> Array:
+    """`count` points drawn without replacement (all of them if there are fewer)."""
+    if len(points) <= count:
+        return points
+    return points[np.sort(rng.choice(len(points), size=count, replace=False))]
 
 
 def _trimmed_rms(residuals: Array, trim: float) -> Array:
@@ -305,7 +311,10 @@ def match(
     say = progress or (lambda _msg: None)
     stage: dict[str, float] = {}
 
-    mid = data[farthest_point_sample(data, settings.mid_points)]
+    # Random (seeded) subsamples keep the data's outlier fraction; a farthest-point sample
+    # would pick the spurious points first.
+    rng = np.random.default_rng(0)
+    mid = _subsample(data, settings.mid_points, rng)
     if mode == "refine":
         if T_init is None:
             raise InputError("mode 'refine' needs T_init, the (4, 4) initial pose")
@@ -330,7 +339,7 @@ def match(
                 rotations = super_fibonacci_rotations(settings.rotations)
                 R, t = grid_local_starts(data, anchors, rotations)
         n_starts = len(R)
-        coarse = data[farthest_point_sample(data, settings.coarse_points)]
+        coarse = _subsample(mid, settings.coarse_points, rng)
         p = np.einsum("kij,nj->kni", R, coarse) + t[:, None, :]
         lookup = shape.sample_lookup
         d, _ = lookup.query(p)

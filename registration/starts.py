@@ -73,13 +73,28 @@ def global_starts(
     return rotations, t
 
 
+def data_anchor(data: Array, radius: float, tree: cKDTree | None = None) -> Array:
+    """A data point near the middle of the scan that lies on the surface, (3,).
+
+    Among the tenth of the points nearest the median, the one with the most neighbours
+    within `radius`: surface points are dense, spurious points (outliers) are sparse.
+    """
+    tree = tree or cKDTree(data)
+    center = np.median(data, axis=0)
+    k = max(1, min(len(data), len(data) // 10))
+    _, near = tree.query(center, k=k)
+    near = np.atleast_1d(near)
+    counts = tree.query_ball_point(data[near], radius, return_length=True)
+    return data[near[int(np.argmax(counts))]]
+
+
 def grid_local_starts(data: Array, model_anchors: Array, rotations: Array) -> tuple[Array, Array]:
     """Starts (R, t) for partial data: every rotation times every anchor translation.
 
     The data point nearest the data centroid is placed on each model anchor. The seed
     paper's set of initial rotations and translations; K = rotations * anchors.
     """
-    p_anchor = data[np.argmin(np.linalg.norm(data - data.mean(axis=0), axis=1))]
+    p_anchor = data[np.argmin(np.linalg.norm(data - np.median(data, axis=0), axis=1))]
     R = np.repeat(rotations[None], len(model_anchors), axis=0).reshape(-1, 3, 3)
     t = np.repeat(model_anchors, len(rotations), axis=0) - R @ p_anchor
     return R, t
@@ -102,10 +117,8 @@ def local_starts(
         radius: neighbourhood radius of the data normal [length units]; use the one the
             model frames were made with, so that both normals are smoothed alike.
     """
-    center = data.mean(axis=0)
     data_tree = cKDTree(data)
-    _, i_anchor = data_tree.query(center)
-    p_anchor = data[i_anchor]
+    p_anchor = data_anchor(data, radius, data_tree)
     F_data = local_frame(data, p_anchor[None], radius, data_tree)[0]
     flip = np.diag([1.0, -1.0, -1.0])  # the other normal sign, still right-handed
     theta = 2.0 * np.pi * np.arange(spins) / spins

@@ -27,7 +27,7 @@ class ParametricModel(Shape):
         u_range, v_range: the parameter domain [lo, hi] of u and v.
         periodic_u, periodic_v: True if the surface closes on itself along that parameter.
         resolution: triangulation grid (nu, nv); finer grids give better initial guesses.
-        refine_iterations: Gauss-Newton steps on the surface itself (0: triangles only).
+        refine_iterations: Newton steps on the surface itself (0: triangles only).
     """
 
     has_normals = True
@@ -41,7 +41,7 @@ class ParametricModel(Shape):
         periodic_u: bool = False,
         periodic_v: bool = False,
         resolution: tuple[int, int] = (96, 48),
-        refine_iterations: int = 8,
+        refine_iterations: int = 10,
     ) -> None:
         if not callable(r):
             raise InputError(f"r must be a callable r(u, v) -> (..., 3); got {type(r).__name__}")
@@ -65,12 +65,13 @@ class ParametricModel(Shape):
         )
         idx = np.arange((nu + 1) * (nv + 1)).reshape(nu + 1, nv + 1)
         a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
-        self.faces = np.ascontiguousarray(
-            np.concatenate(
-                [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
-            ),
-            dtype=np.int64,
+        faces = np.concatenate(
+            [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
         )
+        # Drop the triangles a pole or a seam collapses (zero area): no parameters inside.
+        tri = self.vertices[faces]
+        area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        self.faces = np.ascontiguousarray(faces[area2 > 1e-12 * area2.max()], dtype=np.int64)
         self._tree = igl.AABB()
         self._tree.init(self.vertices, self.faces)
         su, sv = np.meshgrid(
@@ -87,6 +88,20 @@ class ParametricModel(Shape):
         ru = (self.r(u + hu, v) - self.r(u - hu, v)) / (2 * hu)
         rv = (self.r(u, v + hv) - self.r(u, v - hv)) / (2 * hv)
         return np.asarray(ru, dtype=float), np.asarray(rv, dtype=float)
+
+    def _second_partials(self, u: Array, v: Array) -> tuple[Array, Array, Array]:
+        hu = 1e-4 * (self.u_range[1] - self.u_range[0])
+        hv = 1e-4 * (self.v_range[1] - self.v_range[0])
+        r0 = np.asarray(self.r(u, v), dtype=float)
+        ruu = (self.r(u + hu, v) - 2 * r0 + self.r(u - hu, v)) / hu**2
+        rvv = (self.r(u, v + hv) - 2 * r0 + self.r(u, v - hv)) / hv**2
+        ruv = (
+            self.r(u + hu, v + hv)
+            - self.r(u + hu, v - hv)
+            - self.r(u - hu, v + hv)
+            + self.r(u - hu, v - hv)
+        ) / (4 * hu * hv)
+        return np.asarray(ruu, float), np.asarray(ruv, float), np.asarray(rvv, float)
 
     def _normals(self, u: Array, v: Array) -> Array:
         ru, rv = self._partials(u, v)
@@ -119,20 +134,29 @@ class ParametricModel(Shape):
         err = np.sum((best - p) ** 2, axis=1)
         lam = np.full(len(p), 1e-3)
         for _ in range(self.refine_iterations):
+            # Newton on f(u, v) = |r - p|^2 / 2 with the curvature term (Gauss-Newton alone
+            # converges only linearly, at a rate ~ distance x curvature), damped
+            # Levenberg-Marquardt style; a step is taken only if it brings r closer to p.
             ru, rv = self._partials(u, v)
+            ruu, ruv, rvv = self._second_partials(u, v)
             res = best - p
-            J = np.stack([ru, rv], axis=-1)  # (N, 3, 2)
-            JtJ = np.einsum("nki,nkj->nij", J, J)
-            g = np.einsum("nki,nk->ni", J, res)
-            scale = np.trace(JtJ, axis1=1, axis2=2)[:, None, None] * np.eye(2)
-            step = -np.linalg.solve(JtJ + lam[:, None, None] * scale + 1e-300, g[..., None])
-            un, vn = self._clamp(u + step[:, 0, 0], v + step[:, 1, 0])
+            g = np.stack([np.einsum("nd,nd->n", ru, res), np.einsum("nd,nd->n", rv, res)], 1)
+            H = np.empty((len(p), 2, 2))
+            H[:, 0, 0] = np.einsum("nd,nd->n", ru, ru) + np.einsum("nd,nd->n", ruu, res)
+            H[:, 1, 1] = np.einsum("nd,nd->n", rv, rv) + np.einsum("nd,nd->n", rvv, res)
+            H[:, 0, 1] = H[:, 1, 0] = np.einsum("nd,nd->n", ru, rv) + np.einsum(
+                "nd,nd->n", ruv, res
+            )
+            gn = np.einsum("nd,nd->n", ru, ru) + np.einsum("nd,nd->n", rv, rv)
+            damp = (lam * np.maximum(gn, 1e-300))[:, None, None] * np.eye(2)
+            step = -np.linalg.solve(H + damp, g[..., None])[..., 0]
+            un, vn = self._clamp(u + step[:, 0], v + step[:, 1])
             cand = np.asarray(self.r(un, vn), dtype=float)
             cerr = np.sum((cand - p) ** 2, axis=1)
             better = cerr < err
             u, v = np.where(better, un, u), np.where(better, vn, v)
             best = np.where(better[:, None], cand, best)
             err = np.where(better, cerr, err)
-            lam = np.where(better, lam * 0.3, lam * 10.0)
+            lam = np.where(better, lam * 0.1, lam * 10.0)
         # The refined point is never farther than the triangle point's surface image.
         return Closest(best, self._normals(u, v), np.sqrt(err))

@@ -1,0 +1,161 @@
+"""match(): the global minimum from any orientation, outliers, partial overlap, ambiguity,
+the verdict, and the predicted TRE against Monte Carlo truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from registration import (
+    InputError,
+    MeshModel,
+    PointModel,
+    icp,
+    match,
+    pose_error,
+    transform_points,
+)
+from registration.synthetic import asymmetric_blob, icosphere, partial_scan
+
+V, F = asymmetric_blob(size=0.2, subdivisions=5, seed=0)
+MODEL = MeshModel(V, F)
+
+
+def _recovered(T, T_truth, deg: float = 0.5, m: float = 0.5e-3) -> bool:
+    rot, trans = pose_error(T, T_truth)
+    return bool(np.degrees(rot) < deg and trans < m)
+
+
+def test_200_random_orientations_of_a_partial_scan_are_all_recovered() -> None:
+    # One side of the object (about 40 % of its surface), 0.1 mm noise, any pose.
+    failures = []
+    for k in range(200):
+        scan = partial_scan(V, F, 400, view=(0.3, -0.2, 1.0), noise=1e-4, seed=1000 + k)
+        r = match(scan.points, MODEL, mode="local")
+        if not _recovered(r.T_model_data, scan.T_model_data):
+            failures.append((k, np.degrees(pose_error(r.T_model_data, scan.T_model_data)[0])))
+    assert failures == []
+
+
+def test_global_mode_on_a_whole_surface_scan() -> None:
+    scan = partial_scan(V, F, 1000, min_cosine=-1.0, noise=1e-4, seed=3)
+    r = match(scan.points, MODEL, mode="global")
+    assert _recovered(r.T_model_data, scan.T_model_data, deg=0.1, m=0.1e-3)
+    assert r.verdict == "accepted"
+    assert r.inlier_fraction > 0.97
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_30_percent_outliers_do_not_pull_the_result(seed: int) -> None:
+    scan = partial_scan(V, F, 1000, noise=1e-4, outlier_fraction=0.3, seed=20 + seed)
+    r = match(scan.points, MODEL, mode="local")
+    assert _recovered(r.T_model_data, scan.T_model_data, deg=0.2, m=0.2e-3)
+    # The outliers are the points that do not fit: the inlier fraction finds them.
+    assert r.inlier_fraction == pytest.approx(0.7, abs=0.05)
+    assert r.verdict == "accepted"
+
+
+def test_a_small_patch_is_registered_locally() -> None:
+    # A cap: points whose normal is within ~53 deg of the view, about 20 % of the surface.
+    scan = partial_scan(V, F, 600, view=(1.0, 0.2, 0.4), min_cosine=0.6, noise=1e-4, seed=7)
+    r = match(scan.points, MODEL, mode="local")
+    assert _recovered(r.T_model_data, scan.T_model_data, deg=0.5, m=0.5e-3)
+
+
+def test_a_sphere_is_ambiguous() -> None:
+    v, f = icosphere(4)
+    sphere = MeshModel(0.1 * v, f)
+    scan = partial_scan(0.1 * v, f, 500, noise=1e-4, seed=5)
+    r = match(scan.points, sphere, mode="local")
+    assert r.verdict == "ambiguous"
+    assert r.ambiguity > 0.7 or r.worst_predicted_tre > 0.02 * sphere.extent
+
+
+def test_a_scan_of_another_object_is_not_accepted() -> None:
+    other_v, other_f = asymmetric_blob(size=0.2, subdivisions=5, seed=11)
+    scan = partial_scan(other_v, other_f, 800, noise=1e-4, seed=9)
+    r = match(scan.points, MODEL, mode="local")
+    assert r.verdict != "accepted"
+
+
+def test_point_model_and_mesh_model_agree() -> None:
+    scan = partial_scan(V, F, 800, noise=1e-4, seed=12)
+    from registration.shapes.mesh import sample_surface
+
+    pts, normals = sample_surface(V, F, 40_000, seed=2)
+    r_points = match(scan.points, PointModel(pts, normals), mode="local")
+    assert _recovered(r_points.T_model_data, scan.T_model_data)
+
+
+def test_predicted_tre_matches_monte_carlo_spread() -> None:
+    """The predicted TRE is the RMS target error over noise draws (independent truth)."""
+    scan = partial_scan(V, F, 300, view=(0.0, 0.3, 1.0), noise=0.0, seed=30)
+    targets = np.array([[0.0, 0.0, 0.0], [0.08, 0.02, 0.03], [-0.05, -0.04, 0.02]])
+    sigma = 5e-4
+    rng = np.random.default_rng(31)
+    errors, predicted = [], []
+    for _ in range(40):
+        noisy = scan.points + rng.normal(scale=sigma, size=scan.points.shape)
+        r = match(noisy, MODEL, mode="refine", T_init=scan.T_model_data)
+        # Target error: where the estimate puts the data-frame image of each model target.
+        T_err = r.T_model_data @ np.linalg.inv(scan.T_model_data)
+        errors.append(np.linalg.norm(transform_points(T_err, targets) - targets, axis=1))
+        predicted.append(r.predicted_tre(targets))
+    measured = np.sqrt(np.mean(np.square(errors), axis=0))
+    ratio = measured / np.mean(predicted, axis=0)
+    assert np.all((ratio > 0.6) & (ratio < 1.6)), ratio
+
+
+def test_result_is_a_rigid_transform_with_consistent_fields() -> None:
+    scan = partial_scan(V, F, 500, noise=1e-4, seed=40)
+    r = match(scan.points, MODEL)
+    R = r.T_model_data[:3, :3]
+    assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-9)
+    np.testing.assert_allclose(r.T_model_data[3], [0, 0, 0, 1])
+    assert 0.0 <= r.ambiguity <= 1.0 and r.second is not None
+    assert r.second.cost >= r.best.cost
+    assert r.covariance.shape == (6, 6)
+    assert np.all(np.linalg.eigvalsh(r.covariance) > 0)
+    assert len(r.history) == r.iterations == len(r.trajectory)
+    assert r.starts > 1000
+
+
+def test_point_order_does_not_change_the_result() -> None:
+    scan = partial_scan(V, F, 500, noise=1e-4, seed=41)
+    perm = np.random.default_rng(0).permutation(len(scan.points))
+    a = match(scan.points, MODEL).T_model_data
+    b = match(scan.points[perm], MODEL).T_model_data
+    rot, trans = pose_error(a, b)
+    assert np.degrees(rot) < 0.02 and trans < 2e-5
+
+
+def test_the_search_ends_in_the_minimum_icp_reaches_from_the_truth() -> None:
+    scan = partial_scan(V, F, 500, noise=2e-4, seed=42)
+    r = match(scan.points, MODEL)
+    from_truth = icp(scan.points, MODEL, scan.T_model_data)
+    rot, trans = pose_error(r.T_model_data, from_truth.T_model_data)
+    assert np.degrees(rot) < 0.005 and trans < 5e-6
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        (np.array([[0.0, 0, 0], [1, 1, 1]]), "at least 3"),
+        (np.array([[0.0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]]), "one line"),
+        (np.array([[0.0, 0, 0], [1, np.inf, 1], [2, 0, 2]]), "NaN or inf"),
+        (np.zeros((4, 2)), r"\(N, 3\)"),
+    ],
+)
+def test_bad_data_is_named(data: np.ndarray, message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        match(data, MODEL)
+
+
+def test_bad_options_are_named() -> None:
+    pts = partial_scan(V, F, 50, seed=1).points
+    with pytest.raises(InputError, match="global, local, refine"):
+        match(pts, MODEL, mode="sideways")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="T_init"):
+        match(pts, MODEL, mode="refine")
+    with pytest.raises(InputError, match="model must be"):
+        match(pts, "skull.stl")
