@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import UnknownModelError
+from models.errors import MeshDataError, UnknownModelError
 from models.mesh import TriangleMesh
 from models.surfaces import AnalyticSurface
 from models.targets import BurrHole, OperationFrame
@@ -32,6 +32,14 @@ class ObjectModel:
     points: np.ndarray | None = None
     surface: AnalyticSurface | None = None
     source: str = "built-in"
+
+    def __post_init__(self) -> None:
+        if self.points is not None:
+            points = np.array(self.points, dtype=float)
+            if points.ndim != 2 or points.shape[1] != 3 or not np.isfinite(points).all():
+                raise MeshDataError(f"points must be a finite (K, 3) array, got {points.shape}")
+            points.setflags(write=False)
+            object.__setattr__(self, "points", points)
 
     def frame(self, name: str) -> OperationFrame:
         """The operation frame called `name`; raises UnknownModelError listing the valid names."""

@@ -50,8 +50,8 @@ class SkullShape:
     def from_seed(cls, seed: int) -> SkullShape:
         """Proportions drawn uniformly within +-2 % (+-8 % for the small features)."""
         rng = np.random.default_rng(seed)
-        vault, face = 1.0 + rng.uniform(-0.02, 0.02, size=2)
-        orbit, brow, arch, jaw = 1.0 + rng.uniform(-0.08, 0.08, size=4)
+        vault, face = (float(x) for x in 1.0 + rng.uniform(-0.02, 0.02, size=2))
+        orbit, brow, arch, jaw = (float(x) for x in 1.0 + rng.uniform(-0.08, 0.08, size=4))
         return cls(vault, face, orbit, brow, arch, jaw)
 
 

@@ -85,6 +85,9 @@ def test_skull_is_deterministic_in_its_seed() -> None:
     np.testing.assert_array_equal(a.mesh.vertices, b.mesh.vertices)
     np.testing.assert_array_equal(a.mesh.faces, b.mesh.faces)
     assert a.shape != c.shape
+    for phantom in (a, c):  # other seeds keep the anatomy's size and one closed surface
+        tm = phantom.mesh.to_trimesh()
+        assert tm.is_watertight and 0.18 <= tm.extents[0] <= 0.20
     assert a.mesh.vertices.shape != c.mesh.vertices.shape or not np.allclose(
         a.mesh.vertices, c.mesh.vertices
     )
