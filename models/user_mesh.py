@@ -134,7 +134,8 @@ def load_mesh_file(
 
     full = TriangleMesh.from_trimesh(mesh)
     contact = full
-    if len(mesh.faces) > contact_max_faces:
+    edge_manifold = np.bincount(mesh.edges_unique_inverse).max() <= 2
+    if len(mesh.faces) > contact_max_faces and edge_manifold:  # libigl needs a manifold
         v, f, _, _ = igl.decimate(
             np.asfortranarray(mesh.vertices),
             np.asfortranarray(mesh.faces, dtype=np.int32),

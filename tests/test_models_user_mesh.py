@@ -93,6 +93,15 @@ def test_open_mesh_degenerate_and_duplicate_faces_are_reported(tmp_path) -> None
     assert len(model.convex_pieces) >= 1
 
 
+def test_inward_faces_are_flipped_with_a_warning(tmp_path) -> None:
+    box = trimesh.creation.box(extents=(50.0, 40.0, 30.0))
+    box.invert()
+    box.export(tmp_path / "inside_out.stl")
+    model, report = load_mesh_file(tmp_path / "inside_out.stl", units="mm")
+    assert model.mesh.to_trimesh().volume == pytest.approx(50 * 40 * 30 * 1e-9)
+    assert any("flipped" in w for w in report.warnings)
+
+
 def test_large_meshes_are_decimated_for_contact_only(tmp_path) -> None:
     sphere = trimesh.creation.icosphere(subdivisions=5, radius=40.0)  # 20480 faces, mm
     sphere.export(tmp_path / "ball.ply")
