@@ -219,7 +219,7 @@ def _batched_icp(
     normals = shape.sample_normals
     kernel = Tukey(min_scale=1e-4 * shape.extent)
     for _ in range(iterations):
-        p = np.einsum("kij,nj->kni", T[:, :3, :3], points) + T[:, None, :3, 3]
+        p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
         d, idx = lookup.query(p)
         found = idx >= 0
         q = shape.samples[np.maximum(idx, 0)]
@@ -229,20 +229,21 @@ def _batched_icp(
             step = make_T_batch(R, t)
         else:
             nrm = normals[np.maximum(idx, 0)]
-            r = np.where(found, np.einsum("knd,knd->kn", nrm, p - q), lookup.reach)
+            r = np.where(found, np.sum(nrm * (p - q), axis=2), lookup.reach)
             w = kernel.weights(r) * found
             c0 = np.einsum("kn,knd->kd", w, p) / np.maximum(w.sum(1), 1e-300)[:, None]
             pc = p - c0[:, None]
             J = np.concatenate([nrm, np.cross(pc, nrm)], axis=2)  # (K, n, 6)
-            A = np.einsum("kni,kn,knj->kij", J, w, J)
-            b = -np.einsum("kni,kn->ki", J, w * r)
+            Jw = J * w[..., None]
+            A = Jw.transpose(0, 2, 1) @ J
+            b = -(Jw.transpose(0, 2, 1) @ r[..., None])[..., 0]
             A += np.eye(6) * (1e-9 * np.trace(A, axis1=1, axis2=2)[:, None, None] + 1e-300)
             xi = np.linalg.solve(A, b[..., None])[..., 0]
             Rs = Rotation.from_rotvec(xi[:, 3:]).as_matrix()
             t = c0 - np.einsum("kij,kj->ki", Rs, c0) + xi[:, :3]
             step = make_T_batch(Rs, t)
         T = step @ T
-    p = np.einsum("kij,nj->kni", T[:, :3, :3], points) + T[:, None, :3, 3]
+    p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
     d, _ = lookup.query(p)
     return T, _trimmed_rms(np.minimum(d, lookup.reach), trim)
 
@@ -340,7 +341,7 @@ def match(
                 R, t = grid_local_starts(data, anchors, rotations)
         n_starts = len(R)
         coarse = _subsample(mid, settings.coarse_points, rng)
-        p = np.einsum("kij,nj->kni", R, coarse) + t[:, None, :]
+        p = coarse @ R.transpose(0, 2, 1) + t[:, None, :]
         lookup = shape.sample_lookup
         d, _ = lookup.query(p)
         cost = _trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
