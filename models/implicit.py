@@ -127,8 +127,16 @@ def mesh_implicit(
     boundary[[0, -1], :, :] = boundary[:, [0, -1], :] = boundary[:, :, [0, -1]] = True
     if (values.reshape(nz, ny, nx)[boundary] <= 0).any():
         raise ModelParameterError("the solid reaches the boundary of its meshing box")
+    # A grid value on (or within rounding of) the level set puts several surface vertices
+    # on one grid corner: zero-area triangles that a later vertex merge turns non-manifold.
+    # Values within 1e-3 spacings of zero are pushed to that distance (a shift of at most
+    # 1e-3 spacings of the surface); libigl shares the vertices of a cube edge already, so
+    # the mesh is taken as it is, without merging by distance.
+    eps = 1e-3 * spacing
+    small = np.abs(values) < eps
+    values[small] = np.where(values[small] < 0, -eps, eps)
     vertices, faces, _ = igl.marching_cubes(values, grid, nx, ny, nz, 0.0)
-    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     if mesh.volume < 0:
         mesh.invert()
     return mesh
