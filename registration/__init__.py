@@ -16,7 +16,7 @@ from registration.horn import absolute_orientation, absolute_orientation_batch
 from registration.icp import IcpResult, icp
 from registration.kernels import L2, Kernel, Trimmed, Tukey, median_absolute_deviation
 from registration.match import MODES, MatchResult, Minimum, SearchSettings, as_shape, match
-from registration.quality import Acceptance, pose_covariance, predicted_tre
+from registration.quality import Acceptance, pose_covariance, predicted_tre, trimmed_rms
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
 from registration.shapes import (
     Closest,
@@ -64,4 +64,5 @@ __all__ = [
     "rotation_angle",
     "super_fibonacci_rotations",
     "transform_points",
+    "trimmed_rms",
 ]

@@ -26,7 +26,14 @@ from registration.errors import InputError
 from registration.horn import absolute_orientation_batch
 from registration.icp import Variant, icp
 from registration.kernels import Kernel, Tukey
-from registration.quality import Acceptance, Verdict, decide, pose_covariance, predicted_tre
+from registration.quality import (
+    Acceptance,
+    Verdict,
+    decide,
+    pose_covariance,
+    predicted_tre,
+    trimmed_rms,
+)
 from registration.rigid import Array, make_T_batch, transform_points
 from registration.shapes.base import Shape, check_points
 from registration.shapes.mesh import MeshModel
@@ -193,14 +200,6 @@ def _subsample(points: Array, count: int, rng: np.random.Generator) -> Array:
     return points[np.sort(rng.choice(len(points), size=count, replace=False))]
 
 
-def _trimmed_rms(residuals: Array, trim: float) -> Array:
-    """RMS of the smallest `trim` fraction of |residuals| along the last axis."""
-    n = residuals.shape[-1]
-    k = max(1, int(np.ceil(trim * n)))
-    part = np.partition(np.abs(residuals), k - 1, axis=-1)[..., :k]
-    return np.sqrt(np.mean(part**2, axis=-1))
-
-
 def _batched_icp(
     shape: Shape, points: Array, T: Array, iterations: int, trim: float
 ) -> tuple[Array, Array]:
@@ -245,7 +244,7 @@ def _batched_icp(
         T = step @ T
     p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
     d, _ = lookup.query(p)
-    return T, _trimmed_rms(np.minimum(d, lookup.reach), trim)
+    return T, trimmed_rms(np.minimum(d, lookup.reach), trim)
 
 
 def _displacement(T_a: Array, T_b: Array, points: Array) -> float:
@@ -344,7 +343,7 @@ def match(
         p = coarse @ R.transpose(0, 2, 1) + t[:, None, :]
         lookup = shape.sample_lookup
         d, _ = lookup.query(p)
-        cost = _trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
+        cost = trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
         # Small data sets afford more survivors for the same work.
         n_keep = max(settings.keep_coarse, settings.mid_budget // len(mid))
         keep = np.argsort(cost)[:n_keep]
@@ -380,7 +379,7 @@ def match(
         )
         for T0 in candidates
     ]
-    costs = np.array([float(_trimmed_rms(run.residuals, settings.trim)) for run in runs])
+    costs = np.array([float(trimmed_rms(run.residuals, settings.trim)) for run in runs])
     order = np.argsort(costs)
     best_i = int(order[0])
     second = None

@@ -20,6 +20,18 @@ from registration.rigid import Array, skew
 Verdict = Literal["accepted", "ambiguous", "rejected"]
 
 
+def trimmed_rms(residuals: Array, trim: float) -> Array:
+    """RMS of the smallest `trim` fraction of |residuals| along the last axis, shape (...,).
+
+    The cost that ranks minima: robust to outliers and to data that cover only part of the
+    model, as long as more than `trim` of the points fit.
+    """
+    n = residuals.shape[-1]
+    k = max(1, int(np.ceil(trim * n)))
+    part = np.partition(np.abs(residuals), k - 1, axis=-1)[..., :k]
+    return np.sqrt(np.mean(part**2, axis=-1))
+
+
 def pose_covariance(points: Array, normals: Array | None, weights: Array, sigma: float) -> Array:
     """Covariance (6, 6) of a small pose correction (dt, dtheta) applied in the model frame.
 

@@ -27,6 +27,7 @@ from registration import (
     match,
     pose_error,
     transform_points,
+    trimmed_rms,
 )
 from registration.rigid import Array, invert, random_transform
 from scenarios.run_folder import write_atomic
@@ -142,13 +143,11 @@ def run_test(test: PaperTest, seed: int) -> PaperCase:
 
     rot, trans = _rotation_error(result.T_model_data, T_truth, test.model == "surface")
     # The same robust ICP started at the true pose: the cost the search must at least reach.
-    from registration.match import _trimmed_rms
-
     truth_run = icp(data, shape, T_truth)
     found_run = icp(data, shape, result.T_model_data)
     trim = 0.7
-    found_cost = float(_trimmed_rms(found_run.residuals, trim))
-    truth_cost = float(_trimmed_rms(truth_run.residuals, trim))
+    found_cost = float(trimmed_rms(found_run.residuals, trim))
+    truth_cost = float(trimmed_rms(truth_run.residuals, trim))
     global_minimum = found_cost <= truth_cost * 1.001 + 1e-9 * shape.extent
     row = PaperRow(
         test=test.number,

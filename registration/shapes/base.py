@@ -11,6 +11,7 @@ from scipy.spatial import cKDTree
 from registration.errors import InputError
 from registration.lookup import VoxelLookup
 from registration.rigid import Array
+from registration.starts import farthest_point_sample, local_frame
 
 
 @dataclass(frozen=True)
@@ -71,8 +72,6 @@ class Shape:
         The frames' third column is the surface normal by PCA within `radius` (see
         registration.starts.local_frame).
         """
-        from registration.starts import farthest_point_sample, local_frame
-
         cache: dict[tuple[int, float], tuple[Array, Array]] = self.__dict__.setdefault(
             "_anchor_cache", {}
         )
