@@ -23,13 +23,19 @@ CONVEX_VOLUME_RATIO = 0.97
 
 
 def _closed_hull(points: np.ndarray) -> trimesh.Trimesh | None:
-    """Convex hull of `points` as a closed mesh, or None if flat or not closed."""
+    """Convex hull of `points` as a closed, outward mesh (qhull's triangulated facets, all of
+    them: trimesh's hull may drop a sliver facet and leave a hole), or None if flat."""
     try:
-        hull = trimesh.convex.convex_hull(points)
-    except Exception:  # qhull refuses flat or degenerate sets
+        hull = ConvexHull(points)
+    except QhullError:  # flat or degenerate set
         return None
-    # qhull may return a sliver facet that trimesh drops, leaving a hole: not a usable piece.
-    return hull if hull.is_watertight and hull.volume > 0 else None
+    faces = hull.simplices.copy()
+    a, b, c = (points[faces[:, k]] for k in range(3))
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), hull.equations[:, :3]) < 0
+    faces[inward] = faces[inward][:, ::-1]
+    used, faces = np.unique(faces, return_inverse=True)
+    mesh = trimesh.Trimesh(points[used], faces.reshape(-1, 3), process=False)
+    return mesh if mesh.is_watertight and mesh.volume > 0 else None
 
 
 def _hull(points: np.ndarray, max_vertices: int) -> trimesh.Trimesh | None:
@@ -49,11 +55,7 @@ def _hull(points: np.ndarray, max_vertices: int) -> trimesh.Trimesh | None:
     for _ in range(min(max_vertices, len(v)) - 1):
         chosen.append(int(np.argmax(d)))
         d = np.minimum(d, np.linalg.norm(v - v[chosen[-1]], axis=1))
-    for count in range(len(chosen), max(len(chosen) - 16, 3), -1):  # qhull slivers: drop one
-        hull = _closed_hull(v[chosen[:count]])
-        if hull is not None:
-            return hull
-    return None
+    return _closed_hull(v[chosen])
 
 
 def convex_pieces(
