@@ -123,22 +123,50 @@ def register(
 
 @app.command("run")
 def run(
-    name: Annotated[str, typer.Argument(help="The job to run: paper.")],
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of all random draws.")] = 0,
+    name: Annotated[
+        str, typer.Argument(help="A shipped job (paper, skull, assembly) or a CONFIG.yaml file.")
+    ],
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, help="Seed of all random draws.")
+    ] = None,
     out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
+    model: Annotated[
+        str | None,
+        typer.Option("--model", help="Replace the skull by this mesh (.stl, .obj, .ply)."),
+    ] = None,
+    units: Annotated[str, typer.Option("--units", help="Units of --model: mm or m.")] = "mm",
+    spawn: Annotated[bool, typer.Option("--spawn", help="Show the run in a rerun viewer.")] = False,
+    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write run.rrd.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
 ) -> None:
-    """Run a job headless and write a run folder (results, table, figures)."""
-    from scenarios.runner import run_job
+    """Run a job headless and write a run folder (results, table, figures, recording)."""
+    from rich.console import Console
+
+    from scenarios.runner import RunOptions, run_job
 
     def progress(message: str) -> None:
         if not quiet:
             typer.echo(f"  {message}", err=True)
 
-    folder, results = run_job(name, seed=seed, out=out, progress=progress)
+    overrides = {} if model is None else {"model": model, "units": units}
+    folder, results = run_job(
+        name,
+        seed=seed,
+        out=out,
+        progress=progress,
+        overrides=overrides,
+        options=RunOptions(rrd=not no_rrd, spawn=spawn),
+    )
     if "table" in results:
         typer.echo(results["table"])
+    elif results.get("scenario") in ("skull", "assembly"):
+        from scenarios.results import results_table
+
+        Console().print(results_table(results))
     typer.echo(f"run folder: {folder}")
+    if results.get("status") == "refused":
+        typer.echo(f"twincell: refused: {results.get('reason')}", err=True)
+        raise typer.Exit(3)
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:

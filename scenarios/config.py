@@ -1,0 +1,215 @@
+"""Run configurations: YAML files validated by pydantic (an unknown key or a bad value is named).
+
+Shipped configurations live in `scenarios/configs/<name>.yaml`; `load_config("skull")` reads a
+shipped one, `load_config("my.yaml")` a user's file. Values are SI ([m], [rad] where the key
+says so, degrees only in keys ending in `_deg`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from scenarios.errors import ScenarioError
+
+CONFIG_DIR = Path(__file__).parent / "configs"
+
+
+class ConfigError(ScenarioError, ValueError):
+    """A configuration file or value is invalid."""
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Placement(_Section):
+    """Where the object sits on the table: a nominal pose (what the planner believes) and the
+    random deviation of the real one (drawn from the run's seed)."""
+
+    xy_m: tuple[float, float] = (0.0, 0.0)
+    yaw_deg: float = 180.0
+    lift_m: float = Field(0.004, ge=0.0, le=0.1)
+    range_xy_m: float = Field(0.03, ge=0.0, le=0.2)
+    range_yaw_deg: float = Field(20.0, ge=0.0, le=180.0)
+    range_tilt_deg: float = Field(5.0, ge=0.0, le=30.0)
+
+
+class Noise(_Section):
+    """Error sources of the real cell and of the model."""
+
+    laser_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
+    arm_length_sigma_m: float = Field(1.5e-4, ge=0.0, le=0.01)
+    arm_offset_sigma_rad: float = Field(1.0e-4, ge=0.0, le=0.01)
+    encoder_sigma_rad: float = Field(1.0e-5, ge=0.0, le=0.01)
+    table_bias_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
+    table_repeat_sigma_m: float = Field(1.0e-5, ge=0.0, le=0.01)
+    model_deformation_rms_m: float = Field(0.24e-3, ge=0.0, le=0.01)
+    model_noise_rms_m: float = Field(0.18e-3, ge=0.0, le=0.01)
+
+
+class ScanPass(_Section):
+    """One straight laser pass: the laser looks down, tilted by `tilt_deg` about the table's
+    y axis (positive: towards +x, away from the robot), aimed `offset_m` along x from the
+    object's centre; the sweep runs along y over the object's width plus `margin_m`."""
+
+    tilt_deg: float = Field(0.0, ge=-75.0, le=75.0)
+    offset_m: float = Field(0.0, ge=-0.5, le=0.5)
+
+
+class Scan(_Section):
+    """The scan plan's parameters."""
+
+    standoff_m: float = Field(0.28, gt=0.05, le=0.6)
+    speed_m_s: float = Field(0.1, gt=0.0, le=0.5)
+    period_s: float = Field(0.01, ge=0.002, le=0.5)
+    margin_m: float = Field(0.04, ge=0.0, le=0.3)
+    min_points: int = Field(10_000, ge=100)
+    passes: tuple[ScanPass, ...] = Field(
+        (
+            ScanPass(tilt_deg=0.0, offset_m=-0.05),
+            ScanPass(tilt_deg=0.0, offset_m=0.05),
+            ScanPass(tilt_deg=40.0, offset_m=-0.02),
+        ),
+        min_length=1,
+    )
+
+
+class Registration(_Section):
+    """Surface matching of the scan to the virtual model."""
+
+    max_points: int = Field(6000, ge=100, le=1_000_000)
+    max_ambiguity: float = Field(0.7, gt=0.0, le=1.0)
+    max_rms_m: float = Field(1.0e-3, gt=0.0)
+    max_predicted_tre_m: float = Field(1.0e-3, gt=0.0)
+    min_inlier_fraction: float = Field(0.5, gt=0.0, le=1.0)
+
+
+class Program(_Section):
+    """The offline program: tool, approach and touch moves."""
+
+    tool: Literal["screwer"] = "screwer"
+    approach_m: float = Field(0.06, gt=0.0, le=0.3)
+    touch_offset_m: float = Field(0.0, ge=0.0, le=0.05)
+    touch_speed_m_s: float = Field(0.02, gt=0.0, le=0.5)
+    spins: int = Field(12, ge=1, le=72)
+
+
+class Output(_Section):
+    """What the run writes besides results.json and config.yaml."""
+
+    rrd: bool = True
+    plots: bool = True
+
+
+class SkullConfig(_Section):
+    """The skull job: scan, match, correct, touch the burr-hole entries, evaluate."""
+
+    scenario: Literal["skull"] = "skull"
+    seed: int = Field(0, ge=0)
+    model: str = "skull"
+    units: str = "mm"
+    targets_file: str | None = None
+    placement: Placement = Placement()
+    noise: Noise = Noise()
+    scan: Scan = Scan()
+    registration: Registration = Registration()
+    program: Program = Program()
+    output: Output = Output()
+
+
+class AssemblyConfig(_Section):
+    """The assembly job: locate a part by IR edge probing (2D) and by surface matching (3D),
+    pick it, change tool and drive its screws."""
+
+    scenario: Literal["assembly"] = "assembly"
+    seed: int = Field(0, ge=0)
+    part: Literal["bracket", "housing", "lid"] = "bracket"
+    placement: Placement = Placement(
+        yaw_deg=0.0, range_xy_m=0.02, range_yaw_deg=10.0, range_tilt_deg=0.0, lift_m=0.0
+    )
+    noise: Noise = Noise()
+    scan: Scan = Scan(
+        standoff_m=0.25,
+        passes=(ScanPass(tilt_deg=0.0, offset_m=0.0), ScanPass(tilt_deg=30.0, offset_m=-0.03)),
+        min_points=3000,
+    )
+    registration: Registration = Registration(max_points=4000)
+    probe_height_m: float = Field(0.003, gt=0.0, le=0.02)
+    output: Output = Output()
+
+
+class PaperConfig(_Section):
+    """The seed paper's experiments on the ellipsoid."""
+
+    scenario: Literal["paper"] = "paper"
+    seed: int = Field(0, ge=0)
+
+
+Config = SkullConfig | AssemblyConfig | PaperConfig
+_KINDS: dict[str, type[BaseModel]] = {
+    "skull": SkullConfig,
+    "assembly": AssemblyConfig,
+    "paper": PaperConfig,
+}
+
+
+def shipped_names() -> tuple[str, ...]:
+    """Names of the configurations shipped with the package."""
+    return tuple(sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")))
+
+
+def _describe(error: ValidationError) -> str:
+    parts = []
+    for item in error.errors():
+        where = ".".join(str(x) for x in item["loc"]) or "(top)"
+        if item["type"] == "extra_forbidden":
+            parts.append(f"unknown key {where!r}")
+        else:
+            parts.append(f"{where}: {item['msg']} (got {item.get('input')!r})")
+    return "; ".join(parts)
+
+
+def parse_config(data: dict[str, Any], source: str = "config") -> Config:
+    """Validate a configuration mapping; its `scenario` key picks the kind."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: a configuration must be a mapping, got {type(data).__name__}")
+    kind = data.get("scenario")
+    if kind not in _KINDS:
+        raise ConfigError(f"{source}: 'scenario' must be one of {sorted(_KINDS)}, got {kind!r}")
+    try:
+        return _KINDS[kind].model_validate(data)  # type: ignore[return-value]
+    except ValidationError as exc:
+        raise ConfigError(f"{source}: {_describe(exc)}") from None
+
+
+def load_config(name_or_path: str | Path, overrides: dict[str, Any] | None = None) -> Config:
+    """A shipped configuration by name or a YAML file by path, with `overrides` (top-level
+    keys such as seed, model, units) applied before validation."""
+    text = str(name_or_path)
+    path = Path(text)
+    if text in shipped_names():
+        path = CONFIG_DIR / f"{text}.yaml"
+    elif path.suffix not in (".yaml", ".yml"):
+        raise ConfigError(
+            f"unknown scenario {text!r}; shipped: {', '.join(shipped_names())}, or give a "
+            f".yaml file"
+        )
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such configuration file")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: a configuration must be a mapping of keys")
+    data = {**data, **(overrides or {})}
+    return parse_config(data, str(path))
+
+
+def config_yaml(config: Config) -> str:
+    """The resolved configuration as YAML (every key, defaults included)."""
+    return yaml.safe_dump(config.model_dump(mode="json"), sort_keys=False)

@@ -1,0 +1,125 @@
+"""Evaluation against the simulated truth: the ONLY module of `scenarios` that reads it.
+
+The evaluator holds the cell's truth and the real entity of the object (virtual model plus
+model error). Planning code hands it moments to record ("the tool is touching target k now")
+and asks it, after the run, how far the achieved tool tips were from the true targets and how
+far the registration was from the true pose. The rerun recording also asks it for the true
+body poses, to show the real cell as it moved.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from cell import CellTruth
+from models import ObjectModel
+from registration import pose_error, transform_points
+
+
+@dataclass(frozen=True)
+class TargetEvaluation:
+    """One target: achieved tool tip against the true point on the real object.
+
+    Attributes:
+        error_m: distance of the achieved tip from the true touch point [m].
+        axis_error_deg: angle between the tool axis and the true trajectory [deg].
+        depth_error_m: distance of the tool axis, extended to the target depth, from the true
+            deep target [m].
+        p_true_base, p_achieved_base: (3,) the two points in the robot base frame [m].
+    """
+
+    name: str
+    error_m: float
+    axis_error_deg: float
+    depth_error_m: float
+    p_true_base: np.ndarray
+    p_achieved_base: np.ndarray
+
+
+@dataclass(frozen=True)
+class PoseEvaluation:
+    """Registration error in the base frame: rotation [deg] and translation [m] of the
+    estimated object pose from the true one, and the true pose (4, 4)."""
+
+    rotation_error_deg: float
+    translation_error_m: float
+    T_base_object_true: np.ndarray
+
+
+class Evaluator:
+    """Reads the truth of one run: the cell's `truth`, the object's real entity and its name."""
+
+    def __init__(self, truth: CellTruth, real: ObjectModel, object_name: str) -> None:
+        self._truth = truth
+        self._real = real
+        self._name = object_name
+        self._touches: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    # -- moments recorded during the run --------------------------------------------------------
+    def record_touch(self, target: str, tool: str) -> None:
+        """Remember the true TCP of `tool` and the true object pose now (target `target`)."""
+        self._touches[target] = (
+            self._truth.T_base_tcp(tool).copy(),
+            self._truth.T_base_object(self._name).copy(),
+        )
+
+    def pose_error(self, T_base_object_estimate: np.ndarray) -> PoseEvaluation:
+        """Error of an estimated object pose (4, 4) in the base frame, against the truth now."""
+        T_true = self._truth.T_base_object(self._name)
+        rot, trans = pose_error(T_base_object_estimate, T_true)
+        return PoseEvaluation(float(np.rad2deg(rot)), trans, T_true.copy())
+
+    def true_points_base(self, points_object: np.ndarray) -> np.ndarray:
+        """Points (K, 3) given in the object frame, placed at the object's true pose now."""
+        return transform_points(self._truth.T_base_object(self._name), points_object)
+
+    def targets(self, touch_offset_m: float) -> tuple[TargetEvaluation, ...]:
+        """Every recorded touch against the real object's burr hole of the same name: the true
+        touch point is the real entry moved back by `touch_offset_m` along the real axis."""
+        out = []
+        for hole in self._real.burr_holes:
+            if hole.name not in self._touches:
+                continue
+            T_tcp, T_object = self._touches[hole.name]
+            R, t = T_object[:3, :3], T_object[:3, 3]
+            axis = R @ hole.direction
+            p_entry = R @ hole.p_entry + t
+            p_true = p_entry - touch_offset_m * axis
+            p_tip = T_tcp[:3, 3]
+            z_tool = T_tcp[:3, 2]
+            angle = float(np.degrees(np.arccos(np.clip(z_tool @ axis, -1.0, 1.0))))
+            p_deep_true = p_entry + hole.depth * axis
+            p_deep_achieved = p_tip + (hole.depth + touch_offset_m) * z_tool
+            out.append(
+                TargetEvaluation(
+                    hole.name,
+                    float(np.linalg.norm(p_tip - p_true)),
+                    angle,
+                    float(np.linalg.norm(p_deep_achieved - p_deep_true)),
+                    p_true,
+                    p_tip.copy(),
+                )
+            )
+        return tuple(out)
+
+    # -- for the recording ------------------------------------------------------------------------
+    def body_poses(self) -> dict[str, np.ndarray]:
+        """(4, 4) true pose of every body of the real cell, by name (world = robot base)."""
+        sim = self._truth.simulation
+        model, data = sim.model, sim.data
+        mujoco.mj_kinematics(model, data)
+        poses = {}
+        for b in range(1, model.nbody):
+            T = np.eye(4)
+            T[:3, :3] = data.xmat[b].reshape(3, 3)
+            T[:3, 3] = data.xpos[b]
+            poses[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)] = T
+        return poses
+
+    @property
+    def mujoco_model(self) -> mujoco.MjModel:
+        """The real cell's MuJoCo model (geometry for the recording)."""
+        return self._truth.simulation.model

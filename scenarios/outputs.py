@@ -1,0 +1,109 @@
+"""Files of a run folder besides results.json: scan.ply, program.mod and the PNG plots.
+Every file is written to a temporary name and renamed into place (complete or absent)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cell import nominal_kinematics
+from models import ObjectModel
+from scenarios.evaluation import TargetEvaluation
+from scenarios.program import OfflineProgram
+from scenarios.rapid import program_module
+from scenarios.run_folder import write_atomic
+
+if TYPE_CHECKING:
+    from scenarios.skull import Localization
+
+
+def write_ply(path: Path, points: np.ndarray) -> Path:
+    """Points (N, 3) [m] as a binary little-endian PLY point cloud (float64 x, y, z)."""
+    p = np.ascontiguousarray(np.asarray(points, dtype="<f8").reshape(-1, 3))
+    header = (
+        "ply\nformat binary_little_endian 1.0\ncomment units m, nominal table frame\n"
+        f"element vertex {len(p)}\nproperty double x\nproperty double y\nproperty double z\n"
+        "end_header\n"
+    ).encode()
+
+    def write(tmp: Path) -> None:
+        tmp.write_bytes(header + p.tobytes())
+
+    return write_atomic(path, write)
+
+
+def read_ply(path: Path) -> np.ndarray:
+    """Points (N, 3) of a PLY written by `write_ply`."""
+    data = Path(path).read_bytes()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    return np.frombuffer(data[end:], dtype="<f8").reshape(-1, 3)
+
+
+def write_program(
+    path: Path, program: OfflineProgram, virtual: ObjectModel, T_table_nominal: np.ndarray
+) -> Path:
+    """The RAPID module of `program` (see scenarios.rapid)."""
+    text = program_module(program, nominal_kinematics(), T_table_nominal)
+    return write_atomic(path, lambda tmp: tmp.write_text(text))
+
+
+def write_plots(
+    folder: Path,
+    located: Localization | None,
+    targets: tuple[TargetEvaluation, ...],
+    predicted_tre: np.ndarray | None,
+    virtual: ObjectModel,
+) -> list[Path]:
+    """registration.png (ICP rms per iteration; scan points seen from above) and
+    targets.png (achieved error against predicted TRE per target)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    if located is not None:
+        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
+        history = np.asarray(located.result.history) * 1e3
+        a.semilogy(np.arange(1, len(history) + 1), history, "o-")
+        a.set_xlabel("ICP iteration")
+        a.set_ylabel("inlier rms [mm]")
+        a.set_title(f"final ICP ({located.result.verdict})")
+        p = located.points_used * 1e3
+        b.scatter(p[:, 0], p[:, 1], s=0.5, c=p[:, 2], cmap="viridis")
+        b.set_aspect("equal")
+        b.set_xlabel("x table [mm]")
+        b.set_ylabel("y table [mm]")
+        b.set_title(f"{len(p)} scan points used (height colour)")
+        fig.tight_layout()
+        written.append(_save(fig, folder / "registration.png"))
+        plt.close(fig)
+    if targets:
+        names = [t.name for t in targets]
+        by_name = {h.name: i for i, h in enumerate(virtual.burr_holes)}
+        fig, ax = plt.subplots(figsize=(7, 4))
+        x = np.arange(len(names))
+        ax.bar(x - 0.2, [t.error_m * 1e3 for t in targets], 0.4, label="achieved error")
+        if predicted_tre is not None:
+            ax.bar(
+                x + 0.2,
+                [predicted_tre[by_name[n]] * 1e3 for n in names],
+                0.4,
+                label="predicted TRE",
+            )
+        ax.axhline(1.0, color="r", ls="--", lw=1, label="goal max 1 mm")
+        ax.axhline(0.5, color="orange", ls=":", lw=1, label="goal rms 0.5 mm")
+        ax.set_xticks(x, names, rotation=20)
+        ax.set_ylabel("[mm]")
+        ax.legend()
+        ax.set_title("target errors")
+        fig.tight_layout()
+        written.append(_save(fig, folder / "targets.png"))
+        plt.close(fig)
+    return written
+
+
+def _save(fig: object, path: Path) -> Path:
+    return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))  # type: ignore[attr-defined]

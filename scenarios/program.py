@@ -1,0 +1,215 @@
+"""The offline program: operations authored on the virtual model, corrected by the measured
+object pose, solved with the nominal inverse kinematics, and executed on the real cell.
+
+An operation is a tool pose at touch in the OBJECT frame (z along the approach, into the
+object) and an approach distance. Correction is one product: T_base_tcp = T_base_table(s) @
+T_table_object @ T_object_tcp, where T_table_object comes from the surface matching and s is
+the table position the program runs at.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell import Controller, Kinematics, nominal_T_base_table
+from cell.errors import CellError
+from models import BurrHole
+from models.robot import TABLE_TRAVEL
+from scenarios.scan import TABLE_CANDIDATES_M, UnreachablePlanError
+
+
+@dataclass(frozen=True)
+class Operation:
+    """A touch operation: the tool pose at touch in the object frame (4, 4), z into the
+    object, and the approach distance back along z [m]."""
+
+    name: str
+    T_object_touch: np.ndarray
+    approach_m: float
+
+    @property
+    def T_object_approach(self) -> np.ndarray:
+        T = self.T_object_touch.copy()
+        T[:3, 3] -= self.approach_m * T[:3, 2]
+        return T
+
+
+@dataclass(frozen=True)
+class PlannedOperation:
+    """An operation corrected and solved: the tool's spin about its axis [rad] chosen for the
+    arm, the poses in the base frame (4, 4), and the joint solutions (6,) [rad]."""
+
+    operation: Operation
+    spin_rad: float
+    T_object_touch: np.ndarray
+    T_object_approach: np.ndarray
+    T_base_approach: np.ndarray
+    T_base_touch: np.ndarray
+    q_approach: np.ndarray
+    q_touch: np.ndarray
+
+
+@dataclass(frozen=True)
+class OfflineProgram:
+    """The corrected program: the tool, the table position [m], the object pose it was
+    corrected with (4, 4, in the nominal table frame), and the planned operations."""
+
+    tool: str
+    table_position_m: float
+    T_table_object: np.ndarray
+    operations: tuple[PlannedOperation, ...]
+
+    @property
+    def T_base_object(self) -> np.ndarray:
+        """(4, 4) the corrected object pose in the base frame at the program's table position."""
+        return nominal_T_base_table(self.table_position_m) @ self.T_table_object
+
+
+def _frame_from_z(p: np.ndarray, z_axis: np.ndarray) -> np.ndarray:
+    z = z_axis / np.linalg.norm(z_axis)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = ref - (ref @ z) * z
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, p
+    return T
+
+
+def burr_hole_operations(
+    holes: tuple[BurrHole, ...], approach_m: float, touch_offset_m: float
+) -> tuple[Operation, ...]:
+    """One touch per burr hole: the tip `touch_offset_m` [m] before the entry on the
+    trajectory, the tool axis along the trajectory."""
+    return tuple(
+        Operation(
+            hole.name,
+            _frame_from_z(hole.p_entry - touch_offset_m * hole.direction, hole.direction),
+            approach_m,
+        )
+        for hole in holes
+    )
+
+
+def _spun(T: np.ndarray, angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    out = T.copy()
+    out[:3, :3] = T[:3, :3] @ Rz
+    return out
+
+
+def _plan_at(
+    kin: Kinematics,
+    T_tcp: np.ndarray,
+    operations: tuple[Operation, ...],
+    T_base_object: np.ndarray,
+    q_seed: np.ndarray,
+    spins: int,
+) -> tuple[PlannedOperation, ...] | None:
+    planned = []
+    q_prev = q_seed
+    for op in operations:
+        best: tuple[float, PlannedOperation] | None = None
+        for k in range(spins):
+            angle = 2 * np.pi * k / spins
+            T_touch_obj = _spun(op.T_object_touch, angle)
+            T_app_obj = _spun(op.T_object_approach, angle)
+            T_base_app = T_base_object @ T_app_obj
+            T_base_touch = T_base_object @ T_touch_obj
+            r_app = kin.ik(T_base_app, q_prev, T_tcp, extra_seeds=4)
+            if not r_app.success:
+                continue
+            r_touch = kin.ik(T_base_touch, r_app.q, T_tcp, extra_seeds=0)
+            if not r_touch.success or np.max(np.abs(r_touch.q - r_app.q)) > 0.5:
+                continue
+            cost = float(np.sum(np.abs(r_app.q - q_prev)))
+            if best is None or cost < best[0]:
+                best = (
+                    cost,
+                    PlannedOperation(
+                        op,
+                        angle,
+                        T_touch_obj,
+                        T_app_obj,
+                        T_base_app,
+                        T_base_touch,
+                        r_app.q,
+                        r_touch.q,
+                    ),
+                )
+        if best is None:
+            return None
+        planned.append(best[1])
+        q_prev = best[1].q_approach
+    return tuple(planned)
+
+
+def plan_program(
+    kin: Kinematics,
+    tool_T_flange_tcp: np.ndarray,
+    tool: str,
+    operations: tuple[Operation, ...],
+    T_table_object: np.ndarray,
+    q_seed: np.ndarray,
+    spins: int = 12,
+) -> OfflineProgram:
+    """Correct every operation by the measured `T_table_object` and solve it, at the first
+    table position where the nominal arm reaches them all (spin about the tool axis chosen
+    for the least joint motion)."""
+    lo, hi = TABLE_TRAVEL
+    for s in TABLE_CANDIDATES_M:
+        if not lo <= s <= hi:
+            continue
+        T_base_object = nominal_T_base_table(s) @ T_table_object
+        planned = _plan_at(kin, tool_T_flange_tcp, operations, T_base_object, q_seed, spins)
+        if planned is not None:
+            return OfflineProgram(tool, s, T_table_object.copy(), planned)
+    raise UnreachablePlanError(
+        f"the {len(operations)} operations ({', '.join(o.name for o in operations)}) are not "
+        f"all reachable at any table position of {TABLE_CANDIDATES_M} m"
+    )
+
+
+@dataclass(frozen=True)
+class ExecutedOperation:
+    """What the controller measured at the touch: the TCP (4, 4) from the encoders with the
+    nominal kinematics, and the controller time [s]."""
+
+    name: str
+    T_base_tcp_measured: np.ndarray
+    time_s: float
+
+
+def execute_program(
+    controller: Controller,
+    program: OfflineProgram,
+    touch_speed_m_s: float,
+    on_touch: Callable[[str], None] | None = None,
+    on_move: Callable[[str], None] | None = None,
+) -> tuple[ExecutedOperation, ...]:
+    """Change to the program's tool, move the table, then for each operation: joint move to
+    the approach, straight move to the touch, `on_touch(name)`, straight move back."""
+    touched = on_touch or (lambda _name: None)
+    moved = on_move or (lambda _what: None)
+    controller.change_tool(program.tool)
+    moved("tool change")
+    if abs(controller.table_position() - program.table_position_m) > 1e-6:
+        controller.move_table(program.table_position_m)
+    done = []
+    for planned in program.operations:
+        name = planned.operation.name
+        try:
+            controller.move_joints(planned.q_approach)
+            moved(f"{name}: approach")
+            controller.move_linear(planned.T_base_touch, speed_m_s=touch_speed_m_s)
+        except CellError as exc:
+            raise UnreachablePlanError(f"operation {name!r} failed on the cell: {exc}") from exc
+        touched(name)
+        moved(f"{name}: touch")
+        done.append(ExecutedOperation(name, controller.T_base_tcp(), controller.time_s))
+        controller.move_linear(planned.T_base_approach, speed_m_s=0.1)
+        moved(f"{name}: retract")
+    return tuple(done)

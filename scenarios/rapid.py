@@ -1,0 +1,121 @@
+"""ABB RAPID export of a corrected offline program (program.mod).
+
+Millimetres and scalar-first quaternions (q1 = w) at this edge only. The work object keeps
+the fixture in `uframe` (the object's NOMINAL pose on the table at the program's table
+position) and puts the registration correction in `oframe`; the robtargets stay as they were
+programmed on the virtual model (tool poses in the object frame). So
+uframe @ oframe @ robtarget = the corrected TCP pose in the base frame. The table is the
+external axis eax_a [mm].
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pinocchio as pin
+from scipy.spatial.transform import Rotation
+
+from cell import Kinematics, nominal_T_base_table
+from models.robot import TOOLS
+from scenarios.program import OfflineProgram
+
+_UNUSED = "9E+09"
+
+
+def quat_wxyz(R: np.ndarray) -> np.ndarray:
+    """(4,) unit quaternion (w, x, y, z) of a rotation matrix (3, 3), w >= 0."""
+    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
+    return q if q[0] >= 0 else -q
+
+
+def _num(x: float) -> str:
+    text = f"{x:.4f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def _pose_text(T: np.ndarray) -> str:
+    p = T[:3, 3] * 1e3
+    q = quat_wxyz(T[:3, :3])
+    return f"[[{', '.join(_num(v) for v in p)}],[{', '.join(f'{v:.8f}' for v in q)}]]"
+
+
+def _quadrant(angle: float) -> int:
+    return int(np.floor(angle / (np.pi / 2)))
+
+
+def configuration(kin: Kinematics, q: np.ndarray) -> tuple[int, int, int, int]:
+    """ABB configuration data (cf1, cf4, cf6, cfx) of joints q (6,) [rad]: quadrants of axes
+    1, 4, 6, and cfx = 4 * (wrist centre behind axis 1) + 2 * (below the lower arm) +
+    (axis 5 negative)."""
+    model, data = kin.model, kin.model.createData()
+    pin.forwardKinematics(model, data, np.asarray(q, dtype=float))
+    p2, p3, wc = (np.array(data.oMi[j].translation) for j in (2, 3, 5))
+    c, s = np.cos(q[0]), np.sin(q[0])
+
+    def plane(p: np.ndarray) -> np.ndarray:  # (reach along axis 1's heading, height)
+        return np.array([c * p[0] + s * p[1], p[2]])
+
+    behind = plane(wc)[0] < 0.0
+    lower = plane(p3) - plane(p2)
+    w = plane(wc) - plane(p2)
+    below = lower[0] * w[1] - lower[1] * w[0] > 0.0
+    cfx = 4 * int(behind) + 2 * int(below) + int(q[4] < 0.0)
+    return _quadrant(q[0]), _quadrant(q[3]), _quadrant(q[5]), cfx
+
+
+def _identifier(name: str, prefix: str) -> str:
+    body = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return f"{prefix}{body[:1].upper()}{body[1:]}"[:32]
+
+
+def program_module(
+    program: OfflineProgram,
+    kin: Kinematics,
+    T_table_object_nominal: np.ndarray,
+    module: str = "TwincellProgram",
+    touch_speed_m_s: float = 0.02,
+) -> str:
+    """The RAPID module text of `program`: tooldata, wobjdata (uframe = nominal fixture,
+    oframe = correction), robtargets in the object frame, MoveJ to each approach, MoveL to
+    the touch and back."""
+    spec = next(t for t in TOOLS if t.name == program.tool)
+    T_base_uframe = nominal_T_base_table(program.table_position_m) @ T_table_object_nominal
+    T_uframe_oframe = np.linalg.inv(T_table_object_nominal) @ program.T_table_object
+    tool = _identifier(program.tool, "t")
+    wobj = "wobjObject"
+    eax = f"[{_num(program.table_position_m * 1e3)},{','.join([_UNUSED] * 5)}]"
+    mass = spec.mass
+    cog = _num(spec.p_tool_tcp[2] * 1e3 / 2)
+    lines = [
+        f"MODULE {module}",
+        "  ! Offline program corrected by 3D surface matching (twincell).",
+        "  ! Lengths in mm, quaternions [q1 (w), q2, q3, q4]; table = external axis A [mm].",
+        "  ! uframe: the object's nominal pose on the table; oframe: the registration's",
+        "  ! correction; robtargets: the tool poses as programmed on the virtual model.",
+        f"  PERS tooldata {tool} := [TRUE,{_pose_text(spec.T_tool_tcp)},"
+        f"[{_num(mass)},[0,0,{cog}],[1,0,0,0],0,0,0]];",
+        f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",{_pose_text(T_base_uframe)},'
+        f"{_pose_text(T_uframe_oframe)}];",
+        f"  CONST speeddata vTouch := [{_num(touch_speed_m_s * 1e3)},500,5000,1000];",
+    ]
+    names = []
+    for planned in program.operations:
+        base = _identifier(planned.operation.name, "p")
+        for suffix, T_object, q in (
+            ("App", planned.T_object_approach, planned.q_approach),
+            ("Touch", planned.T_object_touch, planned.q_touch),
+        ):
+            cf = ",".join(str(v) for v in configuration(kin, q))
+            target = f"{base}{suffix}"[:32]
+            lines.append(
+                f"  CONST robtarget {target} := {_pose_text(T_object)[:-1]},[{cf}],{eax}];"
+            )
+        names.append((f"{base}App"[:32], f"{base}Touch"[:32]))
+    lines.append("  PROC main()")
+    for app, touch in names:
+        lines.append(f"    MoveJ {app}, v500, z10, {tool} \\WObj:={wobj};")
+        lines.append(f"    MoveL {touch}, vTouch, fine, {tool} \\WObj:={wobj};")
+        lines.append(f"    MoveL {app}, v100, z10, {tool} \\WObj:={wobj};")
+    lines += ["  ENDPROC", "ENDMODULE", ""]
+    return "\n".join(lines)

@@ -1,0 +1,235 @@
+"""The scan: a plan of straight laser passes made in the virtual cell, executed on the real one.
+
+The plan knows only the virtual model and its NOMINAL place on the table. Points are
+reconstructed as a real system does: measured joints, nominal kinematics, laser distances,
+and the table readout, and kept in the (nominal) table frame so that passes made at different
+table positions share one frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell import Controller, Kinematics, nominal_T_base_table, points_in_table_frame
+from cell.errors import CellError
+from cell.trajectory import straight_path
+from models.robot import LASER, TABLE_TRAVEL
+from registration import transform_points
+from scenarios.config import Scan
+from scenarios.errors import ScenarioError
+
+Progress = Callable[[str], None]
+#: Table positions tried, in order, for a pass or an operation that the arm cannot reach [m].
+TABLE_CANDIDATES_M = (0.0, -0.1, 0.1, -0.2, 0.2, -0.3, 0.3, -0.4, 0.4)
+#: Points closer than this to the table top are the table, not the object [m].
+TABLE_CLEARANCE_M = 0.003
+
+
+class UnreachablePlanError(ScenarioError, ValueError):
+    """No table position lets the arm reach a planned pass or operation."""
+
+
+@dataclass(frozen=True)
+class ObjectBox:
+    """The object's nominal extent in the table frame: centre (3,) and half sizes (3,) [m],
+    and the radius of its footprint about the centre [m]."""
+
+    centre: np.ndarray
+    half: np.ndarray
+    radius_xy: float
+
+    @classmethod
+    def of(cls, vertices_object: np.ndarray, T_table_object: np.ndarray) -> ObjectBox:
+        p = transform_points(T_table_object, np.asarray(vertices_object))
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        centre = (lo + hi) / 2
+        radius = float(np.max(np.linalg.norm(p[:, :2] - centre[:2], axis=1)))
+        return cls(centre, (hi - lo) / 2, radius)
+
+
+@dataclass(frozen=True)
+class PlannedPass:
+    """A straight laser pass: laser TCP poses (4, 4) at its ends in the table frame, the
+    table position [m] at which the arm follows it, and the joints (6,) at its start."""
+
+    name: str
+    T_table_start: np.ndarray
+    T_table_end: np.ndarray
+    table_position_m: float
+    q_start: np.ndarray
+
+    def T_base(self, T_table: np.ndarray) -> np.ndarray:
+        """(4, 4) the pose T_table (in the table frame) in the base frame at this pass' table
+        position (nominal)."""
+        return nominal_T_base_table(self.table_position_m) @ T_table
+
+
+@dataclass(frozen=True, eq=False)
+class ScanData:
+    """The measured scan.
+
+    Attributes:
+        points_table: (N, 3) every returned point in the nominal table frame [m].
+        line_origins_table: (L, 3) laser origin of each line [m] (nominal kinematics).
+        line_index: (N,) the line each point belongs to.
+        line_times_s: (L,) controller time of each line [s].
+        line_pass: (L,) index of the pass of each line.
+    """
+
+    points_table: np.ndarray
+    line_origins_table: np.ndarray
+    line_index: np.ndarray
+    line_times_s: np.ndarray
+    line_pass: np.ndarray
+
+    @property
+    def lines(self) -> int:
+        return len(self.line_origins_table)
+
+
+def laser_orientation(tilt_rad: float) -> np.ndarray:
+    """(3, 3) laser TCP orientation in the table frame: z (the view) down, tilted by
+    `tilt_rad` about y towards +x; the fan (x) in the x-z plane; the sweep along y."""
+    z = np.array([np.sin(tilt_rad), 0.0, -np.cos(tilt_rad)])
+    x = np.array([np.cos(tilt_rad), 0.0, np.sin(tilt_rad)])
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _pose(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    return T
+
+
+def line_solution(
+    kin: Kinematics,
+    T_tcp: np.ndarray,
+    T_base_start: np.ndarray,
+    T_base_end: np.ndarray,
+    q_seed: np.ndarray,
+    samples: int = 24,
+) -> np.ndarray | None:
+    """Joints (6,) at the start of a straight TCP line from which the nominal arm follows
+    the whole line without a configuration flip (as the controller's linear move does), or
+    None. Checks `samples` points of the line."""
+    first = kin.ik(T_base_start, q_seed, T_tcp, extra_seeds=12)
+    if not first.success:
+        return None
+    q = first.q
+    for T in straight_path(T_base_start, T_base_end, np.linspace(0.0, 1.0, samples)[1:]):
+        r = kin.ik(T, q, T_tcp, extra_seeds=0)
+        if not r.success or np.max(np.abs(r.q - q)) > 0.5:
+            return None
+        q = r.q
+    return first.q
+
+
+def choose_table_position(
+    kin: Kinematics,
+    T_tcp: np.ndarray,
+    T_table_start: np.ndarray,
+    T_table_end: np.ndarray,
+    q_seed: np.ndarray,
+    what: str,
+) -> tuple[float, np.ndarray]:
+    """The first table position of TABLE_CANDIDATES_M at which the nominal arm follows the
+    straight line between two poses (4, 4) of the table frame with the TCP `T_tcp`, and
+    the joints (6,) at its start."""
+    lo, hi = TABLE_TRAVEL
+    for s in TABLE_CANDIDATES_M:
+        if not lo <= s <= hi:
+            continue
+        T_base_table = nominal_T_base_table(s)
+        q = line_solution(
+            kin, T_tcp, T_base_table @ T_table_start, T_base_table @ T_table_end, q_seed
+        )
+        if q is not None:
+            return s, q
+    raise UnreachablePlanError(
+        f"{what}: no table position in {TABLE_CANDIDATES_M} m lets the arm follow it"
+    )
+
+
+def plan_scan(
+    kin: Kinematics, box: ObjectBox, config: Scan, q_seed: np.ndarray
+) -> tuple[PlannedPass, ...]:
+    """Passes over the object's nominal box, alternating sweep direction so that consecutive
+    passes join without crossing over the object."""
+    passes = []
+    T_tcp = LASER.T_tool_tcp
+    width = box.half[1] + config.margin_m
+    for i, spec in enumerate(config.passes):
+        tilt = np.deg2rad(spec.tilt_deg)
+        R = laser_orientation(tilt)
+        view = R[:, 2]
+        reach = float(np.abs(view) @ box.half)  # the box's half depth along the view
+        aim = box.centre + np.array([spec.offset_m, 0.0, 0.0])
+        p_mid = aim - (reach + config.standoff_m) * view
+        sign = 1.0 if i % 2 == 0 else -1.0
+        p_start = p_mid - sign * np.array([0.0, width, 0.0])
+        p_end = p_mid + sign * np.array([0.0, width, 0.0])
+        T_start, T_end = _pose(R, p_start), _pose(R, p_end)
+        s, q_start = choose_table_position(kin, T_tcp, T_start, T_end, q_seed, f"scan pass {i + 1}")
+        passes.append(
+            PlannedPass(f"pass {i + 1} (tilt {spec.tilt_deg:g} deg)", T_start, T_end, s, q_start)
+        )
+        q_seed = q_start
+    return tuple(passes)
+
+
+def execute_scan(
+    controller: Controller,
+    plan: tuple[PlannedPass, ...],
+    config: Scan,
+    progress: Progress | None = None,
+) -> ScanData:
+    """Run the passes on the (real) cell with the laser in hand; every line's points go into
+    the table frame with the table readout of that line."""
+    say = progress or (lambda _msg: None)
+    controller.change_tool("laser")
+    points, index, origins, times, which = [], [], [], [], []
+    T_laser = controller.T_flange_tcp("laser")
+    for k, planned in enumerate(plan):
+        if abs(controller.table_position() - planned.table_position_m) > 1e-6:
+            controller.move_table(planned.table_position_m)
+        try:
+            controller.move_joints(planned.q_start)
+            readings = controller.scan_linear(
+                planned.T_base(planned.T_table_end),
+                speed_m_s=config.speed_m_s,
+                period_s=config.period_s,
+            )
+        except CellError as exc:
+            raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
+        n_before = sum(len(p) for p in points)
+        for reading in readings:
+            p_base, _ = controller.laser_points_base(reading)
+            T_base_table = nominal_T_base_table(reading.table_position_m)
+            T_base_laser = controller.kinematics.fk(reading.q_measured) @ T_laser
+            origins.append(points_in_table_frame(T_base_laser[None, :3, 3], T_base_table)[0])
+            index.append(np.full(len(p_base), len(origins) - 1))
+            points.append(points_in_table_frame(p_base, T_base_table))
+            times.append(reading.time_s)
+            which.append(k)
+        n_new = sum(len(p) for p in points) - n_before
+        say(f"scan {planned.name}: {len(readings)} lines, {n_new} points")
+    return ScanData(
+        points_table=np.concatenate(points) if points else np.zeros((0, 3)),
+        line_origins_table=np.array(origins).reshape(-1, 3),
+        line_index=np.concatenate(index) if index else np.zeros(0, dtype=int),
+        line_times_s=np.array(times),
+        line_pass=np.array(which, dtype=int),
+    )
+
+
+def crop_to_object(points_table: np.ndarray, box: ObjectBox, margin_m: float) -> np.ndarray:
+    """(N,) bool: points above the table top and within the object's nominal footprint
+    enlarged by `margin_m` (the region of interest a real system would crop to)."""
+    p = np.asarray(points_table)
+    above = p[:, 2] > TABLE_CLEARANCE_M
+    near = np.linalg.norm(p[:, :2] - box.centre[:2], axis=1) <= box.radius_xy + margin_m
+    below = p[:, 2] <= box.centre[2] + box.half[2] + margin_m
+    return above & near & below
