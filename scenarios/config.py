@@ -52,12 +52,15 @@ class Noise(_Section):
 
 
 class ScanPass(_Section):
-    """One straight laser pass: the laser looks down, tilted by `tilt_deg` about the table's
-    y axis (positive: towards +x, away from the robot), aimed `offset_m` along x from the
-    object's centre; the sweep runs along y over the object's width plus `margin_m`."""
+    """One straight laser pass. With `heading_deg` 0: the laser looks down, tilted by
+    `tilt_deg` about the table's y axis (positive: towards +x, away from the robot), aimed
+    `offset_m` along x from the object's centre, and the sweep runs along y over the object's
+    width plus `margin_m`. `heading_deg` turns all of that about the table's vertical (90:
+    the laser looks towards +y and sweeps along x)."""
 
     tilt_deg: float = Field(0.0, ge=-75.0, le=75.0)
     offset_m: float = Field(0.0, ge=-0.5, le=0.5)
+    heading_deg: float = Field(0.0, ge=-180.0, le=180.0)
 
 
 class Scan(_Section):
@@ -72,15 +75,21 @@ class Scan(_Section):
         (
             ScanPass(tilt_deg=0.0, offset_m=-0.05),
             ScanPass(tilt_deg=0.0, offset_m=0.05),
-            ScanPass(tilt_deg=40.0, offset_m=-0.02),
+            ScanPass(tilt_deg=55.0, offset_m=-0.06),
+            ScanPass(tilt_deg=70.0, offset_m=-0.03),
+            ScanPass(tilt_deg=45.0, heading_deg=90.0),
+            ScanPass(tilt_deg=45.0, heading_deg=-90.0),
         ),
         min_length=1,
     )
 
 
 class Registration(_Section):
-    """Surface matching of the scan to the virtual model."""
+    """Surface matching of the scan to the virtual model: the object points are thinned to
+    one per `voxel_m` cube (so that regions scanned twice do not outweigh the others), then
+    at most `max_points` of them are drawn (seeded)."""
 
+    voxel_m: float = Field(0.003, ge=0.0, le=0.05)
     max_points: int = Field(6000, ge=100, le=1_000_000)
     max_ambiguity: float = Field(0.7, gt=0.0, le=1.0)
     max_rms_m: float = Field(1.0e-3, gt=0.0)
@@ -93,7 +102,7 @@ class Program(_Section):
 
     tool: Literal["screwer"] = "screwer"
     approach_m: float = Field(0.06, gt=0.0, le=0.3)
-    touch_offset_m: float = Field(0.0, ge=0.0, le=0.05)
+    touch_offset_m: float = Field(0.001, ge=0.0, le=0.05)
     touch_speed_m_s: float = Field(0.02, gt=0.0, le=0.5)
     spins: int = Field(12, ge=1, le=72)
 

@@ -28,6 +28,9 @@ class TargetEvaluation:
         axis_error_deg: angle between the tool axis and the true trajectory [deg].
         depth_error_m: distance of the tool axis, extended to the target depth, from the true
             deep target [m].
+        registration_error_m: distance of the corrected target (the virtual target moved by
+            the estimated pose) from the true one [m]: the registration's share of the error;
+            the rest is the arm's positioning.
         p_true_base, p_achieved_base: (3,) the two points in the robot base frame [m].
     """
 
@@ -35,6 +38,7 @@ class TargetEvaluation:
     error_m: float
     axis_error_deg: float
     depth_error_m: float
+    registration_error_m: float
     p_true_base: np.ndarray
     p_achieved_base: np.ndarray
 
@@ -76,10 +80,18 @@ class Evaluator:
         """Points (K, 3) given in the object frame, placed at the object's true pose now."""
         return transform_points(self._truth.T_base_object(self._name), points_object)
 
-    def targets(self, touch_offset_m: float) -> tuple[TargetEvaluation, ...]:
+    def targets(
+        self,
+        touch_offset_m: float,
+        virtual: ObjectModel,
+        T_base_object_estimate: np.ndarray,
+    ) -> tuple[TargetEvaluation, ...]:
         """Every recorded touch against the real object's burr hole of the same name: the true
-        touch point is the real entry moved back by `touch_offset_m` along the real axis."""
+        touch point is the real entry moved back by `touch_offset_m` along the real axis.
+        `virtual` (the planner's model) and the estimated pose (4, 4) give the registration's
+        share of each error."""
         out = []
+        virtual_holes = {h.name: h for h in virtual.burr_holes}
         for hole in self._real.burr_holes:
             if hole.name not in self._touches:
                 continue
@@ -93,12 +105,17 @@ class Evaluator:
             angle = float(np.degrees(np.arccos(np.clip(z_tool @ axis, -1.0, 1.0))))
             p_deep_true = p_entry + hole.depth * axis
             p_deep_achieved = p_tip + (hole.depth + touch_offset_m) * z_tool
+            v = virtual_holes[hole.name]
+            p_corrected = transform_points(
+                T_base_object_estimate, (v.p_entry - touch_offset_m * v.direction)[None]
+            )[0]
             out.append(
                 TargetEvaluation(
                     hole.name,
                     float(np.linalg.norm(p_tip - p_true)),
                     angle,
                     float(np.linalg.norm(p_deep_achieved - p_deep_true)),
+                    float(np.linalg.norm(p_corrected - p_true)),
                     p_true,
                     p_tip.copy(),
                 )

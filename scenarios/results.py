@@ -71,6 +71,7 @@ def skull_results(
             "predicted_tre_m": predicted.get(t.name),
             "axis_error_deg": t.axis_error_deg,
             "depth_error_m": t.depth_error_m,
+            "registration_error_m": t.registration_error_m,
         }
         for t in targets
     ]
@@ -114,8 +115,9 @@ def results_table(results: dict[str, Any]) -> Table:
     add("pose translation error [mm]", _mm(reg.get("translation_error_m")))
     for t in results.get("targets", []):
         add(
-            f"target {t['name']}: error / predicted TRE [mm]",
-            f"{_mm(t['error_m'])} / {_mm(t.get('predicted_tre_m'))}",
+            f"target {t['name']}: error / registration share / predicted TRE [mm]",
+            f"{_mm(t['error_m'])} / {_mm(t.get('registration_error_m'))} / "
+            f"{_mm(t.get('predicted_tre_m'))}",
         )
     add("target error RMS [mm] (goal <= 0.5)", _mm(results.get("target_error_rms_m")))
     add("target error max [mm] (goal <= 1.0)", _mm(results.get("target_error_max_m")))

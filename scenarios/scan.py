@@ -156,26 +156,29 @@ def choose_table_position(
 def plan_scan(
     kin: Kinematics, box: ObjectBox, config: Scan, q_seed: np.ndarray
 ) -> tuple[PlannedPass, ...]:
-    """Passes over the object's nominal box, alternating sweep direction so that consecutive
-    passes join without crossing over the object."""
+    """Passes over the object's nominal box (see `ScanPass`), alternating sweep direction so
+    that consecutive passes join without crossing over the object."""
     passes = []
     T_tcp = LASER.T_tool_tcp
-    width = box.half[1] + config.margin_m
     for i, spec in enumerate(config.passes):
-        tilt = np.deg2rad(spec.tilt_deg)
-        R = laser_orientation(tilt)
-        view = R[:, 2]
+        heading = np.deg2rad(spec.heading_deg)
+        ch, sh = np.cos(heading), np.sin(heading)
+        Rz = np.array([[ch, -sh, 0.0], [sh, ch, 0.0], [0.0, 0.0, 1.0]])
+        R = Rz @ laser_orientation(np.deg2rad(spec.tilt_deg))
+        view, sweep = R[:, 2], Rz[:, 1]
         reach = float(np.abs(view) @ box.half)  # the box's half depth along the view
-        aim = box.centre + np.array([spec.offset_m, 0.0, 0.0])
+        width = float(np.abs(sweep) @ box.half) + config.margin_m
+        aim = box.centre + spec.offset_m * Rz[:, 0]
         p_mid = aim - (reach + config.standoff_m) * view
         sign = 1.0 if i % 2 == 0 else -1.0
-        p_start = p_mid - sign * np.array([0.0, width, 0.0])
-        p_end = p_mid + sign * np.array([0.0, width, 0.0])
+        p_start = p_mid - sign * width * sweep
+        p_end = p_mid + sign * width * sweep
         T_start, T_end = _pose(R, p_start), _pose(R, p_end)
-        s, q_start = choose_table_position(kin, T_tcp, T_start, T_end, q_seed, f"scan pass {i + 1}")
-        passes.append(
-            PlannedPass(f"pass {i + 1} (tilt {spec.tilt_deg:g} deg)", T_start, T_end, s, q_start)
+        s_table, q_start = choose_table_position(
+            kin, T_tcp, T_start, T_end, q_seed, f"scan pass {i + 1}"
         )
+        name = f"pass {i + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
+        passes.append(PlannedPass(name, T_start, T_end, s_table, q_start))
         q_seed = q_start
     return tuple(passes)
 

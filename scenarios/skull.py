@@ -85,19 +85,30 @@ def cell_config(noise: Noise, seed: int, fixtures: tuple[FixedMesh, ...]) -> Cel
     )
 
 
+def voxel_thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
+    """The first point (K, 3) of `points` (N, 3) in each occupied cube of side `voxel_m` [m]
+    (all points if voxel_m is 0)."""
+    if voxel_m <= 0.0:
+        return points
+    keys = np.floor(points / voxel_m).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
 def localize(
     points_table: np.ndarray,
     shape: MeshModel,
     max_points: int,
     acceptance: Acceptance,
     seed: int,
+    voxel_m: float = 0.0,
 ) -> Localization:
-    """Match the object points (N, 3) in the table frame to the virtual model (a seeded
-    subsample of at most `max_points` points)."""
+    """Match the object points (N, 3) in the table frame to the virtual model: thinned to
+    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`."""
     rng = np.random.default_rng(seed)
-    used = points_table
-    if len(points_table) > max_points:
-        used = points_table[np.sort(rng.choice(len(points_table), max_points, replace=False))]
+    used = voxel_thin(points_table, voxel_m)
+    if len(used) > max_points:
+        used = used[np.sort(rng.choice(len(used), max_points, replace=False))]
     result = match(used, shape, mode="local", acceptance=acceptance)
     return Localization(invert(result.T_model_data), result, used, len(points_table))
 
@@ -170,7 +181,12 @@ def run_skull(
         )
     else:
         located = localize(
-            object_points, shape, config.registration.max_points, acceptance, config.seed
+            object_points,
+            shape,
+            config.registration.max_points,
+            acceptance,
+            config.seed,
+            config.registration.voxel_m,
         )
         reason = located.result.reason
     timings["register"] = time.perf_counter() - t0
@@ -226,7 +242,11 @@ def run_skull(
         from cell import nominal_T_base_table
 
         pose = evaluator.pose_error(nominal_T_base_table(s_eval) @ located.T_table_object)
-    target_evals = evaluator.targets(config.program.touch_offset_m) if executed else ()
+    target_evals = ()
+    if executed and program is not None:
+        target_evals = evaluator.targets(
+            config.program.touch_offset_m, virtual, program.T_base_object
+        )
     predicted = located.result.predicted_tre(targets_model) if located is not None else None
     if program is not None:
         outputs.write_program(folder / "program.mod", program, virtual, T_table_nominal)
