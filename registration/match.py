@@ -73,7 +73,7 @@ class SearchSettings:
         rank_iterations: ICP iterations on the subsample for each distinct candidate, before
             the minima are ranked.
         trim: fraction of the smallest residuals in a start's cost (robust to outliers and
-            partial overlap).
+            partial overlap); the minima are then compared on the fraction the best fits.
         distinct: two poses are distinct minima if they move the data points apart by more
             than this fraction of the model extent (RMS).
     """
@@ -101,7 +101,8 @@ class Minimum:
 
     Attributes:
         T_model_data: (4, 4) pose.
-        cost: RMS of the smallest `trim` fraction of residuals [length units].
+        cost: RMS of the smallest residuals of the data subsample: as large a fraction as
+            the best pose fits (between `trim` and 0.95) [length units].
     """
 
     T_model_data: Array
@@ -380,10 +381,14 @@ def match(
         for T0 in candidates
     ]
     costs = np.array([float(trimmed_rms(run.residuals, settings.trim)) for run in runs])
-    order = np.argsort(costs)
-    best_i = int(order[0])
+    best_i = int(np.argmin(costs))
+    # The minima are compared on as many points as the best pose fits: a wrong pose that
+    # slides along a smooth region may fit a large share of the scan, but not all of it.
+    fits = float(np.mean(Tukey(min_scale=1e-6 * extent).weights(runs[best_i].residuals) > 0))
+    trim = float(np.clip(fits - 0.05, settings.trim, 0.95))
+    costs = np.array([float(trimmed_rms(run.residuals, trim)) for run in runs])
     second = None
-    for i in order[1:]:
+    for i in np.argsort(costs):
         T_i = runs[int(i)].T_model_data
         if _displacement(T_i, runs[best_i].T_model_data, mid) > settings.distinct * extent:
             second = Minimum(T_i, float(costs[int(i)]))
