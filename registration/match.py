@@ -32,6 +32,7 @@ from registration.quality import (
     decide,
     pose_covariance,
     predicted_tre,
+    residual_correlation,
     trimmed_rms,
 )
 from registration.rigid import Array, make_T_batch, transform_points
@@ -422,7 +423,10 @@ def match(
     dof = max(int(inliers.sum()) - 6, 1)
     sigma = float(np.sqrt(np.sum(weights * residuals**2) / max(weights.sum(), 1e-300)))
     sigma *= np.sqrt(inliers.sum() / dof) if inliers.any() else 1.0
-    covariance = pose_covariance(p, closest.normals, weights, max(sigma, 1e-12 * extent))
+    correlation = residual_correlation(p[inliers], residuals[inliers])
+    covariance = pose_covariance(
+        p, closest.normals, weights, max(sigma, 1e-12 * extent), correlation
+    )
     worst_tre = float(
         np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))
     )

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from registration.errors import InputError
 from registration.rigid import Array, skew
@@ -32,28 +33,117 @@ def trimmed_rms(residuals: Array, trim: float) -> Array:
     return np.sqrt(np.mean(part**2, axis=-1))
 
 
-def pose_covariance(points: Array, normals: Array | None, weights: Array, sigma: float) -> Array:
+@dataclass(frozen=True)
+class ResidualCorrelation:
+    """How the residuals of a fit split into white noise and spatially correlated error.
+
+    A scan's residuals are not independent: the model error of a CT-derived or machined
+    surface, and the arm's error during a pass, move whole regions together. Treating them
+    as independent makes the pose look far more certain than it is.
+
+    Attributes:
+        sigma_white: standard deviation of the uncorrelated part [length units].
+        sigma_correlated: standard deviation of the correlated part [length units].
+        length: correlation length of the correlated part [length units].
+    """
+
+    sigma_white: float
+    sigma_correlated: float
+    length: float
+
+
+def residual_correlation(
+    points: Array, residuals: Array, seed: int = 0, pairs: int = 20000
+) -> ResidualCorrelation:
+    """Estimate white and correlated residual parts from the empirical variogram.
+
+    gamma(d) = 1/2 E[(r_i - r_j)^2] over pairs at distance d rises from the white variance
+    (the nugget, at the shortest distances) to the total variance (the sill); the correlation
+    length is where it has covered 1 - 1/e of the way.
+
+    Args:
+        points: points where the residuals were taken (N, 3).
+        residuals: residuals (N,) of the inliers [length units].
+    """
+    n = len(points)
+    total = float(np.mean(residuals**2))
+    if n < 30:
+        return ResidualCorrelation(np.sqrt(total), 0.0, 0.0)
+    rng = np.random.default_rng(seed)
+    tree = cKDTree(points)
+    anchors = rng.choice(n, size=min(n, 1500), replace=False)
+    _, near = tree.query(points[anchors], k=min(9, n))
+    i_short = np.repeat(anchors, near.shape[1] - 1)
+    j_short = near[:, 1:].ravel()
+    i_long, j_long = rng.integers(n, size=pairs), rng.integers(n, size=pairs)
+    i = np.concatenate([i_short, i_long])
+    j = np.concatenate([j_short, j_long])
+    keep = i != j
+    d = np.linalg.norm(points[i[keep]] - points[j[keep]], axis=1)
+    g = 0.5 * (residuals[i[keep]] - residuals[j[keep]]) ** 2
+    edges = np.geomspace(max(d.min(), 1e-12), d.max() * 1.0001, 13)
+    which = np.digitize(d, edges) - 1
+    centers, gamma = [], []
+    for b in range(len(edges) - 1):
+        in_bin = which == b
+        if in_bin.sum() >= 30:
+            centers.append(np.sqrt(edges[b] * edges[b + 1]))
+            gamma.append(float(np.mean(g[in_bin])))
+    if len(gamma) < 2:
+        return ResidualCorrelation(np.sqrt(total), 0.0, 0.0)
+    nugget = min(gamma[0], total)
+    correlated = max(total - nugget, 0.0)
+    reach = nugget + (1.0 - np.exp(-1.0)) * correlated
+    length = next((c for c, v in zip(centers, gamma, strict=True) if v >= reach), centers[-1])
+    return ResidualCorrelation(float(np.sqrt(nugget)), float(np.sqrt(correlated)), float(length))
+
+
+def _jacobians(points: Array, normals: Array | None) -> Array:
+    """Residual Jacobians w.r.t. (dt, dtheta): (N, 1, 6) point-to-plane or (N, 3, 6)."""
+    if normals is not None:
+        return np.concatenate([normals, np.cross(points, normals)], axis=1)[:, None, :]
+    return np.concatenate([np.broadcast_to(np.eye(3), (len(points), 3, 3)), -skew(points)], axis=2)
+
+
+def pose_covariance(
+    points: Array,
+    normals: Array | None,
+    weights: Array,
+    sigma: float,
+    correlation: ResidualCorrelation | None = None,
+) -> Array:
     """Covariance (6, 6) of a small pose correction (dt, dtheta) applied in the model frame.
+
+    The weighted least-squares estimate is dx = H^-1 sum_i w_i J_i^T r_i, so its covariance
+    is H^-1 (sum_ij w_i w_j J_i^T C_ij J_j) H^-1. With white residuals, C = sigma^2 I. With a
+    correlated part, points closer than about 2.5 correlation lengths (one voxel) are taken
+    as fully correlated and farther ones as independent.
 
     Args:
         points: registered data points in the model frame (N, 3).
         normals: model normals at their closest points (N, 3) (point-to-plane residuals), or
             None (point-to-point residuals, 3 per point).
         weights: robust weights (N,).
-        sigma: standard deviation of one residual component [length units].
+        sigma: standard deviation of one residual component if `correlation` is None.
+        correlation: white and correlated parts of the residuals.
     """
-    if normals is not None:
-        J = np.concatenate([normals, np.cross(points, normals)], axis=1)
-        H = J.T @ (weights[:, None] * J)
-    else:
-        J3 = np.concatenate(
-            [np.broadcast_to(np.eye(3), (len(points), 3, 3)), -skew(points)], axis=2
-        )
-        H = np.einsum("nki,n,nkj->ij", J3, weights, J3)
+    J = _jacobians(points, normals)
+    H = np.einsum("nki,n,nkj->ij", J, weights, J)
     vals, vecs = np.linalg.eigh(H)
     floor = max(vals[-1], 1e-300) * 1e-12
-    inv = (vecs / np.maximum(vals, floor)) @ vecs.T
-    return sigma**2 * inv
+    H_inv = (vecs / np.maximum(vals, floor)) @ vecs.T
+    if correlation is None:
+        return sigma**2 * H_inv
+    Jw = J * weights[:, None, None]
+    middle = correlation.sigma_white**2 * np.einsum("nki,nkj->ij", Jw, J * weights[:, None, None])
+    if correlation.sigma_correlated > 0 and correlation.length > 0:
+        size = 2.5 * correlation.length
+        cell = np.floor(points / size).astype(np.int64)
+        _, patch = np.unique(cell, axis=0, return_inverse=True)
+        g = np.zeros((patch.max() + 1, J.shape[1], 6))
+        np.add.at(g, patch.ravel(), Jw)
+        middle += correlation.sigma_correlated**2 * np.einsum("pki,pkj->ij", g, g)
+    return H_inv @ middle @ H_inv
 
 
 def predicted_tre(covariance: Array, targets: Array) -> Array:

@@ -159,3 +159,33 @@ def test_bad_options_are_named() -> None:
         match(pts, MODEL, mode="refine")
     with pytest.raises(InputError, match="model must be"):
         match(pts, "skull.stl")
+
+
+def _deformed(vertices: np.ndarray, faces: np.ndarray, rms: float, seed: int) -> np.ndarray:
+    """The blob with a smooth random deformation along its normals (plane waves, ~60 mm)."""
+    import trimesh
+
+    normals = trimesh.Trimesh(vertices, faces, process=False).vertex_normals
+    rng = np.random.default_rng(seed)
+    k = rng.normal(size=(6, 3))
+    k *= 2 * np.pi / 0.06 / np.linalg.norm(k, axis=1, keepdims=True)
+    field = np.sum(np.sin(vertices @ k.T + rng.uniform(0, 2 * np.pi, 6)), axis=1)
+    field *= rms / np.sqrt(np.mean(field**2))
+    return vertices + normals * field[:, None]
+
+
+def test_predicted_tre_accounts_for_correlated_model_error() -> None:
+    """Under a smooth model error the residuals are correlated: the prediction must widen
+    accordingly. Truth: the RMS target error over 24 independent deformations."""
+    targets = np.array([[0.0, 0.0, 0.0], [0.08, 0.02, 0.03], [-0.05, -0.04, 0.02]])
+    errors, predicted = [], []
+    for k in range(24):
+        real = _deformed(V, F, 3e-4, seed=200 + k)
+        scan = partial_scan(real, F, 1500, view=(0.0, 0.3, 1.0), noise=1e-4, seed=300 + k)
+        r = match(scan.points, MODEL, mode="refine", T_init=scan.T_model_data)
+        T_err = r.T_model_data @ np.linalg.inv(scan.T_model_data)
+        errors.append(np.linalg.norm(transform_points(T_err, targets) - targets, axis=1))
+        predicted.append(r.predicted_tre(targets))
+    measured = np.sqrt(np.mean(np.square(errors), axis=0))
+    ratio = measured / np.sqrt(np.mean(np.square(predicted), axis=0))
+    assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
