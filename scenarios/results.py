@@ -72,6 +72,8 @@ def skull_results(
             "axis_error_deg": t.axis_error_deg,
             "depth_error_m": t.depth_error_m,
             "registration_error_m": t.registration_error_m,
+            "p_true_base_m": t.p_true_base,
+            "p_achieved_base_m": t.p_achieved_base,
         }
         for t in targets
     ]

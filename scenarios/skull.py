@@ -201,6 +201,7 @@ def run_skull(
             recording.log_icp(r, virtual)
 
     accepted = located is not None and located.result.verdict == "accepted"
+    time_at_verdict_s = controller.time_s
     program: OfflineProgram | None = None
     executed = ()
     t0 = time.perf_counter()
@@ -234,6 +235,7 @@ def run_skull(
     else:
         say(f"refused: {reason}; no motion towards the object")
     timings["execute"] = time.perf_counter() - t0
+    motion_after_match_s = controller.time_s - time_at_verdict_s
 
     # Evaluation (truth) and outputs.
     pose = None
@@ -265,6 +267,10 @@ def run_skull(
         target_names=[h.name for h in virtual.burr_holes],
         timings=timings,
     )
+    results["motion_after_match_s"] = motion_after_match_s
+    results["tool_in_hand"] = controller.tool_in_hand
+    if program is not None:
+        results["table_position_m"] = program.table_position_m
     if config.output.plots:
         outputs.write_plots(folder, located, target_evals, predicted, virtual)
     return results

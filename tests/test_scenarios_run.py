@@ -1,0 +1,112 @@
+"""`twincell run` of the skull job end to end (short scan): the run folder, results.json,
+the RAPID program, the PLY scan and the rerun recording (checked with `rerun rrd verify`)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from cell import FixedMesh, make_cell
+from scenarios.cli import main
+from scenarios.config import load_config
+from scenarios.outputs import read_ply
+from scenarios.placement import draw_true_pose
+from scenarios.skull import cell_config, virtual_and_real
+
+SHORT = """scenario: skull
+seed: 11
+scan: {speed_m_s: 0.25, period_s: 0.02}
+"""
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("runs")
+    config = root / "short.yaml"
+    config.write_text(SHORT)
+    assert main(["run", str(config), "--out", str(root / "out"), "--quiet"]) == 0
+    return (root / "out" / "latest").resolve()
+
+
+def test_run_folder_has_every_file(folder: Path) -> None:
+    assert folder.name.startswith("short-")
+    for name in ("config.yaml", "results.json", "scan.ply", "program.mod", "run.rrd"):
+        assert (folder / name).is_file(), name
+    assert (folder / "registration.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (folder / "targets.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(folder.glob(".*"))  # no temporary file left behind
+    # The resolved config reloads to the same configuration.
+    written = load_config(folder / "config.yaml")
+    assert written.seed == 11 and written.scan.speed_m_s == 0.25
+
+
+def test_results_json_has_the_keys_and_consistent_numbers(folder: Path) -> None:
+    results = json.loads((folder / "results.json").read_text())
+    assert results["status"] == "complete" and results["scenario"] == "skull"
+    assert results["seed"] == 11 and results["scan_points"] >= 10_000
+    reg = results["registration"]
+    for key in ("rms_m", "rotation_error_deg", "translation_error_m", "ambiguity", "verdict"):
+        assert reg[key] is not None, key
+    assert reg["verdict"] == "accepted" and reg["seconds"] > 0
+    errors = np.array([t["error_m"] for t in results["targets"]])
+    assert len(errors) == 4
+    for t in results["targets"]:
+        assert t["predicted_tre_m"] > 0
+        gap = np.linalg.norm(np.subtract(t["p_achieved_base_m"], t["p_true_base_m"]))
+        assert t["error_m"] == pytest.approx(gap, rel=1e-9)
+    assert results["target_error_rms_m"] == pytest.approx(np.sqrt(np.mean(errors**2)))
+    assert results["target_error_max_m"] == pytest.approx(errors.max())
+    assert results["target_error_max_m"] < 1.5e-3
+    timings = results["timings_s"]
+    assert all(timings[k] > 0 for k in ("scan", "register", "execute", "total"))
+    assert np.asarray(read_ply(folder / "scan.ply")).shape == (results["scan_points"], 3)
+
+
+def test_true_targets_agree_with_an_independent_rebuild_of_the_truth(folder: Path) -> None:
+    """The real phantom's pose follows from the seed alone: rebuild the cell (no motion) and
+    place the real targets; the run's evaluator must have used the same points."""
+    results = json.loads((folder / "results.json").read_text())
+    config = load_config(folder / "config.yaml")
+    _, real = virtual_and_real(config)
+    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 5]))
+    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
+    fixture = FixedMesh("object", real.mesh.vertices, real.mesh.faces, T_table_true)
+    _, truth = make_cell(cell_config(config.noise, config.seed, (fixture,)))
+    assert results["table_position_m"] == 0.0  # the rebuilt table sits there too
+    T = truth.T_base_object("object")
+    offset = config.program.touch_offset_m
+    for hole, row in zip(real.burr_holes, results["targets"], strict=True):
+        p = T[:3, :3] @ (hole.p_entry - offset * hole.direction) + T[:3, 3]
+        # The table's per-move repeatability (0.01 mm sigma) separates the two.
+        assert np.linalg.norm(p - row["p_true_base_m"]) < 1e-4
+
+
+def test_program_module_is_written(folder: Path) -> None:
+    text = (folder / "program.mod").read_text()
+    assert text.startswith("MODULE ") and text.rstrip().endswith("ENDMODULE")
+    assert text.count("MoveL") == 8 and text.count("MoveJ") == 4
+
+
+def test_rrd_file_verifies(folder: Path) -> None:
+    rerun = Path(sys.executable).with_name("rerun")
+    done = subprocess.run(
+        [str(rerun), "rrd", "verify", str(folder / "run.rrd")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "verified without error" in done.stdout + done.stderr
+
+
+def test_latest_points_at_the_run(folder: Path) -> None:
+    latest = folder.parent / "latest"
+    assert latest.is_symlink() and latest.resolve() == folder
+    config = yaml.safe_load((folder / "config.yaml").read_text())
+    assert config["scenario"] == "skull"
