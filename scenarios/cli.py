@@ -169,6 +169,61 @@ def run(
         raise typer.Exit(3)
 
 
+@app.command("campaign")
+def campaign(
+    name: Annotated[
+        str,
+        typer.Argument(
+            help="register stage: a model (skull, ellipsoid, ...) or a YAML of trial keys; "
+            "full stage: a shipped job (skull, assembly) or a CONFIG.yaml."
+        ),
+    ],
+    trials: Annotated[int, typer.Option("--trials", min=1, help="Seeded trials per point.")] = 10,
+    vary: Annotated[
+        list[str] | None,
+        typer.Option("--vary", help="KEY=V1,V2,... (dotted config key); repeat to cross."),
+    ] = None,
+    workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 1,
+    backend: Annotated[
+        str, typer.Option("--backend", help="local (processes here) or dask (a cluster).")
+    ] = "local",
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="Dask scheduler address (tcp://HOST:8786); none: "
+            "a local Dask cluster of --workers processes.",
+        ),
+    ] = None,
+    stage: Annotated[
+        str, typer.Option("--stage", help="register (matching alone) or full (the scenario).")
+    ] = "register",
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the first trial.")] = 0,
+    out: Annotated[
+        str | None,
+        typer.Option(
+            "--out",
+            help="Campaign folder (default runs/campaigns/NAME-STAGE-KEYS); "
+            "rerunning into it resumes.",
+        ),
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+) -> None:
+    """Run many seeded trials (a sweep), store one row per trial, report reliability."""
+    from scenarios.campaign import default_out, plan_campaign, run_campaign
+
+    spec = plan_campaign(name, stage=stage, trials=trials, vary=vary or [], seed=seed)
+    folder = out if out is not None else default_out(spec)
+    outcome = run_campaign(
+        spec, folder, backend=backend, workers=workers, scheduler=scheduler, progress=not quiet
+    )
+    typer.echo((outcome.folder / "report.md").read_text())
+    typer.echo(
+        f"campaign folder: {outcome.folder} ({outcome.ran} trials run now, "
+        f"{outcome.skipped} finished before)"
+    )
+
+
 def _user_errors() -> tuple[type[BaseException], ...]:
     """The root exceptions of the project's packages: bad input a user can fix."""
     from cell.errors import CellError
@@ -182,7 +237,9 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script: user errors become one line and exit status 2."""
     try:
-        app(args=argv, standalone_mode=False)
+        status = app(args=argv, standalone_mode=False)
+        if isinstance(status, int):  # click returns typer.Exit's code without standalone mode
+            return status
     except typer.Exit as exc:
         return int(exc.exit_code or 0)
     except typer.Abort:
