@@ -1,0 +1,262 @@
+"""A campaign: N seeded trials per sweep point, run on a backend, stored, aggregated.
+
+    >>> spec = plan_campaign("skull", stage="register", trials=200, vary=["case=default,outliers"])
+    >>> outcome = run_campaign(spec, out="runs/campaigns/skull-register", workers=2)
+
+The campaign folder holds `campaign.yaml` (the resolved campaign: stage, base configuration,
+sweep, trials, seed), `trials/*.json` (one row per finished trial), `results.csv`, and the
+report (`report.md`, `report.json`, PNG figures). Running the same campaign into the same
+folder resumes it; a different campaign there is refused.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+from scenarios.campaign.errors import CampaignError
+from scenarios.campaign.register_config import (
+    CASES,
+    default_register_config,
+    parse_register_config,
+)
+from scenarios.campaign.store import ResultStore, write_atomic
+from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
+from scenarios.campaign.trials import STAGES, Trial, trial_id
+
+Backend = Literal["local", "dask"]
+BACKENDS: tuple[str, ...] = ("local", "dask")
+_MODELS = ("skull", "ellipsoid", "bracket", "housing", "lid")
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """What a campaign runs: `trials` seeds (`seed`, `seed + 1`, ...) at every point of
+    `sweep`, on the `stage`'s trial function with `base_config` (a plain dict, every key)."""
+
+    name: str
+    stage: str
+    base_config: dict[str, Any]
+    sweep: Sweep
+    trials: int
+    seed: int = 0
+
+    def identity(self) -> dict[str, Any]:
+        """What must match for a folder to be resumed (the trial count may grow)."""
+        return {
+            "name": self.name,
+            "stage": self.stage,
+            "seed": self.seed,
+            "base_config": self.base_config,
+            "sweep": [[k, list(v)] for k, v in self.sweep],
+        }
+
+
+def _load_yaml(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise CampaignError(f"{path}: no such configuration file")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise CampaignError(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(data, dict):
+        raise CampaignError(f"{path}: a configuration must be a mapping of keys")
+    return data
+
+
+def base_config(name: str, stage: str) -> dict[str, Any]:
+    """The base configuration of a campaign: for the register stage a built-in model name
+    (skull, ellipsoid, bracket, housing, lid) or a YAML file of RegisterConfig keys; for the
+    full stage a shipped scenario (skull, assembly) or a scenario YAML file, run headless."""
+    if stage == "register":
+        if name in _MODELS:
+            return {**default_register_config(), "model": name}
+        path = Path(name)
+        if path.suffix not in (".yaml", ".yml"):
+            raise CampaignError(
+                f"unknown campaign {name!r} for the register stage; give a model "
+                f"({', '.join(_MODELS)}) or a .yaml file"
+            )
+        data = _load_yaml(path)
+        data.pop("stage", None)
+        return parse_register_config(data, str(path)).model_dump(mode="json")
+    if stage == "full":
+        from scenarios.config import load_config
+
+        config = load_config(name).model_dump(mode="json")
+        if "output" in config:
+            config["output"] = {**config["output"], "rrd": False, "plots": False}
+        return config
+    raise CampaignError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
+
+
+def plan_campaign(
+    name: str,
+    stage: str = "register",
+    trials: int = 10,
+    vary: list[str] | tuple[str, ...] = (),
+    seed: int = 0,
+) -> CampaignSpec:
+    """A campaign of `trials` per point of the `vary` sweep (`KEY=V1,V2,...`); every point's
+    configuration is resolved and validated now, so that a bad key fails before any trial."""
+    if stage not in STAGES:
+        raise CampaignError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
+    if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
+        raise CampaignError(f"trials must be a positive integer, got {trials!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise CampaignError(f"seed must be a non-negative integer, got {seed!r}")
+    spec = CampaignSpec(
+        Path(name).stem, stage, base_config(name, stage), parse_vary(vary), trials, seed
+    )
+    for values in sweep_points(spec.sweep):
+        resolve_config(spec, values)
+    return spec
+
+
+def resolve_config(spec: CampaignSpec, values: dict[str, Any]) -> dict[str, Any]:
+    """The configuration of one sweep point: the base, then a register case's preset keys,
+    then the other swept keys; validated."""
+    config = spec.base_config
+    if spec.stage == "register" and "case" in values:
+        case = values["case"]
+        if case not in CASES:
+            raise CampaignError(f"unknown case {case!r}; valid: {', '.join(CASES)}")
+        config = set_dotted(config, "case", case)
+        for key, value in CASES[case].items():
+            config = set_dotted(config, key, value)
+    for key, value in values.items():
+        if not (spec.stage == "register" and key == "case"):
+            config = set_dotted(config, key, value)
+    label = ", ".join(f"{k}={v}" for k, v in values.items()) or "base"
+    if spec.stage == "register":
+        return parse_register_config(config, f"sweep point {label}").model_dump(mode="json")
+    from scenarios.config import ConfigError, parse_config
+
+    try:
+        return parse_config(config, f"sweep point {label}").model_dump(mode="json")
+    except ConfigError as exc:
+        raise CampaignError(str(exc)) from None
+
+
+def campaign_trials(spec: CampaignSpec) -> list[Trial]:
+    """Every trial of the campaign, point by point."""
+    trials = []
+    for point, values in enumerate(sweep_points(spec.sweep)):
+        config = resolve_config(spec, values)
+        for k in range(spec.trials):
+            trials.append(
+                Trial(trial_id(point, k), point, k, spec.seed + k, spec.stage, config, values)
+            )
+    return trials
+
+
+def _check_folder(spec: CampaignSpec, folder: Path) -> None:
+    """Refuse a folder that holds another campaign; write the resolved campaign otherwise."""
+    path = folder / "campaign.yaml"
+    record = {
+        **spec.identity(),
+        "trials": spec.trials,
+        "points": [
+            {"point": i, "values": v, "config": resolve_config(spec, v)}
+            for i, v in enumerate(sweep_points(spec.sweep))
+        ],
+    }
+    if path.is_file():
+        old = yaml.safe_load(path.read_text()) or {}
+        mismatched = [
+            k for k, v in spec.identity().items() if old.get(k) != yaml.safe_load(yaml.safe_dump(v))
+        ]
+        if mismatched:
+            raise CampaignError(
+                f"{folder} holds another campaign (different {', '.join(mismatched)}); "
+                f"resume it with the same options or choose another --out"
+            )
+        record["trials"] = max(spec.trials, int(old.get("trials", 0)))
+    write_atomic(path, yaml.safe_dump(record, sort_keys=False))
+
+
+@dataclass(frozen=True)
+class CampaignOutcome:
+    """A finished campaign: its folder, the rows of the requested trials, how many ran now
+    (the others were finished before), and the report's files."""
+
+    folder: Path
+    rows: list[dict[str, Any]]
+    ran: int
+    skipped: int
+    files: tuple[Path, ...]
+
+
+def run_campaign(
+    spec: CampaignSpec,
+    out: str | Path,
+    backend: str = "local",
+    workers: int = 1,
+    scheduler: str | None = None,
+    progress: bool = True,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> CampaignOutcome:
+    """Run the unfinished trials of `spec` into the folder `out` on `backend` ("local": K
+    processes; "dask": the scheduler at `scheduler`, or a local cluster of `workers`), then
+    write results.csv and the report."""
+    if backend not in BACKENDS:
+        raise CampaignError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise CampaignError(f"workers must be a positive integer, got {workers!r}")
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    _check_folder(spec, folder)
+    store = ResultStore(folder)
+    trials = campaign_trials(spec)
+    done = store.done()
+    todo = [t for t in trials if t.trial_id not in done]
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")  # one core per worker process
+
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    bar = Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        disable=not progress,
+        transient=False,
+    )
+    with bar:
+        task = bar.add_task(
+            f"{spec.name} ({spec.stage})", total=len(trials), completed=len(trials) - len(todo)
+        )
+
+        def collect(row: dict[str, Any]) -> None:
+            store.write(row)
+            bar.advance(task)
+            if on_row is not None:
+                on_row(row)
+
+        if todo:
+            if backend == "local":
+                from scenarios.campaign.local import run_local
+
+                run_local(todo, workers, collect)
+            else:
+                from scenarios.campaign.cluster import run_dask
+
+                run_dask(todo, collect, scheduler, workers)
+    rows = store.rows(t.trial_id for t in trials)
+    csv_path = store.write_csv(folder / "results.csv", rows)
+    from scenarios.campaign.report import write_report
+
+    files = (csv_path, *write_report(folder, csv_path, spec.stage, [k for k, _ in spec.sweep]))
+    return CampaignOutcome(folder, rows, len(todo), len(trials) - len(todo), files)
+
+
+def default_out(spec: CampaignSpec) -> Path:
+    """The default campaign folder: runs/campaigns/<name>-<stage>[-<swept keys>]."""
+    keys = "-".join(k for k, _ in spec.sweep)
+    return Path("runs") / "campaigns" / "-".join(p for p in (spec.name, spec.stage, keys) if p)

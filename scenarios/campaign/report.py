@@ -1,0 +1,202 @@
+"""The campaign report: figures aggregated from the results table alone (results.csv).
+
+Per sweep point and over all trials: verdicts, acceptance of good registrations, false
+accepts (accepted with the wrong object or a target error beyond the threshold), the target
+error of accepted registrations, the calibration of the predicted TRE (measured / predicted,
+per target, over accepted registrations of the right object) and the run time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scenarios.campaign.store import read_csv, write_atomic
+
+CALIBRATION_GOAL = (0.67, 1.5)
+"""Goal of the median measured / predicted TRE ratio."""
+
+STAGE_NOTES = {
+    "register": (
+        "Stage: register only. Each trial simulates a laser scan of the real object (model "
+        "error, range noise, arm offsets per pass) at a random pose and matches it to the "
+        "virtual model; no cell, no robot motion, no program execution."
+    ),
+    "full": "Stage: full. Each trial runs the whole scenario headless in the simulated cell.",
+}
+
+
+def _floats(rows: list[dict[str, str]], column: str) -> np.ndarray:
+    values = [float(r[column]) for r in rows if r.get(column, "") not in ("", None)]
+    return np.array(values, dtype=float)
+
+
+def _quantiles(x: np.ndarray) -> dict[str, float]:
+    if len(x) == 0:
+        return {"n": 0, "median": math.nan, "q05": math.nan, "q25": math.nan, "q75": math.nan,
+                "q95": math.nan, "max": math.nan}  # fmt: skip
+    q = np.quantile(x, [0.05, 0.25, 0.5, 0.75, 0.95])
+    return {"n": len(x), "median": float(q[2]), "q05": float(q[0]), "q25": float(q[1]),
+            "q75": float(q[3]), "q95": float(q[4]), "max": float(x.max())}  # fmt: skip
+
+
+def target_columns(rows: list[dict[str, str]], prefix: str, suffix: str) -> list[str]:
+    """Per-target columns `<prefix><k><suffix>` present in the rows."""
+    names = set().union(*(r.keys() for r in rows)) if rows else set()
+    return sorted(
+        (c for c in names if c.startswith(prefix) and c.endswith(suffix)),
+        key=lambda c: int(c[len(prefix) : len(c) - len(suffix)]),
+    )
+
+
+def per_target(rows: list[dict[str, str]], prefix: str, suffix: str) -> np.ndarray:
+    """All per-target values of the rows (every target of every row), flattened."""
+    columns = target_columns(rows, prefix, suffix)
+    return np.array(
+        [float(r[c]) for r in rows for c in columns if r.get(c, "") not in ("", None)], dtype=float
+    )
+
+
+@dataclass(frozen=True)
+class GroupSummary:
+    """Aggregated figures of a group of trials (a sweep point, or all). Lengths [m], times [s].
+
+    `acceptance_of_good`: accepted / good (right object, every target within the threshold);
+    `target_error`: quantiles over every target of the accepted registrations;
+    `tre_ratio`: quantiles of measured / predicted TRE over every target of the accepted
+    registrations of the right object.
+    """
+
+    label: str
+    trials: int
+    errors: int
+    accepted: int
+    ambiguous: int
+    rejected: int
+    good: int
+    good_accepted: int
+    false_accepts: int
+    acceptance_of_good: float
+    target_error: dict[str, float]
+    tre_ratio: dict[str, float]
+    trial_seconds: dict[str, float]
+
+
+def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
+    """Aggregate the rows (strings, as read from the CSV) of one group."""
+    ok = [r for r in rows if r.get("status") == "ok"]
+    flag = lambda r, c: r.get(c, "") not in ("", "0", "False")  # noqa: E731
+    accepted = [r for r in ok if flag(r, "accepted")]
+    good = [r for r in ok if flag(r, "good")]
+    good_accepted = [r for r in good if flag(r, "accepted")]
+    right_accepted = [r for r in accepted if flag(r, "right_object")]
+    return GroupSummary(
+        label=label,
+        trials=len(rows),
+        errors=len(rows) - len(ok),
+        accepted=len(accepted),
+        ambiguous=sum(r.get("verdict") == "ambiguous" for r in ok),
+        rejected=sum(r.get("verdict") == "rejected" for r in ok),
+        good=len(good),
+        good_accepted=len(good_accepted),
+        false_accepts=sum(flag(r, "false_accept") for r in ok),
+        acceptance_of_good=len(good_accepted) / len(good) if good else math.nan,
+        target_error=_quantiles(per_target(accepted, "err_t", "_m")),
+        tre_ratio=_quantiles(per_target(right_accepted, "ratio_t", "")),
+        trial_seconds=_quantiles(_floats(rows, "trial_seconds")),
+    )
+
+
+def group_rows(
+    rows: list[dict[str, str]], keys: list[str]
+) -> list[tuple[str, list[dict[str, str]]]]:
+    """Rows grouped by their sweep values (`vary.<key>` columns), in sweep-point order."""
+    groups: dict[str, list[dict[str, str]]] = {}
+    for row in sorted(rows, key=lambda r: (int(r.get("point", 0) or 0), r["trial_id"])):
+        label = ", ".join(f"{k}={row.get(f'vary.{k}', '')}" for k in keys) or "all"
+        groups.setdefault(label, []).append(row)
+    return list(groups.items())
+
+
+def _mm(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x * 1e3:.3f}"
+
+
+def _num(x: float, digits: int = 2) -> str:
+    return "-" if math.isnan(x) else f"{x:.{digits}f}"
+
+
+def markdown(summaries: list[GroupSummary], stage: str) -> str:
+    """The report as Markdown: the stage note, the goals, one table row per group."""
+    total = summaries[-1]
+    lo, hi = CALIBRATION_GOAL
+    median = total.tre_ratio["median"]
+    lines = [
+        "# Campaign report",
+        "",
+        STAGE_NOTES.get(stage, f"Stage: {stage}."),
+        "",
+        f"- trials: {total.trials} ({total.errors} failed)",
+        f"- false accepts: {total.false_accepts} (goal 0)",
+        f"- acceptance of good registrations: {total.good_accepted}/{total.good}"
+        f" = {_num(total.acceptance_of_good * 100, 1)} %",
+        f"- predicted TRE calibration, median measured/predicted: {_num(median)} "
+        f"(goal within [{lo}, {hi}]: {'met' if lo <= median <= hi else 'not met'})",
+        "",
+        "| group | trials | failed | accepted | ambiguous | rejected | false accepts | "
+        "accepted good | target error median / q95 / max [mm] | TRE ratio q25 / median / q75 "
+        "| trial time median / q95 [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s in summaries:
+        lines.append(
+            f"| {s.label} | {s.trials} | {s.errors} | {s.accepted} | {s.ambiguous} | "
+            f"{s.rejected} | {s.false_accepts} | {s.good_accepted}/{s.good} | "
+            f"{_mm(s.target_error['median'])} / {_mm(s.target_error['q95'])} / "
+            f"{_mm(s.target_error['max'])} | {_num(s.tre_ratio['q25'])} / "
+            f"{_num(s.tre_ratio['median'])} / {_num(s.tre_ratio['q75'])} | "
+            f"{_num(s.trial_seconds['median'])} / {_num(s.trial_seconds['q95'])} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def campaign_summaries(csv_path: str | Path, keys: list[str]) -> list[GroupSummary]:
+    """One summary per sweep point and the last one over all trials, from the CSV alone."""
+    rows = read_csv(csv_path)
+    summaries = [summarize(group, label) for label, group in group_rows(rows, keys)] if keys else []
+    return [*summaries, summarize(rows, "all")]
+
+
+def _json_ready(value: Any) -> Any:
+    """NaN becomes None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def write_report(folder: Path, csv_path: Path, stage: str, keys: list[str]) -> list[Path]:
+    """Write report.md, report.json and the figures of the campaign in `folder`."""
+    summaries = campaign_summaries(csv_path, keys)
+    data: dict[str, Any] = {
+        "stage": stage,
+        "note": STAGE_NOTES.get(stage, ""),
+        "calibration_goal": list(CALIBRATION_GOAL),
+        "groups": [asdict(s) for s in summaries],
+    }
+    files = [
+        write_atomic(folder / "report.md", markdown(summaries, stage)),
+        write_atomic(folder / "report.json", json.dumps(_json_ready(data), indent=2)),
+    ]
+    from scenarios.campaign.plots import write_plots
+
+    files.extend(write_plots(folder, read_csv(csv_path), keys))
+    return files

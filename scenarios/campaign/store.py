@@ -1,0 +1,83 @@
+"""The result store of a campaign folder: one small JSON per finished trial, then one CSV.
+
+Each trial's row is written to `trials/<trial_id>.json` through a temporary file, fsync and
+an atomic rename, by the one process that collects the results: a row is there completely or
+not at all, and a trial id names one file, so a restarted campaign skips the finished trials
+and no result is lost or counted twice. The CSV (one row per trial, flat columns) is rebuilt
+from the JSON files, also atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+
+def write_atomic(path: Path, text: str) -> Path:
+    """Write `text` to `path` completely or not at all (temp file, fsync, os.replace)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+    return path
+
+
+def _plain(value: Any) -> Any:
+    """JSON-ready scalars: numpy numbers become Python ones, non-finite floats stay floats."""
+    if hasattr(value, "item"):
+        return value.item()
+    return value
+
+
+class ResultStore:
+    """The finished trials of one campaign folder."""
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = Path(folder)
+        self.trials_dir = self.folder / "trials"
+
+    def path(self, trial_id: str) -> Path:
+        return self.trials_dir / f"{trial_id}.json"
+
+    def done(self) -> set[str]:
+        """Ids of the trials whose rows are stored."""
+        if not self.trials_dir.is_dir():
+            return set()
+        return {p.stem for p in self.trials_dir.glob("*.json")}
+
+    def write(self, row: dict[str, Any]) -> Path:
+        """Store one row (must hold "trial_id")."""
+        return write_atomic(
+            self.path(str(row["trial_id"])),
+            json.dumps({k: _plain(v) for k, v in row.items()}, sort_keys=False),
+        )
+
+    def rows(self, ids: Iterable[str] | None = None) -> list[dict[str, Any]]:
+        """The stored rows (only `ids` if given), sorted by trial id."""
+        wanted = sorted(self.done() if ids is None else set(ids) & self.done())
+        return [json.loads(self.path(i).read_text(encoding="utf-8")) for i in wanted]
+
+    def write_csv(self, path: str | Path, rows: list[dict[str, Any]]) -> Path:
+        """The rows as a CSV table (columns in first-seen order; missing cells empty)."""
+        columns: dict[str, None] = {}
+        for row in rows:
+            columns.update(dict.fromkeys(row))
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=list(columns), restval="", lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        return write_atomic(Path(path), buffer.getvalue())
+
+
+def read_csv(path: str | Path) -> list[dict[str, str]]:
+    """The rows of a results table, as strings."""
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))

@@ -1,0 +1,69 @@
+"""Sweeps: `--vary KEY=V1,V2,...` options parsed, crossed, and applied to nested config dicts.
+
+Keys are dotted paths into the configuration (`laser.sigma`, `scan.coverage`); values are
+read as YAML scalars (`0.1` is a float, `none` is None, `skull` a string).
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+from typing import Any
+
+import yaml
+
+from scenarios.campaign.errors import CampaignError
+
+Sweep = tuple[tuple[str, tuple[Any, ...]], ...]
+"""Ordered (key, values) pairs; the sweep points are their cross product."""
+
+
+def _scalar(text: str) -> Any:
+    value = yaml.safe_load(text) if text.strip() else None
+    if isinstance(value, dict | list):
+        raise CampaignError(f"sweep value {text!r} must be a scalar, not a {type(value).__name__}")
+    return value
+
+
+def parse_vary(options: list[str] | tuple[str, ...]) -> Sweep:
+    """Parse `KEY=V1,V2,...` strings into a sweep; a key may appear once."""
+    sweep: list[tuple[str, tuple[Any, ...]]] = []
+    for option in options:
+        key, sep, values = option.partition("=")
+        key = key.strip()
+        parts = [v.strip() for v in values.split(",")]
+        if not sep or not key or not values.strip() or any(not p for p in parts):
+            raise CampaignError(
+                f"--vary {option!r}: expected KEY=V1,V2,... (e.g. laser.sigma=0.05e-3,0.1e-3)"
+            )
+        if any(key == k for k, _ in sweep):
+            raise CampaignError(f"--vary: key {key!r} given twice")
+        sweep.append((key, tuple(_scalar(p) for p in parts)))
+    return tuple(sweep)
+
+
+def sweep_points(sweep: Sweep) -> list[dict[str, Any]]:
+    """The cross product of the sweep: one {key: value} dict per point (one empty point when
+    nothing varies), the last key varying fastest."""
+    keys = [k for k, _ in sweep]
+    return [
+        dict(zip(keys, combo, strict=True)) for combo in itertools.product(*(v for _, v in sweep))
+    ]
+
+
+def set_dotted(config: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+    """A deep copy of `config` with the dotted `key` set to `value`. Every part of the path
+    but the last must already exist (a typo is refused, naming the keys that exist)."""
+    out = copy.deepcopy(config)
+    node = out
+    parts = key.split(".")
+    for depth, part in enumerate(parts):
+        if not isinstance(node, dict) or part not in node:
+            where = ".".join(parts[:depth]) or "(top)"
+            valid = sorted(node) if isinstance(node, dict) else []
+            raise CampaignError(f"unknown config key {key!r}: {where} has keys {valid}")
+        if depth == len(parts) - 1:
+            node[part] = value
+        else:
+            node = node[part]
+    return out

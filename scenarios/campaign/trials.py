@@ -1,0 +1,79 @@
+"""Trials: one seeded, independent run of a trial function at one sweep point.
+
+Trial ids are `p<point>-t<trial>`; the seed of trial k is `seed + k` at every sweep point
+(common random numbers: sweep points are compared on the same draws).
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from scenarios.campaign.errors import CampaignError
+
+TrialFunction = Callable[[dict[str, Any], int], dict[str, Any]]
+"""(resolved config dict, seed) -> flat metrics of one row."""
+
+STAGES: dict[str, str] = {
+    "register": "scenarios.campaign.register_stage:run_register_trial",
+    "full": "scenarios.campaign.full_stage:run_full_trial",
+}
+"""Trial function of each stage, as `module:function` (imported where the trial runs)."""
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One trial: its id, sweep point index and values, trial index, seed, stage and the
+    fully resolved configuration it runs with."""
+
+    trial_id: str
+    point: int
+    index: int
+    seed: int
+    stage: str
+    config: dict[str, Any] = field(hash=False)
+    values: dict[str, Any] = field(hash=False)
+
+
+def trial_id(point: int, index: int) -> str:
+    """The id of trial `index` at sweep point `point`."""
+    return f"p{point:03d}-t{index:05d}"
+
+
+def stage_function(stage: str) -> TrialFunction:
+    """The trial function of `stage` (see STAGES)."""
+    if stage not in STAGES:
+        raise CampaignError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
+    module, _, name = STAGES[stage].partition(":")
+    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+
+
+def run_trial(trial: Trial) -> dict[str, Any]:
+    """Run one trial and return its row: ids, sweep values, status ("ok" or "error" with
+    the exception in `error`), and the trial function's metrics. Never raises for a failing
+    trial: a failure is a result, recorded once like the others."""
+    row: dict[str, Any] = {
+        "trial_id": trial.trial_id,
+        "point": trial.point,
+        "trial": trial.index,
+        "seed": trial.seed,
+        "stage": trial.stage,
+        **{f"vary.{k}": v for k, v in trial.values.items()},
+    }
+    t0 = time.perf_counter()
+    try:
+        metrics = stage_function(trial.stage)(trial.config, trial.seed)
+    except Exception as exc:
+        last = traceback.extract_tb(exc.__traceback__)[-1]
+        where = f"{last.filename.rsplit('/', 1)[-1]}:{last.lineno}"
+        return {
+            **row,
+            "status": "error",
+            "error": f"{type(exc).__name__}: {exc} ({where})",
+            "trial_seconds": time.perf_counter() - t0,
+        }
+    return {**row, "status": "ok", "error": "", **metrics}
