@@ -2,8 +2,9 @@
 
 Each pass looks along one direction at the object in the table frame. Visible points are found
 with an orthographic depth buffer: area-uniform samples of the real surface are binned on the
-plane normal to the view; in each cell only the samples within `depth_tolerance` of the
-nearest one are seen (self-occlusion), and samples seen at grazing incidence (the angle between
+plane normal to the view; in each cell only the samples within `depth_tolerance` (plus the
+depth a surface of their slope spans across the cell) of the nearest one are seen
+(self-occlusion), and samples seen at grazing incidence (the angle between
 the surface normal and the view ray beyond `max_incidence`) are dropped, as a laser does.
 Errors: Gaussian range noise along the view ray, a small rigid offset per pass (the arm's
 absolute accuracy) plus per-point jitter (repeatability, encoders), optional spurious points.
@@ -66,7 +67,8 @@ def visible_samples(
 ) -> np.ndarray:
     """Boolean mask (N,) of the samples `p_table` (N, 3) with normals `n_table` (N, 3) seen
     along the unit ray `view` (3,) by an orthographic depth buffer of square cells `cell` [m]."""
-    facing = -(n_table @ view) >= np.cos(np.deg2rad(max_incidence_deg))
+    cosine = -(n_table @ view)
+    facing = cosine >= np.cos(np.deg2rad(max_incidence_deg))
     u = np.cross(view, [0.0, 1.0, 0.0] if abs(view[1]) < 0.9 else [1.0, 0.0, 0.0])
     u /= np.linalg.norm(u)
     w = np.cross(view, u)
@@ -75,7 +77,9 @@ def visible_samples(
     depth = p_table @ view
     nearest = np.full(key.max() + 1, np.inf)
     np.minimum.at(nearest, key, depth)
-    return facing & (depth <= nearest[key] + depth_tolerance)
+    # A sloped surface spans cell * tan(incidence) in depth within one cell (diagonal).
+    slope = np.sqrt(np.clip(1.0 - cosine**2, 0.0, 1.0)) / np.maximum(cosine, 1e-3)
+    return facing & (depth <= nearest[key] + depth_tolerance + np.sqrt(2.0) * cell * slope)
 
 
 def simulate_scan(

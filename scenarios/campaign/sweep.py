@@ -1,7 +1,8 @@
 """Sweeps: `--vary KEY=V1,V2,...` options parsed, crossed, and applied to nested config dicts.
 
 Keys are dotted paths into the configuration (`laser.sigma`, `scan.coverage`); values are
-read as YAML scalars (`0.1` is a float, `none` is None, `skull` a string).
+numbers when they read as Python numbers (`500`, `1e-4`), None for `none`/`null`, and YAML
+scalars otherwise (`true`, `skull`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,22 @@ Sweep = tuple[tuple[str, tuple[Any, ...]], ...]
 
 
 def _scalar(text: str) -> Any:
-    value = yaml.safe_load(text) if text.strip() else None
+    if text.lower() in ("none", "null", "~"):
+        return None
+    for number in (int, float):
+        try:
+            return number(text)
+        except ValueError:
+            continue
+    return _yaml_scalar(text)
+
+
+def _yaml_scalar(text: str) -> Any:
+    """YAML's reading of a value that is not a number (true, a name)."""
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        raise CampaignError(f"sweep value {text!r} is not a scalar") from None
     if isinstance(value, dict | list):
         raise CampaignError(f"sweep value {text!r} must be a scalar, not a {type(value).__name__}")
     return value
