@@ -80,22 +80,30 @@ class Evaluator:
         """Points (K, 3) given in the object frame, placed at the object's true pose now."""
         return transform_points(self._truth.T_base_object(self._name), points_object)
 
+    def frame_error(self, touch: str, frame: str) -> float:
+        """Distance [m] of the TCP recorded at `touch` from the origin of the real object's
+        operation frame `frame` at its true pose then."""
+        T_tcp, T_object = self._touches[touch]
+        p_frame = self._real.frame(frame).T_part_frame[:3, 3]
+        return float(np.linalg.norm(T_tcp[:3, 3] - transform_points(T_object, p_frame[None])[0]))
+
     def targets(
         self,
         touch_offset_m: float,
         virtual: ObjectModel,
         T_base_object_estimate: np.ndarray,
+        prefix: str = "",
     ) -> tuple[TargetEvaluation, ...]:
-        """Every recorded touch against the real object's burr hole of the same name: the true
-        touch point is the real entry moved back by `touch_offset_m` along the real axis.
-        `virtual` (the planner's model) and the estimated pose (4, 4) give the registration's
-        share of each error."""
+        """Every recorded touch against the real object's burr hole of the same name (the
+        touch named `prefix` + the hole's name): the true touch point is the real entry moved
+        back by `touch_offset_m` along the real axis. `virtual` (the planner's model) and the
+        estimated pose (4, 4) give the registration's share of each error."""
         out = []
         virtual_holes = {h.name: h for h in virtual.burr_holes}
         for hole in self._real.burr_holes:
-            if hole.name not in self._touches:
+            if prefix + hole.name not in self._touches:
                 continue
-            T_tcp, T_object = self._touches[hole.name]
+            T_tcp, T_object = self._touches[prefix + hole.name]
             R, t = T_object[:3, :3], T_object[:3, 3]
             axis = R @ hole.direction
             p_entry = R @ hole.p_entry + t
@@ -111,7 +119,7 @@ class Evaluator:
             )[0]
             out.append(
                 TargetEvaluation(
-                    hole.name,
+                    prefix + hole.name,
                     float(np.linalg.norm(p_tip - p_true)),
                     angle,
                     float(np.linalg.norm(p_deep_achieved - p_deep_true)),

@@ -17,7 +17,7 @@ import numpy as np
 from cell import Controller, Kinematics, nominal_T_base_table
 from cell.errors import CellError
 from models import BurrHole
-from models.robot import TABLE_TRAVEL
+from models.robot import Q_HOME, TABLE_TRAVEL
 from scenarios.scan import TABLE_CANDIDATES_M, UnreachablePlanError
 
 
@@ -173,6 +173,16 @@ def plan_program(
     )
 
 
+def change_tool_safely(controller: Controller, tool: str) -> None:
+    """Change to `tool` through the home pose (wrist up, above the arm's base): the cell's
+    tool change goes straight from where the arm is to the rack, and from the table that
+    joint move can sweep the tool in hand through the tools hanging in the rack."""
+    if controller.tool_in_hand == tool:
+        return
+    controller.move_joints(np.array(Q_HOME))
+    controller.change_tool(tool)
+
+
 @dataclass(frozen=True)
 class ExecutedOperation:
     """What the controller measured at the touch: the TCP (4, 4) from the encoders with the
@@ -194,7 +204,7 @@ def execute_program(
     the approach, straight move to the touch, `on_touch(name)`, straight move back."""
     touched = on_touch or (lambda _name: None)
     moved = on_move or (lambda _what: None)
-    controller.change_tool(program.tool)
+    change_tool_safely(controller, program.tool)
     moved("tool change")
     if abs(controller.table_position() - program.table_position_m) > 1e-6:
         controller.move_table(program.table_position_m)

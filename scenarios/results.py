@@ -123,6 +123,18 @@ def results_table(results: dict[str, Any]) -> Table:
         )
     add("target error RMS [mm] (goal <= 0.5)", _mm(results.get("target_error_rms_m")))
     add("target error max [mm] (goal <= 1.0)", _mm(results.get("target_error_max_m")))
+    for method, row in results.get("methods", {}).items():
+        rot = row.get("rotation_error_deg")
+        add(
+            f"{method}: pose error [deg, mm]",
+            "-" if rot is None else f"{rot:.3f}, {_mm(row.get('translation_error_m'))}",
+        )
+        add(
+            f"{method}: screw error RMS / max [mm]",
+            f"{_mm(row.get('target_error_rms_m'))} / {_mm(row.get('target_error_max_m'))}",
+        )
+    if results.get("grasp_error_m") is not None:
+        add("grasp error [mm]", _mm(results["grasp_error_m"]))
     for key, value in results.get("timings_s", {}).items():
         add(f"time {key} [s]", "-" if value is None else f"{value:.1f}")
     if results.get("reason"):

@@ -192,7 +192,9 @@ def execute_scan(
     """Run the passes on the (real) cell with the laser in hand; every line's points go into
     the table frame with the table readout of that line."""
     say = progress or (lambda _msg: None)
-    controller.change_tool("laser")
+    from scenarios.program import change_tool_safely
+
+    change_tool_safely(controller, "laser")
     points, index, origins, times, which = [], [], [], [], []
     T_laser = controller.T_flange_tcp("laser")
     for k, planned in enumerate(plan):

@@ -102,14 +102,18 @@ def localize(
     acceptance: Acceptance,
     seed: int,
     voxel_m: float = 0.0,
+    mode: str = "local",
+    T_table_object_prior: np.ndarray | None = None,
 ) -> Localization:
     """Match the object points (N, 3) in the table frame to the virtual model: thinned to
-    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`."""
+    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`. Mode
+    "local" searches without prior; "refine" starts from `T_table_object_prior` (4, 4)."""
     rng = np.random.default_rng(seed)
     used = voxel_thin(points_table, voxel_m)
     if len(used) > max_points:
         used = used[np.sort(rng.choice(len(used), max_points, replace=False))]
-    result = match(used, shape, mode="local", acceptance=acceptance)
+    T_init = None if T_table_object_prior is None else invert(T_table_object_prior)
+    result = match(used, shape, mode=mode, T_init=T_init, acceptance=acceptance)  # type: ignore[arg-type]
     return Localization(invert(result.T_model_data), result, used, len(points_table))
 
 
@@ -187,6 +191,8 @@ def run_skull(
             acceptance,
             config.seed,
             config.registration.voxel_m,
+            config.registration.mode,
+            T_table_nominal,
         )
         reason = located.result.reason
     timings["register"] = time.perf_counter() - t0

@@ -1,0 +1,294 @@
+"""The assembly job (the seed's original use): a part at an unknown pose on the table.
+
+Two ways to locate it are compared on the same real cell:
+- 2D adjusting: IR edge probing of the flat part's edges (position and heading only);
+- 3D surface matching: laser scan matched to the part's virtual model (full pose), refined
+  from the 2D pose (the L-bracket's legs nearly swap under a 90 deg turn, so a search
+  without prior is ambiguous on it; see the config's registration.mode).
+Then the gripper takes the part at its grasp frame (3D pose), the robot changes to the
+screwer and drives the part's screws from above, once with each method's pose. The
+evaluator reports each method's pose error and the achieved screw-tip errors.
+
+The cell fixes meshes to the table (its loose parts are plain boxes), so the part is
+clamped where it lies: the gripper closes on it and opens again without lifting it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cell import FixedMesh, make_cell, nominal_T_base_table
+from models import BurrHole, ModelErrorSpec, ObjectModel, builtin_model, real_model
+from registration import Acceptance, MeshModel
+from scenarios.config import AssemblyConfig
+from scenarios.evaluation import Evaluator, TargetEvaluation
+from scenarios.placement import draw_true_pose, nominal_pose
+from scenarios.probing import EdgeProbe, probe_part
+from scenarios.program import (
+    OfflineProgram,
+    Operation,
+    burr_hole_operations,
+    change_tool_safely,
+    execute_program,
+    plan_program,
+)
+from scenarios.scan import ObjectBox, crop_to_object, execute_scan, plan_scan
+from scenarios.skull import cell_config, localize
+
+Progress = Callable[[str], None]
+MM = 1e-3
+#: IR probe lines of the bracket's base plate (part frame): two across the front edge
+#: (y = +25 mm), one across the left edge (x = -40 mm), clear of its holes and upright.
+BRACKET_PROBES = (
+    EdgeProbe("front 1", np.array([-15, 5, 0]) * MM, np.array([-15, 50, 0]) * MM,
+              np.array([0.0, 1.0, 0.0]), 25 * MM),
+    EdgeProbe("front 2", np.array([15, 5, 0]) * MM, np.array([15, 50, 0]) * MM,
+              np.array([0.0, 1.0, 0.0]), 25 * MM),
+    EdgeProbe("left", np.array([-15, 16, 0]) * MM, np.array([-65, 16, 0]) * MM,
+              np.array([-1.0, 0.0, 0.0]), 40 * MM),
+)  # fmt: skip
+#: Height of the bracket's base plate [m] (the step the IR sensor sees).
+BRACKET_PLATE_M = 6 * MM
+#: Screwer speed and time at each screw [rad/s], [s].
+SCREW_SPEED = 20.0
+SCREW_SECONDS = 0.5
+
+
+def screw_holes(model: ObjectModel) -> tuple[BurrHole, ...]:
+    """The part's screw frames driven from above (z within 25 deg of straight down), as
+    targets: entry at the frame's origin, direction its z axis."""
+    holes = []
+    for frame in model.frames:
+        z = frame.T_part_frame[:3, 2]
+        if frame.kind == "screw" and z[2] < -0.9:
+            holes.append(BurrHole(frame.name, frame.T_part_frame[:3, 3], z, 0.01))
+    return tuple(holes)
+
+
+def _grasp_operation(model: ObjectModel) -> Operation:
+    """The grasp frame turned 90 deg about its z so that the fingers close across the
+    part's y (the upright's thickness)."""
+    T = np.array(model.frame("grasp").T_part_frame)
+    Rz = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    T[:3, :3] = T[:3, :3] @ Rz
+    return Operation("grasp", T, 0.08)
+
+
+def _method_summary(
+    pose: Any, targets: tuple[TargetEvaluation, ...], prefix: str
+) -> dict[str, Any]:
+    errors = np.array([t.error_m for t in targets])
+    return {
+        "rotation_error_deg": pose.rotation_error_deg,
+        "translation_error_m": pose.translation_error_m,
+        "targets": [{"name": t.name.removeprefix(prefix), "error_m": t.error_m} for t in targets],
+        "target_error_rms_m": float(np.sqrt(np.mean(errors**2))) if len(errors) else None,
+        "target_error_max_m": float(errors.max()) if len(errors) else None,
+    }
+
+
+def run_assembly(
+    config: AssemblyConfig,
+    folder: Path,
+    progress: Progress | None = None,
+    recording: Any | None = None,
+) -> dict[str, Any]:
+    """Run the assembly job; returns the results."""
+    from scenarios import outputs
+
+    say = progress or (lambda _msg: None)
+    t_total = time.perf_counter()
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    model = builtin_model(config.part)
+    virtual = replace(model, burr_holes=screw_holes(model))
+    spec = ModelErrorSpec(
+        deformation_rms=config.noise.model_deformation_rms_m,
+        noise_rms=config.noise.model_noise_rms_m,
+    )
+    real, _ = real_model(virtual, spec, seed=config.seed)
+    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 6]))
+    T_table_nominal = nominal_pose(config.placement, virtual.mesh.vertices)
+    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
+    fixture = FixedMesh(
+        "part",
+        real.mesh.vertices,
+        real.mesh.faces,
+        T_table_true,
+        convex_pieces=tuple(p.vertices for p in real.convex_pieces),
+        rgba=(0.7, 0.72, 0.78, 1.0),
+    )
+    controller, truth = make_cell(cell_config(config.noise, config.seed, (fixture,)))
+    evaluator = Evaluator(truth, real, "part")
+    timings["setup"] = time.perf_counter() - t0
+    if recording is not None:
+        recording.log_cell_geometry(evaluator.mujoco_model)
+        recording.log_model(virtual, T_table_nominal)
+        recording.log_bodies(controller.time_s, evaluator.body_poses())
+
+    # 2D: IR edge probing.
+    t0 = time.perf_counter()
+    probed = probe_part(
+        controller,
+        BRACKET_PROBES,
+        T_table_nominal,
+        config.probe_height_m,
+        BRACKET_PLATE_M,
+        progress=say,
+    )
+    timings["probe"] = time.perf_counter() - t0
+    if recording is not None:
+        recording.log_bodies(controller.time_s, evaluator.body_poses())
+
+    # 3D: laser scan and surface matching.
+    t0 = time.perf_counter()
+    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
+    plan = plan_scan(controller.kinematics, box, config.scan, controller.read_joints())
+    scan = execute_scan(controller, plan, config.scan, say)
+    keep = crop_to_object(scan.points_table, box, config.placement.range_xy_m + 0.02)
+    points = scan.points_table[keep]
+    timings["scan"] = time.perf_counter() - t0
+    outputs.write_ply(folder / "scan.ply", points)
+    if recording is not None:
+        recording.log_scan(scan, keep)
+    t0 = time.perf_counter()
+    acceptance = Acceptance(
+        max_rms=config.registration.max_rms_m,
+        min_inlier_fraction=config.registration.min_inlier_fraction,
+        max_ambiguity=config.registration.max_ambiguity,
+        max_predicted_tre=config.registration.max_predicted_tre_m,
+    )
+    located = localize(
+        points,
+        MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
+        config.registration.max_points,
+        acceptance,
+        config.seed,
+        config.registration.voxel_m,
+        config.registration.mode,
+        probed.T_table_object,  # "refine" starts from the 2D adjusting's pose
+    )
+    timings["register"] = time.perf_counter() - t0
+    result = located.result
+    say(f"match: {result.verdict} (rms {result.rms * 1e3:.3f} mm, {result.seconds:.2f} s)")
+    if recording is not None:
+        recording.log_icp(result, virtual)
+    s0 = controller.table_position()
+    pose_2d = evaluator.pose_error(nominal_T_base_table(s0) @ probed.T_table_object)
+    pose_3d = evaluator.pose_error(nominal_T_base_table(s0) @ located.T_table_object)
+    accepted = result.verdict == "accepted"
+
+    # Grasp with the 3D pose, then screw with each method's pose.
+    t0 = time.perf_counter()
+    programs: dict[str, OfflineProgram] = {}
+    grasp_error_m = None
+    targets: dict[str, tuple[TargetEvaluation, ...]] = {}
+    if accepted:
+        kin, q0 = controller.kinematics, controller.read_joints()
+        grasp = plan_program(
+            kin,
+            controller.T_flange_tcp("gripper"),
+            "gripper",
+            (_grasp_operation(virtual),),
+            located.T_table_object,
+            q0,
+            spins=2,
+        )
+        change_tool_safely(controller, "gripper")
+        controller.set_gripper(0.03)
+
+        def close_and_open(name: str) -> None:
+            evaluator.record_touch(name, "gripper")
+            controller.set_gripper(0.0)
+            controller.set_gripper(0.03)
+
+        execute_program(controller, grasp, 0.05, on_touch=close_and_open)
+        grasp_error_m = evaluator.frame_error("grasp", "grasp")
+        say(f"grasp: gripper within {grasp_error_m * 1e3:.2f} mm of the true grasp frame")
+        operations = burr_hole_operations(virtual.burr_holes, 0.05, config.touch_offset_m)
+        for method, T_table_object in (
+            ("laser_3d", located.T_table_object),
+            ("ir_2d", probed.T_table_object),
+        ):
+            program = plan_program(
+                kin,
+                controller.T_flange_tcp("screwer"),
+                "screwer",
+                tuple(replace(op, name=f"{method}:{op.name}") for op in operations),
+                T_table_object,
+                controller.read_joints(),
+            )
+            programs[method] = program
+
+            def drive(name: str) -> None:
+                evaluator.record_touch(name, "screwer")
+                controller.spin_screwer(SCREW_SPEED, SCREW_SECONDS)
+
+            def moved(_what: str) -> None:
+                if recording is not None:
+                    recording.log_bodies(controller.time_s, evaluator.body_poses())
+
+            execute_program(controller, program, 0.02, on_touch=drive, on_move=moved)
+            targets[method] = evaluator.targets(
+                config.touch_offset_m, virtual, program.T_base_object, prefix=f"{method}:"
+            )
+            say(
+                f"{method}: screws driven, errors "
+                + ", ".join(f"{t.error_m * 1e3:.2f}" for t in targets[method])
+                + " mm"
+            )
+    timings["execute"] = time.perf_counter() - t0
+    if "laser_3d" in programs:
+        outputs.write_program(folder / "program.mod", programs["laser_3d"], virtual,
+                              T_table_nominal)  # fmt: skip
+        if recording is not None:
+            recording.log_targets(programs["laser_3d"], targets["laser_3d"])
+    timings["total"] = time.perf_counter() - t_total
+    predicted = result.predicted_tre(np.array([h.p_entry for h in virtual.burr_holes]))
+    rows_3d = targets.get("laser_3d", ())
+    errors = np.array([t.error_m for t in rows_3d])
+    return {
+        "status": "complete" if accepted else "refused",
+        "reason": "" if accepted else result.reason,
+        "scenario": "assembly",
+        "seed": config.seed,
+        "part": config.part,
+        "scan_points": len(points),
+        "registration": {
+            "rms_m": result.rms,
+            "rotation_error_deg": pose_3d.rotation_error_deg,
+            "translation_error_m": pose_3d.translation_error_m,
+            "ambiguity": result.ambiguity,
+            "verdict": result.verdict,
+            "reason": result.reason,
+            "seconds": result.seconds,
+            "mode": config.registration.mode,
+            "T_table_object": located.T_table_object,
+        },
+        "targets": [
+            {
+                "name": t.name.removeprefix("laser_3d:"),
+                "error_m": t.error_m,
+                "predicted_tre_m": float(p),
+                "registration_error_m": t.registration_error_m,
+            }
+            for t, p in zip(rows_3d, predicted, strict=False)
+        ],
+        "target_error_rms_m": float(np.sqrt(np.mean(errors**2))) if len(errors) else None,
+        "target_error_max_m": float(errors.max()) if len(errors) else None,
+        "methods": {
+            "ir_2d": _method_summary(pose_2d, targets.get("ir_2d", ()), "ir_2d:")
+            | {"ir_readings": probed.readings},
+            "laser_3d": _method_summary(pose_3d, rows_3d, "laser_3d:"),
+        },
+        "grasp_error_m": grasp_error_m,
+        "timings_s": {
+            k: timings.get(k) for k in ("setup", "probe", "scan", "register", "execute", "total")
+        },
+    }
