@@ -37,6 +37,8 @@ def _floats(rows: list[dict[str, str]], column: str) -> np.ndarray:
 
 
 def _quantiles(x: np.ndarray) -> dict[str, float]:
+    """Quantiles of the finite values of x (a ratio with no prediction is left out)."""
+    x = x[np.isfinite(x)]
     if len(x) == 0:
         return {"n": 0, "median": math.nan, "q05": math.nan, "q25": math.nan, "q75": math.nan,
                 "q95": math.nan, "max": math.nan}  # fmt: skip
