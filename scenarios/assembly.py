@@ -156,7 +156,7 @@ def run_assembly(
     timings["scan"] = time.perf_counter() - t0
     outputs.write_ply(folder / "scan.ply", points)
     if recording is not None:
-        recording.log_scan(scan, keep)
+        recording.log_scan(scan, keep, controller.kinematics)
     t0 = time.perf_counter()
     acceptance = Acceptance(
         max_rms=config.registration.max_rms_m,

@@ -18,10 +18,11 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import pinocchio as pin
 import rerun as rr
 import rerun.blueprint as rrb
 
-from cell import nominal_T_base_table
+from cell import Kinematics, nominal_T_base_table
 from models import ObjectModel
 from registration import MatchResult, invert
 from scenarios.evaluation import TargetEvaluation
@@ -163,8 +164,25 @@ class Recording:
                 static=True,
             )
 
-    def log_scan(self, scan: ScanData, on_object: np.ndarray) -> None:
-        """Each laser line at its time: its points and a few of its rays."""
+    def log_arm(self, time_s: float, kinematics: Kinematics, q: np.ndarray, tool: str) -> None:
+        """The arm's links and the tool in hand at joints q (6,) [rad], by the NOMINAL
+        kinematics (the pose the encoders report; the truth is logged at move ends)."""
+        model = kinematics.model
+        data = model.createData()
+        pin.forwardKinematics(model, data, np.asarray(q, dtype=float))
+        self.rec.set_time("sim_time", duration=time_s)
+        for j in range(1, model.njoints):
+            M = data.oMi[j]
+            T = np.eye(4)
+            T[:3, :3], T[:3, 3] = M.rotation, M.translation
+            self.rec.log(f"world/cell/link{j}", _transform(T))
+        self.rec.log(f"world/cell/tool_{tool}", _transform(kinematics.fk(q)))
+
+    def log_scan(
+        self, scan: ScanData, on_object: np.ndarray, kinematics: Kinematics | None = None
+    ) -> None:
+        """Each laser line at its time: its points, a few of its rays, and (with
+        `kinematics`) the arm at every other line."""
         order = np.argsort(scan.line_index, kind="stable")
         starts = np.searchsorted(scan.line_index[order], np.arange(scan.lines + 1))
         for k in range(scan.lines):
@@ -179,6 +197,8 @@ class Recording:
                 "world/table/scan/rays",
                 rr.LineStrips3D([[origin, e] for e in ends], colors=[[255, 60, 60]], radii=0.0003),
             )
+            if kinematics is not None and k % 2 == 0:
+                self.log_arm(float(scan.line_times_s[k]), kinematics, scan.line_q[k], "laser")
         everything = scan.points_table[on_object]
         self.rec.log(
             "world/table/scan/all",

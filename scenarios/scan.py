@@ -77,6 +77,7 @@ class ScanData:
         line_index: (N,) the line each point belongs to.
         line_times_s: (L,) controller time of each line [s].
         line_pass: (L,) index of the pass of each line.
+        line_q: (L, 6) measured joints of each line [rad].
     """
 
     points_table: np.ndarray
@@ -84,6 +85,7 @@ class ScanData:
     line_index: np.ndarray
     line_times_s: np.ndarray
     line_pass: np.ndarray
+    line_q: np.ndarray
 
     @property
     def lines(self) -> int:
@@ -195,7 +197,7 @@ def execute_scan(
     from scenarios.program import change_tool_safely
 
     change_tool_safely(controller, "laser")
-    points, index, origins, times, which = [], [], [], [], []
+    points, index, origins, times, which, joints = [], [], [], [], [], []
     T_laser = controller.T_flange_tcp("laser")
     for k, planned in enumerate(plan):
         if abs(controller.table_position() - planned.table_position_m) > 1e-6:
@@ -219,6 +221,7 @@ def execute_scan(
             points.append(points_in_table_frame(p_base, T_base_table))
             times.append(reading.time_s)
             which.append(k)
+            joints.append(reading.q_measured)
         n_new = sum(len(p) for p in points) - n_before
         say(f"scan {planned.name}: {len(readings)} lines, {n_new} points")
     return ScanData(
@@ -227,6 +230,7 @@ def execute_scan(
         line_index=np.concatenate(index) if index else np.zeros(0, dtype=int),
         line_times_s=np.array(times),
         line_pass=np.array(which, dtype=int),
+        line_q=np.array(joints).reshape(-1, 6),
     )
 
 

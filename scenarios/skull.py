@@ -165,7 +165,7 @@ def run_skull(
     timings["scan"] = time.perf_counter() - t0
     say(f"scan: {len(scan.points_table)} points, {len(object_points)} on the object")
     if recording is not None:
-        recording.log_scan(scan, keep)
+        recording.log_scan(scan, keep, controller.kinematics)
         recording.log_bodies(controller.time_s, evaluator.body_poses())
     outputs.write_ply(folder / "scan.ply", object_points)
 
