@@ -14,6 +14,7 @@ A RecordingStream object (not the global one) keeps parallel runs apart.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import mujoco
@@ -69,29 +70,32 @@ class Recording:
 
     def __init__(self, path: Path, spawn: bool = False, app_id: str = "twincell") -> None:
         self.path = Path(path)
+        # Written under a temporary name, renamed into place by close(keep=True): a failed
+        # or interrupted run leaves no half recording.
+        self._tmp = self.path.with_name(f".{self.path.name}.partial")
         self.rec = rr.RecordingStream(app_id)
         if spawn:
             self.rec.spawn(default_blueprint=blueprint(), connect=False)
             self.rec.set_sinks(
-                rr.FileSink(str(self.path), default_blueprint=blueprint()), rr.GrpcSink()
+                rr.FileSink(str(self._tmp), default_blueprint=blueprint()), rr.GrpcSink()
             )
         else:
-            self.rec.save(str(self.path), default_blueprint=blueprint())
-        self._bodies: list[str] = []
+            self.rec.save(str(self._tmp), default_blueprint=blueprint())
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.rec.log("world/table", _transform(nominal_T_base_table(0.0)), static=True)
 
-    def close(self) -> None:
-        """Flush and close the file."""
+    def close(self, keep: bool = True) -> None:
+        """Flush and close the file; move it into place if `keep`, else delete it."""
         self.rec.flush()
         self.rec.disconnect()
+        if keep:
+            os.replace(self._tmp, self.path)
+        else:
+            self._tmp.unlink(missing_ok=True)
 
     # -- the cell ---------------------------------------------------------------------------------
     def log_cell_geometry(self, model: mujoco.MjModel) -> None:
         """Every shown geom of the cell, static, in its body's frame."""
-        for b in range(1, model.nbody):
-            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
-            self._bodies.append(name)
         for g in range(model.ngeom):
             if model.geom_group[g] not in _SHOWN_GROUPS:
                 continue

@@ -72,10 +72,14 @@ def _skull(
 
     recording = _recording(folder, config, options)
     try:
-        return run_skull(config, folder.path, progress, recording)
-    finally:
+        results = run_skull(config, folder.path, progress, recording)
+    except BaseException:
         if recording is not None:
-            recording.close()
+            recording.close(keep=False)
+        raise
+    if recording is not None:
+        recording.close(keep=True)
+    return results
 
 
 def _assembly(
@@ -85,10 +89,14 @@ def _assembly(
 
     recording = _recording(folder, config, options)
     try:
-        return run_assembly(config, folder.path, progress, recording)
-    finally:
+        results = run_assembly(config, folder.path, progress, recording)
+    except BaseException:
         if recording is not None:
-            recording.close()
+            recording.close(keep=False)
+        raise
+    if recording is not None:
+        recording.close(keep=True)
+    return results
 
 
 JOBS: dict[str, Job] = {"paper": _paper, "skull": _skull, "assembly": _assembly}

@@ -71,7 +71,7 @@ def test_cli_reports_a_bad_config_in_one_line(
 def test_a_failing_run_leaves_results_incomplete_with_the_reason(tmp_path: Path) -> None:
     config = SkullConfig(model=str(tmp_path / "no_such_mesh.stl"))
     with pytest.raises(Exception, match="no such file"):
-        run_job(config, out=tmp_path / "runs", options=RunOptions(rrd=False))
+        run_job(config, out=tmp_path / "runs", options=RunOptions(rrd=True))
     folder = (tmp_path / "runs" / "latest").resolve()
     results = json.loads((folder / "results.json").read_text())
     assert results["status"] == "incomplete"
@@ -79,3 +79,5 @@ def test_a_failing_run_leaves_results_incomplete_with_the_reason(tmp_path: Path)
     written = yaml.safe_load((folder / "config.yaml").read_text())
     assert written["model"].endswith("no_such_mesh.stl")
     assert not (folder / "program.mod").exists()
+    # The recording had started: it is removed, not left half written.
+    assert not (folder / "run.rrd").exists() and not list(folder.glob(".*"))
