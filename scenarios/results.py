@@ -117,7 +117,7 @@ def results_table(results: dict[str, Any]) -> Table:
     add("pose translation error [mm]", _mm(reg.get("translation_error_m")))
     for t in results.get("targets", []):
         add(
-            f"target {t['name']}: error / registration share / predicted TRE [mm]",
+            f"{t['name']}: error / reg. share / pred. TRE [mm]",
             f"{_mm(t['error_m'])} / {_mm(t.get('registration_error_m'))} / "
             f"{_mm(t.get('predicted_tre_m'))}",
         )
