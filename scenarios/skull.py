@@ -22,7 +22,15 @@ from typing import Any
 
 import numpy as np
 
-from cell import ArmErrors, CellConfig, EncoderNoise, FixedMesh, LaserConfig, TableErrors
+from cell import (
+    ArmErrors,
+    CellConfig,
+    EncoderNoise,
+    FixedMesh,
+    LaserConfig,
+    TableErrors,
+    nominal_T_base_table,
+)
 from cell import make_cell as make_real_cell
 from models import ModelErrorSpec, ObjectModel, load_model, real_model
 from registration import Acceptance, MatchResult, MeshModel, invert, match
@@ -247,8 +255,6 @@ def run_skull(
     pose = None
     if located is not None:
         s_eval = program.table_position_m if program is not None else controller.table_position()
-        from cell import nominal_T_base_table
-
         pose = evaluator.pose_error(nominal_T_base_table(s_eval) @ located.T_table_object)
     target_evals = ()
     if executed and program is not None:
