@@ -62,7 +62,7 @@ def run_trial(trial: Trial) -> dict[str, Any]:
         "trial": trial.index,
         "seed": trial.seed,
         "stage": trial.stage,
-        **{f"vary.{k}": v for k, v in trial.values.items()},
+        **{f"vary.{k}": "none" if v is None else v for k, v in trial.values.items()},
     }
     t0 = time.perf_counter()
     try:
