@@ -57,11 +57,17 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
     sigma_key = next((k for k in keys if k.endswith("sigma")), None)
-    for label, g in groups:
+    for i, (label, g) in enumerate(groups):
         err = _column(g, "target_error_max_m") * 1e3
         noise = _column(g, f"vary.{sigma_key}") * 1e3 if sigma_key else _column(g, "rms_m") * 1e3
-        axes[0].scatter(noise, err, s=8, label=label)
-        axes[1].scatter(_column(g, "surface_fraction") * 100, err, s=8)
+        size = _column(g, "surface_fraction") * 100
+        yes = np.array([_accepted(r) for r in g], dtype=bool)
+        color = f"C{i % 10}"
+        axes[0].scatter(noise[yes], err[yes], s=9, color=color, label=label)
+        axes[0].scatter(noise[~yes], err[~yes], s=12, color=color, marker="x", alpha=0.5)
+        axes[1].scatter(size[yes], err[yes], s=9, color=color)
+        axes[1].scatter(size[~yes], err[~yes], s=12, color=color, marker="x", alpha=0.5)
+    axes[1].set_title("dots: accepted, crosses: not accepted", fontsize=8)
     axes[0].set_xlabel(f"{sigma_key} [mm]" if sigma_key else "registration residual RMS [mm]")
     axes[1].set_xlabel("scanned surface [% of the object]")
     axes[0].set_ylabel("largest target error [mm]")
