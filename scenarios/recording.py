@@ -14,8 +14,10 @@ A RecordingStream object (not the global one) keeps parallel runs apart.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -73,21 +75,26 @@ class Recording:
         # Written under a temporary name, renamed into place by close(keep=True): a failed
         # or interrupted run leaves no half recording.
         self._tmp = self.path.with_name(f".{self.path.name}.partial")
-        self.rec = rr.RecordingStream(app_id)
-        if spawn:
-            self.rec.spawn(default_blueprint=blueprint(), connect=False)
-            self.rec.set_sinks(
-                rr.FileSink(str(self._tmp), default_blueprint=blueprint()), rr.GrpcSink()
-            )
-        else:
-            self.rec.save(str(self._tmp), default_blueprint=blueprint())
+        to_file = rr.RecordingStream(app_id)
+        to_file.save(str(self._tmp), default_blueprint=blueprint())
+        self._viewer: rr.RecordingStream | None = None
+        if spawn:  # a second stream for the live viewer: the file never waits for it
+            self._viewer = rr.RecordingStream(app_id, recording_id=to_file.get_recording_id())
+            self._viewer.spawn(default_blueprint=blueprint())
+        self.rec = _Tee(to_file, self._viewer)
+        self._file = to_file
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.rec.log("world/table", _transform(nominal_T_base_table(0.0)), static=True)
 
     def close(self, keep: bool = True) -> None:
-        """Flush and close the file; move it into place if `keep`, else delete it."""
-        self.rec.flush()
-        self.rec.disconnect()
+        """Flush and close the file; move it into place if `keep`, else delete it. A live
+        viewer gets 5 s to take the rest, then the run goes on without it."""
+        self._file.flush()
+        self._file.disconnect()
+        if self._viewer is not None:
+            with contextlib.suppress(RuntimeError):  # no viewer came up (no display)
+                self._viewer.flush(timeout_sec=5.0)
+            self._viewer.disconnect()
         if keep:
             os.replace(self._tmp, self.path)
         else:
@@ -264,6 +271,21 @@ class Recording:
         """One scalar on a sequence timeline."""
         self.rec.set_time(timeline, sequence=step)
         self.rec.log(path, rr.Scalars(value))
+
+
+class _Tee:
+    """Log calls sent to the file stream and, if there is one, the viewer stream."""
+
+    def __init__(self, *streams: rr.RecordingStream | None) -> None:
+        self.streams = [s for s in streams if s is not None]
+
+    def log(self, *args: Any, **kwargs: Any) -> None:
+        for stream in self.streams:
+            stream.log(*args, **kwargs)
+
+    def set_time(self, *args: Any, **kwargs: Any) -> None:
+        for stream in self.streams:
+            stream.set_time(*args, **kwargs)
 
 
 def _quat_matrix(q_wxyz: np.ndarray) -> np.ndarray:
