@@ -230,8 +230,15 @@ def run_assembly(
                 evaluator.record_touch(name, "screwer")
                 controller.spin_screwer(SCREW_SPEED, SCREW_SECONDS)
 
-            def moved(_what: str) -> None:
+            def moved(what: str) -> None:
                 if recording is not None:
+                    recording.follow(
+                        controller.time_s,
+                        controller.read_joints(),
+                        controller.kinematics,
+                        controller.tool_in_hand,
+                        interpolate=what != "tool change",
+                    )
                     recording.log_bodies(controller.time_s, evaluator.body_poses())
 
             execute_program(controller, program, 0.02, on_touch=drive, on_move=moved)

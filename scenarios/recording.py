@@ -189,6 +189,27 @@ class Recording:
             self.rec.log(f"world/cell/link{j}", _transform(T))
         self.rec.log(f"world/cell/tool_{tool}", _transform(kinematics.fk(q)))
 
+    def follow(
+        self,
+        time_s: float,
+        q: np.ndarray,
+        kinematics: Kinematics,
+        tool: str | None,
+        interpolate: bool = True,
+        samples: int = 10,
+    ) -> None:
+        """The arm from the last followed state to joints q (6,) at `time_s` [s]: `samples`
+        poses along the quintic joint profile the controller's moves follow (nominal
+        kinematics; a straight TCP move is close to it over a short distance)."""
+        last = getattr(self, "_last", None)
+        self._last = (time_s, np.asarray(q, dtype=float).copy())
+        if last is None or not interpolate or tool is None:
+            return
+        t0, q0 = last
+        for tau in np.linspace(0.0, 1.0, samples + 1)[1:]:
+            shape = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+            self.log_arm(t0 + tau * (time_s - t0), kinematics, q0 + shape * (q - q0), tool)
+
     def log_scan(
         self, scan: ScanData, on_object: np.ndarray, kinematics: Kinematics | None = None
     ) -> None:

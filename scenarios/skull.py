@@ -235,8 +235,15 @@ def run_skull(
         )
         say(f"program: {len(program.operations)} operations at table {program.table_position_m} m")
 
-        def on_move(_what: str) -> None:
+        def on_move(what: str) -> None:
             if recording is not None:
+                recording.follow(
+                    controller.time_s,
+                    controller.read_joints(),
+                    controller.kinematics,
+                    controller.tool_in_hand,
+                    interpolate=what != "tool change",
+                )
                 recording.log_bodies(controller.time_s, evaluator.body_poses())
 
         executed = execute_program(
