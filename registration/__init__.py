@@ -16,7 +16,15 @@ from registration.horn import absolute_orientation, absolute_orientation_batch
 from registration.icp import IcpResult, icp
 from registration.kernels import L2, Kernel, Trimmed, Tukey, median_absolute_deviation
 from registration.match import MODES, MatchResult, Minimum, SearchSettings, as_shape, match
-from registration.quality import Acceptance, pose_covariance, predicted_tre, trimmed_rms
+from registration.quality import (
+    Acceptance,
+    ResidualCorrelation,
+    ScanPasses,
+    pose_covariance,
+    predicted_tre,
+    residual_correlation,
+    trimmed_rms,
+)
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
 from registration.shapes import (
     Closest,
@@ -43,7 +51,9 @@ __all__ = [
     "ParametricModel",
     "PointModel",
     "RegistrationError",
+    "ResidualCorrelation",
     "RobustFit",
+    "ScanPasses",
     "SearchSettings",
     "SegmentModel",
     "Shape",
@@ -61,6 +71,7 @@ __all__ = [
     "pose_covariance",
     "pose_error",
     "predicted_tre",
+    "residual_correlation",
     "rotation_angle",
     "super_fibonacci_rotations",
     "transform_points",

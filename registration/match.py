@@ -28,6 +28,7 @@ from registration.icp import Variant, icp
 from registration.kernels import Kernel, Tukey
 from registration.quality import (
     Acceptance,
+    ScanPasses,
     Verdict,
     decide,
     pose_covariance,
@@ -282,6 +283,7 @@ def match(
     settings: SearchSettings | None = None,
     max_iterations: int = 60,
     progress: Progress | None = None,
+    passes: ScanPasses | None = None,
 ) -> MatchResult:
     """Register data points to a model surface and judge the result.
 
@@ -297,6 +299,8 @@ def match(
         settings: sizes of the coarse-to-fine search.
         max_iterations: ICP iteration cap of each refinement.
         progress: optional callable receiving one line per stage.
+        passes: which scan pass each data point came from and the standard deviation of a
+            pass's rigid offset (the arm's accuracy); widens the covariance accordingly.
 
     Returns:
         A MatchResult; poor or ambiguous matches are reported in `verdict`, not raised.
@@ -425,7 +429,7 @@ def match(
     sigma *= np.sqrt(inliers.sum() / dof) if inliers.any() else 1.0
     correlation = residual_correlation(p[inliers], residuals[inliers])
     covariance = pose_covariance(
-        p, closest.normals, weights, max(sigma, 1e-12 * extent), correlation
+        p, closest.normals, weights, max(sigma, 1e-12 * extent), correlation, passes
     )
     worst_tre = float(
         np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))

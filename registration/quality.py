@@ -98,6 +98,31 @@ def residual_correlation(
     return ResidualCorrelation(float(np.sqrt(nugget)), float(np.sqrt(correlated)), float(length))
 
 
+@dataclass(frozen=True)
+class ScanPasses:
+    """The data came in passes, each displaced as a whole by an unknown offset.
+
+    A robot scans in passes; its absolute accuracy moves each pass by a few tenths of a
+    millimetre, the same for every point of the pass. Such an offset is not noise that
+    averages out over the points of the pass, and the residuals cannot reveal it where the
+    passes do not overlap: the covariance takes it from the arm's specification.
+
+    Attributes:
+        labels: pass of each data point (N,), any integers.
+        sigma_offset: standard deviation of a pass's offset along each axis [length units].
+    """
+
+    labels: Array
+    sigma_offset: float
+
+    def __post_init__(self) -> None:
+        labels = np.asarray(self.labels)
+        if labels.ndim != 1:
+            raise InputError(f"pass labels must be a 1-D array; got shape {labels.shape}")
+        if not np.isfinite(self.sigma_offset) or self.sigma_offset < 0:
+            raise InputError(f"sigma_offset must be a finite number >= 0; got {self.sigma_offset}")
+
+
 def _jacobians(points: Array, normals: Array | None) -> Array:
     """Residual Jacobians w.r.t. (dt, dtheta): (N, 1, 6) point-to-plane or (N, 3, 6)."""
     if normals is not None:
@@ -111,6 +136,7 @@ def pose_covariance(
     weights: Array,
     sigma: float,
     correlation: ResidualCorrelation | None = None,
+    passes: ScanPasses | None = None,
 ) -> Array:
     """Covariance (6, 6) of a small pose correction (dt, dtheta) applied in the model frame.
 
@@ -126,24 +152,42 @@ def pose_covariance(
         weights: robust weights (N,).
         sigma: standard deviation of one residual component if `correlation` is None.
         correlation: white and correlated parts of the residuals.
+        passes: the scan passes and the standard deviation of their rigid offsets; each
+            pass g adds H^-1 A_g S A_g^T H^-1, A_g = sum_(i in g) w_i J_i^T J_i, S the
+            offset covariance (translation only).
     """
     J = _jacobians(points, normals)
     H = np.einsum("nki,n,nkj->ij", J, weights, J)
     vals, vecs = np.linalg.eigh(H)
     floor = max(vals[-1], 1e-300) * 1e-12
     H_inv = (vecs / np.maximum(vals, floor)) @ vecs.T
-    if correlation is None:
-        return sigma**2 * H_inv
     Jw = J * weights[:, None, None]
-    middle = correlation.sigma_white**2 * np.einsum("nki,nkj->ij", Jw, J * weights[:, None, None])
-    if correlation.sigma_correlated > 0 and correlation.length > 0:
-        size = 2.5 * correlation.length
-        cell = np.floor(points / size).astype(np.int64)
-        _, patch = np.unique(cell, axis=0, return_inverse=True)
-        g = np.zeros((patch.max() + 1, J.shape[1], 6))
-        np.add.at(g, patch.ravel(), Jw)
-        middle += correlation.sigma_correlated**2 * np.einsum("pki,pkj->ij", g, g)
-    return H_inv @ middle @ H_inv
+    if correlation is None:
+        covariance = sigma**2 * H_inv
+    else:
+        middle = correlation.sigma_white**2 * np.einsum("nki,nkj->ij", Jw, Jw)
+        if correlation.sigma_correlated > 0 and correlation.length > 0:
+            size = 2.5 * correlation.length
+            cell = np.floor(points / size).astype(np.int64)
+            _, patch = np.unique(cell, axis=0, return_inverse=True)
+            g = np.zeros((patch.max() + 1, J.shape[1], 6))
+            np.add.at(g, patch.ravel(), Jw)
+            middle += correlation.sigma_correlated**2 * np.einsum("pki,pkj->ij", g, g)
+        covariance = H_inv @ middle @ H_inv
+    if passes is not None and passes.sigma_offset > 0:
+        labels = np.asarray(passes.labels)
+        if labels.shape != (len(points),):
+            raise InputError(
+                f"pass labels must have one entry per data point ({len(points)}); got "
+                f"{labels.shape}"
+            )
+        S = np.diag([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]) * passes.sigma_offset**2
+        for label in np.unique(labels):
+            in_pass = labels == label
+            A = np.einsum("nki,nkj->ij", Jw[in_pass], J[in_pass])
+            M = H_inv @ A
+            covariance = covariance + M @ S @ M.T
+    return covariance
 
 
 def predicted_tre(covariance: Array, targets: Array) -> Array:

@@ -189,3 +189,38 @@ def test_predicted_tre_accounts_for_correlated_model_error() -> None:
     measured = np.sqrt(np.mean(np.square(errors), axis=0))
     ratio = measured / np.sqrt(np.mean(np.square(predicted), axis=0))
     assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
+
+
+def _three_pass_scan(k: int, offset: float):
+    """Three passes of the blob in one data frame, each pass shifted by its own offset."""
+    from registration.rigid import random_transform
+
+    rng = np.random.default_rng(500 + k)
+    T_data_model = random_transform(rng, 0.1)
+    parts, labels = [], []
+    for g, view in enumerate([(0.0, 0.0, 1.0), (1.0, 0.0, 0.5), (-1.0, 0.3, 0.5)]):
+        scan = partial_scan(V, F, 500, view=view, min_cosine=0.4, noise=5e-5, seed=600 + 3 * k + g)
+        p_model = transform_points(scan.T_model_data, scan.points)
+        p_model += rng.normal(scale=offset, size=3)  # the pass's rigid offset
+        parts.append(transform_points(T_data_model, p_model))
+        labels.append(np.full(len(p_model), g))
+    return np.vstack(parts), np.concatenate(labels), np.linalg.inv(T_data_model)
+
+
+def test_predicted_tre_accounts_for_rigid_offsets_of_scan_passes() -> None:
+    """Three passes, each displaced as a whole by the arm's error (0.3 mm per axis): the
+    covariance takes the offsets from `ScanPasses`. Truth: 24 independent draws."""
+    from registration import ScanPasses
+
+    targets = np.array([[0.0, 0.0, 0.0], [0.08, 0.02, 0.03], [-0.05, -0.04, 0.02]])
+    errors, predicted = [], []
+    for k in range(24):
+        data, labels, T_truth = _three_pass_scan(k, offset=3e-4)
+        passes = ScanPasses(labels, sigma_offset=3e-4)
+        r = match(data, MODEL, mode="refine", T_init=T_truth, passes=passes)
+        T_err = r.T_model_data @ np.linalg.inv(T_truth)
+        errors.append(np.linalg.norm(transform_points(T_err, targets) - targets, axis=1))
+        predicted.append(r.predicted_tre(targets))
+    measured = np.sqrt(np.mean(np.square(errors), axis=0))
+    ratio = measured / np.sqrt(np.mean(np.square(predicted), axis=0))
+    assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
