@@ -70,9 +70,12 @@ class ModelError(_Section):
 
 
 class Matching(_Section):
-    """Surface matching and the thresholds of its verdict."""
+    """Surface matching and the thresholds of its verdict. `pass_sigma_m`: the arm's
+    accuracy as the matcher is told it (standard deviation of a pass's rigid offset along
+    each axis [m], a datasheet figure, with the pass of each point); None: not told."""
 
     mode: Literal["local", "global"] = "local"
+    pass_sigma_m: float | None = Field(3.0e-4 / 3**0.5, ge=0.0, le=0.01)
     max_ambiguity: float = Field(0.7, gt=0.0, le=1.0)
     max_rms_m: float = Field(1.0e-3, gt=0.0)
     max_predicted_tre_m: float = Field(1.0e-3, gt=0.0)

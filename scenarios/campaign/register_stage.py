@@ -16,7 +16,7 @@ import numpy as np
 
 from models import ObjectModel, builtin_model, real_model
 from models.model_error import ModelErrorSpec
-from registration import Acceptance, MeshModel, match
+from registration import Acceptance, MeshModel, ScanPasses, match
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_config import RegisterConfig, parse_register_config
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
@@ -93,7 +93,12 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         max_ambiguity=cfg.registration.max_ambiguity,
         max_predicted_tre=cfg.registration.max_predicted_tre_m,
     )
-    result = match(scan.points, shape, mode=cfg.registration.mode, acceptance=acceptance)
+    passes = None
+    if cfg.registration.pass_sigma_m is not None:
+        passes = ScanPasses(scan.pass_index, cfg.registration.pass_sigma_m)
+    result = match(
+        scan.points, shape, mode=cfg.registration.mode, acceptance=acceptance, passes=passes
+    )
     names, targets = targets_of(virtual)
     predicted = result.predicted_tre(targets)
 

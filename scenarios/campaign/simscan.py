@@ -43,10 +43,12 @@ class ScanErrors:
 @dataclass(frozen=True)
 class SimulatedScan:
     """Scan points (N, 3) in the table frame [m]; `inlier` (N,) marks points on the surface;
-    `surface_fraction` is the fraction of the object's area the scan covers."""
+    `pass_index` (N,) the pass each point came from (known to the scanner); `surface_fraction`
+    is the fraction of the object's area the scan covers."""
 
     points: np.ndarray
     inlier: np.ndarray
+    pass_index: np.ndarray
     surface_fraction: float
 
 
@@ -123,10 +125,11 @@ def simulate_scan(
         seen = patch
     surface_fraction = float(seen.mean())
     chunks = []
+    labels = []
     sizes = np.array([s.sum() for s in seen_by], dtype=float)
     shares = np.floor(count * sizes / max(sizes.sum(), 1.0)).astype(int)
     shares[int(np.argmax(sizes))] += count - shares.sum()
-    for tilt, mask, share in zip(tilts_deg, seen_by, shares, strict=True):
+    for k, (tilt, mask, share) in enumerate(zip(tilts_deg, seen_by, shares, strict=True)):
         if share <= 0 or not mask.any():
             continue
         view = view_direction(tilt)
@@ -137,6 +140,7 @@ def simulate_scan(
         dt = rng.normal(scale=errors.pass_sigma / np.sqrt(3), size=3)
         centre = p.mean(axis=0)
         chunks.append(dR.apply(p - centre) + centre + dt)
+        labels.append(np.full(share, k))
     points = np.concatenate(chunks)
     inlier = np.ones(len(points), dtype=bool)
     n_out = round(errors.outlier_fraction * len(points))
@@ -146,4 +150,4 @@ def simulate_scan(
         out = rng.choice(len(points), size=n_out, replace=False)
         points[out] = rng.uniform(lo - pad, hi + pad, size=(n_out, 3))
         inlier[out] = False
-    return SimulatedScan(points, inlier, surface_fraction)
+    return SimulatedScan(points, inlier, np.concatenate(labels), surface_fraction)
