@@ -173,6 +173,8 @@ def run_assembly(
         config.registration.voxel_m,
         config.registration.mode,
         probed.T_table_object,  # "refine" starts from the 2D adjusting's pose
+        scan.line_pass[scan.line_index][keep],
+        config.registration.pass_sigma_m,
     )
     timings["register"] = time.perf_counter() - t0
     result = located.result

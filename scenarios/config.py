@@ -88,10 +88,13 @@ class Registration(_Section):
     """Surface matching of the scan to the virtual model: the object points are thinned to
     one per `voxel_m` cube (so that regions scanned twice do not outweigh the others), then
     at most `max_points` of them are drawn (seeded). `mode` "local" searches every pose
-    (no prior); "refine" starts from the nominal placement (the prior a fixture gives)."""
+    (no prior); "refine" starts from a prior pose. `pass_sigma_m`: the arm's absolute
+    accuracy as the matcher is told it (a scan pass's rigid offset per axis [m], about
+    0.3 mm in all, a datasheet figure) for the predicted TRE; None: not told."""
 
     voxel_m: float = Field(0.003, ge=0.0, le=0.05)
     mode: Literal["local", "refine"] = "local"
+    pass_sigma_m: float | None = Field(3.0e-4 / 3**0.5, ge=0.0, le=0.01)
     max_points: int = Field(6000, ge=100, le=1_000_000)
     max_ambiguity: float = Field(0.7, gt=0.0, le=1.0)
     max_rms_m: float = Field(1.0e-3, gt=0.0)

@@ -33,7 +33,7 @@ from cell import (
 )
 from cell import make_cell as make_real_cell
 from models import ModelErrorSpec, ObjectModel, load_model, real_model
-from registration import Acceptance, MatchResult, MeshModel, invert, match
+from registration import Acceptance, MatchResult, MeshModel, ScanPasses, invert, match
 from scenarios.config import Noise, SkullConfig
 from scenarios.evaluation import Evaluator
 from scenarios.placement import draw_true_pose, nominal_pose
@@ -94,13 +94,13 @@ def cell_config(noise: Noise, seed: int, fixtures: tuple[FixedMesh, ...]) -> Cel
 
 
 def voxel_thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
-    """The first point (K, 3) of `points` (N, 3) in each occupied cube of side `voxel_m` [m]
-    (all points if voxel_m is 0)."""
+    """Indices (K,) of the first point of `points` (N, 3) in each occupied cube of side
+    `voxel_m` [m] (every index if voxel_m is 0)."""
     if voxel_m <= 0.0:
-        return points
+        return np.arange(len(points))
     keys = np.floor(points / voxel_m).astype(np.int64)
     _, first = np.unique(keys, axis=0, return_index=True)
-    return points[np.sort(first)]
+    return np.sort(first)
 
 
 def localize(
@@ -112,16 +112,31 @@ def localize(
     voxel_m: float = 0.0,
     mode: str = "local",
     T_table_object_prior: np.ndarray | None = None,
+    pass_labels: np.ndarray | None = None,
+    pass_sigma_m: float | None = None,
 ) -> Localization:
     """Match the object points (N, 3) in the table frame to the virtual model: thinned to
     one point per `voxel_m` cube, then a seeded subsample of at most `max_points`. Mode
-    "local" searches without prior; "refine" starts from `T_table_object_prior` (4, 4)."""
+    "local" searches without prior; "refine" starts from `T_table_object_prior` (4, 4).
+    With the scan pass of each point `pass_labels` (N,) and the arm's accuracy
+    `pass_sigma_m` [m] (a pass's rigid offset, per axis), the predicted TRE includes it."""
     rng = np.random.default_rng(seed)
-    used = voxel_thin(points_table, voxel_m)
-    if len(used) > max_points:
-        used = used[np.sort(rng.choice(len(used), max_points, replace=False))]
+    index = voxel_thin(points_table, voxel_m)
+    if len(index) > max_points:
+        index = index[np.sort(rng.choice(len(index), max_points, replace=False))]
+    used = points_table[index]
+    passes = None
+    if pass_labels is not None and pass_sigma_m is not None:
+        passes = ScanPasses(np.asarray(pass_labels)[index], pass_sigma_m)
     T_init = None if T_table_object_prior is None else invert(T_table_object_prior)
-    result = match(used, shape, mode=mode, T_init=T_init, acceptance=acceptance)  # type: ignore[arg-type]
+    result = match(
+        used,
+        shape,
+        mode=mode,  # type: ignore[arg-type]
+        T_init=T_init,
+        acceptance=acceptance,
+        passes=passes,
+    )
     return Localization(invert(result.T_model_data), result, used, len(points_table))
 
 
@@ -201,6 +216,8 @@ def run_skull(
             config.registration.voxel_m,
             config.registration.mode,
             T_table_nominal,
+            scan.line_pass[scan.line_index][keep],
+            config.registration.pass_sigma_m,
         )
         reason = located.result.reason
     timings["register"] = time.perf_counter() - t0
