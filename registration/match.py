@@ -392,6 +392,7 @@ def match(
     fits = float(np.mean(Tukey(min_scale=1e-6 * extent).weights(runs[best_i].residuals) > 0))
     trim = float(np.clip(fits - 0.05, settings.trim, 0.95))
     costs = np.array([float(trimmed_rms(run.residuals, trim)) for run in runs])
+    best_i = int(np.argmin(costs))
     second = None
     for i in np.argsort(costs):
         T_i = runs[int(i)].T_model_data

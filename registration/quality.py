@@ -220,7 +220,7 @@ class Acceptance:
 
     max_rms: float | None = None
     min_inlier_fraction: float = 0.5
-    max_ambiguity: float = 0.7
+    max_ambiguity: float = 0.5
     max_predicted_tre: float | None = None
 
 

@@ -96,7 +96,7 @@ class Registration(_Section):
     mode: Literal["local", "refine"] = "local"
     pass_sigma_m: float | None = Field(3.0e-4 / 3**0.5, ge=0.0, le=0.01)
     max_points: int = Field(6000, ge=100, le=1_000_000)
-    max_ambiguity: float = Field(0.7, gt=0.0, le=1.0)
+    max_ambiguity: float = Field(0.5, gt=0.0, le=1.0)
     max_rms_m: float = Field(1.0e-3, gt=0.0)
     max_predicted_tre_m: float = Field(1.0e-3, gt=0.0)
     min_inlier_fraction: float = Field(0.5, gt=0.0, le=1.0)
