@@ -9,6 +9,7 @@ target moved by the estimated pose against the true one), comparable with the pr
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from typing import Any
@@ -53,10 +54,8 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         "ambiguity": registration.get("ambiguity"),
         "rms_m": registration.get("rms_m"),
         "inlier_fraction": registration.get("inlier_fraction"),
-        "rotation_error_rad": None
-        if rotation_deg is None
-        else float(rotation_deg) * 3.141592653589793 / 180,
-        "centroid_error_m": registration.get("translation_error_m"),
+        "rotation_error_rad": None if rotation_deg is None else math.radians(float(rotation_deg)),
+        "translation_error_m": registration.get("translation_error_m"),
         "target_error_max_m": max(reg_errors) if reg_errors else None,
         "executed_error_max_m": max(exec_errors) if exec_errors else None,
         "right_object": 1,
