@@ -58,7 +58,8 @@ class SearchSettings:
 
     Attributes:
         rotations: rotations of the global start set.
-        anchors: model anchor points of the local start set.
+        anchors: model anchor points of the local start set, for a scan at least 0.7 of the
+            model's size; smaller scans get up to four times as many.
         spins: rotations about the aligned normal at each anchor (local).
         normal_radius: neighbourhood radius for the local normals, as a fraction of the
             model extent.
@@ -194,6 +195,19 @@ def check_data(data: Array) -> Array:
             f"needs points spanning at least a plane"
         )
     return data
+
+
+def _anchor_count(data: Array, extent: float, settings: SearchSettings) -> int:
+    """Model anchors for local starts: more where the scan covers a smaller part of the model.
+
+    A small patch has a small basin of convergence, so the anchors must lie closer together:
+    their number grows with (0.7 model extent / scan extent)^2, up to four times the
+    base count, in steps of 32 (the anchor frames are cached per count).
+    """
+    lo, hi = np.percentile(data, [2, 98], axis=0)
+    ratio = max(float(np.linalg.norm(hi - lo)) / extent, 1e-9)
+    count = settings.anchors * min(max((0.7 / ratio) ** 2, 1.0), 4.0)
+    return int(np.ceil(count / 32) * 32)
 
 
 def _subsample(points: Array, count: int, rng: np.random.Generator) -> Array:
@@ -337,7 +351,7 @@ def match(
             )
         else:
             radius = settings.normal_radius * extent
-            anchors, frames = shape.anchor_frames(settings.anchors, radius)
+            anchors, frames = shape.anchor_frames(_anchor_count(data, extent, settings), radius)
             dense = len(data) >= settings.dense_data and len(shape.samples) >= settings.dense_model
             if dense:
                 R, t = local_starts(data, anchors, frames, settings.spins, radius)
