@@ -12,7 +12,9 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from scenarios.campaign.errors import CampaignError
-from scenarios.config import Placement
+from scenarios.config import Placement, Registration
+
+_SKULL = Registration()  # the skull job's verdict thresholds: the trials judge alike
 
 Case = Literal["default", "symmetric", "small_scan", "wrong_object", "outliers"]
 
@@ -70,16 +72,17 @@ class ModelError(_Section):
 
 
 class Matching(_Section):
-    """Surface matching and the thresholds of its verdict. `pass_sigma_m`: the arm's
+    """Surface matching and the thresholds of its verdict (by default the skull job's).
+    `pass_sigma_m`: the arm's
     accuracy as the matcher is told it (standard deviation of a pass's rigid offset along
     each axis [m], a datasheet figure, with the pass of each point); None: not told."""
 
     mode: Literal["local", "global"] = "local"
     pass_sigma_m: float | None = Field(3.0e-4 / 3**0.5, ge=0.0, le=0.01)
-    max_ambiguity: float = Field(0.7, gt=0.0, le=1.0)
-    max_rms_m: float = Field(1.0e-3, gt=0.0)
-    max_predicted_tre_m: float = Field(1.0e-3, gt=0.0)
-    min_inlier_fraction: float = Field(0.5, gt=0.0, le=1.0)
+    max_ambiguity: float = Field(_SKULL.max_ambiguity, gt=0.0, le=1.0)
+    max_rms_m: float = Field(_SKULL.max_rms_m, gt=0.0)
+    max_predicted_tre_m: float = Field(_SKULL.max_predicted_tre_m, gt=0.0)
+    min_inlier_fraction: float = Field(_SKULL.min_inlier_fraction, gt=0.0, le=1.0)
 
 
 class RegisterConfig(_Section):
