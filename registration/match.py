@@ -323,6 +323,11 @@ def match(
     if mode not in MODES:
         raise InputError(f"unknown matching mode {mode!r}; valid: {', '.join(MODES)}")
     data = check_data(data)
+    if passes is not None and np.shape(passes.labels) != (len(data),):
+        raise InputError(
+            f"passes.labels must give one pass per data point ({len(data)}); got shape "
+            f"{np.shape(passes.labels)}"
+        )
     shape = as_shape(model)
     settings = settings or SearchSettings()
     acceptance = acceptance or Acceptance()

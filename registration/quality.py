@@ -66,6 +66,8 @@ def residual_correlation(
         residuals: residuals (N,) of the inliers [length units].
     """
     n = len(points)
+    if n == 0:
+        return ResidualCorrelation(0.0, 0.0, 0.0)
     total = float(np.mean(residuals**2))
     if n < 30:
         return ResidualCorrelation(np.sqrt(total), 0.0, 0.0)

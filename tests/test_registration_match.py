@@ -159,6 +159,10 @@ def test_bad_options_are_named() -> None:
         match(pts, MODEL, mode="refine")
     with pytest.raises(InputError, match="model must be"):
         match(pts, "skull.stl")
+    from registration import ScanPasses
+
+    with pytest.raises(InputError, match="one pass per data point"):
+        match(pts, MODEL, passes=ScanPasses(np.zeros(3, dtype=int), 3e-4))
 
 
 def _deformed(vertices: np.ndarray, faces: np.ndarray, rms: float, seed: int) -> np.ndarray:
