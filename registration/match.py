@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -24,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from registration.errors import InputError
 from registration.horn import absolute_orientation_batch
-from registration.icp import Variant, icp
+from registration.icp import IcpResult, Variant, icp
 from registration.kernels import Kernel, Tukey
 from registration.quality import (
     Acceptance,
@@ -73,6 +73,8 @@ class SearchSettings:
         dense_data, dense_model: below these numbers of data points or model surface samples,
             local normals are unreliable and the local start set is every rotation at every
             anchor instead of normal-aligned spins.
+        whole_fit: if no candidate fits this fraction of the scan, the search runs again
+            with twice the starts (the scan holds spurious points, or a wrong minimum won).
         rank_iterations: ICP iterations on the subsample for each distinct candidate, before
             the minima are ranked.
         trim: fraction of the smallest residuals in a start's cost (robust to outliers and
@@ -92,6 +94,7 @@ class SearchSettings:
     mid_iterations: int = 8
     refine: int = 4
     rank_iterations: int = 20
+    whole_fit: float = 0.97
     dense_data: int = 50
     dense_model: int = 2000
     trim: float = 0.6
@@ -286,6 +289,59 @@ def _distinct(
     return chosen
 
 
+def _search(
+    data: Array,
+    mid: Array,
+    shape: Shape,
+    mode: str,
+    settings: SearchSettings,
+    rng: np.random.Generator,
+    stage: dict[str, float],
+    say: Progress,
+) -> tuple[list[Array], int]:
+    """Initial states, scored at once, the best refined together: distinct candidates.
+
+    Returns the candidate poses (4, 4) and the number of initial states tried.
+    """
+    extent = shape.extent
+    t0 = time.perf_counter()
+    if mode == "global":
+        R, t = global_starts(
+            data.mean(axis=0), shape.centroid, super_fibonacci_rotations(settings.rotations)
+        )
+    else:
+        radius = settings.normal_radius * extent
+        anchors, frames = shape.anchor_frames(_anchor_count(data, extent, settings), radius)
+        dense = len(data) >= settings.dense_data and len(shape.samples) >= settings.dense_model
+        if dense:
+            R, t = local_starts(data, anchors, frames, settings.spins, radius)
+        else:
+            R, t = grid_local_starts(data, anchors, super_fibonacci_rotations(settings.rotations))
+    n_starts = len(R)
+    coarse = _subsample(mid, settings.coarse_points, rng)
+    p = coarse @ R.transpose(0, 2, 1) + t[:, None, :]
+    lookup = shape.sample_lookup
+    d, _ = lookup.query(p)
+    cost = trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
+    # Small data sets afford more survivors for the same work.
+    n_keep = max(settings.keep_coarse, settings.mid_budget // len(mid))
+    keep = np.argsort(cost)[:n_keep]
+    stage["score"] = stage.get("score", 0.0) + time.perf_counter() - t0
+    say(f"scored {n_starts} initial states, kept {len(keep)}")
+
+    t0 = time.perf_counter()
+    T_mid, cost_mid = _batched_icp(
+        shape, mid, make_T_batch(R[keep], t[keep]), settings.mid_iterations, settings.trim
+    )
+    T_list = list(T_mid)
+    chosen = _distinct(
+        T_list, np.argsort(cost_mid), mid, settings.distinct * extent, settings.refine
+    )
+    stage["coarse_icp"] = stage.get("coarse_icp", 0.0) + time.perf_counter() - t0
+    say(f"coarse ICP on {len(keep)} starts, refining {len(chosen)} distinct candidates")
+    return [T_list[i] for i in chosen], n_starts
+
+
 def match(
     data: Array,
     model: Shape | Array | object,
@@ -349,67 +405,43 @@ def match(
         candidates = [T_init]
         n_starts = 1
     else:
-        t0 = time.perf_counter()
-        if mode == "global":
-            R, t = global_starts(
-                data.mean(axis=0), shape.centroid, super_fibonacci_rotations(settings.rotations)
-            )
-        else:
-            radius = settings.normal_radius * extent
-            anchors, frames = shape.anchor_frames(_anchor_count(data, extent, settings), radius)
-            dense = len(data) >= settings.dense_data and len(shape.samples) >= settings.dense_model
-            if dense:
-                R, t = local_starts(data, anchors, frames, settings.spins, radius)
-            else:
-                rotations = super_fibonacci_rotations(settings.rotations)
-                R, t = grid_local_starts(data, anchors, rotations)
-        n_starts = len(R)
-        coarse = _subsample(mid, settings.coarse_points, rng)
-        p = coarse @ R.transpose(0, 2, 1) + t[:, None, :]
-        lookup = shape.sample_lookup
-        d, _ = lookup.query(p)
-        cost = trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
-        # Small data sets afford more survivors for the same work.
-        n_keep = max(settings.keep_coarse, settings.mid_budget // len(mid))
-        keep = np.argsort(cost)[:n_keep]
-        stage["score"] = time.perf_counter() - t0
-        say(f"scored {n_starts} initial states, kept {len(keep)}")
-
-        t0 = time.perf_counter()
-        T_mid, cost_mid = _batched_icp(
-            shape,
-            mid,
-            make_T_batch(R[keep], t[keep]),
-            settings.mid_iterations,
-            settings.trim,
-        )
-        order = np.argsort(cost_mid)
-        T_list = list(T_mid)
-        chosen = _distinct(T_list, order, mid, settings.distinct * extent, settings.refine)
-        candidates = [T_list[i] for i in chosen]
-        stage["coarse_icp"] = time.perf_counter() - t0
-        say(f"coarse ICP on {len(keep)} starts, refining {len(candidates)} distinct candidates")
+        candidates, n_starts = _search(data, mid, shape, mode, settings, rng, stage, say)
 
     # Refine every distinct candidate on the subsample against the exact model, rank the
     # minima there (same points for all), then refine the best one on all the data.
     t0 = time.perf_counter()
-    runs = [
-        icp(
-            mid,
-            shape,
-            T0,
-            variant=variant,
-            kernel=kernel,
-            max_iterations=min(settings.rank_iterations, max_iterations),
+
+    def rank(poses: list[Array]) -> list[IcpResult]:
+        cap = min(settings.rank_iterations, max_iterations)
+        return [
+            icp(mid, shape, T0, variant=variant, kernel=kernel, max_iterations=cap) for T0 in poses
+        ]
+
+    def fitted(run: IcpResult) -> float:
+        return float(np.mean(Tukey(min_scale=1e-6 * extent).weights(run.residuals) > 0))
+
+    runs = rank(candidates)
+    best_fit = max(fitted(run) for run in runs)
+    if mode != "refine" and best_fit < settings.whole_fit:
+        # No candidate fits the whole scan: either the scan holds spurious points, or the
+        # search stopped in a wrong minimum that fits most of it. Search again, denser.
+        denser = replace(
+            settings,
+            rotations=2 * settings.rotations,
+            anchors=2 * settings.anchors,
+            spins=settings.spins * 3 // 2,
+            keep_coarse=2 * settings.keep_coarse,
+            refine=2 * settings.refine,
         )
-        for T0 in candidates
-    ]
+        say(f"the best candidate fits {best_fit:.0%} of the scan: searching again, denser")
+        more, n_more = _search(data, mid, shape, mode, denser, rng, stage, say)
+        runs += rank(more)
+        n_starts += n_more
     costs = np.array([float(trimmed_rms(run.residuals, settings.trim)) for run in runs])
     best_i = int(np.argmin(costs))
     # The minima are compared on as many points as the best pose fits: a wrong pose that
     # slides along a smooth region may fit a large share of the scan, but not all of it.
-    fits = float(np.mean(Tukey(min_scale=1e-6 * extent).weights(runs[best_i].residuals) > 0))
-    trim = float(np.clip(fits - 0.05, settings.trim, 0.95))
+    trim = float(np.clip(fitted(runs[best_i]) - 0.05, settings.trim, 0.95))
     costs = np.array([float(trimmed_rms(run.residuals, trim)) for run in runs])
     best_i = int(np.argmin(costs))
     second = None
