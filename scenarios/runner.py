@@ -65,14 +65,13 @@ def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
     return Recording(folder.file("run.rrd"), spawn=options.spawn)
 
 
-def _skull(
-    config: SkullConfig, folder: RunFolder, progress: Progress, options: RunOptions
+def _recorded(
+    run: Any, config: Any, folder: RunFolder, progress: Progress, options: RunOptions
 ) -> dict[str, Any]:
-    from scenarios.skull import run_skull
-
+    """Run a scenario with its recording; the recording is kept only if the run completes."""
     recording = _recording(folder, config, options)
     try:
-        results = run_skull(config, folder.path, progress, recording)
+        results = run(config, folder.path, progress, recording)
     except BaseException:
         if recording is not None:
             recording.close(keep=False)
@@ -80,6 +79,14 @@ def _skull(
     if recording is not None:
         recording.close(keep=True)
     return results
+
+
+def _skull(
+    config: SkullConfig, folder: RunFolder, progress: Progress, options: RunOptions
+) -> dict[str, Any]:
+    from scenarios.skull import run_skull
+
+    return _recorded(run_skull, config, folder, progress, options)
 
 
 def _assembly(
@@ -87,16 +94,7 @@ def _assembly(
 ) -> dict[str, Any]:
     from scenarios.assembly import run_assembly
 
-    recording = _recording(folder, config, options)
-    try:
-        results = run_assembly(config, folder.path, progress, recording)
-    except BaseException:
-        if recording is not None:
-            recording.close(keep=False)
-        raise
-    if recording is not None:
-        recording.close(keep=True)
-    return results
+    return _recorded(run_assembly, config, folder, progress, options)
 
 
 JOBS: dict[str, Job] = {"paper": _paper, "skull": _skull, "assembly": _assembly}
