@@ -181,7 +181,8 @@ def shipped_names() -> tuple[str, ...]:
     return tuple(sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")))
 
 
-def _describe(error: ValidationError) -> str:
+def describe_validation_error(error: ValidationError) -> str:
+    """A pydantic validation error in one line: unknown keys and bad values, each named."""
     parts = []
     for item in error.errors():
         where = ".".join(str(x) for x in item["loc"]) or "(top)"
@@ -190,6 +191,19 @@ def _describe(error: ValidationError) -> str:
         else:
             parts.append(f"{where}: {item['msg']} (got {item.get('input')!r})")
     return "; ".join(parts)
+
+
+def read_yaml_mapping(path: Path, error: type[Exception] = ConfigError) -> dict[str, Any]:
+    """The mapping in a YAML file; a missing file, bad YAML or a non-mapping raise `error`."""
+    if not path.is_file():
+        raise error(f"{path}: no such configuration file")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise error(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(data, dict):
+        raise error(f"{path}: a configuration must be a mapping of keys")
+    return data
 
 
 def parse_config(data: dict[str, Any], source: str = "config") -> Config:
@@ -202,7 +216,7 @@ def parse_config(data: dict[str, Any], source: str = "config") -> Config:
     try:
         return _KINDS[kind].model_validate(data)  # type: ignore[return-value]
     except ValidationError as exc:
-        raise ConfigError(f"{source}: {_describe(exc)}") from None
+        raise ConfigError(f"{source}: {describe_validation_error(exc)}") from None
 
 
 def load_config(name_or_path: str | Path, overrides: dict[str, Any] | None = None) -> Config:
@@ -217,15 +231,7 @@ def load_config(name_or_path: str | Path, overrides: dict[str, Any] | None = Non
             f"unknown scenario {text!r}; shipped: {', '.join(shipped_names())}, or give a "
             f".yaml file"
         )
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such configuration file")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"{path}: a configuration must be a mapping of keys")
-    data = {**data, **(overrides or {})}
+    data = {**read_yaml_mapping(path), **(overrides or {})}
     return parse_config(data, str(path))
 
 

@@ -28,6 +28,7 @@ from scenarios.campaign.register_config import (
 from scenarios.campaign.store import ResultStore, write_atomic
 from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
 from scenarios.campaign.trials import STAGES, Trial, trial_id
+from scenarios.config import read_yaml_mapping
 
 Backend = Literal["local", "dask"]
 BACKENDS: tuple[str, ...] = ("local", "dask")
@@ -57,18 +58,6 @@ class CampaignSpec:
         }
 
 
-def _load_yaml(path: Path) -> dict[str, Any]:
-    if not path.is_file():
-        raise CampaignError(f"{path}: no such configuration file")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise CampaignError(f"{path}: not valid YAML: {exc}") from None
-    if not isinstance(data, dict):
-        raise CampaignError(f"{path}: a configuration must be a mapping of keys")
-    return data
-
-
 def base_config(name: str, stage: str) -> dict[str, Any]:
     """The base configuration of a campaign: for the register stage a built-in model name
     (skull, ellipsoid, bracket, housing, lid) or a YAML file of RegisterConfig keys; for the
@@ -82,7 +71,7 @@ def base_config(name: str, stage: str) -> dict[str, Any]:
                 f"unknown campaign {name!r} for the register stage; give a model "
                 f"({', '.join(_MODELS)}) or a .yaml file"
             )
-        data = _load_yaml(path)
+        data = read_yaml_mapping(path, CampaignError)
         data.pop("stage", None)
         return parse_register_config(data, str(path)).model_dump(mode="json")
     if stage == "full":

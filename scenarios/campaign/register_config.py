@@ -12,7 +12,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from scenarios.campaign.errors import CampaignError
-from scenarios.config import Placement, Registration
+from scenarios.config import Placement, Registration, describe_validation_error
 
 _SKULL = Registration()  # the skull job's verdict thresholds: the trials judge alike
 
@@ -113,11 +113,4 @@ def parse_register_config(data: dict[str, Any], source: str = "register config")
     try:
         return RegisterConfig.model_validate(data)
     except ValidationError as exc:
-        parts = []
-        for item in exc.errors():
-            where = ".".join(str(x) for x in item["loc"]) or "(top)"
-            if item["type"] == "extra_forbidden":
-                parts.append(f"unknown key {where!r}")
-            else:
-                parts.append(f"{where}: {item['msg']} (got {item.get('input')!r})")
-        raise CampaignError(f"{source}: {'; '.join(parts)}") from None
+        raise CampaignError(f"{source}: {describe_validation_error(exc)}") from None
