@@ -12,6 +12,7 @@ from cell.config import (
     FixedPrimitive,
     IRConfig,
     LaserConfig,
+    LooseMesh,
     LoosePart,
     TableErrors,
 )
@@ -47,6 +48,7 @@ __all__ = [
     "Kinematics",
     "LaserConfig",
     "LaserReading",
+    "LooseMesh",
     "LoosePart",
     "TableErrors",
     "ToolChangerError",

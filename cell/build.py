@@ -11,9 +11,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from cell.config import CellConfig, FixedMesh, FixedPrimitive, LoosePart
+from cell.config import CellConfig, FixedMesh, FixedPrimitive, LooseMesh, LoosePart
 from cell.errors import CellConfigError
-from cell.transforms import R_to_quat_wxyz, make_T
+from cell.mass import MassProperties, mesh_mass_properties
+from cell.transforms import R_to_quat_wxyz, make_T, quat_wxyz_to_R
 from models.robot import ROBOT_FILE, TABLE_TOP_POS, ArmGeometry, arm_xml, scene_xml
 
 #: Geom group of objects' exact surfaces (seen by the rays) and of contact-only pieces.
@@ -21,6 +22,13 @@ OBJECT_GROUP = 1
 CONTACT_ONLY_GROUP = 5
 #: Pose of the table frame (`table_top` site) in the `table` body frame.
 T_TABLEBODY_TABLE = make_T(np.eye(3), np.array([0.0, 0.0, TABLE_TOP_POS[2]]))
+#: Contact of loose mesh objects: soft-constraint parameters as stiff as the fingers' (a
+#: 4 ms time constant, critically damped) so that a part neither sinks nor jitters, and
+#: friction across the contact plane plus torsion (condim 4): a pinch grasp holds the part's
+#: weight by sliding friction and its turning by the torsional term.
+LOOSE_SOLREF = (0.004, 1.0)
+LOOSE_SOLIMP = (0.95, 0.99, 0.0005, 0.5, 2.0)
+LOOSE_CONDIM = 4
 
 
 @dataclass(frozen=True)
@@ -108,6 +116,56 @@ def _add_part(spec: mujoco.MjSpec, part: LoosePart) -> None:
     )
 
 
+def _add_loose_mesh(spec: mujoco.MjSpec, obj: LooseMesh) -> MassProperties:
+    """A free body at the object's pose (the table at position 0): the exact mesh for the rays
+    (group 1, no contact, no mass), the convex pieces for contact (group 5), the inertia of
+    the solid mesh."""
+    table = spec.body("table")
+    T_world_tablebody = make_T(quat_wxyz_to_R(np.array(table.quat)), np.array(table.pos))
+    T = T_world_tablebody @ T_TABLEBODY_TABLE @ obj.T_table_object
+    mass = mesh_mass_properties(obj.vertices, obj.faces, obj.density_kg_m3, obj.mass_kg)
+    body = spec.worldbody.add_body(name=obj.name, pos=T[:3, 3], quat=R_to_quat_wxyz(T[:3, :3]))
+    body.add_freejoint(name=f"{obj.name}_free")
+    body.explicitinertial = True
+    body.mass = mass.mass_kg
+    body.ipos = mass.p_object_com
+    body.fullinertia = mass.fullinertia()
+    mesh = spec.add_mesh(name=f"{obj.name}_mesh")
+    mesh.uservert = obj.vertices.ravel().tolist()
+    mesh.userface = obj.faces.ravel().tolist()
+    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    contact = {
+        "friction": [obj.friction, 0.01, 0.0001],
+        "condim": LOOSE_CONDIM,
+        "solref": list(LOOSE_SOLREF),
+        "solimp": list(LOOSE_SOLIMP),
+    }
+    collides = not obj.convex_pieces
+    body.add_geom(
+        name=obj.name,
+        type=mujoco.mjtGeom.mjGEOM_MESH,
+        meshname=mesh.name,
+        rgba=obj.rgba,
+        group=OBJECT_GROUP,
+        contype=int(collides),
+        conaffinity=int(collides),
+        **contact,
+    )
+    for i, piece in enumerate(obj.convex_pieces):
+        hull = spec.add_mesh(name=f"{obj.name}_hull{i}")
+        hull.uservert = np.asarray(piece, dtype=float).ravel().tolist()
+        hull.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX
+        body.add_geom(
+            name=f"{obj.name}_hull{i}",
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=hull.name,
+            group=CONTACT_ONLY_GROUP,
+            rgba=(0.5, 0.5, 0.5, 0.3),
+            **contact,
+        )
+    return mass
+
+
 def build_model(config: CellConfig, arm: ArmGeometry | None = None) -> mujoco.MjModel:
     """Compile the cell's MuJoCo model with the given arm geometry (default nominal)."""
     spec = mujoco.MjSpec.from_string(
@@ -116,7 +174,10 @@ def build_model(config: CellConfig, arm: ArmGeometry | None = None) -> mujoco.Mj
     for obj in config.fixtures:
         _add_fixture(spec, obj)
     for part in config.parts:
-        _add_part(spec, part)
+        if isinstance(part, LooseMesh):
+            _add_loose_mesh(spec, part)
+        else:
+            _add_part(spec, part)
     try:
         return spec.compile()
     except ValueError as exc:  # MuJoCo's compiler names the element it rejects

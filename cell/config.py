@@ -133,6 +133,29 @@ def _check_T(owner: str, T: np.ndarray) -> np.ndarray:
     return T
 
 
+def _check_mesh(
+    owner: str, vertices: np.ndarray, faces: np.ndarray, convex_pieces: tuple[np.ndarray, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Validated (N, 3) float vertices and (M, 3) int32 faces of a mesh object."""
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 4 or not np.all(np.isfinite(v)):
+        raise CellConfigError(f"{owner}: vertices must be finite (N>=4, 3), got shape {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] < 1 or not np.issubdtype(f.dtype, np.integer):
+        raise CellConfigError(f"{owner}: faces must be integer (M, 3), got shape {f.shape}")
+    if f.min() < 0 or f.max() >= v.shape[0]:
+        raise CellConfigError(
+            f"{owner}: face indices must be in [0, {v.shape[0]}), got [{f.min()}, {f.max()}]"
+        )
+    for i, piece in enumerate(convex_pieces):
+        p = np.asarray(piece, dtype=float)
+        if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 4 or not np.all(np.isfinite(p)):
+            raise CellConfigError(
+                f"{owner}: convex piece {i} must be finite (K>=4, 3), got {p.shape}"
+            )
+    return v, f.astype(np.int32)
+
+
 @dataclass(frozen=True, eq=False)
 class FixedMesh:
     """A mesh object fixed on the table at `T_table_object` (its TRUE pose in the real cell).
@@ -151,39 +174,52 @@ class FixedMesh:
     rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0)
 
     def __post_init__(self) -> None:
-        v = np.asarray(self.vertices, dtype=float)
-        f = np.asarray(self.faces)
-        if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 4 or not np.all(np.isfinite(v)):
-            raise CellConfigError(
-                f"FixedMesh {self.name!r}: vertices must be finite (N>=4, 3), got shape {v.shape}"
-            )
-        if (
-            f.ndim != 2
-            or f.shape[1] != 3
-            or f.shape[0] < 1
-            or not np.issubdtype(f.dtype, np.integer)
-        ):
-            raise CellConfigError(
-                f"FixedMesh {self.name!r}: faces must be integer (M, 3), got shape {f.shape}"
-            )
-        if f.min() < 0 or f.max() >= v.shape[0]:
-            raise CellConfigError(
-                f"FixedMesh {self.name!r}: face indices must be in [0, {v.shape[0]}), "
-                f"got [{f.min()}, {f.max()}]"
-            )
-        for i, piece in enumerate(self.convex_pieces):
-            p = np.asarray(piece, dtype=float)
-            if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 4 or not np.all(np.isfinite(p)):
-                raise CellConfigError(
-                    f"FixedMesh {self.name!r}: convex piece {i} must be finite (K>=4, 3), "
-                    f"got {p.shape}"
-                )
+        owner = f"FixedMesh {self.name!r}"
+        v, f = _check_mesh(owner, self.vertices, self.faces, self.convex_pieces)
         object.__setattr__(self, "vertices", v)
-        object.__setattr__(self, "faces", f.astype(np.int32))
+        object.__setattr__(self, "faces", f)
         object.__setattr__(
-            self,
-            "T_table_object",
-            _check_T(f"FixedMesh {self.name!r} T_table_object", self.T_table_object),
+            self, "T_table_object", _check_T(f"{owner} T_table_object", self.T_table_object)
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class LooseMesh:
+    """A mesh object lying loose on the table: a free body that starts at `T_table_object`
+    (its TRUE initial pose; it then moves as physics moves it) and that a gripper can pick.
+
+    `vertices` (N, 3) [m] and `faces` (M, 3) int in the object frame, a closed surface: rays
+    hit its exact triangles and its mass properties come from its volume. Contacts use
+    `convex_pieces` (each a (K, 3) vertex array in the object frame; without them the mesh's
+    own hull). The mass is `mass_kg` if given, else the volume times `density_kg_m3` (the
+    default is aluminium's); `friction` is the sliding friction coefficient of its contacts
+    (MuJoCo takes the larger of the two geoms' coefficients).
+    """
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    T_table_object: np.ndarray
+    convex_pieces: tuple[np.ndarray, ...] = ()
+    density_kg_m3: float = 2700.0
+    mass_kg: float | None = None
+    friction: float = 1.0
+    rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0)
+
+    def __post_init__(self) -> None:
+        owner = f"LooseMesh {self.name!r}"
+        v, f = _check_mesh(owner, self.vertices, self.faces, self.convex_pieces)
+        for name, value in (("density_kg_m3", self.density_kg_m3), ("friction", self.friction)):
+            if not (np.isfinite(value) and value > 0):
+                raise CellConfigError(f"{owner}: {name} must be finite and > 0, got {value!r}")
+        if self.mass_kg is not None and not (np.isfinite(self.mass_kg) and self.mass_kg > 0):
+            raise CellConfigError(
+                f"{owner}: mass_kg must be None (from the volume) or > 0, got {self.mass_kg!r}"
+            )
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f)
+        object.__setattr__(
+            self, "T_table_object", _check_T(f"{owner} T_table_object", self.T_table_object)
         )
 
 
@@ -247,12 +283,22 @@ class CellConfig:
     laser: LaserConfig = field(default_factory=LaserConfig)
     ir: IRConfig = field(default_factory=IRConfig)
     fixtures: tuple[FixedMesh | FixedPrimitive, ...] = ()
-    parts: tuple[LoosePart, ...] = ()
+    parts: tuple[LoosePart | LooseMesh, ...] = ()
 
     def __post_init__(self) -> None:
         names = [o.name for o in (*self.fixtures, *self.parts)]
         if len(set(names)) != len(names):
             raise CellConfigError(f"object names on the table must be unique, got {names}")
+        for obj in self.fixtures:
+            if not isinstance(obj, FixedMesh | FixedPrimitive):
+                raise CellConfigError(
+                    f"fixtures must be FixedMesh or FixedPrimitive, got {type(obj).__name__}"
+                )
+        for part in self.parts:
+            if not isinstance(part, LoosePart | LooseMesh):
+                raise CellConfigError(
+                    f"parts must be LoosePart or LooseMesh, got {type(part).__name__}"
+                )
 
     def ideal(self) -> CellConfig:
         """The same cell with every error source set to zero (the nominal cell)."""

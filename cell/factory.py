@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 from cell.build import build_model, draw_real_parameters
@@ -20,6 +21,16 @@ def nominal_kinematics() -> Kinematics:
     return Kinematics.from_mjcf(ROBOT_PATH, "flange")
 
 
+def _carry_loose_parts(sim: Simulation, config: CellConfig) -> None:
+    """Loose parts are built where the table is at position 0; the axis starts at its
+    positioning error: put them where they lie on the table, before any step."""
+    dy = sim.table_q()
+    for part in config.parts:
+        qadr = int(sim.model.joint(f"{part.name}_free").qposadr[0])
+        sim.data.qpos[qadr + 1] += dy
+    mujoco.mj_forward(sim.model, sim.data)
+
+
 def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     """Build the real cell described by `config` (default: default errors, seed 0).
 
@@ -32,6 +43,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 2]))
     encoders = Encoders(sim, config.encoder.sigma_rad, rng)
     table = TableAxis(sim, params.table_bias_m, config.table.repeat_sigma_m, rng)
+    _carry_loose_parts(sim, config)
     laser = LaserScanner(sim.model, sim.tcp_site[LASER.name], config.laser, rng)
     ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
     sim.settle(0.2)

@@ -59,12 +59,16 @@ class CellTruth:
         return self._sim.site_T(self._sim.model.site("table_top").id)
 
     def T_base_object(self, name: str) -> np.ndarray:
-        """(4, 4) true pose of a fixed object on the table in the robot base frame."""
+        """(4, 4) true pose, NOW, of an object on the table in the robot base frame: a fixed
+        one rides on the table; a loose one (a free body) is wherever physics has put it."""
         for obj in self.config.fixtures:
             if obj.name == name:
                 return self.T_base_table() @ obj.T_table_object
-        names = ", ".join(o.name for o in self.config.fixtures) or "none"
-        raise UnknownNameError(f"no fixed object {name!r}; fixed objects: {names}")
+        for part in self.config.parts:
+            if part.name == name:
+                return self._sim.body_T(self._sim.model.body(name).id)
+        names = ", ".join(o.name for o in (*self.config.fixtures, *self.config.parts)) or "none"
+        raise UnknownNameError(f"no object {name!r} on the table; objects: {names}")
 
     def T_base_tcp(self, tool: str) -> np.ndarray:
         """(4, 4) true pose of `tool`'s TCP site (wherever the tool is)."""

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from cell import FixedMesh, make_cell, nominal_T_base_table
+from cell import LooseMesh, make_cell, nominal_T_base_table
 from models import BurrHole, ModelErrorSpec, ObjectModel, builtin_model, real_model
 from registration import Acceptance, MeshModel
 from scenarios.config import AssemblyConfig
@@ -55,6 +55,11 @@ BRACKET_PROBES = (
 )  # fmt: skip
 #: Height of the bracket's base plate [m] (the step the IR sensor sees).
 BRACKET_PLATE_M = 6 * MM
+#: Pick: finger opening around the upright [m], lift height [m] and speed [m/s], hold [s].
+GRIPPER_OPEN_M = 0.03
+LIFT_M = 0.04
+LIFT_SPEED = 0.05
+HOLD_S = 1.0
 #: Screwer speed and time at each screw [rad/s], [s].
 SCREW_SPEED = 20.0
 SCREW_SECONDS = 0.5
@@ -116,15 +121,17 @@ def run_assembly(
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 6]))
     T_table_nominal = nominal_pose(config.placement, virtual.mesh.vertices)
     T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
-    fixture = FixedMesh(
+    part = LooseMesh(
         "part",
         real.mesh.vertices,
         real.mesh.faces,
         T_table_true,
         convex_pieces=tuple(p.vertices for p in real.convex_pieces),
         rgba=(0.7, 0.72, 0.78, 1.0),
+    )  # aluminium (2700 kg/m^3): about 0.13 kg
+    controller, truth = make_cell(
+        replace(cell_config(config.noise, config.seed, ()), parts=(part,))
     )
-    controller, truth = make_cell(cell_config(config.noise, config.seed, (fixture,)))
     evaluator = Evaluator(truth, real, "part")
     timings["setup"] = time.perf_counter() - t0
     if recording is not None:
@@ -190,6 +197,7 @@ def run_assembly(
     t0 = time.perf_counter()
     programs: dict[str, OfflineProgram] = {}
     grasp_error_m = None
+    pick = None
     targets: dict[str, tuple[TargetEvaluation, ...]] = {}
     if accepted:
         kin, q0 = controller.kinematics, controller.read_joints()
@@ -203,16 +211,30 @@ def run_assembly(
             spins=2,
         )
         change_tool_safely(controller, "gripper")
-        controller.set_gripper(0.03)
+        controller.set_gripper(GRIPPER_OPEN_M)
+        T_base_touch = grasp.operations[0].T_base_touch
+        T_base_lift = T_base_touch.copy()
+        T_base_lift[2, 3] += LIFT_M
 
-        def close_and_open(name: str) -> None:
-            evaluator.record_touch(name, "gripper")
-            controller.set_gripper(0.0)
-            controller.set_gripper(0.03)
+        def pick_and_put_down(name: str) -> None:
+            evaluator.record_touch(name, "gripper")  # at rest, fingers open around it
+            controller.set_gripper(0.0)  # squeeze: force-limited fingers stop on the upright
+            evaluator.record_touch("pick: closed", "gripper")
+            controller.move_linear(T_base_lift, speed_m_s=LIFT_SPEED, settle_s=HOLD_S)
+            evaluator.record_touch("pick: lifted", "gripper")
+            controller.move_linear(T_base_touch, speed_m_s=LIFT_SPEED)  # where it was taken
+            controller.set_gripper(GRIPPER_OPEN_M)
 
-        execute_program(controller, grasp, 0.05, on_touch=close_and_open)
+        execute_program(controller, grasp, 0.05, on_touch=pick_and_put_down)
+        evaluator.record_touch("pick: placed", "gripper")  # gripper retreated
         grasp_error_m = evaluator.frame_error("grasp", "grasp")
-        say(f"grasp: gripper within {grasp_error_m * 1e3:.2f} mm of the true grasp frame")
+        pick = evaluator.pick("grasp", "pick: closed", "pick: lifted", "pick: placed")
+        say(
+            f"grasp: gripper within {grasp_error_m * 1e3:.2f} mm of the true grasp frame; "
+            f"lifted {pick.lifted_m * 1e3:.1f} mm, slip {pick.slip_m * 1e3:.3f} mm, put down "
+            f"{pick.placed_displacement_m * 1e3:.3f} mm / {pick.placed_rotation_deg:.3f} deg "
+            "from where it was"
+        )
         operations = burr_hole_operations(virtual.burr_holes, 0.05, config.touch_offset_m)
         for method, T_table_object in (
             ("laser_3d", located.T_table_object),
@@ -297,6 +319,14 @@ def run_assembly(
             "laser_3d": _method_summary(pose_3d, rows_3d, "laser_3d:"),
         },
         "grasp_error_m": grasp_error_m,
+        "pick": None
+        if pick is None
+        else {
+            "lifted_m": pick.lifted_m,
+            "slip_m": pick.slip_m,
+            "placed_displacement_m": pick.placed_displacement_m,
+            "placed_rotation_deg": pick.placed_rotation_deg,
+        },
         "timings_s": {
             k: timings.get(k) for k in ("setup", "probe", "scan", "register", "execute", "total")
         },

@@ -53,6 +53,25 @@ class PoseEvaluation:
     T_base_object_true: np.ndarray
 
 
+@dataclass(frozen=True)
+class PickEvaluation:
+    """A pick and put-down measured on the true part.
+
+    Attributes:
+        lifted_m: rise of the part's frame origin from its rest pose to the lifted pose [m].
+        slip_m: displacement of the part in the gripper's true TCP frame from the closing of
+            the fingers to the end of the lift and hold [m].
+        placed_displacement_m: translation of the part's true pose from its rest before the
+            pick to its rest after the put-down [m].
+        placed_rotation_deg: rotation between the same two poses [deg].
+    """
+
+    lifted_m: float
+    slip_m: float
+    placed_displacement_m: float
+    placed_rotation_deg: float
+
+
 class Evaluator:
     """Reads the truth of one run: the cell's `truth`, the object's real entity and its name."""
 
@@ -75,6 +94,24 @@ class Evaluator:
         T_true = self._truth.T_base_object(self._name)
         rot, trans = pose_error(T_base_object_estimate, T_true)
         return PoseEvaluation(float(np.rad2deg(rot)), trans, T_true.copy())
+
+    def pick(self, rest: str, closed: str, lifted: str, placed: str) -> PickEvaluation:
+        """The pick measured from four recorded moments (names given to `record_touch`): the
+        part at `rest` before the fingers close, `closed` in the closed fingers, `lifted` at
+        the top of the lift, `placed` back at rest after the put-down (the table must not
+        move between `rest` and `placed`: the poses are compared in the base frame)."""
+        T_rest, T_placed = self._touches[rest][1], self._touches[placed][1]
+        T_tcp_closed, T_closed = self._touches[closed]
+        T_tcp_lifted, T_lifted = self._touches[lifted]
+        p_in_tcp_closed = np.linalg.solve(T_tcp_closed, T_closed)[:3, 3]
+        p_in_tcp_lifted = np.linalg.solve(T_tcp_lifted, T_lifted)[:3, 3]
+        rot, trans = pose_error(T_placed, T_rest)
+        return PickEvaluation(
+            float(T_lifted[2, 3] - T_rest[2, 3]),
+            float(np.linalg.norm(p_in_tcp_lifted - p_in_tcp_closed)),
+            trans,
+            float(np.rad2deg(rot)),
+        )
 
     def true_points_base(self, points_object: np.ndarray) -> np.ndarray:
         """Points (K, 3) given in the object frame, placed at the object's true pose now."""
