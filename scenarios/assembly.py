@@ -5,12 +5,15 @@ Two ways to locate it are compared on the same real cell:
 - 3D surface matching: laser scan matched to the part's virtual model (full pose), refined
   from the 2D pose (the L-bracket's legs nearly swap under a 90 deg turn, so a search
   without prior is ambiguous on it; see the config's registration.mode).
-Then the gripper takes the part at its grasp frame (3D pose), the robot changes to the
-screwer and drives the part's screws from above, once with each method's pose. The
-evaluator reports each method's pose error and the achieved screw-tip errors.
-
-The cell fixes meshes to the table (its loose parts are plain boxes), so the part is
-clamped where it lies: the gripper closes on it and opens again without lifting it.
+Then the gripper picks the part at its grasp frame (3D pose): it closes across the upright's
+top edge, lifts the part 40 mm, holds it, puts it down where it took it (the gripper goes back
+to the pick pose, so the part needs no new pose estimate) and opens. The part is a loose body
+on the table (the table carries it by friction; it does not slide while the part is in the
+gripper). After the put-down the program's own idea of where the part is remains the located
+pose: the screws are then driven from above with the screwer, once with each method's pose.
+The evaluator reports each method's pose error, the achieved screw-tip errors (against where
+the part really is at each screw), and the pick measured on the true part: how high it rose,
+how far it slipped in the fingers and how far the put-down moved it.
 """
 
 from __future__ import annotations

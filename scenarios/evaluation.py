@@ -59,8 +59,9 @@ class PickEvaluation:
 
     Attributes:
         lifted_m: rise of the part's frame origin from its rest pose to the lifted pose [m].
-        slip_m: displacement of the part in the gripper's true TCP frame from the closing of
-            the fingers to the end of the lift and hold [m].
+        slip_m: displacement of the part's grip point (its grasp frame's origin) in the
+            gripper's true TCP frame from the closing of the fingers to the end of the lift
+            and hold [m].
         placed_displacement_m: translation of the part's true pose from its rest before the
             pick to its rest after the put-down [m].
         placed_rotation_deg: rotation between the same two poses [deg].
@@ -95,20 +96,25 @@ class Evaluator:
         rot, trans = pose_error(T_base_object_estimate, T_true)
         return PoseEvaluation(float(np.rad2deg(rot)), trans, T_true.copy())
 
-    def pick(self, rest: str, closed: str, lifted: str, placed: str) -> PickEvaluation:
+    def pick(
+        self, rest: str, closed: str, lifted: str, placed: str, grip_frame: str = "grasp"
+    ) -> PickEvaluation:
         """The pick measured from four recorded moments (names given to `record_touch`): the
         part at `rest` before the fingers close, `closed` in the closed fingers, `lifted` at
         the top of the lift, `placed` back at rest after the put-down (the table must not
-        move between `rest` and `placed`: the poses are compared in the base frame)."""
+        move between `rest` and `placed`: the poses are compared in the base frame). Slip is
+        measured at the origin of the real part's frame `grip_frame` (between the fingers),
+        so that the part turning about the grip is not counted as slip."""
         T_rest, T_placed = self._touches[rest][1], self._touches[placed][1]
-        T_tcp_closed, T_closed = self._touches[closed]
-        T_tcp_lifted, T_lifted = self._touches[lifted]
-        p_in_tcp_closed = np.linalg.solve(T_tcp_closed, T_closed)[:3, 3]
-        p_in_tcp_lifted = np.linalg.solve(T_tcp_lifted, T_lifted)[:3, 3]
+        p_grip = np.append(self._real.frame(grip_frame).T_part_frame[:3, 3], 1.0)
+        p_grip_tcp = [
+            np.linalg.solve(T_tcp, T_object @ p_grip)[:3]
+            for T_tcp, T_object in (self._touches[closed], self._touches[lifted])
+        ]
         rot, trans = pose_error(T_placed, T_rest)
         return PickEvaluation(
-            float(T_lifted[2, 3] - T_rest[2, 3]),
-            float(np.linalg.norm(p_in_tcp_lifted - p_in_tcp_closed)),
+            float(self._touches[lifted][1][2, 3] - T_rest[2, 3]),
+            float(np.linalg.norm(p_grip_tcp[1] - p_grip_tcp[0])),
             trans,
             float(np.rad2deg(rot)),
         )

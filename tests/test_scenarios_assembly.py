@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from cell import CellConfig, FixedMesh, LooseMesh, make_cell, nominal_T_base_table
 from models import builtin_model
@@ -80,6 +81,70 @@ def test_assembly_run_completes_with_both_methods(results: dict) -> None:
         assert row["rotation_error_deg"] < 1.0 and row["translation_error_m"] < 2e-3
         assert row["target_error_max_m"] < 2e-3
     assert results["grasp_error_m"] < 2e-3
+
+
+def test_assembly_picks_the_part_up_and_puts_it_back(results: dict) -> None:
+    """The pick measured on the true part (seeds 0-3 gave a rise of 39.9-40.0 mm, slip
+    0.08-0.21 mm, put down 0.06-0.42 mm and 0.03-0.19 deg from where it lay)."""
+    pick = results["pick"]
+    assert pick["lifted_m"] == pytest.approx(0.04, abs=5e-4)  # the 40 mm lift, less slip
+    assert pick["slip_m"] < 5e-4
+    assert pick["placed_displacement_m"] < 1e-3 and pick["placed_rotation_deg"] < 0.5
+
+
+class _Truth:
+    """Recorded true poses handed out one pair per `record_touch` (TCP, part)."""
+
+    def __init__(self, poses: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        self._poses = iter(poses)
+        self._now = poses[0]
+
+    def T_base_tcp(self, tool: str) -> np.ndarray:
+        self._now = next(self._poses)
+        return self._now[0]
+
+    def T_base_object(self, name: str) -> np.ndarray:
+        return self._now[1]
+
+
+def test_pick_figures_from_known_poses() -> None:
+    """Rise, slip at the grip point and put-down error from hand-made poses."""
+    from scenarios.evaluation import Evaluator
+
+    bracket = builtin_model("bracket")
+    p_grip = bracket.frame("grasp").T_part_frame[:3, 3]  # (0, -22, 56) mm
+    T_rest = np.eye(4)
+    T_rest[:3, 3] = [1.0, 0.1, 0.4]
+    T_tcp = np.eye(4)
+    T_tcp[:3, 3] = T_rest[:3, 3] + p_grip
+    up = np.eye(4)
+    up[2, 3] = 0.04
+    # Lifted: the TCP rose 40 mm, the part 39.7 mm and it turned 0.5 deg about the grip
+    # point's x axis: the grip point slipped 0.3 mm down in the fingers.
+    turn = np.eye(4)
+    turn[:3, :3] = Rotation.from_euler("x", 0.5, degrees=True).as_matrix()
+    T_grip = np.eye(4)
+    T_grip[:3, 3] = T_rest[:3, 3] + p_grip
+    sink = np.eye(4)
+    sink[2, 3] = 0.0397
+    T_lifted = sink @ T_grip @ turn @ np.linalg.inv(T_grip) @ T_rest
+    T_placed = T_rest.copy()
+    T_placed[:3, 3] += [3e-4, -4e-4, 0.0]
+    truth = _Truth(
+        [(T_tcp, T_rest), (T_tcp, T_rest), (up @ T_tcp, T_lifted), (up @ T_tcp, T_placed)]
+    )
+    evaluator = Evaluator(truth, bracket, "part")  # type: ignore[arg-type]
+    for name in ("rest", "closed", "lifted", "placed"):
+        evaluator.record_touch(name, "gripper")
+    pick = evaluator.pick("rest", "closed", "lifted", "placed")
+    # The origin is 56 mm below and 22 mm in front of the grip point (part y): the turn
+    # raises it by 22 mm * sin(0.5 deg) + 56 mm * (1 - cos(0.5 deg)).
+    a = np.deg2rad(0.5)
+    rise = 0.0397 + 0.022 * np.sin(a) + 0.056 * (1 - np.cos(a))
+    assert pick.lifted_m == pytest.approx(rise, abs=1e-12)
+    assert pick.slip_m == pytest.approx(3e-4, abs=1e-12)
+    assert pick.placed_displacement_m == pytest.approx(5e-4, abs=1e-12)
+    assert pick.placed_rotation_deg == pytest.approx(0.0, abs=1e-9)
 
 
 def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> None:
