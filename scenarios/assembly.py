@@ -219,16 +219,28 @@ def run_assembly(
         T_base_lift = T_base_touch.copy()
         T_base_lift[2, 3] += LIFT_M
 
+        def pick_moved(what: str) -> None:  # the part's true pose is in the body poses
+            if recording is not None:
+                recording.follow(
+                    controller.time_s,
+                    controller.read_joints(),
+                    controller.kinematics,
+                    controller.tool_in_hand,
+                    interpolate=what != "tool change",
+                )
+                recording.log_bodies(controller.time_s, evaluator.body_poses())
+
         def pick_and_put_down(name: str) -> None:
             evaluator.record_touch(name, "gripper")  # at rest, fingers open around it
             controller.set_gripper(0.0)  # squeeze: force-limited fingers stop on the upright
             evaluator.record_touch("pick: closed", "gripper")
             controller.move_linear(T_base_lift, speed_m_s=LIFT_SPEED, settle_s=HOLD_S)
             evaluator.record_touch("pick: lifted", "gripper")
+            pick_moved("lift")
             controller.move_linear(T_base_touch, speed_m_s=LIFT_SPEED)  # where it was taken
             controller.set_gripper(GRIPPER_OPEN_M)
 
-        execute_program(controller, grasp, 0.05, on_touch=pick_and_put_down)
+        execute_program(controller, grasp, 0.05, on_touch=pick_and_put_down, on_move=pick_moved)
         evaluator.record_touch("pick: placed", "gripper")  # gripper retreated
         grasp_error_m = evaluator.frame_error("grasp", "grasp")
         pick = evaluator.pick("grasp", "pick: closed", "pick: lifted", "pick: placed")
