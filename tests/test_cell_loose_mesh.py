@@ -4,6 +4,8 @@ simulation against analytic values."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import trimesh
@@ -61,6 +63,20 @@ def test_bad_loose_meshes_are_refused_by_name() -> None:
         CellConfig(fixtures=(cube,))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="unique"):
         CellConfig(parts=(cube, cube))
+
+
+def test_a_loose_part_starts_where_it_lies_on_the_table_and_takes_a_given_mass() -> None:
+    """The table axis starts at its positioning error (seed 22: 0.19 mm); the part is placed
+    relative to the table, not to where the table would be without the error."""
+    part = replace(_bracket(0.0), mass_kg=0.5)
+    controller, truth = make_cell(CellConfig(seed=22, parts=(part,)))
+    assert abs(truth.table_error_m()) > 1.5e-4
+    T = inv_T(truth.T_base_table()) @ truth.T_base_object("bracket")
+    d_rot, d_pos = pose_error(T, part.T_table_object)
+    assert d_pos < 3e-5 and np.degrees(d_rot) < 0.01  # contact softness: 15 um
+    assert truth.simulation.model.body_mass[truth.simulation.model.body("bracket").id] == 0.5
+    # The controller offers no way to the part's true pose.
+    assert not [name for name in dir(controller) if "object" in name.lower()]
 
 
 def _bracket(yaw_deg: float) -> LooseMesh:

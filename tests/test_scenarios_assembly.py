@@ -1,6 +1,6 @@
 """The assembly job end to end in physics: IR edge probing (2D) and surface matching (3D) of
-the bracket, grasp, tool change, screws driven with each method's pose; the numbers are
-checked against the truth read here."""
+the bracket, pick (lift and put-down), tool change, screws driven with each method's pose;
+the numbers are checked against the truth read here."""
 
 from __future__ import annotations
 
