@@ -7,13 +7,18 @@ example-robot-data in the tests). Configurations `q` are (nq,) arrays [rad or m]
 
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from cell.errors import CellConfigError, JointLimitError, UnknownNameError, UnreachableTargetError
+
+if TYPE_CHECKING:
+    from models.robot import ArmGeometry
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,17 @@ class Kinematics:
         if not path.is_file():
             raise CellConfigError(f"robot MJCF {str(path)!r} does not exist")
         return cls(pin.buildModelFromMJCF(str(path)), tip_frame)
+
+    @classmethod
+    def from_geometry(cls, geometry: ArmGeometry, tip_frame: str = "flange") -> Kinematics:
+        """The cell's arm with the kinematic parameters `geometry` (lengths [m], joint zero
+        offsets [rad]), e.g. a calibrated arm; `ArmGeometry()` is the nominal arm."""
+        from models.robot import arm_xml
+
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "arm.xml"
+            path.write_text(arm_xml(geometry))
+            return cls.from_mjcf(path, tip_frame)
 
     @classmethod
     def from_urdf(

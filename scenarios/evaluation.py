@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from cell import CellTruth
+from cell import CellTruth, Kinematics, nominal_T_base_slot
 from models import ObjectModel
+from models.robot import Q_HOME, TOOLS
 from registration import pose_error, transform_points
 
 
@@ -71,6 +72,24 @@ class PickEvaluation:
     slip_m: float
     placed_displacement_m: float
     placed_rotation_deg: float
+
+
+@dataclass(frozen=True)
+class KinematicsEvaluation:
+    """A kinematic model's TCP error against the real arm over a sample of configurations.
+
+    The tool is mounted as a fetch from its rack slot with that model leaves it (the tool
+    changer locks the tool where the flange meets it). `mean_m`, `max_m`: distance of the
+    real TCP from the model's [m]; `aligned_mean_m`, `aligned_max_m`: the same after the best
+    rigid motion of all the model's TCPs (what a registration made with the same kinematics
+    absorbs) [m]; `configurations` the sample's size.
+    """
+
+    mean_m: float
+    max_m: float
+    aligned_mean_m: float
+    aligned_max_m: float
+    configurations: int
 
 
 class Evaluator:
@@ -191,3 +210,27 @@ class Evaluator:
     def mujoco_model(self) -> mujoco.MjModel:
         """The real cell's MuJoCo model (geometry for the recording)."""
         return self._truth.simulation.model
+
+    # -- the arm ----------------------------------------------------------------------------------
+    def kinematics_error(
+        self, kinematics: Kinematics, q_samples: np.ndarray, tool: str
+    ) -> KinematicsEvaluation:
+        """TCP error of `kinematics` (a planner's model of the arm) against the real arm at
+        the configurations `q_samples` (K, 6) [rad], with `tool` fetched from its slot with
+        that model (see KinematicsEvaluation)."""
+        spec = {t.name: t for t in TOOLS}[tool]
+        real = self._truth.kinematics()
+        T_base_slot = nominal_T_base_slot(tool)
+        q_slot = kinematics.solve(T_base_slot, np.array(Q_HOME))
+        T_flange_tool = np.linalg.solve(real.fk(q_slot), T_base_slot)
+        q = np.asarray(q_samples, dtype=float).reshape(-1, 6)
+        p_model = np.array([(kinematics.fk(qi) @ spec.T_tool_tcp)[:3, 3] for qi in q])
+        p_real = np.array([(real.fk(qi) @ T_flange_tool @ spec.T_tool_tcp)[:3, 3] for qi in q])
+        a, b = p_model - p_model.mean(axis=0), p_real - p_real.mean(axis=0)
+        U, _, Vt = np.linalg.svd(a.T @ b)
+        D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T)))])
+        aligned = np.linalg.norm(b - a @ (Vt.T @ D @ U.T).T, axis=1)
+        raw = np.linalg.norm(p_real - p_model, axis=1)
+        return KinematicsEvaluation(
+            float(raw.mean()), float(raw.max()), float(aligned.mean()), float(aligned.max()), len(q)
+        )
