@@ -57,6 +57,28 @@ def test_sphere_mesh_normals_point_outward() -> None:
     assert c.normals[1] @ (np.array([1.0, 1, 1]) / np.sqrt(3)) > 0.95
 
 
+def test_mesh_normals_beyond_an_edge_follow_the_offset() -> None:
+    # A unit cube [0, 1]^3: a point above the top face keeps the face normal; a point beyond
+    # the top's edge at x = 1 (closest point on that edge) gets the offset's direction, so
+    # its point-to-plane residual is its distance, not the 0 of the top face's plane.
+    import trimesh
+
+    cube = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    cube.apply_translation((0.5, 0.5, 0.5))
+    model = MeshModel(cube.vertices, cube.faces)
+    p = np.array([[0.3, 0.4, 1.2], [1.3, 0.5, 1.0 + 1e-9], [1.3, 0.5, 1.4], [0.5, 0.5, 0.9]])
+    c = model.closest(p)
+    assert c.normals is not None
+    np.testing.assert_allclose(c.normals[0], [0.0, 0.0, 1.0], atol=1e-12)
+    expected = (p[1:3] - [[1.0, 0.5, 1.0], [1.0, 0.5, 1.0]]) / [[0.3], [0.5]]
+    np.testing.assert_allclose(c.normals[1:3], expected, atol=1e-6)
+    residuals = np.einsum("nd,nd->n", c.normals, p - c.points)
+    np.testing.assert_allclose(np.abs(residuals[:3]), [0.2, 0.3, 0.5], atol=1e-9)
+    # Inside, under the top face: the face normal, and a negative (inside) residual.
+    np.testing.assert_allclose(c.normals[3], [0.0, 0.0, 1.0], atol=1e-12)
+    assert residuals[3] == pytest.approx(-0.1, abs=1e-12)
+
+
 def test_parametric_sphere_distance_is_exact_after_refinement() -> None:
     def sphere(u, v):
         return np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], -1)

@@ -67,4 +67,21 @@ class MeshModel(Shape):
     def closest(self, points: Array) -> Closest:
         p = np.ascontiguousarray(points, dtype=float)
         d2, face, c = self._tree.squared_distance(self.vertices, self.faces, p)
-        return Closest(c, self.face_normals[face], np.sqrt(d2))
+        distances = np.sqrt(d2)
+        return Closest(c, _distance_gradient(p - c, self.face_normals[face]), distances)
+
+
+def _distance_gradient(offset: Array, face_normals: Array) -> Array:
+    """Unit normals (N, 3) for the offsets (N, 3) of points from their closest points: the
+    face normal where the closest point lies inside the face (the offset is along it), the
+    offset's direction (signed like the face normal) where it lies on an edge or a vertex.
+
+    A point beyond a boundary edge is then as far from the model in point-to-plane terms as
+    it is in space, so a scan cannot slide off the end of a flat face at no cost."""
+    length = np.linalg.norm(offset, axis=1)
+    along = np.einsum("nd,nd->n", offset, face_normals)
+    across = np.linalg.norm(offset - along[:, None] * face_normals, axis=1)
+    on_boundary = across > 1e-3 * length
+    sign = np.where(along < 0.0, -1.0, 1.0)
+    direction = offset * (sign / np.maximum(length, 1e-300))[:, None]
+    return np.where(on_boundary[:, None], direction, face_normals)
