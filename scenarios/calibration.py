@@ -338,7 +338,7 @@ def measure_spheres(
 class Identification:
     """The fit: deviations (12,) [m, rad] (see PARAMETER_NAMES), sphere centres (S, 3) in the
     base frame [m], point residual RMS with the nominal arm and with the identified one [m]
-    (centres fitted for each), inlier points used, Gauss-Newton iterations of the last fit."""
+    (centres fitted for each), inlier points used, Gauss-Newton iterations of both fits."""
 
     deviations: np.ndarray
     centres_base: np.ndarray
@@ -439,7 +439,7 @@ def identify(
     prior = np.array([prior_sigma_m] * 6 + [prior_sigma_rad] * 6)
     zero = np.zeros(12)
     use = np.ones(m.points, dtype=bool)
-    dev, c, _ = _fit(m, use, zero, m.centres_base, True, prior, point_sigma_m, iterations)
+    dev, c, its_first = _fit(m, use, zero, m.centres_base, True, prior, point_sigma_m, iterations)
     kin = Kinematics.from_geometry(geometry_of(dev))
     res = _residuals(points_base(m, kin), c, m.sphere, m.radius_m)
     sigma = 1.4826 * float(np.median(np.abs(res - np.median(res))))
@@ -464,7 +464,7 @@ def identify(
             f"({rms_before * 1e3:.3f} mm before), above the limit of "
             f"{max_residual_rms_m * 1e3:.3f} mm: the spheres or the views are not as planned"
         )
-    return Identification(dev, c, rms_before, rms_after, int(use.sum()), its)
+    return Identification(dev, c, rms_before, rms_after, int(use.sum()), its_first + its)
 
 
 def calibrate(

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from scenarios.errors import ScenarioError
 
@@ -114,6 +114,33 @@ class Program(_Section):
     spins: int = Field(12, ge=1, le=72)
 
 
+class Calibration(_Section):
+    """In-cell kinematic calibration before the scan (scenarios.calibration): with the table
+    at `table_position_m` [m], the laser views each reference sphere from `views_per_sphere`
+    arm configurations, `lines_per_view` static lines each (averaged), from `standoff_m`
+    (near, far) [m] with views tilted up to `max_tilt_deg` from the vertical. The run stops
+    if the fit's residual RMS exceeds `max_residual_rms_m` [m]. `enabled: false` keeps the
+    nominal kinematics."""
+
+    enabled: bool = True
+    table_position_m: float = Field(-0.25, ge=-0.5, le=0.5)
+    views_per_sphere: int = Field(20, ge=4, le=100)
+    lines_per_view: int = Field(10, ge=1, le=100)
+    standoff_m: tuple[float, float] = (0.18, 0.32)
+    max_tilt_deg: float = Field(55.0, ge=0.0, le=75.0)
+    max_residual_rms_m: float = Field(1.0e-4, gt=0.0, le=0.01)
+
+    @model_validator(mode="after")
+    def _standoff_order(self) -> Calibration:
+        near, far = self.standoff_m
+        if not 0.06 <= near <= far <= 0.55:
+            raise ValueError(
+                f"standoff_m must be (near, far) with 0.06 <= near <= far <= 0.55 m (the "
+                f"laser's range), got {self.standoff_m}"
+            )
+        return self
+
+
 class Output(_Section):
     """What the run writes besides results.json and config.yaml."""
 
@@ -134,6 +161,7 @@ class SkullConfig(_Section):
     scan: Scan = Scan()
     registration: Registration = Registration()
     program: Program = Program()
+    calibration: Calibration = Calibration()
     output: Output = Output()
 
 

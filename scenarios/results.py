@@ -90,7 +90,10 @@ def skull_results(
         "target_error_rms_m": float(np.sqrt(np.mean(errors**2))) if len(errors) else None,
         "target_error_max_m": float(errors.max()) if len(errors) else None,
         "goals": {"target_error_rms_m": GOAL_RMS_M, "target_error_max_m": GOAL_MAX_M},
-        "timings_s": {k: timings.get(k) for k in ("setup", "scan", "register", "execute", "total")},
+        "timings_s": {
+            k: timings.get(k)
+            for k in ("setup", "calibrate", "scan", "register", "execute", "total")
+        },
     }
 
 
@@ -108,6 +111,17 @@ def results_table(results: dict[str, Any]) -> Table:
         table.add_row(Text(label), Text(value))  # Text: "[mm]" is not markup
 
     reg = results.get("registration", {})
+    cal = results.get("calibration") or {}
+    if cal.get("enabled"):
+        add(
+            "calibration residual RMS before / after [mm]",
+            f"{_mm(cal.get('residual_rms_before_m'))} / {_mm(cal.get('residual_rms_after_m'))}",
+        )
+        add(
+            "true TCP error nominal / calibrated arm, mean [mm]",
+            f"{_mm(cal.get('tcp_error_nominal_mean_m'))} / "
+            f"{_mm(cal.get('tcp_error_calibrated_mean_m'))}",
+        )
     add("scan points (object)", str(results.get("scan_points")))
     add("match verdict", str(reg.get("verdict")))
     add("match rms [mm]", _mm(reg.get("rms_m")))
