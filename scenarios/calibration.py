@@ -271,11 +271,14 @@ def measure_spheres(
     artifact: SphereArtifact,
     plan: CalibrationPlan,
     progress: Progress | None = None,
+    on_view: Callable[[], None] | None = None,
 ) -> SphereMeasurements:
     """Fetch the laser, move the table to the plan's position and view every sphere; points
     within the radius + 10 mm of a sphere's nominal centre (and not on its post) are kept.
-    The laser ends back in its slot, put there with the kinematics that fetched it."""
+    The laser ends back in its slot, put there with the kinematics that fetched it.
+    `on_view()` is called with the arm at each view (e.g. to record the cell)."""
     say = progress or (lambda _msg: None)
+    viewed = on_view or (lambda: None)
     if controller.tool_in_hand == LASER.name:
         raise CalibrationError(
             "the laser is already in hand: the calibration fetches it from its slot itself "
@@ -296,6 +299,7 @@ def measure_spheres(
             controller.move_joints(q, settle_s=0.2)
         except CellError as exc:
             raise CalibrationError(f"a calibration view of sphere {s + 1} failed: {exc}") from exc
+        viewed()
         # The arm stands still: the lines of a view are averaged ray by ray.
         readings = [controller.read_laser() for _ in range(plan.lines_per_view)]
         ranges = np.array([r.distances for r in readings])
@@ -419,7 +423,7 @@ def identify(
     prior_sigma_m: float = 1e-3,
     prior_sigma_rad: float = 1e-3,
     point_sigma_m: float = 1e-4,
-    max_residual_rms_m: float = 3e-4,
+    max_residual_rms_m: float = 1e-4,
     min_points_per_sphere: int = 200,
     iterations: int = 10,
 ) -> Identification:
@@ -471,14 +475,15 @@ def calibrate(
     controller: Controller,
     artifact: SphereArtifact = DEFAULT_ARTIFACT,
     plan: CalibrationPlan | None = None,
-    max_residual_rms_m: float = 3e-4,
+    max_residual_rms_m: float = 1e-4,
     progress: Progress | None = None,
+    on_view: Callable[[], None] | None = None,
 ) -> CalibrationResult:
     """Measure the artifact and identify the arm (see the module's docstring). The
     controller's kinematics is left as it was: the caller decides to use the result."""
     t0 = time.perf_counter()
     plan = plan or CalibrationPlan()
-    m = measure_spheres(controller, artifact, plan, progress)
+    m = measure_spheres(controller, artifact, plan, progress, on_view)
     fit = identify(m, max_residual_rms_m=max_residual_rms_m)
     geometry = geometry_of(fit.deviations)
     return CalibrationResult(

@@ -234,13 +234,19 @@ def run_skull(
     if config.calibration.enabled:
         t0 = time.perf_counter()
         say("calibration: the laser views the reference spheres")
+
+        def on_view() -> None:
+            if recording is not None:
+                recording.log_bodies(controller.time_s, evaluator.body_poses())
+
         calibration = calibrate(
             controller,
             DEFAULT_ARTIFACT,
             calibration_plan(config.calibration, config.seed),
             config.calibration.max_residual_rms_m,
+            on_view=on_view,
         )
-        controller.kinematics = calibration.kinematics
+        controller.kinematics = calibration.kinematics  # the scan, IK and program use it
         timings["calibrate"] = time.perf_counter() - t0
         say(
             f"calibration: {calibration.points} points in {calibration.views} views, residual "
