@@ -43,9 +43,9 @@ def _cell(seed: int, fixtures: tuple = ()) -> tuple[Controller, CellTruth]:
 
 @pytest.fixture(scope="module")
 def calibrated() -> dict:
-    """A cell with the default arm errors (seed 3) and the artifact, measured and fitted."""
+    """A cell with the default arm errors (seed 1) and the artifact, measured and fitted."""
     controller, truth = _cell(
-        3, DEFAULT_ARTIFACT.fixtures(DEFAULT_ARTIFACT.centres_table + SHIFT_M)
+        1, DEFAULT_ARTIFACT.fixtures(DEFAULT_ARTIFACT.centres_table + SHIFT_M)
     )
     measured = measure_spheres(controller, DEFAULT_ARTIFACT, CalibrationPlan())
     fit = identify(measured)
