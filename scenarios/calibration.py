@@ -14,10 +14,11 @@ The laser's mounting on the flange is part of the model: the tool changer locks 
 the flange meets it, so a tool fetched with an inaccurate arm sits off its nominal mounting by
 the arm's error at the rack. With the tool sitting in its slot when it is fetched, the laser in
 the base frame is FK(q) FK(q_lock)^-1 T_base_slot T_tool_laser, for any candidate geometry.
-What no sphere measurement can see is also what no job notices: a turn of the whole arm about
-joint 1 and a shift along it (d1, joint 1's offset; the same scan measures and the same arm
-touches), and the flange's length d6 and joint 6's offset (the tools are fetched with the same
-kinematics). The prior holds those at their nominal values.
+The flange's length d6 and joint 6's offset cancel from that product: no laser measurement
+sees them, and no job needs them, since every tool is fetched the same way. A turn of the
+whole arm about joint 1 and a shift along it (joint 1's offset, d1) are seen only through the
+laser's mounting, weakly; a job whose scan and touches use the same kinematics barely feels
+them. The prior holds what the data do not determine at the nominal values.
 
 After the measurement the laser goes back to its slot with the kinematics that fetched it, so
 that it sits where it sat; the next fetch, with the calibrated kinematics, mounts it closely.
