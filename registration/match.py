@@ -84,6 +84,8 @@ class SearchSettings:
         judge_points: data points on which the two best minima are compared at the end.
         judge_margin: they are compared on the fraction of those points that the better
             one fits, less this margin (at least `trim`, at most 0.99).
+        judge_unexplained: a minimum that leaves this fraction of those points more
+            unexplained than the other is no rival to it.
     """
 
     rotations: int = 512
@@ -104,6 +106,7 @@ class SearchSettings:
     distinct: float = 0.02
     judge_points: int = 2000
     judge_margin: float = 0.01
+    judge_unexplained: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -136,8 +139,9 @@ class MatchResult:
         mode: "global", "local" or "refine".
         starts: initial states evaluated.
         best: the best minimum; second: the best minimum distinct from it, or None.
-        ambiguity: best cost / second cost in [0, 1]; 0 if no other minimum was found,
-            near 1 if two distinct poses fit equally well.
+        ambiguity: best cost / second cost in [0, 1]; 0 if no other minimum was found or
+            the other leaves clearly more of the scan unexplained, near 1 if two distinct
+            poses fit equally well.
         covariance: (6, 6) covariance of (dt, dtheta) applied in the model frame.
         worst_predicted_tre: largest predicted TRE over the model surface [length units].
         verdict: "accepted", "ambiguous" or "rejected"; reason: why, in words.
@@ -355,14 +359,22 @@ def _judge(
     variant: Variant,
     kernel: Kernel,
     settings: SearchSettings,
-) -> tuple[Array, float, Minimum | None]:
+) -> tuple[Array, float, Minimum, float] | None:
     """The two best minima refined and compared on a larger subsample of the data.
 
     On a few hundred points, a pose that leaves a few per cent of the scan unexplained (a
     part slid along its extrusion, the legs of an L swapped) scores like the true one once
-    the ranking trims its worst points. With `judge_points`, both are compared on every
-    point the better one fits but `judge_margin`. Returns the better pose, its cost and the
-    other minimum (None if its refinement joined the better one).
+    the ranking trims its worst points. On `judge_points`, both poses are refined and the
+    points each explains are counted with one yardstick (Tukey's cut-off at the robust scale
+    of the better pose). A pose that explains more than `judge_unexplained` more of the scan
+    wins, and the other is no rival (ambiguity 0); otherwise the two are compared on the
+    fraction the better one fits, less `judge_margin`, and the ambiguity is the ratio of
+    their costs.
+
+    If the two refinements join, nothing is learnt (two starts in one long valley join as
+    well as a false rival does) and None is returned: the ranking's verdict stands.
+
+    Returns the better pose, its cost, the other minimum and the ambiguity, or None.
     """
     rng = np.random.default_rng(1)
     points = _subsample(data, settings.judge_points, rng)
@@ -371,18 +383,25 @@ def _judge(
         icp(points, shape, T, variant=variant, kernel=kernel, max_iterations=cap)
         for T in (T_best, second.T_model_data)
     ]
-    # The fraction a pose fits is judged on its own robust scale, so it is read only for
-    # the pose that is better on the ranking's trim.
-    costs = [float(trimmed_rms(run.residuals, settings.trim)) for run in runs]
-    fit = Tukey(min_scale=1e-6 * shape.extent).weights(runs[int(np.argmin(costs))].residuals)
-    trim = float(np.clip(np.mean(fit > 0) - settings.judge_margin, settings.trim, 0.99))
-    costs = [float(trimmed_rms(run.residuals, trim)) for run in runs]
-    first = int(np.argmin(costs))
+    residuals = [np.abs(run.residuals) for run in runs]
+    costs = [float(trimmed_rms(r, settings.trim)) for r in residuals]
+    tukey = Tukey(min_scale=1e-6 * shape.extent)
+    cut = tukey.c * float(tukey.scale(residuals[int(np.argmin(costs))]))
+    explained = [float(np.mean(r <= cut)) for r in residuals]
+    if abs(explained[0] - explained[1]) > settings.judge_unexplained:
+        first = int(np.argmax(explained))
+    else:
+        first = int(np.argmin(costs))
     other = 1 - first
+    trim = float(np.clip(explained[first] - settings.judge_margin, settings.trim, 0.99))
+    costs = [float(trimmed_rms(r, trim)) for r in residuals]
     T_first, T_other = runs[first].T_model_data, runs[other].T_model_data
     if _displacement(T_first, T_other, points) <= settings.distinct * shape.extent:
-        return T_first, costs[first], None
-    return T_first, costs[first], Minimum(T_other, costs[other])
+        return None
+    rival = Minimum(T_other, costs[other])
+    if explained[first] - explained[other] > settings.judge_unexplained:
+        return T_first, costs[first], rival, 0.0
+    return T_first, costs[first], rival, min(1.0, costs[first] / max(costs[other], 1e-300))
 
 
 def match(
@@ -494,10 +513,13 @@ def match(
             second = Minimum(T_i, float(costs[int(i)]))
             break
     T_best = runs[best_i].T_model_data
-    if second is not None:
-        T_best, best_cost, second = _judge(data, shape, T_best, second, variant, kernel, settings)
-    else:
-        best_cost = float(costs[best_i])
+    best_cost = float(costs[best_i])
+    ambiguity = 0.0 if second is None else best_cost / max(second.cost, 1e-300)
+    judged = (
+        None if second is None else _judge(data, shape, T_best, second, variant, kernel, settings)
+    )
+    if judged is not None:
+        T_best, best_cost, second, ambiguity = judged
     trajectory: list[Array] = []
     best_run = icp(
         data,
@@ -509,7 +531,6 @@ def match(
         callback=lambda _k, T, _mse: trajectory.append(T.copy()),
     )
     best = Minimum(best_run.T_model_data, best_cost)
-    ambiguity = 0.0 if second is None else best.cost / max(second.cost, 1e-300)
     stage["refine"] = time.perf_counter() - t0
     say(f"refined {len(runs)} candidates; best of {len(runs)} minima refined on all data")
 

@@ -2,9 +2,8 @@
 
 Two ways to locate it are compared on the same real cell:
 - 2D adjusting: IR edge probing of the flat part's edges (position and heading only);
-- 3D surface matching: laser scan matched to the part's virtual model (full pose), refined
-  from the 2D pose (the L-bracket's legs nearly swap under a 90 deg turn, so a search
-  without prior is ambiguous on it; see the config's registration.mode).
+- 3D surface matching: laser scan matched to the part's virtual model (full pose), searched
+  without the 2D pose (registration.mode "local"; "refine" would start from it instead).
 Then the gripper picks the part at its grasp frame (3D pose): it closes across the upright's
 top edge, lifts the part 40 mm, holds it, puts it down where it took it (the gripper goes back
 to the pick pose, so the part needs no new pose estimate) and opens. The part is a loose body
@@ -182,7 +181,7 @@ def run_assembly(
         config.seed,
         config.registration.voxel_m,
         config.registration.mode,
-        probed.T_table_object,  # "refine" starts from the 2D adjusting's pose
+        probed.T_table_object,  # used by mode "refine" only
         scan.line_pass[scan.line_index][keep],
         config.registration.pass_sigma_m,
     )

@@ -175,15 +175,25 @@ class AssemblyConfig(_Section):
     placement: Placement = Placement(
         yaw_deg=0.0, range_xy_m=0.015, range_yaw_deg=6.0, range_tilt_deg=0.0, lift_m=0.0
     )
-    noise: Noise = Noise()
+    # A machined part differs from its CAD model by its tolerance (0.05 mm), not by a CT
+    # segmentation's 0.3 mm.
+    noise: Noise = Noise(model_deformation_rms_m=5.0e-5, model_noise_rms_m=2.0e-5)
+    # From above, the L-bracket's two legs (50 and 56 mm) nearly swap under a half turn and
+    # the part could slide along its length: the side passes see its L-shaped end faces, and
+    # the search runs without the 2D pose (an independent method).
     scan: Scan = Scan(
         standoff_m=0.25,
-        passes=(ScanPass(tilt_deg=0.0, offset_m=0.0), ScanPass(tilt_deg=30.0, offset_m=-0.03)),
+        passes=(
+            ScanPass(tilt_deg=0.0, offset_m=0.0),
+            ScanPass(tilt_deg=30.0, offset_m=-0.03),
+            ScanPass(tilt_deg=45.0, heading_deg=90.0),
+            ScanPass(tilt_deg=45.0, heading_deg=-90.0),
+        ),
         min_points=3000,
     )
-    # The L-bracket's two legs nearly swap under a 90 deg turn: a search without prior finds
-    # that pose as often as the true one, so the part is refined from the 2D adjusting's pose.
-    registration: Registration = Registration(max_points=4000, mode="refine")
+    # One point per 1 mm cube: the end faces and the hole rims that tell the bracket's
+    # pose apart are a few millimetres wide.
+    registration: Registration = Registration(voxel_m=0.001, max_points=4000, mode="local")
     touch_offset_m: float = Field(0.004, ge=0.0, le=0.05)
     probe_height_m: float = Field(0.03, gt=0.01, le=0.1)
     output: Output = Output()

@@ -62,10 +62,13 @@ def find_edge(
     height_m: float,
     step_m: float,
     resolution_m: float,
+    coarse_step_m: float = 4e-3,
 ) -> tuple[np.ndarray, int]:
-    """Bisection for the edge between two points (3,) of the nominal table frame: the IR
-    TCP at `height_m` above the table top; a reading shorter than the table's by half of
-    `step_m` is on the part. Returns the edge point (3,) (z = 0) and the readings taken."""
+    """The edge between two points (3,) of the nominal table frame: a walk inwards from the
+    outside point in steps of at most `coarse_step_m` to the first reading on the part, then
+    bisection to `resolution_m`. The IR TCP is at `height_m` above the table top; a reading
+    shorter than the table's by half of `step_m` is on the part. Returns the edge point (3,)
+    (z = 0) and the readings taken."""
     readings = 0
     s = controller.table_position()
     T_base_table = nominal_T_base_table(s)
@@ -81,13 +84,24 @@ def find_edge(
         readings += 1
         return d is not None and d < height_m - step_m / 2, p_measured
 
-    a, b = np.asarray(p_inside_table, float), np.asarray(p_outside_table, float)
-    inside, p_a = probe(a)
-    outside, p_b = probe(b)
-    if not inside or outside:
+    start, end = np.asarray(p_inside_table, float), np.asarray(p_outside_table, float)
+    # A coarse walk from the outside inwards to the first reading on the part: a start
+    # point that falls into a hole of the part (its pose is unknown by up to the placement
+    # range) is passed over, and the edge found is the outermost one.
+    steps = max(1, int(np.ceil(np.linalg.norm(end - start) / coarse_step_m)))
+    b, (outside, p_b) = end, probe(end)
+    a = p_a = None
+    for k in range(steps - 1, -1, -1):
+        p = start + (end - start) * k / steps
+        on, p_measured = probe(p)
+        if on:
+            a, p_a = p, p_measured
+            break
+        b, p_b = p, p_measured
+    if outside or a is None or p_a is None:
         raise EdgeNotFoundError(
-            f"no edge between [{a[0]:.4f}, {a[1]:.4f}] and [{b[0]:.4f}, {b[1]:.4f}] m (table "
-            "frame): the part is not where the probe line expects it"
+            f"no edge between [{start[0]:.4f}, {start[1]:.4f}] and [{end[0]:.4f}, "
+            f"{end[1]:.4f}] m (table frame): the part is not where the probe line expects it"
         )
     while np.linalg.norm(b - a) > resolution_m:
         mid = (a + b) / 2
