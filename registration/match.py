@@ -37,7 +37,7 @@ from registration.quality import (
     trimmed_rms,
 )
 from registration.rigid import Array, make_T_batch, transform_points
-from registration.shapes.base import Shape, check_points
+from registration.shapes.base import Closest, Shape, check_points
 from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
 from registration.starts import (
@@ -85,7 +85,7 @@ class SearchSettings:
         judge_margin: they are compared on the fraction of those points that the better
             one fits, less this margin (at least `trim`, at most 0.99).
         judge_unexplained: a minimum that leaves this fraction of those points more
-            unexplained than the other is no rival to it.
+            unexplained than the other, and at least twice as many, is no rival to it.
     """
 
     rotations: int = 512
@@ -352,56 +352,47 @@ def _search(
 
 
 def _judge(
-    data: Array,
-    shape: Shape,
-    T_best: Array,
-    second: Minimum,
-    variant: Variant,
-    kernel: Kernel,
-    settings: SearchSettings,
-) -> tuple[Array, float, Minimum, float] | None:
-    """The two best minima refined and compared on a larger subsample of the data.
+    data: Array, shape: Shape, T_best: Array, second: Minimum, settings: SearchSettings
+) -> tuple[Array, float, Minimum, float]:
+    """The two best minima compared on a larger subsample of the data.
 
     On a few hundred points, a pose that leaves a few per cent of the scan unexplained (a
     part slid along its extrusion, the legs of an L swapped) scores like the true one once
-    the ranking trims its worst points. On `judge_points`, both poses are refined and the
-    points each explains are counted with one yardstick (Tukey's cut-off at the robust scale
-    of the better pose). A pose that explains more than `judge_unexplained` more of the scan
-    wins, and the other is no rival (ambiguity 0); otherwise the two are compared on the
-    fraction the better one fits, less `judge_margin`, and the ambiguity is the ratio of
-    their costs.
+    the ranking trims its worst points. On `judge_points`, the points each pose explains are
+    counted with one yardstick (Tukey's cut-off at the robust scale of the better pose). A
+    pose that explains more than `judge_unexplained` more of the scan, and leaves at most
+    half as much of it unexplained, wins, and the other is no rival (ambiguity 0); otherwise
+    the two are compared on the fraction the better one fits, less `judge_margin`, and the
+    ambiguity is the ratio of their costs. The poses are not refined again: two starts in
+    one long valley would join, and a rival be lost.
 
-    If the two refinements join, nothing is learnt (two starts in one long valley join as
-    well as a false rival does) and None is returned: the ranking's verdict stands.
-
-    Returns the better pose, its cost, the other minimum and the ambiguity, or None.
+    Returns the better pose, its cost, the other minimum and the ambiguity.
     """
-    rng = np.random.default_rng(1)
-    points = _subsample(data, settings.judge_points, rng)
-    cap = settings.rank_iterations
-    runs = [
-        icp(points, shape, T, variant=variant, kernel=kernel, max_iterations=cap)
-        for T in (T_best, second.T_model_data)
-    ]
-    residuals = [np.abs(run.residuals) for run in runs]
+    points = _subsample(data, settings.judge_points, np.random.default_rng(1))
+    poses = (T_best, second.T_model_data)
+    moved = [transform_points(T, points) for T in poses]
+    residuals = [np.abs(_surface_residuals(shape.closest(p), p)) for p in moved]
     costs = [float(trimmed_rms(r, settings.trim)) for r in residuals]
     tukey = Tukey(min_scale=1e-6 * shape.extent)
     cut = tukey.c * float(tukey.scale(residuals[int(np.argmin(costs))]))
     explained = [float(np.mean(r <= cut)) for r in residuals]
-    if abs(explained[0] - explained[1]) > settings.judge_unexplained:
-        first = int(np.argmax(explained))
-    else:
-        first = int(np.argmin(costs))
+    more, less = sorted(explained, reverse=True)
+    clear = more - less > settings.judge_unexplained and 1.0 - more <= (1.0 - less) / 2
+    first = int(np.argmax(explained)) if clear else int(np.argmin(costs))
     other = 1 - first
     trim = float(np.clip(explained[first] - settings.judge_margin, settings.trim, 0.99))
     costs = [float(trimmed_rms(r, trim)) for r in residuals]
-    T_first, T_other = runs[first].T_model_data, runs[other].T_model_data
-    if _displacement(T_first, T_other, points) <= settings.distinct * shape.extent:
-        return None
-    rival = Minimum(T_other, costs[other])
-    if explained[first] - explained[other] > settings.judge_unexplained:
-        return T_first, costs[first], rival, 0.0
-    return T_first, costs[first], rival, min(1.0, costs[first] / max(costs[other], 1e-300))
+    rival = Minimum(poses[other], costs[other])
+    ambiguity = 0.0 if clear else min(1.0, costs[first] / max(costs[other], 1e-300))
+    return poses[first], costs[first], rival, ambiguity
+
+
+def _surface_residuals(closest: Closest, p: Array) -> Array:
+    """Point-to-plane residuals (N,) of points (N, 3) in the model frame from their closest
+    points on the model (distances if the shape has no normals)."""
+    if closest.normals is None:
+        return closest.distances
+    return np.einsum("nd,nd->n", closest.normals, p - closest.points)
 
 
 def match(
@@ -515,11 +506,8 @@ def match(
     T_best = runs[best_i].T_model_data
     best_cost = float(costs[best_i])
     ambiguity = 0.0 if second is None else best_cost / max(second.cost, 1e-300)
-    judged = (
-        None if second is None else _judge(data, shape, T_best, second, variant, kernel, settings)
-    )
-    if judged is not None:
-        T_best, best_cost, second, ambiguity = judged
+    if second is not None:
+        T_best, best_cost, second, ambiguity = _judge(data, shape, T_best, second, settings)
     trajectory: list[Array] = []
     best_run = icp(
         data,
@@ -537,10 +525,7 @@ def match(
     # Quality of the best pose, from its own residuals.
     p = transform_points(best.T_model_data, data)
     closest = shape.closest(p)
-    if closest.normals is not None:
-        residuals = np.einsum("nd,nd->n", closest.normals, p - closest.points)
-    else:
-        residuals = closest.distances
+    residuals = _surface_residuals(closest, p)
     weights = Tukey(c=8.0, min_scale=1e-6 * extent).weights(residuals)
     inliers = weights > 0
     inlier_fraction = float(inliers.mean())

@@ -25,9 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from cell import LooseMesh, make_cell, nominal_T_base_table
+from cell import FixedPrimitive, LooseMesh, make_cell, nominal_T_base_table
 from models import BurrHole, ModelErrorSpec, ObjectModel, builtin_model, real_model
 from registration import Acceptance, MeshModel
+from scenarios.calibration_step import (
+    artifact_fixtures,
+    calibrate_arm,
+    calibration_results,
+    check_artifact_clearance,
+)
 from scenarios.config import AssemblyConfig
 from scenarios.evaluation import Evaluator, TargetEvaluation
 from scenarios.placement import draw_true_pose, nominal_pose
@@ -131,8 +137,14 @@ def run_assembly(
         convex_pieces=tuple(p.vertices for p in real.convex_pieces),
         rgba=(0.7, 0.72, 0.78, 1.0),
     )  # aluminium (2700 kg/m^3): about 0.13 kg
+    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
+    crop_margin_m = config.placement.range_xy_m + 0.02
+    spheres: tuple[FixedPrimitive, ...] = ()
+    if config.calibration.enabled:
+        check_artifact_clearance(box, crop_margin_m)
+        spheres = artifact_fixtures(config.seed)
     controller, truth = make_cell(
-        replace(cell_config(config.noise, config.seed, ()), parts=(part,))
+        replace(cell_config(config.noise, config.seed, spheres), parts=(part,))
     )
     evaluator = Evaluator(truth, real, "part")
     timings["setup"] = time.perf_counter() - t0
@@ -140,6 +152,19 @@ def run_assembly(
         recording.log_cell_geometry(evaluator.mujoco_model)
         recording.log_model(virtual, T_table_nominal)
         recording.log_bodies(controller.time_s, evaluator.body_poses())
+
+    # Kinematic calibration: both methods and the program then use the calibrated arm.
+    nominal = controller.kinematics
+    calibration = None
+    if config.calibration.enabled:
+        t0 = time.perf_counter()
+
+        def on_view() -> None:
+            if recording is not None:
+                recording.log_bodies(controller.time_s, evaluator.body_poses())
+
+        calibration = calibrate_arm(controller, config.calibration, config.seed, say, on_view)
+        timings["calibrate"] = time.perf_counter() - t0
 
     # 2D: IR edge probing.
     t0 = time.perf_counter()
@@ -157,10 +182,9 @@ def run_assembly(
 
     # 3D: laser scan and surface matching.
     t0 = time.perf_counter()
-    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
     plan = plan_scan(controller.kinematics, box, config.scan, controller.read_joints())
     scan = execute_scan(controller, plan, config.scan, say)
-    keep = crop_to_object(scan.points_table, box, config.placement.range_xy_m + 0.02)
+    keep = crop_to_object(scan.points_table, box, crop_margin_m)
     points = scan.points_table[keep]
     timings["scan"] = time.perf_counter() - t0
     outputs.write_ply(folder / "scan.ply", points)
@@ -295,6 +319,11 @@ def run_assembly(
         if recording is not None:
             recording.log_targets(programs["laser_3d"], targets["laser_3d"])
     timings["total"] = time.perf_counter() - t_total
+    # The arm's accuracy, from the truth, where the job used it: scan lines and screws.
+    q_job = scan.line_q[:: max(1, len(scan.line_q) // 60)]
+    touches = [p.q_touch for program in programs.values() for p in program.operations]
+    if touches:
+        q_job = np.vstack([q_job, *touches])
     predicted = result.predicted_tre(np.array([h.p_entry for h in virtual.burr_holes]))
     rows_3d = targets.get("laser_3d", ())
     errors = np.array([t.error_m for t in rows_3d])
@@ -341,7 +370,9 @@ def run_assembly(
             "placed_displacement_m": pick.placed_displacement_m,
             "placed_rotation_deg": pick.placed_rotation_deg,
         },
+        "calibration": calibration_results(evaluator, nominal, calibration, q_job, "screwer"),
         "timings_s": {
-            k: timings.get(k) for k in ("setup", "probe", "scan", "register", "execute", "total")
+            k: timings.get(k)
+            for k in ("setup", "calibrate", "probe", "scan", "register", "execute", "total")
         },
     }

@@ -194,6 +194,7 @@ class AssemblyConfig(_Section):
     # One point per 1 mm cube: the end faces and the hole rims that tell the bracket's
     # pose apart are a few millimetres wide.
     registration: Registration = Registration(voxel_m=0.001, max_points=4000, mode="local")
+    calibration: Calibration = Calibration()
     touch_offset_m: float = Field(0.004, ge=0.0, le=0.05)
     probe_height_m: float = Field(0.03, gt=0.01, le=0.1)
     output: Output = Output()

@@ -28,7 +28,6 @@ from cell import (
     EncoderNoise,
     FixedMesh,
     FixedPrimitive,
-    Kinematics,
     LaserConfig,
     TableErrors,
     nominal_T_base_table,
@@ -36,14 +35,14 @@ from cell import (
 from cell import make_cell as make_real_cell
 from models import ModelErrorSpec, ObjectModel, load_model, real_model
 from registration import Acceptance, MatchResult, MeshModel, ScanPasses, invert, match
-from scenarios.calibration import (
-    DEFAULT_ARTIFACT,
-    CalibrationError,
-    CalibrationPlan,
-    CalibrationResult,
-    calibrate,
+from scenarios.calibration import CalibrationResult
+from scenarios.calibration_step import (
+    artifact_fixtures,
+    calibrate_arm,
+    calibration_results,
+    check_artifact_clearance,
 )
-from scenarios.config import Calibration, Noise, SkullConfig
+from scenarios.config import Noise, SkullConfig
 from scenarios.evaluation import Evaluator
 from scenarios.placement import draw_true_pose, nominal_pose
 from scenarios.program import (
@@ -102,41 +101,6 @@ def cell_config(
         laser=LaserConfig(sigma_m=noise.laser_sigma_m),
         fixtures=fixtures,
     )
-
-
-def calibration_plan(section: Calibration, seed: int) -> CalibrationPlan:
-    """The calibration's view plan from the run's calibration section."""
-    return CalibrationPlan(
-        table_position_m=section.table_position_m,
-        views_per_sphere=section.views_per_sphere,
-        lines_per_view=section.lines_per_view,
-        standoff_m=section.standoff_m,
-        max_tilt_rad=float(np.deg2rad(section.max_tilt_deg)),
-        seed=seed,
-    )
-
-
-def artifact_fixtures(seed: int) -> tuple[FixedPrimitive, ...]:
-    """The calibration spheres as they really stand: their design centres moved by a seeded
-    1 mm (per axis) that the calibration does not know."""
-    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
-    centres = DEFAULT_ARTIFACT.centres_table
-    return DEFAULT_ARTIFACT.fixtures(centres + rng.normal(0.0, 1e-3, centres.shape))
-
-
-def check_artifact_clearance(box: ObjectBox, crop_margin_m: float) -> None:
-    """The calibration spheres must stand outside the region the scan keeps as the object
-    (its nominal footprint enlarged by `crop_margin_m` [m]); raises CalibrationError."""
-    c = DEFAULT_ARTIFACT.centres_table
-    reach = box.radius_xy + crop_margin_m + DEFAULT_ARTIFACT.radius_m
-    gap = np.linalg.norm(c[:, :2] - box.centre[:2], axis=1) - reach
-    if np.any(gap < 0.0):
-        raise CalibrationError(
-            f"the object's footprint (radius {box.radius_xy * 1e3:.0f} mm about its centre, "
-            f"plus {crop_margin_m * 1e3:.0f} mm of crop margin) reaches the calibration "
-            f"spheres at {np.round(c[:, :2] * 1e3).tolist()} mm on the table; use a smaller "
-            "object or set calibration.enabled: false"
-        )
 
 
 def voxel_thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
@@ -233,26 +197,13 @@ def run_skull(
     calibration: CalibrationResult | None = None
     if config.calibration.enabled:
         t0 = time.perf_counter()
-        say("calibration: the laser views the reference spheres")
 
         def on_view() -> None:
             if recording is not None:
                 recording.log_bodies(controller.time_s, evaluator.body_poses())
 
-        calibration = calibrate(
-            controller,
-            DEFAULT_ARTIFACT,
-            calibration_plan(config.calibration, config.seed),
-            config.calibration.max_residual_rms_m,
-            on_view=on_view,
-        )
-        controller.kinematics = calibration.kinematics  # the scan, IK and program use it
+        calibration = calibrate_arm(controller, config.calibration, config.seed, say, on_view)
         timings["calibrate"] = time.perf_counter() - t0
-        say(
-            f"calibration: {calibration.points} points in {calibration.views} views, residual "
-            f"rms {calibration.residual_rms_before_m * 1e3:.3f} mm (nominal arm) -> "
-            f"{calibration.residual_rms_after_m * 1e3:.3f} mm, {calibration.seconds:.1f} s"
-        )
         if recording is not None:
             recording.log_bodies(controller.time_s, evaluator.body_poses())
 
@@ -383,8 +334,12 @@ def run_skull(
         timings=timings,
     )
     results["motion_after_match_s"] = motion_after_match_s
+    # The arm's accuracy, from the truth, where the job used it: scan lines and touches.
+    q_job = scan.line_q[:: max(1, len(scan.line_q) // 60)]
+    if program is not None:
+        q_job = np.vstack([q_job, *[p.q_touch for p in program.operations]])
     results["calibration"] = calibration_results(
-        evaluator, nominal, calibration, scan, program, config.program.tool
+        evaluator, nominal, calibration, q_job, config.program.tool
     )
     results["tool_in_hand"] = controller.tool_in_hand
     if program is not None:
@@ -392,29 +347,3 @@ def run_skull(
     if config.output.plots:
         outputs.write_plots(folder, located, target_evals, predicted, virtual)
     return results
-
-
-def calibration_results(
-    evaluator: Evaluator,
-    nominal: Kinematics,
-    calibration: CalibrationResult | None,
-    scan: ScanData,
-    program: OfflineProgram | None,
-    tool: str,
-) -> dict[str, Any]:
-    """The calibration's figures and, from the truth, the TCP error of the nominal and the
-    calibrated arm at the job's configurations (scan lines, touches) with the program's tool."""
-    q_lines = scan.line_q[:: max(1, len(scan.line_q) // 60)]
-    q_touch = [p.q_touch for p in program.operations] if program is not None else []
-    q_job = np.vstack([q_lines, *q_touch]) if q_touch else q_lines
-    out: dict[str, Any] = {"enabled": calibration is not None}
-    models = {"nominal": nominal}
-    if calibration is not None:
-        out.update(calibration.summary())
-        models["calibrated"] = calibration.kinematics
-    for label, kin in models.items():
-        e = evaluator.kinematics_error(kin, q_job, tool)
-        out[f"tcp_error_{label}_mean_m"] = e.mean_m
-        out[f"tcp_error_{label}_max_m"] = e.max_m
-    out["tcp_error_configurations"] = len(q_job)
-    return out
