@@ -60,8 +60,9 @@ def main() -> None:
     table.add_column("stage")
     table.add_column("rerun on", justify="right")
     table.add_column("rerun off", justify="right")
-    for key in ("setup", "scan", "register", "execute", "total"):
-        table.add_row(key, f"{with_rrd['timings_s'][key]:.1f}", f"{without['timings_s'][key]:.1f}")
+    for key in ("setup", "calibrate", "scan", "register", "execute", "total"):
+        on, off = with_rrd["timings_s"].get(key), without["timings_s"].get(key)
+        table.add_row(key, "-" if on is None else f"{on:.1f}", "-" if off is None else f"{off:.1f}")
     table.add_row("job incl. outputs", f"{with_rrd['seconds']:.1f}", f"{without['seconds']:.1f}")
     table.add_row("whole command (fresh process)", f"{wall:.1f}", "")
     rrd = out / "latest"

@@ -149,6 +149,13 @@ def results_table(results: dict[str, Any]) -> Table:
         )
     if results.get("grasp_error_m") is not None:
         add("grasp error [mm]", _mm(results["grasp_error_m"]))
+    pick = results.get("pick")
+    if pick:
+        add(
+            "pick: lifted / slip / put-down moved [mm]",
+            f"{_mm(pick['lifted_m'])} / {_mm(pick['slip_m'])} / "
+            f"{_mm(pick['placed_displacement_m'])}",
+        )
     for key, value in results.get("timings_s", {}).items():
         add(f"time {key} [s]", "-" if value is None else f"{value:.1f}")
     if results.get("reason"):
