@@ -327,7 +327,7 @@ def run_assembly(
     predicted = result.predicted_tre(np.array([h.p_entry for h in virtual.burr_holes]))
     rows_3d = targets.get("laser_3d", ())
     errors = np.array([t.error_m for t in rows_3d])
-    return {
+    results = {
         "status": "complete" if accepted else "refused",
         "reason": "" if accepted else result.reason,
         "scenario": "assembly",
@@ -376,3 +376,6 @@ def run_assembly(
             for k in ("setup", "calibrate", "probe", "scan", "register", "execute", "total")
         },
     }
+    if config.output.plots:
+        outputs.write_assembly_plot(folder, results)
+    return results

@@ -4,7 +4,7 @@ Every file is written to a temporary name and renamed into place (complete or ab
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -103,6 +103,59 @@ def write_plots(
         written.append(_save(fig, folder / "targets.png"))
         plt.close(fig)
     return written
+
+
+def write_assembly_plot(folder: Path, results: dict[str, Any]) -> Path | None:
+    """assembly.png: the two methods side by side (pose error in rotation and translation,
+    error of each screw tip) from the assembly job's results; None if nothing was driven."""
+    methods = results.get("methods", {})
+    if not any(m.get("targets") for m in methods.values()):
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = {"laser_3d": "3D surface matching", "ir_2d": "2D IR edge probing"}
+    names = list(methods)
+    fig, (a, b, c) = plt.subplots(1, 3, figsize=(12, 4), width_ratios=(1, 1, 2))
+    colours = ("tab:blue", "tab:orange")
+    for ax, key, scale, unit in (
+        (a, "rotation_error_deg", 1.0, "deg"),
+        (b, "translation_error_m", 1e3, "mm"),
+    ):
+        values = [methods[n][key] * scale for n in names]
+        ax.bar(range(len(names)), values, color=colours[: len(names)])
+        ax.set_xticks(range(len(names)), [labels.get(n, n) for n in names], rotation=10)
+        ax.set_ylabel(f"[{unit}]")
+        ax.set_title(f"pose error, {key.split('_')[0]}")
+    screws = [t["name"] for t in methods[names[0]]["targets"]]
+    x = np.arange(len(screws))
+    width = 0.8 / len(names)
+    for k, n in enumerate(names):
+        errors = {t["name"]: t["error_m"] * 1e3 for t in methods[n]["targets"]}
+        c.bar(
+            x + (k - (len(names) - 1) / 2) * width,
+            [errors.get(s, np.nan) for s in screws],
+            width,
+            color=colours[k % 2],
+            label=labels.get(n, n),
+        )
+    c.set_xticks(x, screws)
+    c.set_ylabel("[mm]")
+    c.set_title("screw tip against the true screw frame")
+    c.legend()
+    pick = results.get("pick")
+    if pick:
+        fig.suptitle(
+            f"assembly, seed {results.get('seed')}: lifted {pick['lifted_m'] * 1e3:.1f} mm, "
+            f"slip {pick['slip_m'] * 1e3:.2f} mm, "
+            f"put down {pick['placed_displacement_m'] * 1e3:.2f} mm from where it was"
+        )
+    fig.tight_layout()
+    path = _save(fig, folder / "assembly.png")
+    plt.close(fig)
+    return path
 
 
 def _save(fig: object, path: Path) -> Path:

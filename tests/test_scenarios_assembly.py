@@ -89,6 +89,7 @@ def test_assembly_run_completes_with_both_methods(results: dict) -> None:
     folder = Path(results["folder"])
     for name in ("config.yaml", "results.json", "scan.ply", "program.mod", "run.rrd"):
         assert (folder / name).is_file(), name
+    assert (folder / "assembly.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((folder / "results.json").read_text())["status"] == "complete"
     methods = results["methods"]
     assert set(methods) == {"ir_2d", "laser_3d"}

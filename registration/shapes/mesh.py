@@ -1,7 +1,8 @@
 """A model given as a triangle mesh (eq. 15-16): exact closest point by libigl's AABB tree.
 
 libigl's AABB (C++) answers exact point-triangle queries about 50x faster than
-trimesh.proximity; the normals are the closest triangles' face normals.
+trimesh.proximity. The normals are the closest triangles' face normals, or the offset's
+direction where the closest point lies on an edge or a vertex.
 """
 
 from __future__ import annotations
