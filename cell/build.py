@@ -83,20 +83,7 @@ def _add_fixture(spec: mujoco.MjSpec, obj: FixedMesh | FixedPrimitive) -> None:
         conaffinity=int(collides),
         mass=0.5,
     )
-    for i, piece in enumerate(obj.convex_pieces):
-        hull = spec.add_mesh(name=f"{obj.name}_hull{i}")
-        hull.uservert = np.asarray(piece, dtype=float).ravel().tolist()
-        hull.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX
-        table.add_geom(
-            name=f"{obj.name}_hull{i}",
-            type=mujoco.mjtGeom.mjGEOM_MESH,
-            meshname=hull.name,
-            pos=pos,
-            quat=quat,
-            group=CONTACT_ONLY_GROUP,
-            rgba=(0.5, 0.5, 0.5, 0.3),
-            mass=0.1,
-        )
+    _add_convex_pieces(spec, table, obj.name, obj.convex_pieces, pos=pos, quat=quat, mass=0.1)
 
 
 def _add_part(spec: mujoco.MjSpec, part: LoosePart) -> None:
@@ -151,19 +138,32 @@ def _add_loose_mesh(spec: mujoco.MjSpec, obj: LooseMesh) -> MassProperties:
         conaffinity=int(collides),
         **contact,
     )
-    for i, piece in enumerate(obj.convex_pieces):
-        hull = spec.add_mesh(name=f"{obj.name}_hull{i}")
+    _add_convex_pieces(spec, body, obj.name, obj.convex_pieces, **contact)
+    return mass
+
+
+def _add_convex_pieces(
+    spec: mujoco.MjSpec,
+    parent: mujoco.MjsBody,
+    name: str,
+    pieces: tuple[np.ndarray, ...],
+    **geom: object,
+) -> None:
+    """The contact geoms of an object: one convex mesh per piece ((K, 3) vertices in the
+    object frame), in the group that rays do not see; `geom` adds attributes (pose, mass,
+    contact parameters)."""
+    for i, piece in enumerate(pieces):
+        hull = spec.add_mesh(name=f"{name}_hull{i}")
         hull.uservert = np.asarray(piece, dtype=float).ravel().tolist()
         hull.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX
-        body.add_geom(
-            name=f"{obj.name}_hull{i}",
+        parent.add_geom(
+            name=f"{name}_hull{i}",
             type=mujoco.mjtGeom.mjGEOM_MESH,
             meshname=hull.name,
             group=CONTACT_ONLY_GROUP,
             rgba=(0.5, 0.5, 0.5, 0.3),
-            **contact,
+            **geom,
         )
-    return mass
 
 
 def build_model(config: CellConfig, arm: ArmGeometry | None = None) -> mujoco.MjModel:

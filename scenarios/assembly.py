@@ -34,6 +34,7 @@ from scenarios.calibration_step import (
     calibration_results,
     check_artifact_clearance,
 )
+from scenarios.cell_log import CellLog
 from scenarios.config import AssemblyConfig
 from scenarios.evaluation import Evaluator, TargetEvaluation
 from scenarios.placement import draw_true_pose, nominal_pose
@@ -148,22 +149,18 @@ def run_assembly(
     )
     evaluator = Evaluator(truth, real, "part")
     timings["setup"] = time.perf_counter() - t0
+    log = CellLog(recording, controller, evaluator)
     if recording is not None:
         recording.log_cell_geometry(evaluator.mujoco_model)
         recording.log_model(virtual, T_table_nominal)
-        recording.log_bodies(controller.time_s, evaluator.body_poses())
+    log.bodies()
 
     # Kinematic calibration: both methods and the program then use the calibrated arm.
     nominal = controller.kinematics
     calibration = None
     if config.calibration.enabled:
         t0 = time.perf_counter()
-
-        def on_view() -> None:
-            if recording is not None:
-                recording.log_bodies(controller.time_s, evaluator.body_poses())
-
-        calibration = calibrate_arm(controller, config.calibration, config.seed, say, on_view)
+        calibration = calibrate_arm(controller, config.calibration, config.seed, say, log.bodies)
         timings["calibrate"] = time.perf_counter() - t0
 
     # 2D: IR edge probing.
@@ -177,8 +174,7 @@ def run_assembly(
         progress=say,
     )
     timings["probe"] = time.perf_counter() - t0
-    if recording is not None:
-        recording.log_bodies(controller.time_s, evaluator.body_poses())
+    log.bodies()
 
     # 3D: laser scan and surface matching.
     t0 = time.perf_counter()
@@ -242,28 +238,17 @@ def run_assembly(
         T_base_lift = T_base_touch.copy()
         T_base_lift[2, 3] += LIFT_M
 
-        def pick_moved(what: str) -> None:  # the part's true pose is in the body poses
-            if recording is not None:
-                recording.follow(
-                    controller.time_s,
-                    controller.read_joints(),
-                    controller.kinematics,
-                    controller.tool_in_hand,
-                    interpolate=what != "tool change",
-                )
-                recording.log_bodies(controller.time_s, evaluator.body_poses())
-
         def pick_and_put_down(name: str) -> None:
             evaluator.record_touch(name, "gripper")  # at rest, fingers open around it
             controller.set_gripper(0.0)  # squeeze: force-limited fingers stop on the upright
             evaluator.record_touch("pick: closed", "gripper")
             controller.move_linear(T_base_lift, speed_m_s=LIFT_SPEED, settle_s=HOLD_S)
             evaluator.record_touch("pick: lifted", "gripper")
-            pick_moved("lift")
+            log.moved("lift")
             controller.move_linear(T_base_touch, speed_m_s=LIFT_SPEED)  # where it was taken
             controller.set_gripper(GRIPPER_OPEN_M)
 
-        execute_program(controller, grasp, 0.05, on_touch=pick_and_put_down, on_move=pick_moved)
+        execute_program(controller, grasp, 0.05, on_touch=pick_and_put_down, on_move=log.moved)
         evaluator.record_touch("pick: placed", "gripper")  # gripper retreated
         grasp_error_m = evaluator.frame_error("grasp", "grasp")
         pick = evaluator.pick("grasp", "pick: closed", "pick: lifted", "pick: placed")
@@ -292,18 +277,7 @@ def run_assembly(
                 evaluator.record_touch(name, "screwer")
                 controller.spin_screwer(SCREW_SPEED, SCREW_SECONDS)
 
-            def moved(what: str) -> None:
-                if recording is not None:
-                    recording.follow(
-                        controller.time_s,
-                        controller.read_joints(),
-                        controller.kinematics,
-                        controller.tool_in_hand,
-                        interpolate=what != "tool change",
-                    )
-                    recording.log_bodies(controller.time_s, evaluator.body_poses())
-
-            execute_program(controller, program, 0.02, on_touch=drive, on_move=moved)
+            execute_program(controller, program, 0.02, on_touch=drive, on_move=log.moved)
             targets[method] = evaluator.targets(
                 config.touch_offset_m, virtual, program.T_base_object, prefix=f"{method}:"
             )

@@ -42,6 +42,7 @@ from scenarios.calibration_step import (
     calibration_results,
     check_artifact_clearance,
 )
+from scenarios.cell_log import CellLog
 from scenarios.config import Noise, SkullConfig
 from scenarios.evaluation import Evaluator
 from scenarios.placement import draw_true_pose, nominal_pose
@@ -187,25 +188,20 @@ def run_skull(
     evaluator = Evaluator(truth, real, name)
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     timings["setup"] = time.perf_counter() - t0
+    log = CellLog(recording, controller, evaluator)
     if recording is not None:
         recording.log_cell_geometry(evaluator.mujoco_model)
         recording.log_model(virtual, T_table_nominal)
-        recording.log_bodies(controller.time_s, evaluator.body_poses())
+    log.bodies()
 
     # Kinematic calibration: the scan, the IK and the program then use the calibrated arm.
     nominal = controller.kinematics
     calibration: CalibrationResult | None = None
     if config.calibration.enabled:
         t0 = time.perf_counter()
-
-        def on_view() -> None:
-            if recording is not None:
-                recording.log_bodies(controller.time_s, evaluator.body_poses())
-
-        calibration = calibrate_arm(controller, config.calibration, config.seed, say, on_view)
+        calibration = calibrate_arm(controller, config.calibration, config.seed, say, log.bodies)
         timings["calibrate"] = time.perf_counter() - t0
-        if recording is not None:
-            recording.log_bodies(controller.time_s, evaluator.body_poses())
+        log.bodies()
 
     # Scan: planned in the virtual cell, executed on the real one.
     t0 = time.perf_counter()
@@ -219,7 +215,7 @@ def run_skull(
     say(f"scan: {len(scan.points_table)} points, {len(object_points)} on the object")
     if recording is not None:
         recording.log_scan(scan, keep, controller.kinematics)
-        recording.log_bodies(controller.time_s, evaluator.body_poses())
+    log.bodies()
     outputs.write_ply(folder / "scan.ply", object_points)
 
     # Registration.
@@ -281,24 +277,12 @@ def run_skull(
             config.program.spins,
         )
         say(f"program: {len(program.operations)} operations at table {program.table_position_m} m")
-
-        def on_move(what: str) -> None:
-            if recording is not None:
-                recording.follow(
-                    controller.time_s,
-                    controller.read_joints(),
-                    controller.kinematics,
-                    controller.tool_in_hand,
-                    interpolate=what != "tool change",
-                )
-                recording.log_bodies(controller.time_s, evaluator.body_poses())
-
         executed = execute_program(
             controller,
             program,
             config.program.touch_speed_m_s,
             on_touch=lambda target: evaluator.record_touch(target, config.program.tool),
-            on_move=on_move,
+            on_move=log.moved,
         )
     else:
         say(f"refused: {reason}; no motion towards the object")
