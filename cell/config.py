@@ -133,6 +133,16 @@ def _check_T(owner: str, T: np.ndarray) -> np.ndarray:
     return T
 
 
+def _check_mesh_object(obj: FixedMesh | LooseMesh, owner: str) -> None:
+    """Validate a mesh object's vertices, faces, convex pieces and pose, and store them as
+    (N, 3) float, (M, 3) int32 and a (4, 4) float transform."""
+    v, f = _check_mesh(owner, obj.vertices, obj.faces, obj.convex_pieces)
+    object.__setattr__(obj, "vertices", v)
+    object.__setattr__(obj, "faces", f)
+    T = _check_T(f"{owner} T_table_object", obj.T_table_object)
+    object.__setattr__(obj, "T_table_object", T)
+
+
 def _check_mesh(
     owner: str, vertices: np.ndarray, faces: np.ndarray, convex_pieces: tuple[np.ndarray, ...]
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -174,13 +184,7 @@ class FixedMesh:
     rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0)
 
     def __post_init__(self) -> None:
-        owner = f"FixedMesh {self.name!r}"
-        v, f = _check_mesh(owner, self.vertices, self.faces, self.convex_pieces)
-        object.__setattr__(self, "vertices", v)
-        object.__setattr__(self, "faces", f)
-        object.__setattr__(
-            self, "T_table_object", _check_T(f"{owner} T_table_object", self.T_table_object)
-        )
+        _check_mesh_object(self, f"FixedMesh {self.name!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -208,7 +212,7 @@ class LooseMesh:
 
     def __post_init__(self) -> None:
         owner = f"LooseMesh {self.name!r}"
-        v, f = _check_mesh(owner, self.vertices, self.faces, self.convex_pieces)
+        _check_mesh_object(self, owner)
         for name, value in (("density_kg_m3", self.density_kg_m3), ("friction", self.friction)):
             if not (np.isfinite(value) and value > 0):
                 raise CellConfigError(f"{owner}: {name} must be finite and > 0, got {value!r}")
@@ -216,11 +220,6 @@ class LooseMesh:
             raise CellConfigError(
                 f"{owner}: mass_kg must be None (from the volume) or > 0, got {self.mass_kg!r}"
             )
-        object.__setattr__(self, "vertices", v)
-        object.__setattr__(self, "faces", f)
-        object.__setattr__(
-            self, "T_table_object", _check_T(f"{owner} T_table_object", self.T_table_object)
-        )
 
 
 @dataclass(frozen=True, eq=False)
