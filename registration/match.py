@@ -503,9 +503,7 @@ def match(
         if _displacement(T_i, runs[best_i].T_model_data, mid) > settings.distinct * extent:
             second = Minimum(T_i, float(costs[int(i)]))
             break
-    T_best = runs[best_i].T_model_data
-    best_cost = float(costs[best_i])
-    ambiguity = 0.0 if second is None else best_cost / max(second.cost, 1e-300)
+    T_best, best_cost, ambiguity = runs[best_i].T_model_data, float(costs[best_i]), 0.0
     if second is not None:
         T_best, best_cost, second, ambiguity = _judge(data, shape, T_best, second, settings)
     trajectory: list[Array] = []
