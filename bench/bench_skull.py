@@ -26,10 +26,12 @@ from rich.table import Table
 from cell import FixedMesh, make_cell, nominal_T_base_table
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.config import load_config
+from scenarios.job_cell import cell_config
+from scenarios.localization import localize
 from scenarios.outputs import read_ply
 from scenarios.placement import draw_true_pose
 from scenarios.runner import RunOptions, run_job
-from scenarios.skull import cell_config, localize, virtual_and_real
+from scenarios.skull import virtual_and_real
 
 
 def _cli_run(out: Path, seed: int) -> tuple[float, dict]:

@@ -25,19 +25,14 @@ from typing import Any
 
 import numpy as np
 
-from cell import FixedPrimitive, LooseMesh, make_cell, nominal_T_base_table
-from models import BurrHole, ModelErrorSpec, ObjectModel, builtin_model, real_model
+from cell import nominal_T_base_table
+from models import BurrHole, ObjectModel, builtin_model, real_model
 from registration import Acceptance, MeshModel
-from scenarios.calibration_step import (
-    artifact_fixtures,
-    calibrate_arm,
-    calibration_results,
-    check_artifact_clearance,
-)
-from scenarios.cell_log import CellLog
+from scenarios.calibration_step import calibrate_arm, calibration_results
 from scenarios.config import AssemblyConfig
-from scenarios.evaluation import Evaluator, TargetEvaluation
-from scenarios.placement import draw_true_pose, nominal_pose
+from scenarios.evaluation import TargetEvaluation
+from scenarios.job_cell import build_job_cell, model_error
+from scenarios.localization import localize
 from scenarios.probing import EdgeProbe, probe_part
 from scenarios.program import (
     OfflineProgram,
@@ -47,8 +42,7 @@ from scenarios.program import (
     execute_program,
     plan_program,
 )
-from scenarios.scan import ObjectBox, crop_to_object, execute_scan, plan_scan
-from scenarios.skull import cell_config, localize
+from scenarios.scan import crop_to_object, execute_scan, plan_scan
 
 Progress = Callable[[str], None]
 MM = 1e-3
@@ -122,38 +116,25 @@ def run_assembly(
     t0 = time.perf_counter()
     model = builtin_model(config.part)
     virtual = replace(model, burr_holes=screw_holes(model))
-    spec = ModelErrorSpec(
-        deformation_rms=config.noise.model_deformation_rms_m,
-        noise_rms=config.noise.model_noise_rms_m,
-    )
-    real, _ = real_model(virtual, spec, seed=config.seed)
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 6]))
-    T_table_nominal = nominal_pose(config.placement, virtual.mesh.vertices)
-    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
-    part = LooseMesh(
-        "part",
-        real.mesh.vertices,
-        real.mesh.faces,
-        T_table_true,
-        convex_pieces=tuple(p.vertices for p in real.convex_pieces),
-        rgba=(0.7, 0.72, 0.78, 1.0),
-    )  # aluminium (2700 kg/m^3): about 0.13 kg
-    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
+    real, _ = real_model(virtual, model_error(config.noise), seed=config.seed)
     crop_margin_m = config.placement.range_xy_m + 0.02
-    spheres: tuple[FixedPrimitive, ...] = ()
-    if config.calibration.enabled:
-        check_artifact_clearance(box, crop_margin_m)
-        spheres = artifact_fixtures(config.seed)
-    controller, truth = make_cell(
-        replace(cell_config(config.noise, config.seed, spheres), parts=(part,))
+    cell = build_job_cell(
+        virtual,
+        real,
+        config.placement,
+        config.noise,
+        config.calibration,
+        config.seed,
+        stream=6,
+        crop_margin_m=crop_margin_m,
+        recording=recording,
+        name="part",
+        loose=True,  # aluminium (2700 kg/m^3): about 0.13 kg
+        rgba=(0.7, 0.72, 0.78, 1.0),
     )
-    evaluator = Evaluator(truth, real, "part")
+    controller, evaluator, log = cell.controller, cell.evaluator, cell.log
+    T_table_nominal, box = cell.T_table_nominal, cell.box
     timings["setup"] = time.perf_counter() - t0
-    log = CellLog(recording, controller, evaluator)
-    if recording is not None:
-        recording.log_cell_geometry(evaluator.mujoco_model)
-        recording.log_model(virtual, T_table_nominal)
-    log.bodies()
 
     # Kinematic calibration: both methods and the program then use the calibrated arm.
     nominal = controller.kinematics

@@ -16,7 +16,7 @@ from scenarios.rapid import program_module
 from scenarios.run_folder import write_atomic
 
 if TYPE_CHECKING:
-    from scenarios.skull import Localization
+    from scenarios.localization import Localization
 
 
 def write_ply(path: Path, points: np.ndarray) -> Path:

@@ -12,7 +12,7 @@ from scenarios.config import SkullConfig
 from scenarios.evaluation import PoseEvaluation, TargetEvaluation
 
 if TYPE_CHECKING:
-    from scenarios.skull import Localization
+    from scenarios.localization import Localization
 
 #: Goals of the skull job with the default noise [m].
 GOAL_RMS_M = 0.5e-3

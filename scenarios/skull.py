@@ -16,57 +16,30 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cell import (
-    ArmErrors,
-    CellConfig,
-    EncoderNoise,
-    FixedMesh,
-    FixedPrimitive,
-    LaserConfig,
-    TableErrors,
-    nominal_T_base_table,
-)
-from cell import make_cell as make_real_cell
-from models import ModelErrorSpec, ObjectModel, load_model, real_model
-from registration import Acceptance, MatchResult, MeshModel, ScanPasses, invert, match
+from cell import nominal_T_base_table
+from models import ObjectModel, load_model, real_model
+from registration import Acceptance, MeshModel
 from scenarios.calibration import CalibrationResult
-from scenarios.calibration_step import (
-    artifact_fixtures,
-    calibrate_arm,
-    calibration_results,
-    check_artifact_clearance,
-)
-from scenarios.cell_log import CellLog
-from scenarios.config import Noise, SkullConfig
-from scenarios.evaluation import Evaluator
-from scenarios.placement import draw_true_pose, nominal_pose
+from scenarios.calibration_step import calibrate_arm, calibration_results
+from scenarios.config import SkullConfig
+from scenarios.job_cell import build_job_cell, model_error
+from scenarios.localization import localize
 from scenarios.program import (
     OfflineProgram,
     burr_hole_operations,
     execute_program,
     plan_program,
 )
-from scenarios.scan import ObjectBox, ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.scan import ScanData, crop_to_object, execute_scan, plan_scan
 from scenarios.targets import generate_targets, read_targets, targets_path
 
 Progress = Callable[[str], None]
-
-
-@dataclass(frozen=True, eq=False)
-class Localization:
-    """The matched object pose: T_table_object (4, 4) in the nominal table frame, the match,
-    the points used (M, 3) and the number of cropped object points."""
-
-    T_table_object: np.ndarray
-    result: MatchResult
-    points_used: np.ndarray
-    object_points: int
 
 
 def virtual_and_real(config: SkullConfig) -> tuple[ObjectModel, ObjectModel]:
@@ -82,73 +55,8 @@ def virtual_and_real(config: SkullConfig) -> tuple[ObjectModel, ObjectModel]:
             else generate_targets(model, seed=config.seed)
         )
         model = replace(model, burr_holes=holes)
-    spec = ModelErrorSpec(
-        deformation_rms=config.noise.model_deformation_rms_m,
-        noise_rms=config.noise.model_noise_rms_m,
-    )
-    real, _ = real_model(model, spec, seed=config.seed)
+    real, _ = real_model(model, model_error(config.noise), seed=config.seed)
     return model, real
-
-
-def cell_config(
-    noise: Noise, seed: int, fixtures: tuple[FixedMesh | FixedPrimitive, ...]
-) -> CellConfig:
-    """The real cell's configuration from the run's noise section."""
-    return CellConfig(
-        seed=seed,
-        arm=ArmErrors(noise.arm_length_sigma_m, noise.arm_offset_sigma_rad),
-        encoder=EncoderNoise(noise.encoder_sigma_rad),
-        table=TableErrors(noise.table_bias_sigma_m, noise.table_repeat_sigma_m),
-        laser=LaserConfig(sigma_m=noise.laser_sigma_m),
-        fixtures=fixtures,
-    )
-
-
-def voxel_thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
-    """Indices (K,) of the first point of `points` (N, 3) in each occupied cube of side
-    `voxel_m` [m] (every index if voxel_m is 0)."""
-    if voxel_m <= 0.0:
-        return np.arange(len(points))
-    keys = np.floor(points / voxel_m).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
-    return np.sort(first)
-
-
-def localize(
-    points_table: np.ndarray,
-    shape: MeshModel,
-    max_points: int,
-    acceptance: Acceptance,
-    seed: int,
-    voxel_m: float = 0.0,
-    mode: str = "local",
-    T_table_object_prior: np.ndarray | None = None,
-    pass_labels: np.ndarray | None = None,
-    pass_sigma_m: float | None = None,
-) -> Localization:
-    """Match the object points (N, 3) in the table frame to the virtual model: thinned to
-    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`. Mode
-    "local" searches without prior; "refine" starts from `T_table_object_prior` (4, 4).
-    With the scan pass of each point `pass_labels` (N,) and the arm's accuracy
-    `pass_sigma_m` [m] (a pass's rigid offset, per axis), the predicted TRE includes it."""
-    rng = np.random.default_rng(seed)
-    index = voxel_thin(points_table, voxel_m)
-    if len(index) > max_points:
-        index = index[np.sort(rng.choice(len(index), max_points, replace=False))]
-    used = points_table[index]
-    passes = None
-    if pass_labels is not None and pass_sigma_m is not None:
-        passes = ScanPasses(np.asarray(pass_labels)[index], pass_sigma_m)
-    T_init = None if T_table_object_prior is None else invert(T_table_object_prior)
-    result = match(
-        used,
-        shape,
-        mode=mode,  # type: ignore[arg-type]
-        T_init=T_init,
-        acceptance=acceptance,
-        passes=passes,
-    )
-    return Localization(invert(result.T_model_data), result, used, len(points_table))
 
 
 def run_skull(
@@ -168,31 +76,22 @@ def run_skull(
     t0 = time.perf_counter()
     say(f"model {config.model!r}: virtual and real entity")
     virtual, real = virtual_and_real(config)
-    name = "object"
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 5]))
-    T_table_nominal = nominal_pose(config.placement, virtual.mesh.vertices)
-    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
-    fixture = FixedMesh(
-        name,
-        real.mesh.vertices,
-        real.mesh.faces,
-        T_table_true,
-        convex_pieces=tuple(p.vertices for p in real.convex_pieces),
+    crop_margin_m = config.placement.range_xy_m + 0.03
+    cell = build_job_cell(
+        virtual,
+        real,
+        config.placement,
+        config.noise,
+        config.calibration,
+        config.seed,
+        stream=5,
+        crop_margin_m=crop_margin_m,
+        recording=recording,
     )
-    fixtures: tuple[FixedMesh | FixedPrimitive, ...] = (fixture,)
-    if config.calibration.enabled:
-        box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
-        check_artifact_clearance(box, config.placement.range_xy_m + 0.03)
-        fixtures += artifact_fixtures(config.seed)
-    controller, truth = make_real_cell(cell_config(config.noise, config.seed, fixtures))
-    evaluator = Evaluator(truth, real, name)
+    controller, evaluator, log = cell.controller, cell.evaluator, cell.log
+    T_table_nominal, box = cell.T_table_nominal, cell.box
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     timings["setup"] = time.perf_counter() - t0
-    log = CellLog(recording, controller, evaluator)
-    if recording is not None:
-        recording.log_cell_geometry(evaluator.mujoco_model)
-        recording.log_model(virtual, T_table_nominal)
-    log.bodies()
 
     # Kinematic calibration: the scan, the IK and the program then use the calibrated arm.
     nominal = controller.kinematics
@@ -205,11 +104,10 @@ def run_skull(
 
     # Scan: planned in the virtual cell, executed on the real one.
     t0 = time.perf_counter()
-    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
     plan = plan_scan(controller.kinematics, box, config.scan, controller.read_joints())
     say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
     scan: ScanData = execute_scan(controller, plan, config.scan, say)
-    keep = crop_to_object(scan.points_table, box, config.placement.range_xy_m + 0.03)
+    keep = crop_to_object(scan.points_table, box, crop_margin_m)
     object_points = scan.points_table[keep]
     timings["scan"] = time.perf_counter() - t0
     say(f"scan: {len(scan.points_table)} points, {len(object_points)} on the object")

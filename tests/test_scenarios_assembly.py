@@ -172,8 +172,8 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     truth and the estimated pose."""
     from models import ModelErrorSpec, real_model
     from scenarios.assembly import screw_holes
+    from scenarios.job_cell import cell_config
     from scenarios.placement import draw_true_pose
-    from scenarios.skull import cell_config
 
     config = AssemblyConfig(seed=2)
     model = builtin_model("bracket")

@@ -15,9 +15,10 @@ import yaml
 from cell import FixedMesh, make_cell
 from scenarios.cli import main
 from scenarios.config import load_config
+from scenarios.job_cell import cell_config
 from scenarios.outputs import read_ply
 from scenarios.placement import draw_true_pose
-from scenarios.skull import cell_config, virtual_and_real
+from scenarios.skull import virtual_and_real
 
 SHORT = """scenario: skull
 seed: 11

@@ -10,10 +10,12 @@ from igl import point_mesh_squared_distance
 from cell import FixedMesh, make_cell, nominal_T_base_table
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.config import Scan, SkullConfig
+from scenarios.job_cell import cell_config
+from scenarios.localization import localize
 from scenarios.placement import draw_true_pose, nominal_pose
 from scenarios.program import burr_hole_operations, execute_program, plan_program
 from scenarios.scan import ObjectBox, crop_to_object, execute_scan, plan_scan
-from scenarios.skull import cell_config, localize, virtual_and_real
+from scenarios.skull import virtual_and_real
 
 SHORT_SCAN = Scan(speed_m_s=0.25, period_s=0.02)
 

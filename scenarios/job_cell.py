@@ -1,0 +1,115 @@
+"""The real cell of a job: the object's real entity placed at its true pose on the table
+(fixed, or loose for a part the gripper picks), the calibration spheres when the job
+calibrates, the cell's error sources from the run's noise section, the evaluator (the only
+reader of the truth) and the recording hooks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from cell import (
+    ArmErrors,
+    CellConfig,
+    Controller,
+    EncoderNoise,
+    FixedMesh,
+    FixedPrimitive,
+    LaserConfig,
+    LooseMesh,
+    TableErrors,
+    make_cell,
+)
+from models import ModelErrorSpec, ObjectModel
+from scenarios.calibration_step import artifact_fixtures, check_artifact_clearance
+from scenarios.cell_log import CellLog
+from scenarios.config import Calibration, Noise, Placement
+from scenarios.evaluation import Evaluator
+from scenarios.placement import draw_true_pose, nominal_pose
+from scenarios.scan import ObjectBox
+
+
+@dataclass(frozen=True, eq=False)
+class JobCell:
+    """A job's real cell: the controller (what the program sees), the evaluator (the
+    truth), the recording hooks, the object's nominal pose T_table_object (4, 4) and its
+    nominal footprint for the scan."""
+
+    controller: Controller
+    evaluator: Evaluator
+    log: CellLog
+    T_table_nominal: np.ndarray
+    box: ObjectBox
+
+
+def model_error(noise: Noise) -> ModelErrorSpec:
+    """The model error of the real entity, from the run's noise section."""
+    return ModelErrorSpec(
+        deformation_rms=noise.model_deformation_rms_m, noise_rms=noise.model_noise_rms_m
+    )
+
+
+def cell_config(
+    noise: Noise, seed: int, fixtures: tuple[FixedMesh | FixedPrimitive, ...]
+) -> CellConfig:
+    """The real cell's configuration from the run's noise section."""
+    return CellConfig(
+        seed=seed,
+        arm=ArmErrors(noise.arm_length_sigma_m, noise.arm_offset_sigma_rad),
+        encoder=EncoderNoise(noise.encoder_sigma_rad),
+        table=TableErrors(noise.table_bias_sigma_m, noise.table_repeat_sigma_m),
+        laser=LaserConfig(sigma_m=noise.laser_sigma_m),
+        fixtures=fixtures,
+    )
+
+
+def build_job_cell(
+    virtual: ObjectModel,
+    real: ObjectModel,
+    placement: Placement,
+    noise: Noise,
+    calibration: Calibration,
+    seed: int,
+    stream: int,
+    crop_margin_m: float,
+    recording: Any | None = None,
+    name: str = "object",
+    loose: bool = False,
+    rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0),
+) -> JobCell:
+    """Place the real entity at a true pose drawn around the nominal one (random stream
+    `stream` of `seed`), fixed on the table or `loose`; add the calibration spheres if the
+    job calibrates (they must stand clear of the object's footprint plus `crop_margin_m`
+    [m]); build the cell and start the recording (cell geometry, the virtual model at its
+    nominal pose, the bodies)."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, stream]))
+    T_table_nominal = nominal_pose(placement, virtual.mesh.vertices)
+    T_table_true = draw_true_pose(placement, real.mesh.vertices, rng)
+    pieces = tuple(p.vertices for p in real.convex_pieces)
+    mesh = real.mesh
+    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
+    spheres: tuple[FixedPrimitive, ...] = ()
+    if calibration.enabled:
+        check_artifact_clearance(box, crop_margin_m)
+        spheres = artifact_fixtures(seed)
+    if loose:
+        part = LooseMesh(
+            name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
+        )
+        config = replace(cell_config(noise, seed, spheres), parts=(part,))
+    else:
+        fixed = FixedMesh(
+            name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
+        )
+        config = cell_config(noise, seed, (fixed, *spheres))
+    controller, truth = make_cell(config)
+    evaluator = Evaluator(truth, real, name)
+    log = CellLog(recording, controller, evaluator)
+    if recording is not None:
+        recording.log_cell_geometry(evaluator.mujoco_model)
+        recording.log_model(virtual, T_table_nominal)
+    log.bodies()
+    return JobCell(controller, evaluator, log, T_table_nominal, box)

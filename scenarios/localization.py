@@ -1,0 +1,70 @@
+"""Locating the object on the table from its scan: the object points thinned and
+subsampled, matched to the virtual model, the pose returned in the nominal table frame.
+Shared by the skull and assembly jobs and their benchmarks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from registration import Acceptance, MatchResult, MeshModel, ScanPasses, invert, match
+
+
+@dataclass(frozen=True, eq=False)
+class Localization:
+    """The matched object pose: T_table_object (4, 4) in the nominal table frame, the match,
+    the points used (M, 3) and the number of cropped object points."""
+
+    T_table_object: np.ndarray
+    result: MatchResult
+    points_used: np.ndarray
+    object_points: int
+
+
+def voxel_thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
+    """Indices (K,) of the first point of `points` (N, 3) in each occupied cube of side
+    `voxel_m` [m] (every index if voxel_m is 0)."""
+    if voxel_m <= 0.0:
+        return np.arange(len(points))
+    keys = np.floor(points / voxel_m).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return np.sort(first)
+
+
+def localize(
+    points_table: np.ndarray,
+    shape: MeshModel,
+    max_points: int,
+    acceptance: Acceptance,
+    seed: int,
+    voxel_m: float = 0.0,
+    mode: str = "local",
+    T_table_object_prior: np.ndarray | None = None,
+    pass_labels: np.ndarray | None = None,
+    pass_sigma_m: float | None = None,
+) -> Localization:
+    """Match the object points (N, 3) in the table frame to the virtual model: thinned to
+    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`. Mode
+    "local" searches without prior; "refine" starts from `T_table_object_prior` (4, 4).
+    With the scan pass of each point `pass_labels` (N,) and the arm's accuracy
+    `pass_sigma_m` [m] (a pass's rigid offset, per axis), the predicted TRE includes it."""
+    rng = np.random.default_rng(seed)
+    index = voxel_thin(points_table, voxel_m)
+    if len(index) > max_points:
+        index = index[np.sort(rng.choice(len(index), max_points, replace=False))]
+    used = points_table[index]
+    passes = None
+    if pass_labels is not None and pass_sigma_m is not None:
+        passes = ScanPasses(np.asarray(pass_labels)[index], pass_sigma_m)
+    T_init = None if T_table_object_prior is None else invert(T_table_object_prior)
+    result = match(
+        used,
+        shape,
+        mode=mode,  # type: ignore[arg-type]
+        T_init=T_init,
+        acceptance=acceptance,
+        passes=passes,
+    )
+    return Localization(invert(result.T_model_data), result, used, len(points_table))
