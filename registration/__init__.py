@@ -3,46 +3,41 @@
 The seed paper's algorithm, usable on its own: Horn's absolute orientation (weighted),
 Haralick's robust estimator with Tukey weights, the closest-point operator on point sets,
 segments, triangle meshes and parametric surfaces, ICP, initial states for global and local
-matching, and the quality of the result (covariance, predicted TRE, ambiguity, verdict).
+matching, the model's own symmetries, and the quality of the result (covariance, predicted
+TRE, ambiguity, verdict per target).
 
-    >>> from registration import match, MeshModel
-    >>> result = match(scan_points, MeshModel(vertices, faces), mode="local")
-    >>> result.T_model_data, result.verdict, result.predicted_tre(targets)
+    >>> from registration import MeshModel, match
+    >>> result = match(scan_points, MeshModel(vertices, faces))          # mode="auto"
+    >>> result.T_model_data, result.verdict, result.predicted_tre(targets).verdict
+
+One call, one result: `match` returns a `MatchResult`. The building blocks stay in their
+modules (registration.icp, registration.horn, registration.haralick, registration.search,
+registration.symmetry, ...) for those who want them.
 """
 
 from registration.errors import FormatError, InputError, RegistrationError
-from registration.haralick import RobustFit, haralick
-from registration.horn import absolute_orientation, absolute_orientation_batch
-from registration.icp import IcpResult, icp
-from registration.kernels import L2, Kernel, Trimmed, Tukey, median_absolute_deviation
-from registration.match import MODES, MatchResult, Minimum, SearchSettings, as_shape, match
-from registration.quality import (
-    Acceptance,
-    ResidualCorrelation,
-    ScanPasses,
-    pose_covariance,
-    predicted_tre,
-    residual_correlation,
-    trimmed_rms,
-)
+from registration.io import load_model, load_points
+from registration.kernels import L2, Kernel, Trimmed, Tukey
+from registration.matcher import MODES, match
+from registration.quality import ScanPasses
+from registration.result import MatchResult, Minimum
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
+from registration.search import SearchSettings
 from registration.shapes import (
-    Closest,
     MeshModel,
     ParametricModel,
     PointModel,
     SegmentModel,
     Shape,
 )
-from registration.starts import super_fibonacci_rotations
+from registration.symmetry import Symmetry
+from registration.verdict import Acceptance, TargetPrediction
 
 __all__ = [
     "L2",
     "MODES",
     "Acceptance",
-    "Closest",
     "FormatError",
-    "IcpResult",
     "InputError",
     "Kernel",
     "MatchResult",
@@ -51,29 +46,20 @@ __all__ = [
     "ParametricModel",
     "PointModel",
     "RegistrationError",
-    "ResidualCorrelation",
-    "RobustFit",
     "ScanPasses",
     "SearchSettings",
     "SegmentModel",
     "Shape",
+    "Symmetry",
+    "TargetPrediction",
     "Trimmed",
     "Tukey",
-    "absolute_orientation",
-    "absolute_orientation_batch",
-    "as_shape",
-    "haralick",
-    "icp",
     "invert",
+    "load_model",
+    "load_points",
     "make_T",
     "match",
-    "median_absolute_deviation",
-    "pose_covariance",
     "pose_error",
-    "predicted_tre",
-    "residual_correlation",
     "rotation_angle",
-    "super_fibonacci_rotations",
     "transform_points",
-    "trimmed_rms",
 ]

@@ -8,6 +8,7 @@ less than tau between two iterations (eq. 21) or at the iteration cap.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -17,7 +18,7 @@ from registration.errors import InputError
 from registration.horn import absolute_orientation
 from registration.kernels import Kernel, Tukey
 from registration.rigid import Array, exp_se3, make_T, transform_points
-from registration.shapes.base import Shape, check_points
+from registration.shapes.base import Closest, Shape, check_points
 
 Variant = Literal["point_to_point", "point_to_plane"]
 VARIANTS: tuple[str, ...] = ("point_to_point", "point_to_plane")
@@ -80,6 +81,7 @@ def icp(
     tau: float | None = None,
     max_iterations: int = 60,
     callback: object | None = None,
+    closest: Callable[[Array], Closest] | None = None,
 ) -> IcpResult:
     """Register data points to a model shape from one initial state.
 
@@ -93,6 +95,8 @@ def icp(
             [length^2]; default (1e-5 * model extent)^2.
         max_iterations: iteration cap.
         callback: optional callable(iteration, T_model_data, mse) for progress or logging.
+        closest: the closest-point operator; the model's exact C operator by default
+            (`model.near` for fast iterations while the pose is still far).
     """
     data = check_points(data, "data points", minimum=3)
     if variant not in VARIANTS:
@@ -101,6 +105,7 @@ def icp(
         variant = "point_to_point"
     kernel = kernel or Tukey(min_scale=1e-6 * model.extent)
     tau = (1e-5 * model.extent) ** 2 if tau is None else tau
+    closest = closest or model.closest
     T = np.eye(4) if T_init is None else np.asarray(T_init, dtype=float).copy()
     if T.shape != (4, 4) or not np.isfinite(T).all():
         raise InputError(f"T_init must be a finite (4, 4) matrix; got shape {T.shape}")
@@ -110,7 +115,7 @@ def icp(
     converged = False
     for _ in range(max_iterations):
         p = transform_points(T, data)
-        c = model.closest(p)
+        c = closest(p)
         if variant == "point_to_plane":
             assert c.normals is not None
             residuals = np.einsum("nd,nd->n", c.normals, p - c.points)

@@ -1,25 +1,20 @@
-"""Quality of a registration: pose covariance, predicted target registration error, verdict.
+"""Quality of a registration: pose covariance and predicted target registration error.
 
 RMS alone does not reveal a wrong minimum or a poorly constrained pose. The covariance of
 the pose comes from the point-to-plane Jacobian of the final inliers and the residual
 variance; the predicted TRE at a target x is the RMS of the displacement of x under that
-covariance. The verdict combines the fit, the inlier fraction, the ambiguity between the
-best and second-best distinct minima, and how well the pose is constrained.
+covariance (verdict.py turns these figures into a verdict).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from registration.errors import InputError
 from registration.rigid import Array, skew
-
-Verdict = Literal["accepted", "ambiguous", "rejected"]
-
 
 def trimmed_rms(residuals: Array, trim: float) -> Array:
     """RMS of the smallest `trim` fraction of |residuals| along the last axis, shape (...,).
@@ -171,7 +166,10 @@ def pose_covariance(
         if correlation.sigma_correlated > 0 and correlation.length > 0:
             size = 2.5 * correlation.length
             cell = np.floor(points / size).astype(np.int64)
-            _, patch = np.unique(cell, axis=0, return_inverse=True)
+            cell -= cell.min(axis=0)
+            span = cell.max(axis=0) + 1
+            key = (cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2]
+            _, patch = np.unique(key, return_inverse=True)
             g = np.zeros((patch.max() + 1, J.shape[1], 6))
             np.add.at(g, patch.ravel(), Jw)
             middle += correlation.sigma_correlated**2 * np.einsum("pki,pkj->ij", g, g)
@@ -206,54 +204,3 @@ def predicted_tre(covariance: Array, targets: Array) -> Array:
     )  # (K, 3, 6)
     cov_x = J @ covariance @ J.transpose(0, 2, 1)
     return np.sqrt(np.trace(cov_x, axis1=1, axis2=2))
-
-
-@dataclass(frozen=True)
-class Acceptance:
-    """Thresholds of the verdict.
-
-    Attributes:
-        max_rms: largest acceptable inlier RMS [length units]; None: 1 % of the model extent.
-        min_inlier_fraction: smallest acceptable fraction of data points that fit.
-        max_ambiguity: largest acceptable ratio of best to second-best distinct minimum cost.
-        max_predicted_tre: largest acceptable predicted TRE over the model surface
-            [length units]; None: 2 % of the model extent.
-    """
-
-    max_rms: float | None = None
-    min_inlier_fraction: float = 0.5
-    max_ambiguity: float = 0.5
-    max_predicted_tre: float | None = None
-
-
-def decide(
-    rms: float,
-    inlier_fraction: float,
-    ambiguity: float,
-    worst_tre: float,
-    extent: float,
-    acceptance: Acceptance,
-) -> tuple[Verdict, str]:
-    """Verdict and the reason for it, in words."""
-    max_rms = acceptance.max_rms if acceptance.max_rms is not None else 0.01 * extent
-    max_tre = (
-        acceptance.max_predicted_tre if acceptance.max_predicted_tre is not None else 0.02 * extent
-    )
-    if inlier_fraction < acceptance.min_inlier_fraction:
-        return "rejected", (
-            f"only {inlier_fraction:.0%} of the data fit the model "
-            f"(needs {acceptance.min_inlier_fraction:.0%})"
-        )
-    if rms > max_rms:
-        return "rejected", f"inlier RMS {rms:.3g} exceeds {max_rms:.3g}"
-    if ambiguity > acceptance.max_ambiguity:
-        return "ambiguous", (
-            f"a distinct pose fits almost as well (ambiguity {ambiguity:.2f} > "
-            f"{acceptance.max_ambiguity:.2f})"
-        )
-    if worst_tre > max_tre:
-        return "ambiguous", (
-            f"the pose is poorly constrained: predicted TRE up to {worst_tre:.3g} "
-            f"(limit {max_tre:.3g})"
-        )
-    return "accepted", "good fit, unique minimum, well-constrained pose"

@@ -40,10 +40,12 @@ def farthest_point_sample(points: Array, count: int, seed: int = 0) -> Array:
     rng = np.random.default_rng(seed)
     chosen = np.empty(count, dtype=np.int64)
     chosen[0] = rng.integers(n)
-    d = np.linalg.norm(points - points[chosen[0]], axis=1)
+    diff = points - points[chosen[0]]
+    d2 = np.einsum("ij,ij->i", diff, diff)
     for k in range(1, count):
-        chosen[k] = int(np.argmax(d))
-        d = np.minimum(d, np.linalg.norm(points - points[chosen[k]], axis=1))
+        chosen[k] = int(np.argmax(d2))
+        diff = points - points[chosen[k]]
+        np.minimum(d2, np.einsum("ij,ij->i", diff, diff), out=d2)
     return chosen
 
 
@@ -51,18 +53,37 @@ def local_frame(points: Array, centers: Array, radius: float, tree: cKDTree | No
     """Orthonormal frames (K, 3, 3) at centers (K, 3): columns e1, e2, n by PCA within radius.
 
     n is the direction of least spread (the surface normal, sign arbitrary) and e1 the
-    direction of largest spread.
+    direction of largest spread. A centre with fewer than 3 points within the radius takes
+    its 8 nearest.
     """
     tree = tree or cKDTree(points)
-    frames = np.empty((len(centers), 3, 3))
-    for k, nb in enumerate(tree.query_ball_point(centers, radius)):
-        if len(nb) < 3:
-            _, nb = tree.query(centers[k], k=min(8, len(points)))
-        q = points[np.atleast_1d(nb)] - centers[k]
-        _, vecs = np.linalg.eigh(q.T @ q)
-        e1, n = vecs[:, 2], vecs[:, 0]
-        frames[k] = np.stack([e1, np.cross(n, e1), n], axis=1)
-    return frames
+    lists = tree.query_ball_point(centers, radius)
+    few = [k for k, nb in enumerate(lists) if len(nb) < 3]
+    if few:
+        _, near = tree.query(centers[few], k=min(8, len(points)))
+        for k, nb in zip(few, np.atleast_2d(near), strict=True):
+            lists[k] = list(np.atleast_1d(nb))
+    lengths = np.array([len(nb) for nb in lists])
+    index = np.concatenate([np.asarray(nb, dtype=np.int64) for nb in lists])
+    q = points[index] - np.repeat(centers, lengths, axis=0)
+    outer = q[:, :, None] * q[:, None, :]
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    _, vecs = np.linalg.eigh(np.add.reduceat(outer, starts, axis=0))
+    e1, n = vecs[:, :, 2], vecs[:, :, 0]
+    return np.stack([e1, np.cross(n, e1), n], axis=2)
+
+
+def robust_centre(data: Array, radius: float) -> Array:
+    """Centroid (3,) of the data's surface points: points with few neighbours within `radius`
+    (spurious returns, scattered in space) are left out.
+
+    A whole-surface scan's centroid is the model's; 40 % of scattered outliers would move the
+    plain mean by a large fraction of the object's size.
+    """
+    pool = data[:: max(1, len(data) // 500)]
+    counts = cKDTree(pool).query_ball_point(pool, radius, return_length=True)
+    dense = counts >= 0.25 * np.median(counts)
+    return pool[dense].mean(axis=0)
 
 
 def global_starts(
@@ -73,19 +94,26 @@ def global_starts(
     return rotations, t
 
 
-def data_anchor(data: Array, radius: float, tree: cKDTree | None = None) -> Array:
-    """A data point near the middle of the scan that lies on the surface, (3,).
+def data_anchors(data: Array, radius: float, count: int, tree: cKDTree | None = None) -> Array:
+    """Well-spread data points (<= count, 3) inside the scanned surface, whatever the data's
+    orientation: the first nearest the centroid of the scan's interior, the others its
+    farthest points.
 
-    Among the tenth of the points nearest the median, the one with the most neighbours
-    within `radius`: surface points are dense, spurious points (outliers) are sparse.
+    The interior is the points with at least the median number of neighbours within
+    `radius`: spurious points (sparse) and the scan's border (half a neighbourhood, an
+    unreliable normal) are left out.
     """
     tree = tree or cKDTree(data)
-    center = np.median(data, axis=0)
-    k = max(1, min(len(data), len(data) // 10))
-    _, near = tree.query(center, k=k)
-    near = np.atleast_1d(near)
-    counts = tree.query_ball_point(data[near], radius, return_length=True)
-    return data[near[int(np.argmax(counts))]]
+    pool = np.arange(0, len(data), max(1, len(data) // 600))
+    counts = tree.query_ball_point(data[pool], radius, return_length=True)
+    core = data[pool[counts >= np.median(counts)]]
+    first = int(np.argmin(np.linalg.norm(core - core.mean(axis=0), axis=1)))
+    chosen = [first]
+    d = np.linalg.norm(core - core[first], axis=1)
+    for _ in range(min(count, len(core)) - 1):
+        chosen.append(int(np.argmax(d)))
+        d = np.minimum(d, np.linalg.norm(core - core[chosen[-1]], axis=1))
+    return core[chosen]
 
 
 def grid_local_starts(data: Array, model_anchors: Array, rotations: Array) -> tuple[Array, Array]:
@@ -94,7 +122,7 @@ def grid_local_starts(data: Array, model_anchors: Array, rotations: Array) -> tu
     The data point nearest the data centroid is placed on each model anchor. The seed
     paper's set of initial rotations and translations; K = rotations * anchors.
     """
-    p_anchor = data[np.argmin(np.linalg.norm(data - np.median(data, axis=0), axis=1))]
+    p_anchor = data[np.argmin(np.linalg.norm(data - data.mean(axis=0), axis=1))]
     R = np.repeat(rotations[None], len(model_anchors), axis=0).reshape(-1, 3, 3)
     t = np.repeat(model_anchors, len(rotations), axis=0) - R @ p_anchor
     return R, t
@@ -106,8 +134,9 @@ def local_starts(
     model_frames: Array,
     spins: int,
     radius: float,
+    data_count: int = 1,
 ) -> tuple[Array, Array]:
-    """Starts (R (K, 3, 3), t (K, 3)) for partial data, K = anchors * 2 * spins.
+    """Starts (R (K, 3, 3), t (K, 3)) for partial data, K = data anchors * anchors * 2 * spins.
 
     Args:
         data: data points (N, 3).
@@ -116,17 +145,21 @@ def local_starts(
         spins: rotations about the aligned normal, evenly spaced over 360 deg.
         radius: neighbourhood radius of the data normal [length units]; use the one the
             model frames were made with, so that both normals are smoothed alike.
+        data_count: data anchors (see `data_anchors`): each is placed on every model anchor.
     """
     data_tree = cKDTree(data)
-    p_anchor = data_anchor(data, radius, data_tree)
-    F_data = local_frame(data, p_anchor[None], radius, data_tree)[0]
+    p_anchors = data_anchors(data, radius, data_count, data_tree)
+    F_data = local_frame(data, p_anchors, radius, data_tree)
     flip = np.diag([1.0, -1.0, -1.0])  # the other normal sign, still right-handed
     theta = 2.0 * np.pi * np.arange(spins) / spins
     c, s = np.cos(theta), np.sin(theta)
     Rz = np.zeros((spins, 3, 3))
     Rz[:, 0, 0], Rz[:, 0, 1], Rz[:, 1, 0], Rz[:, 1, 1], Rz[:, 2, 2] = c, -s, s, c, 1.0
-    F_data_both = np.stack([F_data, F_data @ flip])  # (2, 3, 3)
-    # R = F_model @ Rz @ F_data^T, for every anchor, sign and spin.
-    R = np.einsum("aij,sjk,blk->absil", model_frames, Rz, F_data_both).reshape(-1, 3, 3)
-    t = np.repeat(model_anchors, 2 * spins, axis=0) - R @ p_anchor
-    return R, t
+    Rs, ts = [], []
+    for p_anchor, F in zip(p_anchors, F_data, strict=True):
+        F_both = np.stack([F, F @ flip])  # (2, 3, 3)
+        # R = F_model @ Rz @ F_data^T, for every anchor, sign and spin.
+        R = np.einsum("aij,sjk,blk->absil", model_frames, Rz, F_both).reshape(-1, 3, 3)
+        Rs.append(R)
+        ts.append(np.repeat(model_anchors, 2 * spins, axis=0) - R @ p_anchor)
+    return np.concatenate(Rs), np.concatenate(ts)

@@ -2,10 +2,13 @@
 
 libigl's AABB (C++) answers exact point-triangle queries about 50x faster than
 trimesh.proximity. The normals are the closest triangles' face normals, or the offset's
-direction where the closest point lies on an edge or a vertex.
+direction where the closest point lies on an edge or a vertex. The tree is built on the
+first exact query: the coarse search needs only the surface sample.
 """
 
 from __future__ import annotations
+
+from functools import cached_property
 
 import igl
 import numpy as np
@@ -21,7 +24,9 @@ def sample_surface(vertices: Array, faces: Array, count: int, seed: int = 0) -> 
     cross = np.cross(b - a, c - a)
     area2 = np.linalg.norm(cross, axis=1)
     rng = np.random.default_rng(seed)
-    face = rng.choice(len(faces), size=count, p=area2 / area2.sum())
+    cumulative = np.cumsum(area2)
+    face = np.searchsorted(cumulative, rng.random(count) * cumulative[-1], side="right")
+    face = np.minimum(face, len(faces) - 1)
     r1, r2 = rng.random(count), rng.random(count)
     s = np.sqrt(r1)
     u, v, w = 1.0 - s, s * (1.0 - r2), s * r2
@@ -44,6 +49,8 @@ class MeshModel(Shape):
         f = np.asarray(faces)
         if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
             raise InputError(f"mesh faces must be an (F, 3) index array, F >= 1; got {f.shape}")
+        if not np.issubdtype(f.dtype, np.integer):
+            raise InputError(f"mesh faces must hold integer vertex indices; got {f.dtype}")
         if f.min() < 0 or f.max() >= len(self.vertices):
             raise InputError(
                 f"mesh face indices must lie in [0, {len(self.vertices) - 1}]; got "
@@ -56,8 +63,6 @@ class MeshModel(Shape):
         if not np.any(norm > 0):
             raise InputError("mesh has no face of positive area: every triangle is degenerate")
         self.face_normals = cross / np.where(norm > 0, norm, 1.0)[:, None]
-        self._tree = igl.AABB()
-        self._tree.init(self.vertices, self.faces)
         self.samples, self.sample_normals = sample_surface(self.vertices, self.faces, sample_count)
 
     @classmethod
@@ -65,11 +70,30 @@ class MeshModel(Shape):
         """Build from any object with `vertices` and `faces` (e.g. a trimesh.Trimesh)."""
         return cls(mesh.vertices, mesh.faces, sample_count)  # type: ignore[attr-defined]
 
+    def __getstate__(self) -> dict[str, object]:
+        # The tree stays behind (it does not pickle); the copy builds its own when needed.
+        return {k: v for k, v in self.__dict__.items() if k != "tree"}
+
+    @cached_property
+    def tree(self) -> igl.AABB:
+        """libigl's AABB tree over the triangles, built on first use."""
+        tree = igl.AABB()
+        tree.init(self.vertices, self.faces)
+        return tree
+
     def closest(self, points: Array) -> Closest:
         p = np.ascontiguousarray(points, dtype=float)
-        d2, face, c = self._tree.squared_distance(self.vertices, self.faces, p)
+        d2, face, c = self.tree.squared_distance(self.vertices, self.faces, p)
         distances = np.sqrt(d2)
         return Closest(c, _distance_gradient(p - c, self.face_normals[face]), distances)
+
+    @cached_property
+    def resolution(self) -> float:
+        """Median edge length of the mesh [length units]."""
+        v = self.vertices
+        f = self.faces[:: max(1, len(self.faces) // 20000)]
+        edges = np.concatenate([v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 1]]])
+        return float(np.median(np.linalg.norm(edges, axis=1)))
 
 
 def _distance_gradient(offset: Array, face_normals: Array) -> Array:

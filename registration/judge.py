@@ -1,0 +1,143 @@
+"""Ranking the refined minima and judging the two best against each other.
+
+The minima are ranked on one subsample of the data, by the RMS of as large a fraction of
+their residuals as the best pose fits: a wrong pose that slides along a smooth region may fit
+a large share of the scan, but not all of it. A minimum that differs from the best only by a
+symmetry of the model is no rival but the same pose (the symmetry is reported instead). The
+two best are then compared on a larger subsample with the exact closest-point operator.
+
+Costs are compared with the floor added in quadrature: two perfect fits (residuals at
+rounding level) are a tie, not a ratio of rounding errors.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from registration.icp import IcpResult
+from registration.kernels import Tukey
+from registration.quality import trimmed_rms
+from registration.rigid import Array, invert, transform_points
+from registration.search import SearchSettings, displacement, subsample
+from registration.shapes.base import Closest, Shape
+from registration.symmetry import Symmetry
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """The best minimum and its rival among the refined runs.
+
+    Attributes:
+        best: index of the best run; cost: its cost.
+        second: index of the best run distinct from it (and not a symmetric twin), or None.
+        second_cost: that run's cost (inf if none).
+        fitted: fraction of the subsample the best run fits.
+    """
+
+    best: int
+    cost: float
+    second: int | None
+    second_cost: float
+    fitted: float
+
+
+def fitted_fraction(run: IcpResult, floor: float) -> float:
+    """Fraction of a run's points that fit (Tukey weight > 0 at c = 8, scale >= floor)."""
+    return float(np.mean(Tukey(min_scale=floor).weights(run.residuals) > 0))
+
+
+def symmetric_twin(
+    T_a: Array, T_b: Array, symmetries: Sequence[Symmetry], points_model: Array, limit: float
+) -> bool:
+    """True if pose T_b is pose T_a moved by one of the model's symmetries (within `limit`,
+    the RMS displacement of `points_model` (N, 3))."""
+    M = T_b @ invert(T_a)
+    return any(
+        displacement(M, s.closest_motion(M), points_model) <= limit for s in symmetries
+    )
+
+
+def rank_minima(
+    runs: Sequence[IcpResult],
+    mid: Array,
+    extent: float,
+    settings: SearchSettings,
+    floor: float,
+    symmetries: Sequence[Symmetry],
+) -> Ranking:
+    """Rank the refined runs (all on the subsample `mid` (n, 3)) and find the rival."""
+    costs = np.array([float(trimmed_rms(run.residuals, settings.trim)) for run in runs])
+    best = int(np.argmin(costs))
+    fitted = fitted_fraction(runs[best], floor)
+    trim = float(np.clip(fitted - 0.05, settings.trim, 0.95))
+    costs = np.array([float(trimmed_rms(run.residuals, trim)) for run in runs])
+    best = int(np.argmin(costs))
+    T_best = runs[best].T_model_data
+    points_model = transform_points(T_best, mid)
+    limit = settings.distinct * extent
+    for i in np.argsort(costs, kind="stable"):
+        T_i = runs[int(i)].T_model_data
+        if displacement(T_i, T_best, mid) <= limit:
+            continue
+        if symmetric_twin(T_best, T_i, symmetries, points_model, limit):
+            continue
+        return Ranking(best, float(costs[best]), int(i), float(costs[int(i)]), fitted)
+    return Ranking(best, float(costs[best]), None, float("inf"), fitted)
+
+
+def surface_residuals(closest: Closest, p: Array) -> Array:
+    """Point-to-plane residuals (N,) of points (N, 3) in the model frame from their closest
+    points on the model (distances if the shape has no normals)."""
+    if closest.normals is None:
+        return closest.distances
+    return np.einsum("nd,nd->n", closest.normals, p - closest.points)
+
+
+def judge(
+    data: Array,
+    shape: Shape,
+    T_best: Array,
+    T_other: Array,
+    settings: SearchSettings,
+    floor: float,
+    rng: np.random.Generator,
+) -> tuple[int, float, float, float]:
+    """The two best minima compared on a larger subsample of the data.
+
+    On a few hundred points, a pose that leaves a few per cent of the scan unexplained (a
+    part slid along its extrusion, the legs of an L swapped) scores like the true one once
+    the ranking trims its worst points. On `judge_points`, the points each pose explains are
+    counted with one yardstick (Tukey's cut-off at the robust scale of the better pose). A
+    pose that explains more than `judge_unexplained` more of the scan, and leaves at most
+    half as much of it unexplained, wins, and the other is no rival (ambiguity 0); otherwise
+    the two are compared on the fraction the better one fits, less `judge_margin`, and the
+    ambiguity is the ratio of their costs (the floor added to both). The poses are not
+    refined again: two starts in one long valley would join, and a rival be lost.
+
+    Returns which pose wins (0: T_best, 1: T_other), its cost, the other's cost and the
+    ambiguity.
+    """
+    points = data[subsample(data, settings.judge_points, rng)]
+    poses = (T_best, T_other)
+    moved = [transform_points(T, points) for T in poses]
+    residuals = [np.abs(surface_residuals(shape.closest(p), p)) for p in moved]
+    costs = [float(trimmed_rms(r, settings.trim)) for r in residuals]
+    tukey = Tukey(min_scale=floor)
+    cut = tukey.c * float(tukey.scale(residuals[int(np.argmin(costs))]))
+    explained = [float(np.mean(r <= cut)) for r in residuals]
+    more, less = sorted(explained, reverse=True)
+    clear = more - less > settings.judge_unexplained and 1.0 - more <= (1.0 - less) / 2
+    first = int(np.argmax(explained)) if clear else int(np.argmin(costs))
+    other = 1 - first
+    trim = float(np.clip(explained[first] - settings.judge_margin, settings.trim, 0.99))
+    costs = [float(trimmed_rms(r, trim)) for r in residuals]
+    ambiguity = 0.0 if clear else floored_ratio(costs[first], costs[other], floor)
+    return first, costs[first], costs[other], ambiguity
+
+
+def floored_ratio(best: float, other: float, floor: float) -> float:
+    """sqrt(best^2 + floor^2) / sqrt(other^2 + floor^2), at most 1."""
+    return float(min(1.0, np.hypot(best, floor) / max(np.hypot(other, floor), 1e-300)))

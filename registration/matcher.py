@@ -1,0 +1,366 @@
+"""Global and local surface matching behind one call: `match(data, model, ...)`.
+
+The steps, coarse to fine:
+1. the search (search.py): initial states for the mode, all scored at once, the best
+   refined together, the distinct survivors kept (plus the caller's guess, if any);
+2. each candidate refined by ICP on a subsample of the data, and the minima ranked and the
+   two best judged against each other (judge.py); a minimum that differs from the best by a
+   symmetry of the model (symmetry.py) is the same pose, not a rival;
+3. the best refined to convergence on the points used (fast closest points first, the
+   exact operator last), and its quality computed: the residuals, the covariance and the
+   predicted TRE (quality.py), and the verdict for the model or for each target
+   (verdict.py).
+
+Every random choice is drawn from one seed: the same data, model and seed give the same
+result, bit for bit.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Literal
+
+import numpy as np
+
+from registration.errors import InputError
+from registration.icp import IcpResult, Variant, icp
+from registration.judge import fitted_fraction, judge, rank_minima, surface_residuals
+from registration.kernels import Kernel, Tukey
+from registration.quality import ScanPasses, pose_covariance, predicted_tre, residual_correlation
+from registration.result import MatchResult, Minimum
+from registration.rigid import Array, transform_points
+from registration.search import SearchSettings, search, subsample
+from registration.shapes.base import Shape, check_points
+from registration.shapes.mesh import MeshModel
+from registration.shapes.points import PointModel
+from registration.symmetry import find_symmetries
+from registration.verdict import Acceptance, assess_targets, fit_rejection, model_verdict
+
+Mode = Literal["auto", "global", "local", "refine"]
+MODES: tuple[str, ...] = ("auto", "global", "local", "refine")
+Progress = Callable[[str], None]
+
+#: A scan more than this many times larger or smaller than the model is in other units.
+_UNITS_RATIO = 30.0
+
+
+def as_shape(model: Shape | Array | object) -> Shape:
+    """A Shape from a Shape, an (N, 3) point array, or an object with vertices and faces."""
+    if isinstance(model, Shape):
+        return model
+    if hasattr(model, "vertices") and hasattr(model, "faces"):
+        return MeshModel(model.vertices, model.faces)  # type: ignore[attr-defined]
+    if isinstance(model, np.ndarray | list | tuple):
+        return PointModel(np.asarray(model, dtype=float))
+    raise InputError(
+        f"model must be a Shape (PointModel, SegmentModel, MeshModel, ParametricModel), an "
+        f"(N, 3) array or a mesh with vertices and faces; got {type(model).__name__}"
+    )
+
+
+def check_data(data: Array) -> Array:
+    """Validate data points: (N, 3), finite, N >= 3, not all on one line."""
+    data = check_points(data, "data points", minimum=3)
+    s = np.linalg.svd(data - data.mean(axis=0), compute_uv=False)
+    if s[0] == 0 or s[1] <= 1e-9 * s[0]:
+        raise InputError(
+            f"the {len(data)} data points are all on one line (or one point): a rigid pose "
+            f"needs points spanning at least a plane"
+        )
+    return data
+
+
+def data_extent(data: Array) -> float:
+    """Diagonal of the box holding the middle 96 % of the data along each axis."""
+    lo, hi = np.percentile(data[:: max(1, len(data) // 5000)], [2, 98], axis=0)
+    return float(np.linalg.norm(hi - lo))
+
+
+def check_units(data: Array, shape: Shape) -> None:
+    """Refuse data and a model whose sizes differ by a factor that only units explain."""
+    size = data_extent(data)
+    ratio = size / shape.extent
+    if not 1.0 / _UNITS_RATIO < ratio < _UNITS_RATIO:
+        guess = "mm data against a model in m" if ratio > 1 else "data in m against a model in mm"
+        raise InputError(
+            f"the data span {size:.4g} and the model {shape.extent:.4g} (same units): a "
+            f"factor of {ratio:.3g}, which looks like {guess}; give both in the same units"
+        )
+
+
+def resolution_floor(data: Array, extent: float) -> float:
+    """What the data can resolve without a stated noise [length units]: one part in 10,000
+    of the model's size, or a hundredth of the data's point spacing if that is larger."""
+    pool = data[:: max(1, len(data) // 2000)]
+    if len(pool) >= 2:
+        from scipy.spatial import cKDTree
+
+        d, _ = cKDTree(pool).query(pool, k=2)
+        spacing = float(np.median(d[:, 1])) * np.sqrt(len(pool) / len(data))
+    else:
+        spacing = 0.0
+    return max(1e-4 * extent, 0.01 * spacing)
+
+
+def _check_pose(T: Array, what: str) -> Array:
+    T = np.asarray(T, dtype=float)
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise InputError(f"{what} must be a finite (4, 4) matrix; got shape {T.shape}")
+    R = T[:3, :3]
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        raise InputError(f"{what} must be a rigid transform: its 3 x 3 block is no rotation")
+    return T
+
+
+def match(
+    data: Array,
+    model: Shape | Array | object,
+    *,
+    mode: Mode = "auto",
+    T_init: Array | None = None,
+    targets: Array | None = None,
+    noise: float | None = None,
+    seed: int = 0,
+    variant: Variant = "point_to_plane",
+    kernel: Kernel | None = None,
+    acceptance: Acceptance | None = None,
+    settings: SearchSettings | None = None,
+    max_iterations: int = 60,
+    progress: Progress | None = None,
+    passes: ScanPasses | None = None,
+) -> MatchResult:
+    """Register data points to a model surface and judge the result.
+
+    Args:
+        data: measured points (N, 3) in the data (sensor or robot) frame.
+        model: the virtual model: a Shape, an (M, 3) point array, or a mesh object.
+        mode: "auto" (default: any coverage, from a small patch to the whole surface),
+            "global" (the data cover the whole surface, eq. 9), "local" (part of it, eq. 10)
+            or "refine" (ICP from T_init only: no search, so no rival is looked for).
+        T_init: a guess of T_model_data (4, 4); the start of "refine", one more candidate
+            in the other modes.
+        targets: points (K, 3) in the model frame that the pose must locate (an operation's
+            targets); the verdict is then that of the worst target, and a symmetry or a
+            rival pose that leaves every target in place does not make it ambiguous.
+        noise: standard deviation of the sensor's range noise [length units], if known: the
+            floor of the residual scale (costs, covariance, symmetry tolerance).
+        seed: seed of every random choice (subsamples); same data and seed, same result.
+        variant: "point_to_plane" (default when the model has normals) or "point_to_point".
+        kernel: the robust kernel of every ICP stage (the vectorised search, the ranking and
+            the refinement) and of the covariance's weights; Tukey(c=8) with the floor as
+            its scale's floor by default. The inlier fraction and the judging of minima
+            keep Tukey's cut-off as their yardstick.
+        acceptance: thresholds of the verdict.
+        settings: sizes of the coarse-to-fine search.
+        max_iterations: ICP iteration cap of the final refinement.
+        progress: optional callable receiving one line per stage.
+        passes: which scan pass each data point came from and the standard deviation of a
+            pass's rigid offset (the arm's accuracy); widens the covariance accordingly.
+
+    Returns:
+        A MatchResult; poor or ambiguous matches are reported in `verdict`, not raised.
+    """
+    t_start = time.perf_counter()
+    if mode not in MODES:
+        raise InputError(f"unknown matching mode {mode!r}; valid: {', '.join(MODES)}")
+    data = check_data(data)
+    if passes is not None and np.shape(passes.labels) != (len(data),):
+        raise InputError(
+            f"passes.labels must give one pass per data point ({len(data)}); got shape "
+            f"{np.shape(passes.labels)}"
+        )
+    if mode == "refine" and T_init is None:
+        raise InputError("mode 'refine' needs T_init, the (4, 4) initial pose")
+    if T_init is not None:
+        T_init = _check_pose(T_init, "T_init")
+    if targets is not None:
+        targets = check_points(np.atleast_2d(targets), "targets", minimum=1)
+    if noise is not None and not (np.isfinite(noise) and noise > 0):
+        raise InputError(f"noise must be a finite number > 0 (the sensor's sigma); got {noise}")
+    if not isinstance(seed, int | np.integer) or seed < 0:
+        raise InputError(f"seed must be an integer >= 0; got {seed!r}")
+    shape = as_shape(model)
+    check_units(data, shape)
+    settings = settings or SearchSettings()
+    acceptance = acceptance or Acceptance()
+    say = progress or (lambda _msg: None)
+    return _match(
+        data, shape, mode, T_init, targets, noise, int(seed), variant, kernel,
+        acceptance, settings, max_iterations, say, passes, t_start,
+    )  # fmt: skip
+
+
+def _match(
+    data: Array,
+    shape: Shape,
+    mode: str,
+    T_init: Array | None,
+    targets: Array | None,
+    noise: float | None,
+    seed: int,
+    variant: Variant,
+    kernel: Kernel | None,
+    acceptance: Acceptance,
+    settings: SearchSettings,
+    max_iterations: int,
+    say: Progress,
+    passes: ScanPasses | None,
+    t_start: float,
+) -> MatchResult:
+    extent = shape.extent
+    stage: dict[str, float] = {}
+    rng = np.random.default_rng(seed)
+    # Random (seeded) subsamples keep the data's outlier fraction; a farthest-point sample
+    # would pick the spurious points first.
+    used = subsample(data, settings.refine_points, rng)
+    work = data[used]
+    mid = work[subsample(work, settings.mid_points, rng)]
+    floor = noise if noise is not None else resolution_floor(data, extent)
+    kernel = kernel or Tukey(min_scale=floor)
+
+    if mode == "refine":
+        assert T_init is not None
+        candidates, n_starts = [T_init], 1
+    else:
+        candidates, n_starts = search(work, mid, shape, mode, settings, rng, kernel, stage, say)
+        if T_init is not None:
+            candidates.append(T_init)
+
+    t0 = time.perf_counter()
+    cap = min(settings.rank_iterations, max_iterations)
+
+    def rank(poses: list[Array]) -> list[IcpResult]:
+        return [
+            icp(mid, shape, T0, variant=variant, kernel=kernel, max_iterations=cap,
+                closest=shape.near)
+            for T0 in poses
+        ]  # fmt: skip
+
+    runs = rank(candidates)
+    best_fit = max(fitted_fraction(run, floor) for run in runs)
+    if mode != "refine" and best_fit < settings.whole_fit:
+        # No candidate fits the whole scan: either the scan holds spurious points, or the
+        # search stopped in a wrong minimum that fits most of it. Search again, denser.
+        say(f"the best candidate fits {best_fit:.0%} of the scan: searching again, denser")
+        more, n_more = search(
+            work, mid, shape, mode, settings.denser(), rng, kernel, stage, say
+        )
+        runs += rank(more)
+        n_starts += n_more
+    stage["rank"] = time.perf_counter() - t0
+    # The model's symmetries: found once per model (the exact operator, whose tree has been
+    # built meanwhile, checks them).
+    t0 = time.perf_counter()
+    symmetries = find_symmetries(shape, floor)
+    stage["symmetry"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    ranking = rank_minima(runs, mid, extent, settings, floor, symmetries)
+    T_best, best_cost = runs[ranking.best].T_model_data, ranking.cost
+    second: Minimum | None = None
+    ambiguity = 0.0
+    if ranking.second is not None:
+        T_other = runs[ranking.second].T_model_data
+        winner, best_cost, other_cost, ambiguity = judge(
+            work, shape, T_best, T_other, settings, floor, np.random.default_rng(seed + 1)
+        )
+        if winner == 1:
+            T_best, T_other = T_other, T_best
+        second = Minimum(T_other, other_cost)
+    stage["judge"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    trajectory: list[Array] = []
+
+    def keep(_k: int, T: Array, _mse: float) -> None:
+        trajectory.append(T.copy())
+
+    fast = icp(work, shape, T_best, variant=variant, kernel=kernel,
+               max_iterations=max_iterations, callback=keep, closest=shape.near)  # fmt: skip
+    exact = icp(work, shape, fast.T_model_data, variant=variant, kernel=kernel,
+                max_iterations=max(3, max_iterations // 4), callback=keep)  # fmt: skip
+    history = np.sqrt(np.concatenate([fast.mse_history, exact.mse_history]))
+    best = Minimum(exact.T_model_data, best_cost)
+    stage["refine"] = time.perf_counter() - t0
+    say(f"ranked {len(runs)} minima; the best refined on {len(work)} points")
+
+    # Quality of the best pose, from its own residuals.
+    t0 = time.perf_counter()
+    p = transform_points(best.T_model_data, work)
+    closest = shape.closest(p)
+    residuals = surface_residuals(closest, p)
+    inliers = Tukey(c=8.0, min_scale=floor).weights(residuals) > 0
+    weights = kernel.weights(residuals)
+    inlier_fraction = float(inliers.mean())
+    rms = float(np.sqrt(np.mean(residuals[inliers] ** 2))) if inliers.any() else float("inf")
+    dof = max(int(inliers.sum()) - 6, 1)
+    sigma = float(np.sqrt(np.sum(weights * residuals**2) / max(weights.sum(), 1e-300)))
+    sigma *= np.sqrt(inliers.sum() / dof) if inliers.any() else 1.0
+    sigma = max(sigma, floor)
+    correlation = residual_correlation(p[inliers], residuals[inliers], seed=seed)
+    if correlation.sigma_white < floor:
+        correlation = type(correlation)(floor, correlation.sigma_correlated, correlation.length)
+    used_passes = None if passes is None else ScanPasses(
+        np.asarray(passes.labels)[used], passes.sigma_offset
+    )  # fmt: skip
+    covariance = pose_covariance(p, closest.normals, weights, sigma, correlation, used_passes)
+    worst_tre = float(
+        np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))
+    )
+    fit_reason = fit_rejection(rms, inlier_fraction, extent, acceptance)
+    prediction = None
+    if targets is not None:
+        rival = None if second is None else second.T_model_data @ np.linalg.inv(best.T_model_data)
+        prediction = assess_targets(
+            targets, predicted_tre(covariance, targets), fit_reason, symmetries, rival,
+            ambiguity, extent, acceptance,
+        )  # fmt: skip
+        verdict, reason = _worst_target(prediction.verdict, prediction.reason)
+    else:
+        verdict, reason = model_verdict(
+            fit_reason, symmetries, ambiguity, worst_tre, mode != "refine", extent, acceptance
+        )
+    stage["quality"] = time.perf_counter() - t0
+    turns = tuple(s.motion() @ best.T_model_data for s in symmetries if s.kind == "turn")
+    say(f"{verdict}: {reason}")
+    return MatchResult(
+        T_model_data=best.T_model_data,
+        rms=rms,
+        inlier_fraction=inlier_fraction,
+        sigma=sigma,
+        iterations=len(history),
+        converged=exact.converged,
+        history=history,
+        trajectory=np.asarray(trajectory),
+        mode=mode,
+        starts=n_starts,
+        best=best,
+        second=second,
+        ambiguity=float(ambiguity),
+        covariance=covariance,
+        worst_predicted_tre=worst_tre,
+        symmetries=symmetries,
+        equivalent_poses=turns,
+        floor=float(floor),
+        verdict=verdict,
+        reason=reason,
+        targets=prediction,
+        points_used=len(work),
+        seed=seed,
+        acceptance=acceptance,
+        extent=extent,
+        fit_rejection=fit_reason,
+        seconds=time.perf_counter() - t_start,
+        stage_seconds=stage,
+    )
+
+
+def _worst_target(verdicts: tuple[str, ...], reasons: tuple[str, ...]) -> tuple:
+    """The overall verdict with targets: the worst target's, with its reason."""
+    for level in ("rejected", "ambiguous"):
+        bad = [k for k, v in enumerate(verdicts) if v == level]
+        if bad:
+            return level, f"target {bad[0]}: {reasons[bad[0]]}" + (
+                f" ({len(bad)} of {len(verdicts)} targets {level})" if len(bad) > 1 else ""
+            )
+    return "accepted", f"all {len(verdicts)} targets located: good fit, well-constrained pose"

@@ -1,0 +1,317 @@
+"""The search for candidate poses: initial states, all scored at once, the best refined
+together, the distinct survivors returned.
+
+1. Initial states (starts.py) for the mode:
+   - "global" (the data cover the whole surface, eq. 9): near-uniform rotations, each
+     with the data's robust centre placed on the model's centroid;
+   - "local" (the data cover part of it, eq. 10): a data point placed on well-spread model
+     anchors, its normal aligned with theirs (both signs) and spun about it; every rotation
+     at every anchor for sparse data;
+   - "auto": both sets in one pool, scored alike, so that a scan covering anything from a
+     small patch to the whole surface is found without knowing which it is;
+   - the caller's guess, if any, in every mode.
+2. Every start scored at once on a small subsample of the data against the model's surface
+   sample (a voxel lookup); hopeless starts are dropped.
+3. Successive screening: the best few hundred run three robust ICP iterations together on
+   a few dozen points (a start 20-30 mm from a small patch's pose scores no better than a
+   wrong one before it moves, and clearly better after), then the best few dozen run more
+   iterations on more points, vectorised.
+4. The distinct survivors are the candidates that the matcher refines and judges.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from registration.horn import absolute_orientation_batch
+from registration.kernels import Kernel
+from registration.quality import trimmed_rms
+from registration.rigid import Array, make_T_batch, transform_points
+from registration.shapes.base import Shape
+from registration.starts import (
+    global_starts,
+    grid_local_starts,
+    local_starts,
+    robust_centre,
+    super_fibonacci_rotations,
+)
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """Size of the start set and of each stage of the coarse-to-fine search.
+
+    Attributes:
+        rotations: rotations of the global start set.
+        anchors: model anchor points of the local start set, for a scan at least 0.7 of the
+            model's size; smaller scans get up to four times as many.
+        spins: rotations about the aligned normal at each anchor (local).
+        data_anchors: data points placed on the model anchors (local), well spread over the
+            scan's interior: a single one may fall where the model has no surface.
+        normal_radius: neighbourhood radius for the local normals, as a fraction of the
+            model extent.
+        coarse_points: data points used to score every start.
+        screen_keep: starts kept after scoring, for the screening ICP stage.
+        screen_points: data points of the screening stage.
+        screen_iterations: ICP iterations of the screening stage.
+        keep_coarse: starts kept after screening (at least).
+        mid_budget: point evaluations per iteration of the vectorised ICP stage; data sets
+            smaller than mid_points keep more starts (mid_budget / points).
+        mid_points: data points of the vectorised ICP stage and of the ranking.
+        mid_iterations: iterations of the vectorised ICP stage.
+        refine: distinct candidates refined and ranked.
+        refine_points: data points (a seeded random subsample) on which the best pose is
+            refined and its quality computed.
+        dense_data, dense_model: below these numbers of data points or model surface samples,
+            local normals are unreliable and the local start set is every rotation at every
+            anchor instead of normal-aligned spins.
+        whole_fit: if no candidate fits this fraction of the scan, the search runs again
+            with twice the starts (the scan holds spurious points, or a wrong minimum won).
+        rank_iterations: ICP iterations on the subsample for each distinct candidate, before
+            the minima are ranked.
+        trim: fraction of the smallest residuals in a start's cost (robust to outliers and
+            partial overlap); the minima are then compared on the fraction the best fits.
+        distinct: two poses are distinct minima if they move the data points apart by more
+            than this fraction of the model extent (RMS).
+        judge_points: data points on which the two best minima are compared at the end.
+        judge_margin: they are compared on the fraction of those points that the better
+            one fits, less this margin (at least `trim`, at most 0.99).
+        judge_unexplained: a minimum that leaves this fraction of those points more
+            unexplained than the other, and at least twice as many, is no rival to it.
+    """
+
+    rotations: int = 512
+    anchors: int = 96
+    spins: int = 16
+    data_anchors: int = 3
+    normal_radius: float = 0.06
+    coarse_points: int = 40
+    screen_keep: int = 384
+    screen_points: int = 60
+    screen_iterations: int = 3
+    keep_coarse: int = 48
+    mid_budget: int = 10000
+    mid_points: int = 200
+    mid_iterations: int = 8
+    refine: int = 4
+    refine_points: int = 3000
+    rank_iterations: int = 10
+    whole_fit: float = 0.97
+    dense_data: int = 50
+    dense_model: int = 2000
+    trim: float = 0.6
+    distinct: float = 0.02
+    judge_points: int = 2000
+    judge_margin: float = 0.01
+    judge_unexplained: float = 0.02
+
+    def denser(self) -> SearchSettings:
+        """The settings of a second, denser search: twice the starts and survivors."""
+        from dataclasses import replace
+
+        return replace(
+            self,
+            rotations=2 * self.rotations,
+            anchors=2 * self.anchors,
+            spins=self.spins * 3 // 2,
+            screen_keep=2 * self.screen_keep,
+            keep_coarse=2 * self.keep_coarse,
+            refine=2 * self.refine,
+        )
+
+
+def subsample(points: Array, count: int, rng: np.random.Generator) -> Array:
+    """Indices (<= count,) of points drawn without replacement, in order (all if fewer)."""
+    if len(points) <= count:
+        return np.arange(len(points))
+    return np.sort(rng.choice(len(points), size=count, replace=False))
+
+
+def batched_icp(
+    shape: Shape,
+    points: Array,
+    T: Array,
+    iterations: int,
+    trim: float,
+    kernel: Kernel,
+    exact_samples: bool = False,
+) -> tuple[Array, Array]:
+    """A few robust ICP iterations for K poses at once against the model's surface sample.
+
+    Closest samples come from the voxel lookup (or, with `exact_samples`, the KD-tree of the
+    samples: slower, exact to the sample spacing); pairs without a sample within the
+    lookup's reach get no weight. Point-to-plane where the model has normals, else Horn.
+
+    Args:
+        points: data subsample (n, 3). T: poses (K, 4, 4).
+
+    Returns:
+        Refined poses (K, 4, 4) and their trimmed costs (K,).
+    """
+    lookup = shape.sample_lookup
+    normals = shape.sample_normals
+
+    def nearest(p: Array) -> tuple[Array, Array]:
+        if not exact_samples:
+            return lookup.query(p)
+        d, i = shape.sample_tree.query(
+            p.reshape(-1, 3), distance_upper_bound=4.0 * lookup.h, workers=-1
+        )
+        found = i < len(shape.samples)
+        return np.where(found, d, np.inf).reshape(p.shape[:-1]), np.where(
+            found, i, -1
+        ).reshape(p.shape[:-1])
+
+    for _ in range(iterations):
+        p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+        d, idx = nearest(p)
+        found = idx >= 0
+        q = shape.samples[np.maximum(idx, 0)]
+        if normals is None:
+            w = kernel.weights(np.where(found, d, lookup.reach)) * found
+            R, t = absolute_orientation_batch(p, q, w)
+            step = make_T_batch(R, t)
+        else:
+            nrm = normals[np.maximum(idx, 0)]
+            r = np.where(found, np.sum(nrm * (p - q), axis=2), lookup.reach)
+            w = kernel.weights(r) * found
+            c0 = np.einsum("kn,knd->kd", w, p) / np.maximum(w.sum(1), 1e-300)[:, None]
+            pc = p - c0[:, None]
+            J = np.concatenate([nrm, np.cross(pc, nrm)], axis=2)  # (K, n, 6)
+            Jw = J * w[..., None]
+            A = Jw.transpose(0, 2, 1) @ J
+            b = -(Jw.transpose(0, 2, 1) @ r[..., None])[..., 0]
+            A += np.eye(6) * (1e-9 * np.trace(A, axis1=1, axis2=2)[:, None, None] + 1e-300)
+            xi = np.linalg.solve(A, b[..., None])[..., 0]
+            Rs = Rotation.from_rotvec(xi[:, 3:]).as_matrix()
+            t = c0 - np.einsum("kij,kj->ki", Rs, c0) + xi[:, :3]
+            step = make_T_batch(Rs, t)
+        T = step @ T
+    p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+    d, _ = nearest(p)
+    return T, trimmed_rms(np.minimum(d, lookup.reach), trim)
+
+
+def displacement(T_a: Array, T_b: Array, points: Array) -> float:
+    """RMS distance between points (N, 3) moved by two poses (4, 4)."""
+    diff = transform_points(T_a, points) - transform_points(T_b, points)
+    return float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))
+
+
+def distinct(T_list: list[Array], order: Array, points: Array, limit: float, count: int) -> list[int]:
+    """Indices, in the given order, of up to `count` mutually distinct poses."""
+    chosen: list[int] = []
+    for i in order:
+        if all(displacement(T_list[i], T_list[j], points) > limit for j in chosen):
+            chosen.append(int(i))
+            if len(chosen) == count:
+                break
+    return chosen
+
+
+def anchor_count(data: Array, extent: float, settings: SearchSettings) -> int:
+    """Model anchors for local starts: more where the scan covers a smaller part of the model.
+
+    A small patch has a small basin of convergence, so the anchors must lie closer together:
+    their number grows with (0.7 model extent / scan extent)^2, up to four times the
+    base count, in steps of 32 (the anchor frames are cached per count).
+    """
+    lo, hi = np.percentile(data, [2, 98], axis=0)
+    ratio = max(float(np.linalg.norm(hi - lo)) / extent, 1e-9)
+    count = settings.anchors * min(max((0.7 / ratio) ** 2, 1.0), 4.0)
+    return int(np.ceil(count / 32) * 32)
+
+
+def initial_states(
+    data: Array, shape: Shape, mode: str, settings: SearchSettings
+) -> tuple[Array, Array]:
+    """Starts (R (K, 3, 3), t (K, 3)) of the mode: "global", "local" or "auto" (both)."""
+    parts: list[tuple[Array, Array]] = []
+    if mode in ("global", "auto"):
+        centre = robust_centre(data, settings.normal_radius * shape.extent)
+        parts.append(
+            global_starts(centre, shape.centroid, super_fibonacci_rotations(settings.rotations))
+        )
+    if mode in ("local", "auto"):
+        extent = shape.extent
+        radius = settings.normal_radius * extent
+        anchors, frames = shape.anchor_frames(anchor_count(data, extent, settings), radius)
+        dense = len(data) >= settings.dense_data and len(shape.samples) >= settings.dense_model
+        if dense:
+            parts.append(
+                local_starts(data, anchors, frames, settings.spins, radius, settings.data_anchors)
+            )
+        else:
+            parts.append(
+                grid_local_starts(data, anchors, super_fibonacci_rotations(settings.rotations))
+            )
+    R = np.concatenate([p[0] for p in parts])
+    t = np.concatenate([p[1] for p in parts])
+    return R, t
+
+
+def search(
+    data: Array,
+    mid: Array,
+    shape: Shape,
+    mode: str,
+    settings: SearchSettings,
+    rng: np.random.Generator,
+    kernel: Kernel,
+    stage: dict[str, float],
+    say: Progress,
+) -> tuple[list[Array], int]:
+    """Initial states, scored at once, the best refined together: distinct candidates.
+
+    Args:
+        data: the data points the initial states are built from (N, 3).
+        mid: the subsample of the vectorised ICP stage (n, 3).
+
+    Returns the candidate poses (4, 4) and the number of initial states tried.
+    """
+    extent = shape.extent
+    t0 = time.perf_counter()
+    R, t = initial_states(data, shape, mode, settings)
+    n_starts = len(R)
+    coarse = mid[subsample(mid, settings.coarse_points, rng)]
+    lookup = shape.sample_lookup
+    cost = np.empty(n_starts)
+    for lo in range(0, n_starts, 8192):  # bounded memory for large start sets
+        hi = min(lo + 8192, n_starts)
+        p = coarse @ R[lo:hi].transpose(0, 2, 1) + t[lo:hi, None, :]
+        d = lookup.distance(p)
+        cost[lo:hi] = trimmed_rms(np.minimum(d, lookup.reach), settings.trim)
+    screened = np.argsort(cost, kind="stable")[: settings.screen_keep]
+    stage["score"] = stage.get("score", 0.0) + time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    few = mid[subsample(mid, settings.screen_points, rng)]
+    T_few, cost_few = batched_icp(
+        shape, few, make_T_batch(R[screened], t[screened]), settings.screen_iterations,
+        settings.trim, kernel,
+    )  # fmt: skip
+    # Small data sets afford more survivors for the same work.
+    n_keep = max(settings.keep_coarse, settings.mid_budget // len(mid))
+    keep = np.argsort(cost_few, kind="stable")[:n_keep]
+    stage["screen"] = stage.get("screen", 0.0) + time.perf_counter() - t0
+    say(f"scored {n_starts} initial states, screened {len(screened)}, kept {len(keep)}")
+
+    t0 = time.perf_counter()
+    T_mid, cost_mid = batched_icp(
+        shape, mid, T_few[keep], settings.mid_iterations, settings.trim, kernel
+    )
+    T_list = list(T_mid)
+    chosen = distinct(
+        T_list, np.argsort(cost_mid, kind="stable"), mid, settings.distinct * extent,
+        settings.refine,
+    )  # fmt: skip
+    stage["coarse_icp"] = stage.get("coarse_icp", 0.0) + time.perf_counter() - t0
+    say(f"coarse ICP on {len(keep)} starts, refining {len(chosen)} distinct candidates")
+    return [T_list[i] for i in chosen], n_starts
