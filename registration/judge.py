@@ -12,18 +12,26 @@ rounding level) are a tie, not a ratio of rounding errors.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from registration.icp import IcpResult
 from registration.kernels import Tukey
 from registration.quality import trimmed_rms
 from registration.rigid import Array, invert, transform_points
 from registration.search import SearchSettings, displacement, subsample
-from registration.shapes.base import Closest, Shape
+from registration.shapes.base import Closest
 from registration.symmetry import Symmetry
+
+
+@dataclass(frozen=True)
+class Ranked:
+    """A candidate refined for the ranking: its pose (4, 4) and its residuals (n,) on the
+    ranking subsample."""
+
+    T_model_data: Array
+    residuals: Array
 
 
 @dataclass(frozen=True)
@@ -44,7 +52,7 @@ class Ranking:
     fitted: float
 
 
-def fitted_fraction(run: IcpResult, floor: float) -> float:
+def fitted_fraction(run: Ranked, floor: float) -> float:
     """Fraction of a run's points that fit (Tukey weight > 0 at c = 8, scale >= floor)."""
     return float(np.mean(Tukey(min_scale=floor).weights(run.residuals) > 0))
 
@@ -55,13 +63,11 @@ def symmetric_twin(
     """True if pose T_b is pose T_a moved by one of the model's symmetries (within `limit`,
     the RMS displacement of `points_model` (N, 3))."""
     M = T_b @ invert(T_a)
-    return any(
-        displacement(M, s.closest_motion(M), points_model) <= limit for s in symmetries
-    )
+    return any(displacement(M, s.closest_motion(M), points_model) <= limit for s in symmetries)
 
 
 def rank_minima(
-    runs: Sequence[IcpResult],
+    runs: Sequence[Ranked],
     mid: Array,
     extent: float,
     settings: SearchSettings,
@@ -98,7 +104,7 @@ def surface_residuals(closest: Closest, p: Array) -> Array:
 
 def judge(
     data: Array,
-    shape: Shape,
+    closest: Callable[[Array], Closest],
     T_best: Array,
     T_other: Array,
     settings: SearchSettings,
@@ -123,7 +129,7 @@ def judge(
     points = data[subsample(data, settings.judge_points, rng)]
     poses = (T_best, T_other)
     moved = [transform_points(T, points) for T in poses]
-    residuals = [np.abs(surface_residuals(shape.closest(p), p)) for p in moved]
+    residuals = [np.abs(surface_residuals(closest(p), p)) for p in moved]
     costs = [float(trimmed_rms(r, settings.trim)) for r in residuals]
     tukey = Tukey(min_scale=floor)
     cut = tukey.c * float(tukey.scale(residuals[int(np.argmin(costs))]))

@@ -34,7 +34,9 @@ class VoxelLookup:
         size = hi - lo + 2 * self.reach
         self.h = float(size.max() / cells)
         self.shape = np.maximum(np.ceil(size / self.h).astype(int), 1)
-        cell = np.clip(np.floor((samples - self.origin) / self.h).astype(np.int64), 0, self.shape - 1)
+        cell = np.clip(
+            np.floor((samples - self.origin) / self.h).astype(np.int64), 0, self.shape - 1
+        )
         flat = np.ravel_multi_index(cell.T, self.shape)
         owner = np.full(int(np.prod(self.shape)), -1, dtype=np.int64)
         # The last sample written to a voxel keeps it: any one of its samples will do.

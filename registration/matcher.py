@@ -24,16 +24,17 @@ from typing import Literal
 import numpy as np
 
 from registration.errors import InputError
-from registration.icp import IcpResult, Variant, icp
-from registration.judge import fitted_fraction, judge, rank_minima, surface_residuals
+from registration.icp import Variant, icp
+from registration.judge import Ranked, fitted_fraction, judge, rank_minima, surface_residuals
 from registration.kernels import Kernel, Tukey
 from registration.quality import ScanPasses, pose_covariance, predicted_tre, residual_correlation
 from registration.result import MatchResult, Minimum
 from registration.rigid import Array, transform_points
-from registration.search import SearchSettings, search, subsample
-from registration.shapes.base import Shape, check_points
+from registration.search import SearchSettings, batched_icp, search, subsample
+from registration.shapes.base import Closest, Shape, check_points
 from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
+from registration.starts import surface_mask
 from registration.symmetry import find_symmetries
 from registration.verdict import Acceptance, assess_targets, fit_rejection, model_verdict
 
@@ -215,37 +216,55 @@ def _match(
     # would pick the spurious points first.
     used = subsample(data, settings.refine_points, rng)
     work = data[used]
-    mid = work[subsample(work, settings.mid_points, rng)]
+    # The search and the refinement work on the points that lie on a surface; the quality
+    # (inlier fraction, residuals, covariance) is computed on all of them.
+    on_surface = surface_mask(work, settings.surface_radius * extent)
+    surface = float(on_surface.mean())
+    fit = work[on_surface] if on_surface.sum() >= 10 else work
+    mid = fit[subsample(fit, settings.mid_points, rng)]
     floor = noise if noise is not None else resolution_floor(data, extent)
     kernel = kernel or Tukey(min_scale=floor)
+    # Points farther than this from the model are outliers of any refined pose: they get a
+    # residual of `reach` instead of an exact (slow) answer.
+    reach = settings.reach * extent
+
+    def near(p: Array) -> Closest:
+        return shape.near(p, reach)
+
+    def exact(p: Array) -> Closest:
+        return shape.closest_within(p, reach)
 
     if mode == "refine":
         assert T_init is not None
         candidates, n_starts = [T_init], 1
     else:
-        candidates, n_starts = search(work, mid, shape, mode, settings, rng, kernel, stage, say)
+        candidates, n_starts = search(fit, mid, shape, mode, settings, rng, kernel, stage, say)
         if T_init is not None:
             candidates.append(T_init)
 
     t0 = time.perf_counter()
     cap = min(settings.rank_iterations, max_iterations)
 
-    def rank(poses: list[Array]) -> list[IcpResult]:
+    def rank(poses: list[Array]) -> list[Ranked]:
+        # All candidates refined together on the subsample, against the surface sample.
+        T_all, _ = batched_icp(
+            shape, mid, np.asarray(poses), cap, settings.trim, kernel, exact_samples=True
+        )
         return [
-            icp(mid, shape, T0, variant=variant, kernel=kernel, max_iterations=cap,
-                closest=shape.near)
-            for T0 in poses
-        ]  # fmt: skip
+            Ranked(T, surface_residuals(near(transform_points(T, mid)), transform_points(T, mid)))
+            for T in T_all
+        ]
 
     runs = rank(candidates)
     best_fit = max(fitted_fraction(run, floor) for run in runs)
     if mode != "refine" and best_fit < settings.whole_fit:
-        # No candidate fits the whole scan: either the scan holds spurious points, or the
-        # search stopped in a wrong minimum that fits most of it. Search again, denser.
-        say(f"the best candidate fits {best_fit:.0%} of the scan: searching again, denser")
-        more, n_more = search(
-            work, mid, shape, mode, settings.denser(), rng, kernel, stage, say
+        # No candidate fits the scan's surface points: the search may have stopped in a
+        # wrong minimum that fits most of it. Search again, denser.
+        say(
+            f"the best candidate fits {best_fit:.0%} of the scan ({surface:.0%} of it on a "
+            f"surface): searching again, denser"
         )
+        more, n_more = search(fit, mid, shape, mode, settings.denser(), rng, kernel, stage, say)
         runs += rank(more)
         n_starts += n_more
     stage["rank"] = time.perf_counter() - t0
@@ -262,7 +281,7 @@ def _match(
     if ranking.second is not None:
         T_other = runs[ranking.second].T_model_data
         winner, best_cost, other_cost, ambiguity = judge(
-            work, shape, T_best, T_other, settings, floor, np.random.default_rng(seed + 1)
+            fit, exact, T_best, T_other, settings, floor, np.random.default_rng(seed + 1)
         )
         if winner == 1:
             T_best, T_other = T_other, T_best
@@ -275,19 +294,22 @@ def _match(
     def keep(_k: int, T: Array, _mse: float) -> None:
         trajectory.append(T.copy())
 
-    fast = icp(work, shape, T_best, variant=variant, kernel=kernel,
-               max_iterations=max_iterations, callback=keep, closest=shape.near)  # fmt: skip
-    exact = icp(work, shape, fast.T_model_data, variant=variant, kernel=kernel,
-                max_iterations=max(3, max_iterations // 4), callback=keep)  # fmt: skip
-    history = np.sqrt(np.concatenate([fast.mse_history, exact.mse_history]))
-    best = Minimum(exact.T_model_data, best_cost)
+    # The fast operator's answer is only as good as the sample spacing: a looser stop.
+    coarse_run = icp(fit, shape, T_best, variant=variant, kernel=kernel,
+                     tau=(1e-4 * extent) ** 2, max_iterations=max_iterations, callback=keep,
+                     closest=near)  # fmt: skip
+    fine_run = icp(fit, shape, coarse_run.T_model_data, variant=variant, kernel=kernel,
+                   max_iterations=max(3, max_iterations // 4), callback=keep,
+                   closest=exact)  # fmt: skip
+    history = np.sqrt(np.concatenate([coarse_run.mse_history, fine_run.mse_history]))
+    best = Minimum(fine_run.T_model_data, best_cost)
     stage["refine"] = time.perf_counter() - t0
-    say(f"ranked {len(runs)} minima; the best refined on {len(work)} points")
+    say(f"ranked {len(runs)} minima; the best refined on {len(fit)} points")
 
     # Quality of the best pose, from its own residuals.
     t0 = time.perf_counter()
     p = transform_points(best.T_model_data, work)
-    closest = shape.closest(p)
+    closest = exact(p)
     residuals = surface_residuals(closest, p)
     inliers = Tukey(c=8.0, min_scale=floor).weights(residuals) > 0
     weights = kernel.weights(residuals)
@@ -329,7 +351,7 @@ def _match(
         inlier_fraction=inlier_fraction,
         sigma=sigma,
         iterations=len(history),
-        converged=exact.converged,
+        converged=fine_run.converged,
         history=history,
         trajectory=np.asarray(trajectory),
         mode=mode,

@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 from registration.errors import InputError
 from registration.rigid import Array, skew
 
+
 def trimmed_rms(residuals: Array, trim: float) -> Array:
     """RMS of the smallest `trim` fraction of |residuals| along the last axis, shape (...,).
 

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from registration.horn import absolute_orientation_batch
-from registration.kernels import Kernel
+from registration.kernels import Kernel, ShrinkingScale
 from registration.quality import trimmed_rms
 from registration.rigid import Array, make_T_batch, transform_points
 from registration.shapes.base import Shape
@@ -72,8 +72,11 @@ class SearchSettings:
         dense_data, dense_model: below these numbers of data points or model surface samples,
             local normals are unreliable and the local start set is every rotation at every
             anchor instead of normal-aligned spins.
-        whole_fit: if no candidate fits this fraction of the scan, the search runs again
-            with twice the starts (the scan holds spurious points, or a wrong minimum won).
+        whole_fit: if no candidate fits this fraction of the scan's surface points, the
+            search runs again with twice the starts: a wrong minimum may have won.
+        surface_radius: neighbourhood radius, as a fraction of the model extent, of the
+            test that tells the scan's surface points from spurious ones (the search and
+            the refinement use the surface points; the quality figures all points).
         rank_iterations: ICP iterations on the subsample for each distinct candidate, before
             the minima are ranked.
         trim: fraction of the smallest residuals in a start's cost (robust to outliers and
@@ -85,6 +88,8 @@ class SearchSettings:
             one fits, less this margin (at least `trim`, at most 0.99).
         judge_unexplained: a minimum that leaves this fraction of those points more
             unexplained than the other, and at least twice as many, is no rival to it.
+        reach: data points farther than this fraction of the model extent from the model
+            are outliers of every refined pose (the closest-point search stops there).
     """
 
     rotations: int = 512
@@ -103,7 +108,7 @@ class SearchSettings:
     refine: int = 4
     refine_points: int = 3000
     rank_iterations: int = 10
-    whole_fit: float = 0.97
+    whole_fit: float = 0.95
     dense_data: int = 50
     dense_model: int = 2000
     trim: float = 0.6
@@ -111,6 +116,8 @@ class SearchSettings:
     judge_points: int = 2000
     judge_margin: float = 0.01
     judge_unexplained: float = 0.02
+    reach: float = 0.05
+    surface_radius: float = 0.02
 
     def denser(self) -> SearchSettings:
         """The settings of a second, denser search: twice the starts and survivors."""
@@ -153,10 +160,12 @@ def batched_icp(
         points: data subsample (n, 3). T: poses (K, 4, 4).
 
     Returns:
-        Refined poses (K, 4, 4) and their trimmed costs (K,).
+        Refined poses (K, 4, 4) and their trimmed costs (K,): the RMS of the smallest `trim`
+        fraction of the point-to-plane residuals (distances for a model without normals).
     """
     lookup = shape.sample_lookup
     normals = shape.sample_normals
+    weigh = ShrinkingScale(kernel)
 
     def nearest(p: Array) -> tuple[Array, Array]:
         if not exact_samples:
@@ -165,9 +174,9 @@ def batched_icp(
             p.reshape(-1, 3), distance_upper_bound=4.0 * lookup.h, workers=-1
         )
         found = i < len(shape.samples)
-        return np.where(found, d, np.inf).reshape(p.shape[:-1]), np.where(
-            found, i, -1
-        ).reshape(p.shape[:-1])
+        return np.where(found, d, np.inf).reshape(p.shape[:-1]), np.where(found, i, -1).reshape(
+            p.shape[:-1]
+        )
 
     for _ in range(iterations):
         p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
@@ -175,13 +184,13 @@ def batched_icp(
         found = idx >= 0
         q = shape.samples[np.maximum(idx, 0)]
         if normals is None:
-            w = kernel.weights(np.where(found, d, lookup.reach)) * found
+            w = weigh.weights(np.where(found, d, lookup.reach)) * found
             R, t = absolute_orientation_batch(p, q, w)
             step = make_T_batch(R, t)
         else:
             nrm = normals[np.maximum(idx, 0)]
             r = np.where(found, np.sum(nrm * (p - q), axis=2), lookup.reach)
-            w = kernel.weights(r) * found
+            w = weigh.weights(r) * found
             c0 = np.einsum("kn,knd->kd", w, p) / np.maximum(w.sum(1), 1e-300)[:, None]
             pc = p - c0[:, None]
             J = np.concatenate([nrm, np.cross(pc, nrm)], axis=2)  # (K, n, 6)
@@ -194,8 +203,13 @@ def batched_icp(
             t = c0 - np.einsum("kij,kj->ki", Rs, c0) + xi[:, :3]
             step = make_T_batch(Rs, t)
         T = step @ T
+    # The cost: point-to-plane residuals where the model has normals (the lookup's sample
+    # may lie a voxel away along the surface, which a point distance would count).
     p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
-    d, _ = nearest(p)
+    d, idx = nearest(p)
+    if normals is not None:
+        safe = np.maximum(idx, 0)
+        d = np.where(idx >= 0, np.abs(np.sum(normals[safe] * (p - shape.samples[safe]), axis=2)), d)
     return T, trimmed_rms(np.minimum(d, lookup.reach), trim)
 
 
@@ -205,7 +219,9 @@ def displacement(T_a: Array, T_b: Array, points: Array) -> float:
     return float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))
 
 
-def distinct(T_list: list[Array], order: Array, points: Array, limit: float, count: int) -> list[int]:
+def distinct(
+    T_list: list[Array], order: Array, points: Array, limit: float, count: int
+) -> list[int]:
     """Indices, in the given order, of up to `count` mutually distinct poses."""
     chosen: list[int] = []
     for i in order:

@@ -86,6 +86,15 @@ def robust_centre(data: Array, radius: float) -> Array:
     return pool[dense].mean(axis=0)
 
 
+def surface_mask(data: Array, radius: float) -> Array:
+    """(N,) True for the data points with at least a quarter of the median number of
+    neighbours within `radius`: the points on a surface, as opposed to spurious returns
+    scattered in space (which, if they are many, pull a robust fit that starts a few
+    millimetres off towards them before its scale has shrunk)."""
+    counts = cKDTree(data).query_ball_point(data, radius, return_length=True)
+    return counts >= 0.25 * np.median(counts)
+
+
 def global_starts(
     data_centroid: Array, model_centroid: Array, rotations: Array
 ) -> tuple[Array, Array]:

@@ -201,7 +201,9 @@ def _find(shape: Shape, tolerance: float, seed: int) -> tuple[Symmetry, ...]:
     if len(close) == 0:
         return ()
     close = close[np.argsort(cost_k[close], kind="stable")]
-    close = close[distinct(list(T_k[close]), np.arange(len(close)), coarse, 0.01 * shape.extent, 24)]
+    close = close[
+        distinct(list(T_k[close]), np.arange(len(close)), coarse, 0.01 * shape.extent, 24)
+    ]
     T_k, _ = batched_icp(shape, points[:200], T_k[close], 5, 0.95, kernel, exact_samples=True)
     turns: list[Symmetry] = []
     for T_s in T_k:

@@ -123,7 +123,10 @@ def model_verdict(
             f"(limit {limit:.3g})"
         )
     if not searched:
-        return "accepted", "good fit, well-constrained pose (refined from T_init: no rival searched)"
+        return (
+            "accepted",
+            "good fit, well-constrained pose (refined from T_init: no rival searched)",
+        )
     return "accepted", "good fit, unique minimum, well-constrained pose"
 
 
@@ -170,8 +173,12 @@ def assess_targets(
             reasons.append(f"ambiguous: {moved[k]}")
         elif tre[k] > tolerance:
             verdicts.append("ambiguous")
-            reasons.append(f"poorly constrained: predicted TRE {tre[k]:.3g} (limit {tolerance:.3g})")
+            reasons.append(
+                f"poorly constrained: predicted TRE {tre[k]:.3g} (limit {tolerance:.3g})"
+            )
         else:
             verdicts.append("accepted")
             reasons.append(f"located: predicted TRE {tre[k]:.3g}")
-    return TargetPrediction(np.asarray(tre, dtype=float), tuple(moved), tuple(verdicts), tuple(reasons))
+    return TargetPrediction(
+        np.asarray(tre, dtype=float), tuple(moved), tuple(verdicts), tuple(reasons)
+    )

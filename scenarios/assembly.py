@@ -3,7 +3,7 @@
 Two ways to locate it are compared on the same real cell:
 - 2D adjusting: IR edge probing of the flat part's edges (position and heading only);
 - 3D surface matching: laser scan matched to the part's virtual model (full pose), searched
-  without the 2D pose (registration.mode "local"; "refine" would start from it instead).
+  without the 2D pose (registration.mode "auto"; "refine" would start from it instead).
 Then the gripper picks the part at its grasp frame (3D pose): it closes across the upright's
 top edge, lifts the part 40 mm, holds it, puts it down where it took it (the gripper goes back
 to the pick pose, so the part needs no new pose estimate) and opens. The part is a loose body
@@ -185,6 +185,7 @@ def run_assembly(
         probed.T_table_object,  # used by mode "refine" only
         scan.line_pass[scan.line_index][keep],
         config.registration.pass_sigma_m,
+        targets_model=np.array([h.p_entry for h in virtual.burr_holes]),
     )
     timings["register"] = time.perf_counter() - t0
     result = located.result
@@ -279,7 +280,7 @@ def run_assembly(
     touches = [p.q_touch for program in programs.values() for p in program.operations]
     if touches:
         q_job = np.vstack([q_job, *touches])
-    predicted = result.predicted_tre(np.array([h.p_entry for h in virtual.burr_holes]))
+    predicted = result.predicted_tre(np.array([h.p_entry for h in virtual.burr_holes])).tre
     rows_3d = targets.get("laser_3d", ())
     errors = np.array([t.error_m for t in rows_3d])
     results = {

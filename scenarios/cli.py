@@ -99,26 +99,61 @@ def model(
 
 @app.command("register")
 def register(
-    data: Annotated[str, typer.Argument(help="Data points: .xyz, .txt, .csv, .npy or .ply.")],
-    model: Annotated[str, typer.Argument(help="Model: a mesh (.stl, .obj, .ply) or a point file.")],
+    data: Annotated[
+        str,
+        typer.Argument(
+            help="Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz."
+        ),
+    ],
+    model: Annotated[
+        str, typer.Argument(help="Model: a mesh (.stl, .obj, .ply, .off) or a point file.")
+    ],
     mode: Annotated[
         str,
         typer.Option(
             "--mode",
-            help="global (data cover the whole model), local (part of it), refine (no search).",
+            help="auto (any coverage, the default), global (data cover the whole model) or "
+            "local (part of it).",
         ),
-    ] = "local",
+    ] = "auto",
+    units: Annotated[
+        str, typer.Option("--units", help="Units of the data (and of the model): m or mm.")
+    ] = "m",
+    model_units: Annotated[
+        str | None, typer.Option("--model-units", help="Units of the model if not --units.")
+    ] = None,
+    targets: Annotated[
+        str | None,
+        typer.Option(
+            "--targets",
+            help="Targets in the model frame (JSON {name: [x, y, z]} or a point file, in "
+            "the model's units): the verdict is then per target.",
+        ),
+    ] = None,
+    noise: Annotated[
+        float | None,
+        typer.Option("--noise", min=0.0, help="The sensor's range noise (sigma), in --units."),
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the search.")] = 0,
     json_file: Annotated[
         str | None, typer.Option("--json", help="Write the result to this JSON file.")
     ] = None,
 ) -> None:
     """Register data points to a model surface and print the transform and its quality."""
-    from scenarios.register import register_files, render_result, write_result_json
+    from registration.io import unit_scale
+    from scenarios.register import (
+        load_named_targets,
+        register_files,
+        render_result,
+        write_result_json,
+    )
 
-    result = register_files(data, model, mode)
-    render_result(result)
+    named = None if targets is None else load_named_targets(targets, model_units or units)
+    noise_m = None if noise is None or noise == 0 else noise * unit_scale(units)
+    result = register_files(data, model, mode, units, model_units, seed, named, noise_m)
+    render_result(result, named)
     if json_file is not None:
-        write_result_json(result, json_file)
+        write_result_json(result, json_file, named)
 
 
 @app.command("run")
@@ -235,9 +270,19 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the console script: user errors become one line and exit status 2."""
+    """Entry point of the console script: user errors become one line and exit status 2.
+
+    A numerical warning (numpy's RuntimeWarning) or one of the project's own is a bug: it is
+    raised as an error, reported in one line (exit status 1), never printed as a warning.
+    """
+    import warnings
+
     try:
-        status = app(args=argv, standalone_mode=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            for package in ("registration", "scenarios", "cell", "models"):
+                warnings.filterwarnings("error", module=package)
+            status = app(args=argv, standalone_mode=False)
         if isinstance(status, int):  # click returns typer.Exit's code without standalone mode
             return status
     except typer.Exit as exc:
@@ -248,6 +293,9 @@ def main(argv: list[str] | None = None) -> int:
     except typer.TyperException as exc:  # usage errors: typer prints them the click way
         exc.show()  # type: ignore[attr-defined]
         return int(getattr(exc, "exit_code", 2))
+    except Warning as exc:
+        typer.echo(f"twincell: internal error (an unexpected warning): {exc}", err=True)
+        return 1
     except Exception as exc:
         if isinstance(exc, _user_errors()):
             typer.echo(f"twincell: error: {exc}", err=True)

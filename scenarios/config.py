@@ -87,13 +87,14 @@ class Scan(_Section):
 class Registration(_Section):
     """Surface matching of the scan to the virtual model: the object points are thinned to
     one per `voxel_m` cube (so that regions scanned twice do not outweigh the others), then
-    at most `max_points` of them are drawn (seeded). `mode` "local" searches every pose
-    (no prior); "refine" starts from a prior pose. `pass_sigma_m`: the arm's absolute
+    at most `max_points` of them are drawn (seeded). `mode` "auto" searches every pose
+    (no prior, any coverage); "local" and "global" search for a partial or a whole-surface
+    scan; "refine" starts from a prior pose. `pass_sigma_m`: the arm's absolute
     accuracy as the matcher is told it (a scan pass's rigid offset per axis [m], about
     0.3 mm in all, a datasheet figure) for the predicted TRE; None: not told."""
 
     voxel_m: float = Field(0.003, ge=0.0, le=0.05)
-    mode: Literal["local", "refine"] = "local"
+    mode: Literal["auto", "local", "global", "refine"] = "auto"
     pass_sigma_m: float | None = Field(3.0e-4 / 3**0.5, ge=0.0, le=0.01)
     max_points: int = Field(6000, ge=100, le=1_000_000)
     max_ambiguity: float = Field(0.5, gt=0.0, le=1.0)
@@ -193,7 +194,7 @@ class AssemblyConfig(_Section):
     )
     # One point per 1 mm cube: the end faces and the hole rims that tell the bracket's
     # pose apart are a few millimetres wide.
-    registration: Registration = Registration(voxel_m=0.001, max_points=4000, mode="local")
+    registration: Registration = Registration(voxel_m=0.001, max_points=4000)
     calibration: Calibration = Calibration()
     touch_offset_m: float = Field(0.004, ge=0.0, le=0.05)
     probe_height_m: float = Field(0.03, gt=0.01, le=0.1)

@@ -9,7 +9,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from registration import Acceptance, MatchResult, MeshModel, ScanPasses, invert, match
+from registration import (
+    Acceptance,
+    MatchResult,
+    MeshModel,
+    ScanPasses,
+    SearchSettings,
+    invert,
+    match,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,16 +48,19 @@ def localize(
     acceptance: Acceptance,
     seed: int,
     voxel_m: float = 0.0,
-    mode: str = "local",
+    mode: str = "auto",
     T_table_object_prior: np.ndarray | None = None,
     pass_labels: np.ndarray | None = None,
     pass_sigma_m: float | None = None,
+    targets_model: np.ndarray | None = None,
 ) -> Localization:
     """Match the object points (N, 3) in the table frame to the virtual model: thinned to
-    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`. Mode
-    "local" searches without prior; "refine" starts from `T_table_object_prior` (4, 4).
-    With the scan pass of each point `pass_labels` (N,) and the arm's accuracy
-    `pass_sigma_m` [m] (a pass's rigid offset, per axis), the predicted TRE includes it."""
+    one point per `voxel_m` cube, then a seeded subsample of at most `max_points`, all of
+    which the pose is refined on. Mode "auto" (or "local", "global") searches without prior;
+    "refine" starts from `T_table_object_prior` (4, 4). With the scan pass of each point
+    `pass_labels` (N,) and the arm's accuracy `pass_sigma_m` [m] (a pass's rigid offset, per
+    axis), the predicted TRE includes it. With the operation's targets (K, 3) in the model
+    frame, the verdict is per target: accepted only if every target is located."""
     rng = np.random.default_rng(seed)
     index = voxel_thin(points_table, voxel_m)
     if len(index) > max_points:
@@ -58,13 +69,18 @@ def localize(
     passes = None
     if pass_labels is not None and pass_sigma_m is not None:
         passes = ScanPasses(np.asarray(pass_labels)[index], pass_sigma_m)
-    T_init = None if T_table_object_prior is None else invert(T_table_object_prior)
+    T_init = None if T_table_object_prior is None or mode != "refine" else invert(
+        T_table_object_prior
+    )
     result = match(
         used,
         shape,
         mode=mode,  # type: ignore[arg-type]
         T_init=T_init,
+        targets=targets_model,
+        seed=seed,
         acceptance=acceptance,
+        settings=SearchSettings(refine_points=max_points),
         passes=passes,
     )
     return Localization(invert(result.T_model_data), result, used, len(points_table))

@@ -23,12 +23,12 @@ from registration import (
     ParametricModel,
     PointModel,
     Shape,
-    icp,
     match,
     pose_error,
     transform_points,
-    trimmed_rms,
 )
+from registration.icp import icp
+from registration.quality import trimmed_rms
 from registration.rigid import Array, invert, random_transform
 from scenarios.run_folder import write_atomic
 

@@ -142,10 +142,10 @@ def run_skull(
             T_table_nominal,
             scan.line_pass[scan.line_index][keep],
             config.registration.pass_sigma_m,
+            targets_model=np.array([h.p_entry for h in virtual.burr_holes]),
         )
         reason = located.result.reason
     timings["register"] = time.perf_counter() - t0
-    targets_model = np.array([h.p_entry for h in virtual.burr_holes])
     if located is not None:
         r = located.result
         say(
@@ -197,7 +197,8 @@ def run_skull(
         target_evals = evaluator.targets(
             config.program.touch_offset_m, virtual, program.T_base_object
         )
-    predicted = located.result.predicted_tre(targets_model) if located is not None else None
+    targets_model = np.array([h.p_entry for h in virtual.burr_holes])
+    predicted = located.result.predicted_tre(targets_model).tre if located is not None else None
     if program is not None:
         outputs.write_program(folder / "program.mod", program, virtual, T_table_nominal)
     if recording is not None and program is not None:

@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
-from registration import InputError, absolute_orientation
+from registration import InputError
+from registration.horn import absolute_orientation
 from registration.rigid import make_T, transform_points
 
 

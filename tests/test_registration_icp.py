@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from registration import L2, MeshModel, ParametricModel, PointModel, icp, pose_error
+from registration import L2, MeshModel, ParametricModel, PointModel, pose_error
+from registration.icp import icp
 from registration.rigid import invert, make_T, transform_points
 from registration.shapes.mesh import sample_surface
 from registration.synthetic import asymmetric_blob

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from registration import L2, InputError, Trimmed, Tukey, haralick, median_absolute_deviation
+from registration import L2, InputError, Trimmed, Tukey
+from registration.haralick import haralick
+from registration.kernels import median_absolute_deviation
 from registration.rigid import make_T, pose_error
 
 

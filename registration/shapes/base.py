@@ -73,16 +73,46 @@ class Shape:
     def closest(self, points: Array) -> Closest:  # pragma: no cover - interface
         raise TypeError(f"{type(self).__name__} does not implement closest()")
 
-    def near(self, points: Array) -> Closest:
+    def near(self, points: Array, reach: float = np.inf) -> Closest:
         """Closest surface sample and its tangent plane, for points (N, 3) near the surface.
 
         The point-to-plane residual n . (p - q) is the distance to the sample's tangent
         plane; `distances` are to the sample itself. Shapes whose samples are the model
-        (point sets) answer exactly.
+        (point sets) answer exactly. A point with no sample within `reach` is given one at
+        `reach` along its normal: its residual is `reach` (far points are outliers; the
+        bounded search is faster).
         """
-        d, i = self.sample_tree.query(points)
+        d, i = self.sample_tree.query(points, distance_upper_bound=reach)
+        missing = i >= len(self.samples)
+        i = np.where(missing, 0, i)
+        q = self.samples[i]
         normals = None if self.sample_normals is None else self.sample_normals[i]
-        return Closest(self.samples[i], normals, d)
+        if missing.any():
+            q = q.copy()
+            if normals is None:
+                q[missing] = points[missing] + np.array([reach, 0.0, 0.0])
+            else:
+                q[missing] = points[missing] - reach * normals[missing]
+            d = np.where(missing, reach, d)
+        return Closest(q, normals, d)
+
+    def closest_within(self, points: Array, reach: float) -> Closest:
+        """The exact closest points for points (N, 3) within about `reach` of the surface (by
+        the nearest sample); the others keep the answer of `near` (residual >= reach)."""
+        fast = self.near(points, reach)
+        inside = fast.distances < reach
+        if not inside.any():
+            return fast
+        exact = self.closest(points[inside])
+        q = fast.points.copy()
+        q[inside] = exact.points
+        d = fast.distances.copy()
+        d[inside] = exact.distances
+        normals = fast.normals
+        if normals is not None and exact.normals is not None:
+            normals = normals.copy()
+            normals[inside] = exact.normals
+        return Closest(q, normals, d)
 
     @cached_property
     def sample_tree(self) -> cKDTree:

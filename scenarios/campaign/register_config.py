@@ -77,7 +77,7 @@ class Matching(_Section):
     accuracy as the matcher is told it (standard deviation of a pass's rigid offset along
     each axis [m], a datasheet figure, with the pass of each point); None: not told."""
 
-    mode: Literal["local", "global"] = "local"
+    mode: Literal["auto", "local", "global"] = "auto"
     pass_sigma_m: float | None = Field(3.0e-4 / 3**0.5, ge=0.0, le=0.01)
     max_ambiguity: float = Field(_SKULL.max_ambiguity, gt=0.0, le=1.0)
     max_rms_m: float = Field(_SKULL.max_rms_m, gt=0.0)

@@ -96,11 +96,17 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
     passes = None
     if cfg.registration.pass_sigma_m is not None:
         passes = ScanPasses(scan.pass_index, cfg.registration.pass_sigma_m)
-    result = match(
-        scan.points, shape, mode=cfg.registration.mode, acceptance=acceptance, passes=passes
-    )
     names, targets = targets_of(virtual)
-    predicted = result.predicted_tre(targets)
+    result = match(
+        scan.points,
+        shape,
+        mode=cfg.registration.mode,
+        targets=targets,
+        seed=seed,
+        acceptance=acceptance,
+        passes=passes,
+    )
+    predicted = result.predicted_tre(targets).tre
 
     # Truth, read only from here on.
     targets_real = targets + error.field(targets)
