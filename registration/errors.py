@@ -13,3 +13,9 @@ class InputError(RegistrationError, ValueError):
 
 class FormatError(InputError):
     """A file that cannot be read as points or a mesh."""
+
+
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (libraries append multi-line reports)."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

@@ -16,7 +16,7 @@ import numpy as np
 
 from registration.errors import InputError
 from registration.horn import absolute_orientation
-from registration.kernels import Kernel, ShrinkingScale, Tukey
+from registration.kernels import Kernel, Tukey
 from registration.rigid import Array, exp_se3, make_T, transform_points
 from registration.shapes.base import Closest, Shape, check_points
 
@@ -109,7 +109,6 @@ def icp(
     T = np.eye(4) if T_init is None else np.asarray(T_init, dtype=float).copy()
     if T.shape != (4, 4) or not np.isfinite(T).all():
         raise InputError(f"T_init must be a finite (4, 4) matrix; got shape {T.shape}")
-    weigh = ShrinkingScale(kernel)
     history: list[float] = []
     residuals = np.zeros(len(data))
     weights = np.ones(len(data))
@@ -122,7 +121,7 @@ def icp(
             residuals = np.einsum("nd,nd->n", c.normals, p - c.points)
         else:
             residuals = c.distances
-        weights = weigh.weights(residuals)
+        weights = kernel.weights(residuals)
         if weights.sum() <= 0:
             weights = np.ones(len(data))
         mse = float(np.sum(weights * residuals**2) / weights.sum())

@@ -118,10 +118,12 @@ def judge(
     the ranking trims its worst points. On `judge_points`, the points each pose explains are
     counted with one yardstick (Tukey's cut-off at the robust scale of the better pose). A
     pose that explains more than `judge_unexplained` more of the scan, and leaves at most
-    half as much of it unexplained, wins, and the other is no rival (ambiguity 0); otherwise
-    the two are compared on the fraction the better one fits, less `judge_margin`, and the
-    ambiguity is the ratio of their costs (the floor added to both). The poses are not
-    refined again: two starts in one long valley would join, and a rival be lost.
+    half as much of it unexplained, wins, and the other is no rival (ambiguity 0). Otherwise
+    both are costed on the largest fraction either explains, less `judge_margin` (the
+    points where they differ; on the `trim` fraction alone the part they share would
+    decide): the cheaper wins, and the ambiguity is the ratio of their costs (the floor
+    added to both). The poses are not refined again: two starts in one long valley would
+    join, and a rival be lost.
 
     Returns which pose wins (0: T_best, 1: T_other), its cost, the other's cost and the
     ambiguity.
@@ -135,13 +137,19 @@ def judge(
     cut = tukey.c * float(tukey.scale(residuals[int(np.argmin(costs))]))
     explained = [float(np.mean(r <= cut)) for r in residuals]
     more, less = sorted(explained, reverse=True)
-    clear = more - less > settings.judge_unexplained and 1.0 - more <= (1.0 - less) / 2
-    first = int(np.argmax(explained)) if clear else int(np.argmin(costs))
-    other = 1 - first
-    trim = float(np.clip(explained[first] - settings.judge_margin, settings.trim, 0.99))
+    if more - less > settings.judge_unexplained and 1.0 - more <= (1.0 - less) / 2:
+        first = int(np.argmax(explained))
+        return first, costs[first], costs[1 - first], 0.0
+    # Compared on as much of the scan as either explains: where they differ.
+    trim = float(np.clip(more - settings.judge_margin, settings.trim, 0.99))
     costs = [float(trimmed_rms(r, trim)) for r in residuals]
-    ambiguity = 0.0 if clear else floored_ratio(costs[first], costs[other], floor)
-    return first, costs[first], costs[other], ambiguity
+    first = int(np.argmin(costs))
+    return (
+        first,
+        costs[first],
+        costs[1 - first],
+        floored_ratio(costs[first], costs[1 - first], floor),
+    )
 
 
 def floored_ratio(best: float, other: float, floor: float) -> float:

@@ -21,27 +21,6 @@ class Kernel(Protocol):
     def weights(self, residuals: Array) -> Array: ...
 
 
-class ShrinkingScale:
-    """The robust scale of one ICP run, never larger than at the run's previous iteration.
-
-    With a scale kernel (Tukey), S_k = min(S_k-1, MAD_k): as the pose converges the
-    inliers' residuals shrink and so does the cut-off c S, but a step that makes the fit
-    worse cannot widen it and let the outliers in (with 40 % of spurious points the widened
-    cut-off admits them, and they pull the pose away). Other kernels weigh as they are.
-    """
-
-    def __init__(self, kernel: Kernel) -> None:
-        self.kernel = kernel
-        self.scale: Array | None = None
-
-    def weights(self, residuals: Array) -> Array:
-        if not isinstance(self.kernel, Tukey):
-            return self.kernel.weights(residuals)
-        s = self.kernel.scale(residuals)
-        self.scale = s if self.scale is None else np.minimum(self.scale, s)
-        return self.kernel.weights_at(residuals, self.scale)
-
-
 def median_absolute_deviation(residuals: Array) -> Array:
     """S of eq. 8: median of |e - median(e)| along the last axis; shape (...,)."""
     med = np.median(residuals, axis=-1, keepdims=True)

@@ -30,7 +30,7 @@ from registration.kernels import Kernel, Tukey
 from registration.quality import ScanPasses, pose_covariance, predicted_tre, residual_correlation
 from registration.result import MatchResult, Minimum
 from registration.rigid import Array, transform_points
-from registration.search import SearchSettings, batched_icp, search, subsample
+from registration.search import SearchSettings, batched_icp, closest_pairs, search, subsample
 from registration.shapes.base import Closest, Shape, check_points
 from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
@@ -246,14 +246,23 @@ def _match(
     cap = min(settings.rank_iterations, max_iterations)
 
     def rank(poses: list[Array]) -> list[Ranked]:
-        # All candidates refined together on the subsample, against the surface sample.
+        # All candidates refined together on the subsample, the robust scale annealed from
+        # half a lookup voxel (so that a pose slid a few millimetres along a flat face is
+        # pulled back by the points beyond its edge), first against the surface sample, then
+        # against the exact model, whose normals beyond an edge hold the scan on the face.
         T_all, _ = batched_icp(
-            shape, mid, np.asarray(poses), cap, settings.trim, kernel, exact_samples=True
-        )
-        return [
-            Ranked(T, surface_residuals(near(transform_points(T, mid)), transform_points(T, mid)))
-            for T in T_all
-        ]
+            mid, np.asarray(poses), cap, settings.trim, kernel, closest_pairs(near, reach),
+            reach, anneal=0.5 * shape.sample_lookup.h,
+        )  # fmt: skip
+        T_all, _ = batched_icp(
+            mid, T_all, settings.rank_exact_iterations, settings.trim, kernel,
+            closest_pairs(exact, reach), reach,
+        )  # fmt: skip
+        out = []
+        for T in T_all:
+            p = transform_points(T, mid)
+            out.append(Ranked(T, surface_residuals(exact(p), p)))
+        return out
 
     runs = rank(candidates)
     best_fit = max(fitted_fraction(run, floor) for run in runs)
@@ -299,7 +308,7 @@ def _match(
                      tau=(1e-4 * extent) ** 2, max_iterations=max_iterations, callback=keep,
                      closest=near)  # fmt: skip
     fine_run = icp(fit, shape, coarse_run.T_model_data, variant=variant, kernel=kernel,
-                   max_iterations=max(3, max_iterations // 4), callback=keep,
+                   max_iterations=min(6, max_iterations), callback=keep,
                    closest=exact)  # fmt: skip
     history = np.sqrt(np.concatenate([coarse_run.mse_history, fine_run.mse_history]))
     best = Minimum(fine_run.T_model_data, best_cost)

@@ -29,10 +29,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from registration.horn import absolute_orientation_batch
-from registration.kernels import Kernel, ShrinkingScale
+from registration.kernels import Kernel, Tukey
 from registration.quality import trimmed_rms
 from registration.rigid import Array, make_T_batch, transform_points
-from registration.shapes.base import Shape
+from registration.shapes.base import Closest, Shape
 from registration.starts import (
     global_starts,
     grid_local_starts,
@@ -77,8 +77,9 @@ class SearchSettings:
         surface_radius: neighbourhood radius, as a fraction of the model extent, of the
             test that tells the scan's surface points from spurious ones (the search and
             the refinement use the surface points; the quality figures all points).
-        rank_iterations: ICP iterations on the subsample for each distinct candidate, before
-            the minima are ranked.
+        rank_iterations: ICP iterations on the subsample for the distinct candidates, all
+            together, against the surface sample (the scale annealed), before ...
+        rank_exact_iterations: ... those against the exact model; then the minima are ranked.
         trim: fraction of the smallest residuals in a start's cost (robust to outliers and
             partial overlap); the minima are then compared on the fraction the best fits.
         distinct: two poses are distinct minima if they move the data points apart by more
@@ -108,6 +109,7 @@ class SearchSettings:
     refine: int = 4
     refine_points: int = 3000
     rank_iterations: int = 10
+    rank_exact_iterations: int = 6
     whole_fit: float = 0.95
     dense_data: int = 50
     dense_model: int = 2000
@@ -141,56 +143,82 @@ def subsample(points: Array, count: int, rng: np.random.Generator) -> Array:
     return np.sort(rng.choice(len(points), size=count, replace=False))
 
 
+#: Correspondences for K poses at once: moved points (K, n, 3) -> their model points
+#: (K, n, 3), normals (K, n, 3) or None, and whether each has one (K, n).
+Pairs = Callable[[Array], tuple[Array, Array | None, Array]]
+
+
+def lookup_pairs(shape: Shape) -> Pairs:
+    """The surface sample a voxel lookup finds (fast, to about a voxel)."""
+    lookup, normals = shape.sample_lookup, shape.sample_normals
+
+    def pairs(p: Array) -> tuple[Array, Array | None, Array]:
+        _, idx = lookup.query(p)
+        safe = np.maximum(idx, 0)
+        return shape.samples[safe], None if normals is None else normals[safe], idx >= 0
+
+    return pairs
+
+
+def closest_pairs(closest: Callable[[Array], Closest], reach: float) -> Pairs:
+    """The closest points of an operator (the exact one, say); none beyond `reach`."""
+
+    def pairs(p: Array) -> tuple[Array, Array | None, Array]:
+        c = closest(p.reshape(-1, 3))
+        normals = None if c.normals is None else c.normals.reshape(p.shape)
+        return c.points.reshape(p.shape), normals, (c.distances < reach).reshape(p.shape[:-1])
+
+    return pairs
+
+
 def batched_icp(
-    shape: Shape,
     points: Array,
     T: Array,
     iterations: int,
     trim: float,
     kernel: Kernel,
-    exact_samples: bool = False,
+    pairs: Pairs,
+    reach: float,
+    anneal: float = 0.0,
 ) -> tuple[Array, Array]:
-    """A few robust ICP iterations for K poses at once against the model's surface sample.
+    """A few robust ICP iterations for K poses at once, vectorised.
 
-    Closest samples come from the voxel lookup (or, with `exact_samples`, the KD-tree of the
-    samples: slower, exact to the sample spacing); pairs without a sample within the
-    lookup's reach get no weight. Point-to-plane where the model has normals, else Horn.
+    Point-to-plane where the correspondences have normals, else Horn's method. A point
+    without a correspondence counts as a residual of `reach` and has no weight. With
+    `anneal` > 0 and Tukey's kernel, the scale's floor starts at `anneal` [length units] and
+    shrinks geometrically to the kernel's own over the first two thirds of the iterations:
+    a pose slid a few millimetres along a flat face is pulled back by the points beyond its
+    edge before the cut-off excludes them (at the final scale a slid pose is a minimum).
 
     Args:
         points: data subsample (n, 3). T: poses (K, 4, 4).
 
     Returns:
         Refined poses (K, 4, 4) and their trimmed costs (K,): the RMS of the smallest `trim`
-        fraction of the point-to-plane residuals (distances for a model without normals).
+        fraction of the point-to-plane residuals (distances where there are no normals).
     """
-    lookup = shape.sample_lookup
-    normals = shape.sample_normals
-    weigh = ShrinkingScale(kernel)
 
-    def nearest(p: Array) -> tuple[Array, Array]:
-        if not exact_samples:
-            return lookup.query(p)
-        d, i = shape.sample_tree.query(
-            p.reshape(-1, 3), distance_upper_bound=4.0 * lookup.h, workers=-1
-        )
-        found = i < len(shape.samples)
-        return np.where(found, d, np.inf).reshape(p.shape[:-1]), np.where(found, i, -1).reshape(
-            p.shape[:-1]
-        )
+    def residuals(p: Array) -> tuple[Array, Array, Array | None, Array]:
+        q, nrm, found = pairs(p)
+        r = np.linalg.norm(p - q, axis=2) if nrm is None else np.sum(nrm * (p - q), axis=2)
+        return np.where(found, r, reach), q, nrm, found
 
-    for _ in range(iterations):
+    schedule = None
+    if anneal > 0 and isinstance(kernel, Tukey) and iterations > 1:
+        end = max(kernel.min_scale, 1e-12 * anneal)
+        steps = max(1, (2 * iterations) // 3)
+        schedule = np.maximum(anneal * (end / anneal) ** (np.arange(iterations) / steps), end)
+    for k in range(iterations):
         p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
-        d, idx = nearest(p)
-        found = idx >= 0
-        q = shape.samples[np.maximum(idx, 0)]
-        if normals is None:
-            w = weigh.weights(np.where(found, d, lookup.reach)) * found
+        r, q, nrm, found = residuals(p)
+        if schedule is None:
+            w = kernel.weights(r) * found
+        else:
+            w = kernel.weights_at(r, np.maximum(kernel.scale(r), schedule[k])) * found
+        if nrm is None:
             R, t = absolute_orientation_batch(p, q, w)
             step = make_T_batch(R, t)
         else:
-            nrm = normals[np.maximum(idx, 0)]
-            r = np.where(found, np.sum(nrm * (p - q), axis=2), lookup.reach)
-            w = weigh.weights(r) * found
             c0 = np.einsum("kn,knd->kd", w, p) / np.maximum(w.sum(1), 1e-300)[:, None]
             pc = p - c0[:, None]
             J = np.concatenate([nrm, np.cross(pc, nrm)], axis=2)  # (K, n, 6)
@@ -203,14 +231,11 @@ def batched_icp(
             t = c0 - np.einsum("kij,kj->ki", Rs, c0) + xi[:, :3]
             step = make_T_batch(Rs, t)
         T = step @ T
-    # The cost: point-to-plane residuals where the model has normals (the lookup's sample
-    # may lie a voxel away along the surface, which a point distance would count).
+    # The cost: point-to-plane residuals where there are normals (a lookup's sample may lie
+    # a voxel away along the surface, which a point distance would count).
     p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
-    d, idx = nearest(p)
-    if normals is not None:
-        safe = np.maximum(idx, 0)
-        d = np.where(idx >= 0, np.abs(np.sum(normals[safe] * (p - shape.samples[safe]), axis=2)), d)
-    return T, trimmed_rms(np.minimum(d, lookup.reach), trim)
+    r, _, _, _ = residuals(p)
+    return T, trimmed_rms(np.minimum(np.abs(r), reach), trim)
 
 
 def displacement(T_a: Array, T_b: Array, points: Array) -> float:
@@ -309,9 +334,10 @@ def search(
 
     t0 = time.perf_counter()
     few = mid[subsample(mid, settings.screen_points, rng)]
+    pairs = lookup_pairs(shape)
     T_few, cost_few = batched_icp(
-        shape, few, make_T_batch(R[screened], t[screened]), settings.screen_iterations,
-        settings.trim, kernel,
+        few, make_T_batch(R[screened], t[screened]), settings.screen_iterations,
+        settings.trim, kernel, pairs, lookup.reach,
     )  # fmt: skip
     # Small data sets afford more survivors for the same work.
     n_keep = max(settings.keep_coarse, settings.mid_budget // len(mid))
@@ -321,7 +347,7 @@ def search(
 
     t0 = time.perf_counter()
     T_mid, cost_mid = batched_icp(
-        shape, mid, T_few[keep], settings.mid_iterations, settings.trim, kernel
+        mid, T_few[keep], settings.mid_iterations, settings.trim, kernel, pairs, lookup.reach
     )
     T_list = list(T_mid)
     chosen = distinct(

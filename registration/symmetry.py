@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 
 from registration.kernels import Tukey
 from registration.rigid import Array, make_T, make_T_batch, transform_points
-from registration.search import batched_icp, distinct, subsample
+from registration.search import batched_icp, closest_pairs, distinct, lookup_pairs, subsample
 from registration.shapes.base import Shape
 from registration.starts import super_fibonacci_rotations
 
@@ -195,7 +195,7 @@ def _find(shape: Shape, tolerance: float, seed: int) -> tuple[Symmetry, ...]:
     order = [i for i in np.argsort(cost, kind="stable") if angles[i] > np.radians(3.0)]
     keep = np.array(order[:32], dtype=int)
     kernel = Tukey(min_scale=1e-4 * shape.extent)
-    T_k, cost_k = batched_icp(shape, coarse, T[keep], 6, 0.95, kernel)
+    T_k, cost_k = batched_icp(coarse, T[keep], 6, 0.95, kernel, lookup_pairs(shape), lookup.reach)
     # Survivors: near the surface to the lookup's resolution; refined on the exact samples.
     close = np.flatnonzero(cost_k < 1.5 * lookup.h)
     if len(close) == 0:
@@ -204,7 +204,8 @@ def _find(shape: Shape, tolerance: float, seed: int) -> tuple[Symmetry, ...]:
     close = close[
         distinct(list(T_k[close]), np.arange(len(close)), coarse, 0.01 * shape.extent, 24)
     ]
-    T_k, _ = batched_icp(shape, points[:200], T_k[close], 5, 0.95, kernel, exact_samples=True)
+    near = closest_pairs(lambda p: shape.near(p, lookup.reach), lookup.reach)
+    T_k, _ = batched_icp(points[:200], T_k[close], 5, 0.95, kernel, near, lookup.reach)
     turns: list[Symmetry] = []
     for T_s in T_k:
         axis, angle, point = _screw(T_s)

@@ -19,6 +19,7 @@ V, F = asymmetric_blob(size=0.2, subdivisions=4, seed=0)
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("register")
     trimesh.Trimesh(V, F).export(d / "model.stl")
+    trimesh.Trimesh(V * 50.0, F).export(d / "model_mm.stl")  # a 10 m model: wrong units
     scan = partial_scan(V, F, 600, noise=1e-4, seed=5)
     np.savetxt(d / "scan.xyz", scan.points, header=str(len(scan.points)), comments="")
     np.savetxt(d / "scan.csv", scan.points, delimiter=",", header="x,y,z", comments="")
@@ -36,7 +37,7 @@ def test_register_writes_the_documented_json(files, name: str, capsys) -> None:
     assert "verdict" in printed and "T_model_data" in printed
     result = json.loads(out.read_text())
     keys = {"T_model_data", "rotation", "translation", "rms", "inlier_fraction", "ambiguity"}
-    keys |= {"iterations", "starts", "seconds", "verdict"}
+    keys |= {"iterations", "starts", "seconds", "verdict", "symmetries", "seed", "mode"}
     assert keys <= set(result)
     rot, trans = pose_error(np.array(result["T_model_data"]), scan.T_model_data)
     assert np.degrees(rot) < 0.2 and trans < 0.3e-3
@@ -69,9 +70,37 @@ def test_bad_inputs_are_one_line_and_exit_2(files, tmp_path, capsys) -> None:
         "not numbers": ([str(tmp_path / "words.xyz"), model], "expected numbers"),
         "empty mesh": ([str(d / "scan.xyz"), str(tmp_path / "empty.stl")], "empty"),
         "bad mode": ([str(d / "scan.xyz"), model, "--mode", "sideways"], "sideways"),
-    }
+        "count line": ([str(tmp_path / "count.xyz"), model], "says 100 points, but it holds 4"),
+        "mm scan, m model": ([str(tmp_path / "mm.xyz"), model], "with --units mm it would be"),
+        "mm model, m scan": ([str(d / "scan.xyz"), str(d / "model_mm.stl")], "same units"),
+        "bad units": ([str(d / "scan.xyz"), model, "--units", "inch"], "valid: m, mm"),
+        "truncated": ([str(tmp_path / "cut.ply"), model], "cut.ply"),
+        "bad targets": ([str(d / "scan.xyz"), model, "--targets", str(tmp_path / "t.json")],
+                        "not valid JSON"),
+    }  # fmt: skip
+    (tmp_path / "count.xyz").write_text("100\n0 0 0\n0.1 0 0\n0 0.1 0\n0 0 0.1\n")
+    np.savetxt(tmp_path / "mm.xyz", np.loadtxt(d / "scan.xyz", skiprows=1) * 1e3)
+    (tmp_path / "t.json").write_text("{not json")
+    full = (d / "scan.ply").read_bytes()
+    (tmp_path / "cut.ply").write_bytes(full[: len(full) // 2])
     for label, (args, message) in cases.items():
-        code, err = _run(["register", *args], capsys)
+        out = tmp_path / f"{label}.json"
+        code, err = _run(["register", *args, "--json", str(out)], capsys)
         assert code == 2, label
         assert message in err, (label, err)
         assert err.count("\n") == 1 and "Traceback" not in err, label
+        assert not out.exists(), label  # nothing written
+
+
+def test_targets_and_seed_from_the_command_line(files, tmp_path, capsys) -> None:
+    d, scan = files
+    out = tmp_path / "r.json"
+    args = ["register", str(d / "scan.xyz"), str(d / "model.stl"), "--seed", "5",
+            "--targets", str(tmp_path / "plan.json"), "--json", str(out)]  # fmt: skip
+    (tmp_path / "plan.json").write_text('{"centre": [0, 0, 0], "tip": [0.09, 0, 0]}')
+    assert main(args) == 0
+    result = json.loads(out.read_text())
+    assert result["seed"] == 5 and result["mode"] == "auto"
+    assert [t["name"] for t in result["targets"]] == ["centre", "tip"]
+    assert all(t["verdict"] == "accepted" for t in result["targets"])
+    assert "targets" in capsys.readouterr().out

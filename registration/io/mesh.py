@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from registration.errors import FormatError
+from registration.errors import FormatError, first_line
 from registration.rigid import Array
 
 MESH_FORMATS: tuple[str, ...] = (".stl", ".obj", ".ply", ".off")
@@ -41,7 +41,9 @@ def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
     try:
         loaded = trimesh.load(p, process=False)
     except Exception as exc:  # trimesh raises many kinds on corrupt files
-        raise FormatError(f"{p}: cannot be read as {p.suffix[1:].upper()}: {exc}") from None
+        raise FormatError(
+            f"{p}: cannot be read as {p.suffix[1:].upper()}: {first_line(exc)}"
+        ) from None
     geometries = getattr(loaded, "geometry", None)  # a scene of several meshes
     if isinstance(geometries, dict):
         if not geometries:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from registration.errors import FormatError
+from registration.errors import FormatError, first_line
 from registration.rigid import Array
 
 
@@ -25,7 +25,7 @@ def read_pcd(p: Path) -> Array:
     try:
         cloud = PointCloud.from_path(p)
     except Exception as exc:  # pypcd4 raises ValueError, KeyError, struct errors...
-        raise FormatError(f"{p}: cannot be read as PCD: {exc}") from None
+        raise FormatError(f"{p}: cannot be read as PCD: {first_line(exc)}") from None
     fields = list(cloud.fields)
     missing = [f for f in ("x", "y", "z") if f not in fields]
     if missing:
@@ -67,7 +67,7 @@ def _read_e57(p: Path) -> Array:
     try:
         e57 = pye57.E57(str(p))
     except Exception as exc:  # libE57Format raises its own errors
-        raise FormatError(f"{p}: cannot be read as E57: {exc}") from None
+        raise FormatError(f"{p}: cannot be read as E57: {first_line(exc)}") from None
     try:
         if e57.scan_count == 0:
             raise FormatError(f"{p}: the E57 file holds no scan")
@@ -76,7 +76,7 @@ def _read_e57(p: Path) -> Array:
             try:
                 scan = e57.read_scan(k, ignore_missing_fields=True, transform=True)
             except Exception as exc:
-                raise FormatError(f"{p}: scan {k} cannot be read: {exc}") from None
+                raise FormatError(f"{p}: scan {k} cannot be read: {first_line(exc)}") from None
             if "cartesianX" not in scan:
                 raise FormatError(f"{p}: scan {k} has no cartesian coordinates")
             parts.append(np.stack([scan["cartesianX"], scan["cartesianY"], scan["cartesianZ"]], 1))
@@ -92,7 +92,9 @@ def read_las(p: Path) -> Array:
     try:
         las = laspy.read(p)
     except Exception as exc:  # laspy raises LaspyException and others
-        raise FormatError(f"{p}: cannot be read as {p.suffix[1:].upper()}: {exc}") from None
+        raise FormatError(
+            f"{p}: cannot be read as {p.suffix[1:].upper()}: {first_line(exc)}"
+        ) from None
     declared = int(las.header.point_count)
     points = np.stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)], axis=1)
     if len(points) != declared:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from registration.errors import FormatError
+from registration.errors import FormatError, first_line
 from registration.rigid import Array
 
 
@@ -72,7 +72,7 @@ def read_npy(p: Path) -> Array:
     try:
         a = np.load(p, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
-        raise FormatError(f"{p}: not a readable .npy array ({exc})") from None
+        raise FormatError(f"{p}: not a readable .npy array ({first_line(exc)})") from None
     if not isinstance(a, np.ndarray) or not np.issubdtype(a.dtype, np.number):
         raise FormatError(f"{p}: holds {getattr(a, 'dtype', type(a))}, not numbers")
     return a
