@@ -218,7 +218,7 @@ def _match(
     work = data[used]
     # The search and the refinement work on the points that lie on a surface; the quality
     # (inlier fraction, residuals, covariance) is computed on all of them.
-    on_surface = surface_mask(work, settings.surface_radius * extent)
+    on_surface = surface_mask(work, data)
     surface = float(on_surface.mean())
     fit = work[on_surface] if on_surface.sum() >= 10 else work
     mid = fit[subsample(fit, settings.mid_points, rng)]

@@ -74,23 +74,6 @@ class SearchSettings:
             anchor instead of normal-aligned spins.
         whole_fit: if no candidate fits this fraction of the scan's surface points, the
             search runs again with twice the starts: a wrong minimum may have won.
-        surface_radius: neighbourhood radius, as a fraction of the model extent, of the
-            test that tells the scan's surface points from spurious ones (the search and
-            the refinement use the surface points; the quality figures all points).
-        rank_iterations: ICP iterations on the subsample for the distinct candidates, all
-            together, against the surface sample (the scale annealed), before ...
-        rank_exact_iterations: ... those against the exact model; then the minima are ranked.
-        trim: fraction of the smallest residuals in a start's cost (robust to outliers and
-            partial overlap); the minima are then compared on the fraction the best fits.
-        distinct: two poses are distinct minima if they move the data points apart by more
-            than this fraction of the model extent (RMS).
-        judge_points: data points on which the two best minima are compared at the end.
-        judge_margin: they are compared on the fraction of those points that the better
-            one fits, less this margin (at least `trim`, at most 0.99).
-        judge_unexplained: a minimum that leaves this fraction of those points more
-            unexplained than the other, and at least twice as many, is no rival to it.
-        reach: data points farther than this fraction of the model extent from the model
-            are outliers of every refined pose (the closest-point search stops there).
     """
 
     rotations: int = 512
@@ -107,7 +90,7 @@ class SearchSettings:
     mid_points: int = 200
     mid_iterations: int = 8
     refine: int = 4
-    refine_points: int = 3000
+    refine_points: int = 2000
     rank_iterations: int = 10
     rank_exact_iterations: int = 6
     whole_fit: float = 0.95
@@ -119,7 +102,6 @@ class SearchSettings:
     judge_margin: float = 0.01
     judge_unexplained: float = 0.02
     reach: float = 0.05
-    surface_radius: float = 0.02
 
     def denser(self) -> SearchSettings:
         """The settings of a second, denser search: twice the starts and survivors."""

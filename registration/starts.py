@@ -86,13 +86,25 @@ def robust_centre(data: Array, radius: float) -> Array:
     return pool[dense].mean(axis=0)
 
 
-def surface_mask(data: Array, radius: float) -> Array:
-    """(N,) True for the data points with at least a quarter of the median number of
-    neighbours within `radius`: the points on a surface, as opposed to spurious returns
-    scattered in space (which, if they are many, pull a robust fit that starts a few
-    millimetres off towards them before its scale has shrunk)."""
-    counts = cKDTree(data).query_ball_point(data, radius, return_length=True)
-    return counts >= 0.25 * np.median(counts)
+def surface_mask(points: Array, data: Array, k: int = 8, spread: float = 3.0) -> Array:
+    """(N,) True for the points (N, 3) that lie on the scanned surface, as opposed to
+    spurious returns scattered in space, judged by the density of the whole data (M, 3).
+
+    A point's k-th nearest neighbour among (up to 20,000 of) the data lies about
+    sqrt(k / (pi rho_surface)) away on a surface and (k / (4/3 pi rho_space))^(1/3) away in
+    scattered clutter: several times farther at any sensible density. A point is on the
+    surface if that distance is at most `spread` times the median's (the data's density
+    varies with range and incidence, by less than spread^2 over a view). Holds while fewer
+    than half the points are spurious; fewer than 4 k points are all kept. Spurious points,
+    if they are many, pull a robust fit that starts a few millimetres off towards them
+    before its scale has shrunk.
+    """
+    if len(data) < 4 * k:
+        return np.ones(len(points), dtype=bool)
+    pool = data[:: max(1, len(data) // 20000)]
+    d, _ = cKDTree(pool).query(points, k=k + 1)
+    reach = np.where(d[:, 0] == 0.0, d[:, k], d[:, k - 1])  # a point of the pool finds itself
+    return reach <= spread * np.median(reach)
 
 
 def global_starts(

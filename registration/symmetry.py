@@ -196,8 +196,12 @@ def _find(shape: Shape, tolerance: float, seed: int) -> tuple[Symmetry, ...]:
     keep = np.array(order[:32], dtype=int)
     kernel = Tukey(min_scale=1e-4 * shape.extent)
     T_k, cost_k = batched_icp(coarse, T[keep], 6, 0.95, kernel, lookup_pairs(shape), lookup.reach)
-    # Survivors: near the surface to the lookup's resolution; refined on the exact samples.
-    close = np.flatnonzero(cost_k < 1.5 * lookup.h)
+    # Survivors: the turned surface back on the model to a small part of a lookup voxel (a
+    # symmetry's point-to-plane cost is the sample's curvature error, a hundredth of a voxel
+    # on a sphere; a different pose's is tenths of one) and not back at the identity;
+    # refined against the surface sample.
+    turned = np.linalg.norm(Rotation.from_matrix(T_k[:, :3, :3]).as_rotvec(), axis=1)
+    close = np.flatnonzero((cost_k < max(0.05 * lookup.h, 3.0 * tolerance)) & (turned > 0.01))
     if len(close) == 0:
         return ()
     close = close[np.argsort(cost_k[close], kind="stable")]

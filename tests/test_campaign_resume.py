@@ -30,6 +30,8 @@ def test_kill_and_restart_gives_exactly_one_row_per_trial(tmp_path: Path) -> Non
         time.sleep(0.05)
     os.kill(process.pid, signal.SIGKILL)
     process.wait()
+    if process.stderr is not None:
+        process.stderr.close()
     before = {p.name: p.read_bytes() for p in trials.glob("*.json")}
     assert 3 <= len(before) < TRIALS  # killed mid-way
 

@@ -82,7 +82,9 @@ class Shape:
         `reach` along its normal: its residual is `reach` (far points are outliers; the
         bounded search is faster).
         """
-        d, i = self.sample_tree.query(points, distance_upper_bound=reach)
+        # Threads pay off only for large batches: their start-up costs about a millisecond.
+        workers = -1 if len(points) > 2000 else 1
+        d, i = self.sample_tree.query(points, distance_upper_bound=reach, workers=workers)
         missing = i >= len(self.samples)
         i = np.where(missing, 0, i)
         q = self.samples[i]
