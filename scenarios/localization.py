@@ -69,8 +69,8 @@ def localize(
     passes = None
     if pass_labels is not None and pass_sigma_m is not None:
         passes = ScanPasses(np.asarray(pass_labels)[index], pass_sigma_m)
-    T_init = None if T_table_object_prior is None or mode != "refine" else invert(
-        T_table_object_prior
+    T_init = (
+        None if T_table_object_prior is None or mode != "refine" else invert(T_table_object_prior)
     )
     result = match(
         used,

@@ -57,7 +57,7 @@ def test_global_mode_does_not_rest_on_the_centroid() -> None:
     for seed in range(3):
         scan = partial_scan(v, f, 1200, min_cosine=-1.0, noise=1e-4, seed=50 + seed)
         lo, hi = scan.points.min(axis=0), scan.points.max(axis=0)
-        beside = rng.uniform(lo, hi, size=(800, 3)) + [0.8 * (hi - lo)[0], 0.0, 0.0]
+        beside = rng.uniform(lo, hi, size=(800, 3)) + np.array([0.8 * (hi - lo)[0], 0.0, 0.0])
         data = np.vstack([scan.points, beside])
         shift = np.linalg.norm(data.mean(axis=0) - scan.points.mean(axis=0))
         assert shift > 0.02
@@ -89,7 +89,7 @@ def test_the_guess_is_used_in_every_mode() -> None:
     scan = partial_scan(v, f, 1500, min_cosine=0.5, noise=1e-4, seed=61)
     for mode in ("auto", "global", "local"):
         r = match(scan.points, model, mode=mode, T_init=scan.T_model_data)
-        rot, trans = pose_error(r.T_model_data, scan.T_model_data)
+        rot, _ = pose_error(r.T_model_data, scan.T_model_data)
         assert np.degrees(rot) < 0.2, mode
     wrong = np.eye(4)
     r = match(scan.points, model, T_init=wrong)

@@ -93,7 +93,7 @@ def test_bad_inputs_are_one_line_and_exit_2(files, tmp_path, capsys) -> None:
 
 
 def test_targets_and_seed_from_the_command_line(files, tmp_path, capsys) -> None:
-    d, scan = files
+    d, _ = files
     out = tmp_path / "r.json"
     args = ["register", str(d / "scan.xyz"), str(d / "model.stl"), "--seed", "5",
             "--targets", str(tmp_path / "plan.json"), "--json", str(out)]  # fmt: skip

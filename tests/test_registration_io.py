@@ -50,7 +50,7 @@ def test_pcd_written_by_open3d(data: str) -> None:
 def test_e57_written_by_pye57_with_its_pose(tmp_path, points) -> None:
     _write_e57(tmp_path / "scan.e57", points, translation=(0.1, 0.0, 0.0))
     read = load_points(tmp_path / "scan.e57")
-    np.testing.assert_allclose(read, points + [0.1, 0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(read, points + np.array([0.1, 0.0, 0.0]), atol=1e-9)
 
 
 @pytest.mark.parametrize("suffix", [".las", ".laz"])
