@@ -3,7 +3,8 @@
 Each iteration finds the closest model points to the moved data (C), weights the pairs with a
 robust kernel, and solves for the rigid step (Q): Horn's method (point-to-point) or the
 linearised point-to-plane system. It stops when the weighted mean squared error changes by
-less than tau between two iterations (eq. 21) or at the iteration cap.
+less than tau between two iterations (eq. 21), when a step moves the points by less than
+`min_step`, or at the iteration cap.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ class IcpResult:
         weights: final robust weights (N,) in [0, 1].
         mse_history: weighted mean squared error per iteration [length^2].
         iterations: iterations run.
-        converged: True if |d_k - d_k+1| < tau held before the cap.
+        converged: True if |d_k - d_k+1| < tau, or a step below min_step, before the cap.
     """
 
     T_model_data: Array
@@ -79,6 +80,7 @@ def icp(
     variant: Variant = "point_to_plane",
     kernel: Kernel | None = None,
     tau: float | None = None,
+    min_step: float = 0.0,
     max_iterations: int = 60,
     callback: object | None = None,
     closest: Callable[[Array], Closest] | None = None,
@@ -93,6 +95,9 @@ def icp(
         kernel: robust kernel (Tukey by default; L2 for plain least squares).
         tau: threshold of eq. 21 on the change of the weighted mean squared error
             [length^2]; default (1e-5 * model extent)^2.
+        min_step: stop when a step moves the data points by less than this (RMS) [length
+            units]: the robust scale can go on shrinking, and the error with it, long after
+            the pose has stopped moving. 0: eq. 21 alone.
         max_iterations: iteration cap.
         callback: optional callable(iteration, T_model_data, mse) for progress or logging.
         closest: the closest-point operator; the model's exact C operator by default
@@ -121,7 +126,7 @@ def icp(
             residuals = np.einsum("nd,nd->n", c.normals, p - c.points)
         else:
             residuals = c.distances
-        weights = kernel.weights(residuals)
+        weights = c.weights(residuals, kernel)
         if weights.sum() <= 0:
             weights = np.ones(len(data))
         mse = float(np.sum(weights * residuals**2) / weights.sum())
@@ -139,4 +144,9 @@ def icp(
             R, t = absolute_orientation(p, c.points, weights)
             step = make_T(R, t)
         T = step @ T
+        if min_step > 0:
+            moved = transform_points(step, p) - p
+            if float(np.sqrt(np.mean(np.einsum("nd,nd->n", moved, moved)))) < min_step:
+                converged = True
+                break
     return IcpResult(T, residuals, weights, np.asarray(history), len(history), converged)

@@ -27,11 +27,12 @@ from registration.symmetry import Symmetry
 
 @dataclass(frozen=True)
 class Ranked:
-    """A candidate refined for the ranking: its pose (4, 4) and its residuals (n,) on the
-    ranking subsample."""
+    """A candidate refined for the ranking: its pose (4, 4), its residuals (n,) on the
+    ranking subsample, and which of those points found the surface within the reach (n,)."""
 
     T_model_data: Array
     residuals: Array
+    found: Array
 
 
 @dataclass(frozen=True)
@@ -52,9 +53,25 @@ class Ranking:
     fitted: float
 
 
+def residual_scale(run: Ranked, floor: float) -> float:
+    """Robust scale of the residuals of a run's points that found the surface (Tukey's S:
+    the median absolute deviation), at least the floor; inf if none did."""
+    if not run.found.any():
+        return float("inf")
+    return float(Tukey(min_scale=floor).scale(run.residuals[run.found]))
+
+
+def fits(closest: Closest, residuals: Array, floor: float) -> Array:
+    """(n,) True for the points that fit: they found the surface, and their residual is
+    within Tukey's cut-off (c = 8) of the robust scale of those that did (at least the
+    floor)."""
+    return closest.weights(residuals, Tukey(min_scale=floor)) > 0
+
+
 def fitted_fraction(run: Ranked, floor: float) -> float:
-    """Fraction of a run's points that fit (Tukey weight > 0 at c = 8, scale >= floor)."""
-    return float(np.mean(Tukey(min_scale=floor).weights(run.residuals) > 0))
+    """Fraction of a run's points that fit (see `fits`)."""
+    closest = Closest(np.empty((0, 3)), None, np.empty(0), run.found)
+    return float(np.mean(fits(closest, run.residuals, floor)))
 
 
 def symmetric_twin(
@@ -94,6 +111,11 @@ def rank_minima(
     return Ranking(best, float(costs[best]), None, float("inf"), fitted)
 
 
+def _found(closest: Closest, n: int) -> Array:
+    """(n,) which points found the surface (all, if the operator says nothing)."""
+    return np.ones(n, dtype=bool) if closest.found is None else closest.found
+
+
 def surface_residuals(closest: Closest, p: Array) -> Array:
     """Point-to-plane residuals (N,) of points (N, 3) in the model frame from their closest
     points on the model (distances if the shape has no normals)."""
@@ -122,8 +144,8 @@ def judge(
     both are costed on the largest fraction either explains, less `judge_margin` (the
     points where they differ; on the `trim` fraction alone the part they share would
     decide): the cheaper wins, and the ambiguity is the ratio of their costs (the floor
-    added to both). The poses are not refined again: two starts in one long valley would
-    join, and a rival be lost.
+    added to both). The poses are judged as given (the matcher refines them first, where
+    they stay distinct).
 
     Returns which pose wins (0: T_best, 1: T_other), its cost, the other's cost and the
     ambiguity.
@@ -131,11 +153,17 @@ def judge(
     points = data[subsample(data, settings.judge_points, rng)]
     poses = (T_best, T_other)
     moved = [transform_points(T, points) for T in poses]
-    residuals = [np.abs(surface_residuals(closest(p), p)) for p in moved]
+    found = [closest(p) for p in moved]
+    residuals = [np.abs(surface_residuals(c, p)) for c, p in zip(found, moved, strict=True)]
     costs = [float(trimmed_rms(r, settings.trim)) for r in residuals]
+    better = int(np.argmin(costs))
+    run = Ranked(poses[better], residuals[better], _found(found[better], len(points)))
     tukey = Tukey(min_scale=floor)
-    cut = tukey.c * float(tukey.scale(residuals[int(np.argmin(costs))]))
-    explained = [float(np.mean(r <= cut)) for r in residuals]
+    cut = tukey.c * residual_scale(run, floor)
+    explained = [
+        float(np.mean((r <= cut) & _found(c, len(points))))
+        for c, r in zip(found, residuals, strict=True)
+    ]
     more, less = sorted(explained, reverse=True)
     if more - less > settings.judge_unexplained and 1.0 - more <= (1.0 - less) / 2:
         first = int(np.argmax(explained))

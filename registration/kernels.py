@@ -21,10 +21,20 @@ class Kernel(Protocol):
     def weights(self, residuals: Array) -> Array: ...
 
 
-def median_absolute_deviation(residuals: Array) -> Array:
-    """S of eq. 8: median of |e - median(e)| along the last axis; shape (...,)."""
-    med = np.median(residuals, axis=-1, keepdims=True)
-    return np.median(np.abs(residuals - med), axis=-1)
+def median_absolute_deviation(residuals: Array, mask: Array | None = None) -> Array:
+    """S of eq. 8: median of |e - median(e)| along the last axis; shape (...,).
+
+    With a mask (same shape, True where a residual counts), each row's median is over its
+    counted residuals alone (the lower median for an even count; inf for none)."""
+    if mask is None:
+        med = np.median(residuals, axis=-1, keepdims=True)
+        return np.median(np.abs(residuals - med), axis=-1)
+    count = mask.sum(axis=-1, keepdims=True)
+    middle = np.maximum(count - 1, 0) // 2
+    e = np.sort(np.where(mask, residuals, np.inf), axis=-1)
+    med = np.take_along_axis(e, middle, axis=-1)
+    dev = np.sort(np.where(mask, np.abs(residuals - med), np.inf), axis=-1)
+    return np.where(count > 0, np.take_along_axis(dev, middle, axis=-1), np.inf)[..., 0]
 
 
 @dataclass(frozen=True)
@@ -54,9 +64,9 @@ class Tukey:
         if self.min_scale < 0:
             raise InputError(f"Tukey's min_scale must be >= 0; got {self.min_scale}")
 
-    def scale(self, residuals: Array) -> Array:
-        """S of eq. 8 with its floor, shape (...,)."""
-        return np.maximum(median_absolute_deviation(residuals), self.min_scale)
+    def scale(self, residuals: Array, mask: Array | None = None) -> Array:
+        """S of eq. 8 with its floor, shape (...,); with a mask, of the residuals it marks."""
+        return np.maximum(median_absolute_deviation(residuals, mask), self.min_scale)
 
     def weights(self, residuals: Array) -> Array:
         return self.weights_at(residuals, self.scale(residuals))

@@ -30,13 +30,14 @@ class VoxelLookup:
         lo, hi = samples.min(axis=0), samples.max(axis=0)
         extent = float(np.linalg.norm(hi - lo))
         self.reach = pad * extent
-        self.origin = lo - self.reach
         size = hi - lo + 2 * self.reach
         self.h = float(size.max() / cells)
-        self.shape = np.maximum(np.ceil(size / self.h).astype(int), 1)
-        cell = np.clip(
-            np.floor((samples - self.origin) / self.h).astype(np.int64), 0, self.shape - 1
-        )
+        # One more layer of voxels on every side, empty and far: a point outside the box is
+        # clipped onto it, so a query needs no inside test.
+        self.origin = lo - self.reach - self.h
+        inner = np.maximum(np.ceil(size / self.h).astype(int), 1)
+        self.shape = inner + 2
+        cell = np.clip(np.floor((samples - self.origin) / self.h).astype(np.int64), 1, inner)
         flat = np.ravel_multi_index(cell.T, self.shape)
         owner = np.full(int(np.prod(self.shape)), -1, dtype=np.int64)
         # The last sample written to a voxel keeps it: any one of its samples will do.
@@ -44,27 +45,33 @@ class VoxelLookup:
         empty = (owner < 0).reshape(self.shape)
         distance, nearest = ndimage.distance_transform_edt(empty, return_indices=True)
         index = owner[np.ravel_multi_index(nearest.reshape(3, -1), self.shape)]
-        gap = distance.ravel() * self.h
-        far = gap > self.reach
-        index[far] = -1
+        gap = distance * self.h
+        border = np.ones(self.shape, dtype=bool)
+        border[1:-1, 1:-1, 1:-1] = False
+        far = (gap > self.reach) | border
+        index[far.ravel()] = -1
         self.index = index.astype(np.int32)
         # Distance from each voxel to the nearest voxel holding a sample, for scoring.
-        self.gap = np.where(far, np.inf, gap).astype(np.float32)
+        self.gap = np.where(far, np.inf, gap).astype(np.float32).ravel()
         self.samples = samples
+        self._last = (self.shape - 1).astype(np.int32)
+        self._strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], np.int32)
 
     def _flat(self, points: Array) -> Array:
-        """Flat voxel index (...) of points (..., 3); -1 outside the box."""
-        cell = np.floor((points - self.origin) * (1.0 / self.h)).astype(np.int32)
-        inside = np.all((cell >= 0) & (cell < self.shape), axis=-1)
-        flat = (cell[..., 0] * self.shape[1] + cell[..., 1]) * self.shape[2] + cell[..., 2]
-        return np.where(inside, flat, -1)
+        """Flat voxel index (...) of points (..., 3); points outside the box fall on the
+        border layer (no sample)."""
+        cell = ((points - self.origin) * (1.0 / self.h)).astype(np.int32)
+        # astype truncates towards zero: points just below the origin land on voxel 0, the
+        # border, as do all the others outside.
+        np.clip(cell, 0, self._last, out=cell)
+        s0, s1, _ = self._strides
+        return cell[..., 0] * s0 + cell[..., 1] * s1 + cell[..., 2]
 
     def distance(self, points: Array) -> Array:
         """Approximate distances (...) of points (..., 3) to the surface sample: the distance
         from their voxel to the nearest voxel holding a sample (inf where there is none).
         Within about one voxel diagonal of the truth; for scoring many poses at once."""
-        flat = self._flat(points)
-        return np.where(flat >= 0, self.gap[np.maximum(flat, 0)], np.float32(np.inf))
+        return self.gap[self._flat(points)]
 
     def query(self, points: Array) -> tuple[Array, Array]:
         """Approximate nearest samples for points (..., 3).
@@ -73,7 +80,6 @@ class VoxelLookup:
             distances (...) to the returned samples (inf where there is none) and their
             indices (...) (-1 where there is none).
         """
-        flat = self._flat(points)
-        idx = np.where(flat >= 0, self.index[np.maximum(flat, 0)], -1)
+        idx = self.index[self._flat(points)]
         d = np.linalg.norm(points - self.samples[np.maximum(idx, 0)], axis=-1)
         return np.where(idx >= 0, d, np.inf), idx

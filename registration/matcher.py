@@ -24,13 +24,28 @@ from typing import Literal
 import numpy as np
 
 from registration.errors import InputError
-from registration.icp import Variant, icp
-from registration.judge import Ranked, fitted_fraction, judge, rank_minima, surface_residuals
+from registration.icp import IcpResult, Variant, icp
+from registration.judge import (
+    Ranked,
+    fits,
+    fitted_fraction,
+    judge,
+    rank_minima,
+    residual_scale,
+    surface_residuals,
+)
 from registration.kernels import Kernel, Tukey
 from registration.quality import ScanPasses, pose_covariance, predicted_tre, residual_correlation
 from registration.result import MatchResult, Minimum
 from registration.rigid import Array, transform_points
-from registration.search import SearchSettings, batched_icp, closest_pairs, search, subsample
+from registration.search import (
+    SearchSettings,
+    batched_icp,
+    closest_pairs,
+    displacement,
+    search,
+    subsample,
+)
 from registration.shapes.base import Closest, Shape, check_points
 from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
@@ -222,6 +237,7 @@ def _match(
     surface = float(on_surface.mean())
     fit = work[on_surface] if on_surface.sum() >= 10 else work
     mid = fit[subsample(fit, settings.mid_points, rng)]
+    ranked = fit[subsample(fit, settings.rank_points, rng)]
     floor = noise if noise is not None else resolution_floor(data, extent)
     kernel = kernel or Tukey(min_scale=floor)
     # Points farther than this from the model are outliers of any refined pose: they get a
@@ -246,12 +262,13 @@ def _match(
     cap = min(settings.rank_iterations, max_iterations)
 
     def rank(poses: list[Array]) -> list[Ranked]:
-        # All candidates refined together on the subsample, the robust scale annealed from
-        # half a lookup voxel (so that a pose slid a few millimetres along a flat face is
-        # pulled back by the points beyond its edge), first against the surface sample, then
-        # against the exact model, whose normals beyond an edge hold the scan on the face.
+        # All candidates refined together, the robust scale annealed from half a lookup
+        # voxel (so that a pose slid a few millimetres along a flat face is pulled back by
+        # the points beyond its edge), first against the surface sample on `rank_points`,
+        # then against the exact model, whose normals beyond an edge hold the scan on the
+        # face, on the smaller subsample that ranks them.
         T_all, _ = batched_icp(
-            mid, np.asarray(poses), cap, settings.trim, kernel, closest_pairs(near, reach),
+            ranked, np.asarray(poses), cap, settings.trim, kernel, closest_pairs(near, reach),
             reach, anneal=0.5 * shape.sample_lookup.h,
         )  # fmt: skip
         T_all, _ = batched_icp(
@@ -261,17 +278,24 @@ def _match(
         out = []
         for T in T_all:
             p = transform_points(T, mid)
-            out.append(Ranked(T, surface_residuals(exact(p), p)))
+            c = exact(p)
+            found = np.ones(len(p), dtype=bool) if c.found is None else c.found
+            out.append(Ranked(T, surface_residuals(c, p), found))
         return out
 
     runs = rank(candidates)
+    # A right pose fits (nearly) all of the scan's surface points, to the sensor's noise: far
+    # less than a voxel of the coarse search. If no candidate does, the search may have
+    # stopped in wrong minima, which fit most of a scan (sliding along a smooth region) or
+    # fit all of it loosely (their robust scale as large as the misfit). Search again,
+    # denser.
+    loose = max(settings.whole_scale * shape.sample_lookup.h, 2.0 * floor)
     best_fit = max(fitted_fraction(run, floor) for run in runs)
-    if mode != "refine" and best_fit < settings.whole_fit:
-        # No candidate fits the scan's surface points: the search may have stopped in a
-        # wrong minimum that fits most of it. Search again, denser.
+    best_scale = min(residual_scale(run, floor) for run in runs)
+    if mode != "refine" and (best_fit < settings.whole_fit or best_scale > loose):
         say(
             f"the best candidate fits {best_fit:.0%} of the scan ({surface:.0%} of it on a "
-            f"surface): searching again, denser"
+            f"surface), the closest to a scale of {best_scale:.3g}: searching again, denser"
         )
         more, n_more = search(fit, mid, shape, mode, settings.denser(), rng, kernel, stage, say)
         runs += rank(more)
@@ -284,33 +308,46 @@ def _match(
     stage["symmetry"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     ranking = rank_minima(runs, mid, extent, settings, floor, symmetries)
-    T_best, best_cost = runs[ranking.best].T_model_data, ranking.cost
+
+    def converge(T: Array) -> tuple[IcpResult, list[Array]]:
+        # The fast operator's answer is only as good as the sample spacing: a looser stop.
+        poses: list[Array] = []
+        run = icp(ranked, shape, T, variant=variant, kernel=kernel, tau=(1e-4 * extent) ** 2,
+                  min_step=1e-5 * extent, max_iterations=min(settings.converge, max_iterations),
+                  callback=lambda _k, T, _m: poses.append(T.copy()),
+                  closest=near)  # fmt: skip
+        return run, poses
+
+    # The two best minima, each refined to where it converges on `rank_points` of the
+    # scan's surface points (the ranking's few iterations leave a start from afar short),
+    # then judged against each other. A rival that converges into the best pose is judged
+    # where the ranking left it: a start in the true pose's long valley may slide into a
+    # wrong pose's, and a rival would be lost.
+    coarse, trajectory = converge(runs[ranking.best].T_model_data)
+    best_cost = ranking.cost
     second: Minimum | None = None
     ambiguity = 0.0
     if ranking.second is not None:
-        T_other = runs[ranking.second].T_model_data
+        other, other_trajectory = converge(runs[ranking.second].T_model_data)
+        if displacement(coarse.T_model_data, other.T_model_data, mid) > settings.distinct * extent:
+            pair = (coarse.T_model_data, other.T_model_data)
+        else:
+            pair = (runs[ranking.best].T_model_data, runs[ranking.second].T_model_data)
         winner, best_cost, other_cost, ambiguity = judge(
-            fit, exact, T_best, T_other, settings, floor, np.random.default_rng(seed + 1)
+            fit, exact, *pair, settings, floor, np.random.default_rng(seed + 1)
         )
+        T_other = pair[1 - winner]
         if winner == 1:
-            T_best, T_other = T_other, T_best
+            coarse, trajectory = other, other_trajectory
         second = Minimum(T_other, other_cost)
     stage["judge"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    trajectory: list[Array] = []
-
-    def keep(_k: int, T: Array, _mse: float) -> None:
-        trajectory.append(T.copy())
-
-    # The fast operator's answer is only as good as the sample spacing: a looser stop.
-    coarse_run = icp(fit, shape, T_best, variant=variant, kernel=kernel,
-                     tau=(1e-4 * extent) ** 2, max_iterations=max_iterations, callback=keep,
-                     closest=near)  # fmt: skip
-    fine_run = icp(fit, shape, coarse_run.T_model_data, variant=variant, kernel=kernel,
-                   max_iterations=min(6, max_iterations), callback=keep,
+    fine_run = icp(fit, shape, coarse.T_model_data, variant=variant, kernel=kernel,
+                   max_iterations=min(3, max_iterations),
+                   callback=lambda _k, T, _m: trajectory.append(T.copy()),
                    closest=exact)  # fmt: skip
-    history = np.sqrt(np.concatenate([coarse_run.mse_history, fine_run.mse_history]))
+    history = np.sqrt(np.concatenate([coarse.mse_history, fine_run.mse_history]))
     best = Minimum(fine_run.T_model_data, best_cost)
     stage["refine"] = time.perf_counter() - t0
     say(f"ranked {len(runs)} minima; the best refined on {len(fit)} points")
@@ -320,8 +357,8 @@ def _match(
     p = transform_points(best.T_model_data, work)
     closest = exact(p)
     residuals = surface_residuals(closest, p)
-    inliers = Tukey(c=8.0, min_scale=floor).weights(residuals) > 0
-    weights = kernel.weights(residuals)
+    inliers = fits(closest, residuals, floor)
+    weights = closest.weights(residuals, kernel)
     inlier_fraction = float(inliers.mean())
     rms = float(np.sqrt(np.mean(residuals[inliers] ** 2))) if inliers.any() else float("inf")
     dof = max(int(inliers.sum()) - 6, 1)

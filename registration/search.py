@@ -64,7 +64,7 @@ class SearchSettings:
         keep_coarse: starts kept after screening (at least).
         mid_budget: point evaluations per iteration of the vectorised ICP stage; data sets
             smaller than mid_points keep more starts (mid_budget / points).
-        mid_points: data points of the vectorised ICP stage and of the ranking.
+        mid_points: data points of the vectorised ICP stage.
         mid_iterations: iterations of the vectorised ICP stage.
         refine: distinct candidates refined and ranked.
         refine_points: data points (a seeded random subsample) on which the best pose is
@@ -72,8 +72,31 @@ class SearchSettings:
         dense_data, dense_model: below these numbers of data points or model surface samples,
             local normals are unreliable and the local start set is every rotation at every
             anchor instead of normal-aligned spins.
-        whole_fit: if no candidate fits this fraction of the scan's surface points, the
-            search runs again with twice the starts: a wrong minimum may have won.
+        whole_fit, whole_scale: if no candidate fits this fraction of the scan's surface
+            points, or none has a robust residual scale below this fraction of a voxel of
+            the coarse lookup (and twice the floor), the search runs again with twice the
+            starts: a wrong minimum may have won.
+        rank_points: data points on which the distinct candidates are refined together
+            against the surface sample (more than mid_points: on a small patch a few
+            hundred points can hold a start in a false minimum some 15 mm from the true
+            one).
+        rank_iterations: ICP iterations on that subsample for the distinct candidates, all
+            together, against the surface sample (the scale annealed), before ...
+        rank_exact_iterations: ... those against the exact model on mid_points; then the
+            minima are ranked on mid_points.
+        converge: ICP iterations (at most) in which the best two minima are refined on
+            rank_points before they are judged (a wrong pose may wander on).
+        trim: fraction of the smallest residuals in a start's cost (robust to outliers and
+            partial overlap); the minima are then compared on the fraction the best fits.
+        distinct: two poses are distinct minima if they move the data points apart by more
+            than this fraction of the model extent (RMS).
+        judge_points: data points on which the two best minima are compared at the end.
+        judge_margin: they are compared on the fraction of those points that the better
+            one fits, less this margin (at least `trim`, at most 0.99).
+        judge_unexplained: a minimum that leaves this fraction of those points more
+            unexplained than the other, and at least twice as many, is no rival to it.
+        reach: data points farther than this fraction of the model extent from the model
+            are outliers of every refined pose (the closest-point search stops there).
     """
 
     rotations: int = 512
@@ -91,9 +114,12 @@ class SearchSettings:
     mid_iterations: int = 8
     refine: int = 4
     refine_points: int = 2000
+    rank_points: int = 500
     rank_iterations: int = 10
-    rank_exact_iterations: int = 6
+    rank_exact_iterations: int = 0
+    converge: int = 20
     whole_fit: float = 0.95
+    whole_scale: float = 0.25
     dense_data: int = 50
     dense_model: int = 2000
     trim: float = 0.6
@@ -193,10 +219,15 @@ def batched_icp(
     for k in range(iterations):
         p = points @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
         r, q, nrm, found = residuals(p)
-        if schedule is None:
-            w = kernel.weights(r) * found
+        if isinstance(kernel, Tukey):
+            # The scale of the points that found the surface: placeholders at the reach,
+            # if they are more than half, would make it zero.
+            scale = kernel.scale(r, found)
+            if schedule is not None:
+                scale = np.maximum(scale, schedule[k])
+            w = kernel.weights_at(r, scale) * found
         else:
-            w = kernel.weights_at(r, np.maximum(kernel.scale(r), schedule[k])) * found
+            w = kernel.weights(r) * found
         if nrm is None:
             R, t = absolute_orientation_batch(p, q, w)
             step = make_T_batch(R, t)

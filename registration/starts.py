@@ -90,7 +90,7 @@ def surface_mask(points: Array, data: Array, k: int = 8, spread: float = 3.0) ->
     """(N,) True for the points (N, 3) that lie on the scanned surface, as opposed to
     spurious returns scattered in space, judged by the density of the whole data (M, 3).
 
-    A point's k-th nearest neighbour among (up to 20,000 of) the data lies about
+    A point's k-th nearest neighbour among (about 8,000 of) the data lies about
     sqrt(k / (pi rho_surface)) away on a surface and (k / (4/3 pi rho_space))^(1/3) away in
     scattered clutter: several times farther at any sensible density. A point is on the
     surface if that distance is at most `spread` times the median's (the data's density
@@ -101,7 +101,7 @@ def surface_mask(points: Array, data: Array, k: int = 8, spread: float = 3.0) ->
     """
     if len(data) < 4 * k:
         return np.ones(len(points), dtype=bool)
-    pool = data[:: max(1, len(data) // 20000)]
+    pool = data[:: max(1, len(data) // 8000)]
     d, _ = cKDTree(pool).query(points, k=k + 1)
     reach = np.where(d[:, 0] == 0.0, d[:, k], d[:, k - 1])  # a point of the pool finds itself
     return reach <= spread * np.median(reach)

@@ -18,10 +18,15 @@ from registration.rigid import Array
 from registration.shapes.base import Closest, Shape, check_points
 
 
-def sample_surface(vertices: Array, faces: Array, count: int, seed: int = 0) -> tuple[Array, Array]:
-    """Area-weighted random points on a triangle mesh and their face normals, (count, 3) each."""
-    a, b, c = (vertices[faces[:, i]] for i in range(3))
-    cross = np.cross(b - a, c - a)
+def sample_surface(
+    vertices: Array, faces: Array, count: int, seed: int = 0, cross: Array | None = None
+) -> tuple[Array, Array]:
+    """Area-weighted random points on a triangle mesh and their face normals, (count, 3) each.
+
+    `cross` (F, 3), if given, is each face's (b - a) x (c - a), already computed."""
+    if cross is None:
+        a, b, c = (vertices[faces[:, i]] for i in range(3))
+        cross = np.cross(b - a, c - a)
     area2 = np.linalg.norm(cross, axis=1)
     rng = np.random.default_rng(seed)
     cumulative = np.cumsum(area2)
@@ -30,7 +35,8 @@ def sample_surface(vertices: Array, faces: Array, count: int, seed: int = 0) -> 
     r1, r2 = rng.random(count), rng.random(count)
     s = np.sqrt(r1)
     u, v, w = 1.0 - s, s * (1.0 - r2), s * r2
-    pts = u[:, None] * a[face] + v[:, None] * b[face] + w[:, None] * c[face]
+    corners = vertices[faces[face]]  # (count, 3, 3): only the faces drawn
+    pts = u[:, None] * corners[:, 0] + v[:, None] * corners[:, 1] + w[:, None] * corners[:, 2]
     normals = cross[face] / area2[face, None]
     return pts, normals
 
@@ -63,7 +69,9 @@ class MeshModel(Shape):
         if not np.any(norm > 0):
             raise InputError("mesh has no face of positive area: every triangle is degenerate")
         self.face_normals = cross / np.where(norm > 0, norm, 1.0)[:, None]
-        self.samples, self.sample_normals = sample_surface(self.vertices, self.faces, sample_count)
+        self.samples, self.sample_normals = sample_surface(
+            self.vertices, self.faces, sample_count, cross=cross
+        )
 
     @classmethod
     def from_trimesh(cls, mesh: object, sample_count: int = 20000) -> MeshModel:
