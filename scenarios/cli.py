@@ -112,8 +112,8 @@ def register(
         str,
         typer.Option(
             "--mode",
-            help="auto (any coverage, the default), global (data cover the whole model) or "
-            "local (part of it).",
+            help="auto (any coverage, the default), global (data cover the whole model), "
+            "local (part of it) or refine (ICP from --init, no search).",
         ),
     ] = "auto",
     units: Annotated[
@@ -134,13 +134,22 @@ def register(
         float | None,
         typer.Option("--noise", min=0.0, help="The sensor's range noise (sigma), in --units."),
     ] = None,
+    init: Annotated[
+        str | None,
+        typer.Option(
+            "--init",
+            help="A guess of T_model_data (a 4 x 4 in .txt, .csv, .npy, or .json such as "
+            "this command's --json output; translation in --units): the start of refine, "
+            "one more start in the other modes.",
+        ),
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the search.")] = 0,
     json_file: Annotated[
         str | None, typer.Option("--json", help="Write the result to this JSON file.")
     ] = None,
 ) -> None:
     """Register data points to a model surface and print the transform and its quality."""
-    from registration.io import unit_scale
+    from registration.io import load_pose, unit_scale
     from scenarios.register import (
         load_named_targets,
         register_files,
@@ -150,7 +159,8 @@ def register(
 
     named = None if targets is None else load_named_targets(targets, model_units or units)
     noise_m = None if noise is None or noise == 0 else noise * unit_scale(units)
-    result = register_files(data, model, mode, units, model_units, seed, named, noise_m)
+    T_init = None if init is None else load_pose(init, units)
+    result = register_files(data, model, mode, units, model_units, seed, named, noise_m, T_init)
     render_result(result, named)
     if json_file is not None:
         write_result_json(result, json_file, named)

@@ -36,14 +36,14 @@ def register_files(
     seed: int = 0,
     targets: Targets | None = None,
     noise_m: float | None = None,
+    T_init: np.ndarray | None = None,
 ) -> MatchResult:
-    """Load the data points and the model (in their units), and match them."""
-    if mode not in MODES or mode == "refine":
-        valid = ", ".join(m for m in MODES if m != "refine")
-        raise InputError(
-            f"mode {mode!r} is not available from files (refine needs an initial pose); "
-            f"valid: {valid}"
-        )
+    """Load the data points and the model (in their units), and match them; T_init (4, 4)
+    [m] is a guess of T_model_data (needed by mode "refine", one more start in the others)."""
+    if mode not in MODES:
+        raise InputError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
+    if mode == "refine" and T_init is None:
+        raise InputError("mode 'refine' starts from a guess: give it with --init FILE")
     data = load_points(data_path, units)
     model = load_model(model_path, model_units or units)
     try:
@@ -51,6 +51,7 @@ def register_files(
             data,
             model,
             mode=mode,  # type: ignore[arg-type]
+            T_init=T_init,
             seed=seed,
             targets=None if targets is None else targets.points,
             noise=noise_m,

@@ -77,7 +77,14 @@ def test_bad_inputs_are_one_line_and_exit_2(files, tmp_path, capsys) -> None:
         "truncated": ([str(tmp_path / "cut.ply"), model], "cut.ply"),
         "bad targets": ([str(d / "scan.xyz"), model, "--targets", str(tmp_path / "t.json")],
                         "not valid JSON"),
+        "refine, no guess": ([str(d / "scan.xyz"), model, "--mode", "refine"], "--init FILE"),
+        "guess not 4 x 4": ([str(d / "scan.xyz"), model, "--init", str(tmp_path / "p.txt")],
+                            "4 x 4"),
+        "guess no rotation": ([str(d / "scan.xyz"), model, "--init", str(tmp_path / "s.npy")],
+                              "not a rigid transform"),
     }  # fmt: skip
+    (tmp_path / "p.txt").write_text("1 0 0\n0 1 0\n")
+    np.save(tmp_path / "s.npy", np.diag([2.0, 1.0, 1.0, 1.0]))
     (tmp_path / "count.xyz").write_text("100\n0 0 0\n0.1 0 0\n0 0.1 0\n0 0 0.1\n")
     np.savetxt(tmp_path / "mm.xyz", np.loadtxt(d / "scan.xyz", skiprows=1) * 1e3)
     (tmp_path / "t.json").write_text("{not json")
@@ -104,3 +111,28 @@ def test_targets_and_seed_from_the_command_line(files, tmp_path, capsys) -> None
     assert [t["name"] for t in result["targets"]] == ["centre", "tip"]
     assert all(t["verdict"] == "accepted" for t in result["targets"])
     assert "targets" in capsys.readouterr().out
+
+
+def test_a_guess_from_the_command_line_starts_refine(files, tmp_path, capsys) -> None:
+    # The result file of one call is the guess of the next (translation in --units): the
+    # refinement from it stays on the pose, and a guess in mm reads the same.
+    d, scan = files
+    first, second = tmp_path / "first.json", tmp_path / "second.json"
+    base = ["register", str(d / "scan.xyz"), str(d / "model.stl")]
+    assert main([*base, "--json", str(first)]) == 0
+    T = np.array(json.loads(first.read_text())["T_model_data"])
+    T_mm = T.copy()
+    T_mm[:3, 3] *= 1e3
+    np.savetxt(tmp_path / "guess_mm.txt", T_mm)
+    for guess, units in ((first, []), (tmp_path / "guess_mm.txt", ["--units", "mm"])):
+        data = d / "scan.xyz" if not units else tmp_path / "scan_mm.xyz"
+        np.savetxt(tmp_path / "scan_mm.xyz", np.loadtxt(d / "scan.xyz", skiprows=1) * 1e3)
+        model_units = ["--model-units", "m"] if units else []
+        args = ["register", str(data), str(d / "model.stl"), "--mode", "refine",
+                "--init", str(guess), *units, *model_units, "--json", str(second)]  # fmt: skip
+        assert main(args) == 0
+        result = json.loads(second.read_text())
+        assert result["mode"] == "refine" and result["starts"] == 1
+        rot, trans = pose_error(np.array(result["T_model_data"]), scan.T_model_data)
+        assert np.degrees(rot) < 0.2 and trans < 0.3e-3, (guess, rot, trans)
+    capsys.readouterr()

@@ -152,12 +152,48 @@ def load_targets(path: str | Path, units: str = "m") -> tuple[tuple[str, ...], A
     return names, points * scale
 
 
+POSE_FORMATS: tuple[str, ...] = (".json", ".txt", ".csv", ".npy")
+
+
+def load_pose(path: str | Path, units: str = "m") -> Array:
+    """A rigid transform (4, 4), its translation in `units`, returned in metres: a JSON file
+    holding a 4 x 4 list or an object with "T_model_data" (the result file of `twincell
+    register --json`), a text or CSV file of four rows of four numbers, or a .npy array."""
+    scale = unit_scale(units)
+    p = _existing(path, POSE_FORMATS, "pose")
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".json":
+            raw = json.loads(p.read_text())
+            T = np.asarray(raw["T_model_data"] if isinstance(raw, dict) else raw, dtype=float)
+        elif suffix == ".npy":
+            T = np.asarray(np.load(p, allow_pickle=False), dtype=float)
+        else:
+            T = np.loadtxt(p, delimiter="," if suffix == ".csv" else None, ndmin=2)
+    except (ValueError, TypeError, KeyError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise FormatError(f"{p}: not a 4 x 4 transform ({type(exc).__name__}: {exc})") from None
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise FormatError(f"{p}: expected a finite 4 x 4 transform; got shape {T.shape}")
+    R = T[:3, :3]
+    if (
+        not np.allclose(R.T @ R, np.eye(3), atol=1e-5)
+        or np.linalg.det(R) < 0
+        or not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0])
+    ):
+        raise FormatError(f"{p}: not a rigid transform (its 3 x 3 block is no rotation)")
+    T = T.copy()
+    T[:3, 3] *= scale
+    return T
+
+
 __all__ = [
     "MESH_FORMATS",
     "POINT_FORMATS",
+    "POSE_FORMATS",
     "TARGET_FORMATS",
     "UNITS",
     "load_model",
     "load_points",
+    "load_pose",
     "load_targets",
 ]

@@ -67,7 +67,7 @@ def check_points(points: Array, what: str, minimum: int = 1) -> Array:
     bad = ~np.isfinite(a).all(axis=1)
     if bad.any():
         raise InputError(
-            f"{what} holds {int(bad.sum())} points with NaN or inf (first at row "
+            f"{what} holds {int(bad.sum())} point(s) with NaN or inf (first at row "
             f"{int(np.flatnonzero(bad)[0])}); all coordinates must be finite"
         )
     return np.ascontiguousarray(a)
