@@ -66,9 +66,9 @@ class Symmetry:
         a = ", ".join(f"{x:.3f}" for x in self.axis)
         p = ", ".join(f"{x:.4g}" for x in self.point)
         if self.kind == "sphere":
-            return f"any rotation about the centre ({p})"
+            return f"free rotation (any angle) about the centre ({p})"
         if self.kind == "axis":
-            return f"any turn about the axis ({a}) through ({p})"
+            return f"free turn (any angle) about the axis ({a}) through ({p})"
         n = 2.0 * np.pi / self.angle
         if abs(n - round(n)) < 0.02:
             fold = "half turn" if round(n) == 2 else f"{round(n)}-fold turn"

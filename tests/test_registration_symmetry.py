@@ -57,7 +57,7 @@ def test_faceted_cylinder_turns_and_flips(noise: float) -> None:
     # Off the axis: every turn about it moves it.
     side = r.predicted_tre([[0.025, 0.0, 0.0], [0.0, 0.0, 0.0]])
     assert side.verdict == ("ambiguous", "accepted")
-    assert "any turn about the axis" in side.reason[0]
+    assert "free turn (any angle) about the axis" in side.reason[0]
     # Located where it is located: the centre maps back within the predicted TRE.
     T_err = centre.T_model_data @ np.linalg.inv(scan.T_model_data)
     assert np.linalg.norm(T_err[:3, 3]) < 5 * max(centre.targets.tre[0], 1e-5)
@@ -72,7 +72,7 @@ def test_sphere_every_rotation(noise: float) -> None:
     assert [s.kind for s in r.symmetries] == ["sphere"]
     assert r.targets is not None
     assert r.targets.verdict == ("accepted", "ambiguous")
-    assert "any rotation about the centre" in r.targets.reason[1]
+    assert "free rotation (any angle) about the centre" in r.targets.reason[1]
     assert r.verdict == "ambiguous"
 
 
