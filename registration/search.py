@@ -130,14 +130,16 @@ class SearchSettings:
     reach: float = 0.05
 
     def denser(self) -> SearchSettings:
-        """The settings of a second, denser search: twice the starts and survivors."""
+        """The settings of a second, denser search: twice the rotations, model anchors,
+        scan anchors (on a small patch, where a scan point lands decides whether a start
+        comes near the pose) and survivors."""
         from dataclasses import replace
 
         return replace(
             self,
             rotations=2 * self.rotations,
             anchors=2 * self.anchors,
-            spins=self.spins * 3 // 2,
+            data_anchors=2 * self.data_anchors,
             screen_keep=2 * self.screen_keep,
             keep_coarse=2 * self.keep_coarse,
             refine=2 * self.refine,

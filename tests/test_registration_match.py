@@ -113,8 +113,11 @@ def test_result_is_a_rigid_transform_with_consistent_fields() -> None:
     R = r.T_model_data[:3, :3]
     assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-9)
     np.testing.assert_allclose(r.T_model_data[3], [0, 0, 0, 1])
-    assert 0.0 <= r.ambiguity <= 1.0 and r.second is not None
-    assert r.second.cost >= r.best.cost
+    assert 0.0 <= r.ambiguity <= 1.0
+    if r.second is None:  # every start that got through ended in the best pose
+        assert r.ambiguity == 0.0
+    else:
+        assert r.second.cost >= r.best.cost
     assert r.covariance.shape == (6, 6)
     assert np.all(np.linalg.eigvalsh(r.covariance) > 0)
     assert len(r.history) == r.iterations == len(r.trajectory)
