@@ -20,7 +20,7 @@ import numpy as np
 from registration.kernels import Tukey
 from registration.quality import trimmed_rms
 from registration.rigid import Array, invert, transform_points
-from registration.search import SearchSettings, displacement, subsample
+from registration.search import SearchSettings, subsample
 from registration.shapes.base import Closest
 from registration.symmetry import Symmetry
 
@@ -37,19 +37,18 @@ class Ranked:
 
 @dataclass(frozen=True)
 class Ranking:
-    """The best minimum and its rival among the refined runs.
+    """The best minimum and its rivals among the refined runs.
 
     Attributes:
         best: index of the best run; cost: its cost.
-        second: index of the best run distinct from it (and not a symmetric twin), or None.
-        second_cost: that run's cost (inf if none).
+        rivals: indices of the runs that would be a rival (see `rank_minima`), cheapest
+            first.
         fitted: fraction of the subsample the best run fits.
     """
 
     best: int
     cost: float
-    second: int | None
-    second_cost: float
+    rivals: tuple[int, ...]
     fitted: float
 
 
@@ -75,23 +74,37 @@ def fitted_fraction(run: Ranked, floor: float) -> float:
 
 
 def symmetric_twin(
-    T_a: Array, T_b: Array, symmetries: Sequence[Symmetry], points_model: Array, limit: float
+    T_a: Array, T_b: Array, symmetries: Sequence[Symmetry], matters: Array, tolerance: float
 ) -> bool:
-    """True if pose T_b is pose T_a moved by one of the model's symmetries (within `limit`,
-    the RMS displacement of `points_model` (N, 3))."""
+    """True if pose T_b is pose T_a moved by one of the model's symmetries: the nearest
+    motion of a symmetry puts the points that matter (K, 3) within `tolerance` of where
+    T_b puts them."""
     M = T_b @ invert(T_a)
-    return any(displacement(M, s.closest_motion(M), points_model) <= limit for s in symmetries)
+    return any(moved_by(s.closest_motion(M), M, matters) <= tolerance for s in symmetries)
+
+
+def moved_by(T_a: Array, T_b: Array, points: Array) -> float:
+    """How far (the largest distance) the motion from pose T_a to pose T_b (4, 4) moves the
+    points (K, 3) of the model frame that matter."""
+    M = T_b @ invert(T_a)
+    return float(np.max(np.linalg.norm(transform_points(M, points) - points, axis=1)))
 
 
 def rank_minima(
     runs: Sequence[Ranked],
-    mid: Array,
-    extent: float,
     settings: SearchSettings,
     floor: float,
     symmetries: Sequence[Symmetry],
+    matters: Array,
+    tolerance: float,
 ) -> Ranking:
-    """Rank the refined runs (all on the subsample `mid` (n, 3)) and find the rival."""
+    """Rank the refined runs (all on one subsample) and find the rivals: the runs that move
+    a point that matters (K, 3) (the targets, or the model) by more than `tolerance` from
+    where the best puts it, and are not the best moved by a symmetry of the model.
+
+    A run that moves them by less is the same pose as far as the verdict goes; one that
+    lies further along a valley of the cost is a rival: on a small patch of a smooth
+    surface, starts end millimetres apart, and none of them is located."""
     costs = np.array([float(trimmed_rms(run.residuals, settings.trim)) for run in runs])
     best = int(np.argmin(costs))
     fitted = fitted_fraction(runs[best], floor)
@@ -99,16 +112,13 @@ def rank_minima(
     costs = np.array([float(trimmed_rms(run.residuals, trim)) for run in runs])
     best = int(np.argmin(costs))
     T_best = runs[best].T_model_data
-    points_model = transform_points(T_best, mid)
-    limit = settings.distinct * extent
-    for i in np.argsort(costs, kind="stable"):
-        T_i = runs[int(i)].T_model_data
-        if displacement(T_i, T_best, mid) <= limit:
-            continue
-        if symmetric_twin(T_best, T_i, symmetries, points_model, limit):
-            continue
-        return Ranking(best, float(costs[best]), int(i), float(costs[int(i)]), fitted)
-    return Ranking(best, float(costs[best]), None, float("inf"), fitted)
+    rivals = tuple(
+        int(i)
+        for i in np.argsort(costs, kind="stable")
+        if moved_by(T_best, runs[int(i)].T_model_data, matters) > tolerance
+        and not symmetric_twin(T_best, runs[int(i)].T_model_data, symmetries, matters, tolerance)
+    )
+    return Ranking(best, float(costs[best]), rivals, fitted)
 
 
 def _found(closest: Closest, n: int) -> Array:
@@ -124,16 +134,38 @@ def surface_residuals(closest: Closest, p: Array) -> Array:
     return np.einsum("nd,nd->n", closest.normals, p - closest.points)
 
 
+@dataclass(frozen=True)
+class Judgement:
+    """The best minimum judged against its rival.
+
+    Attributes:
+        rival: which of the rival's poses was the most competitive (an index into the
+            poses given).
+        rival_wins: that pose fits the scan better than the best.
+        best_cost, rival_cost: their costs on the judging subsample [length units].
+        ambiguity: the ratio of the winner's cost to the loser's, the floor added to both
+            (0 if the loser leaves clearly more of the scan unexplained).
+    """
+
+    rival: int
+    rival_wins: bool
+    best_cost: float
+    rival_cost: float
+    ambiguity: float
+
+
 def judge(
     data: Array,
     closest: Callable[[Array], Closest],
     T_best: Array,
-    T_other: Array,
+    T_rival: Sequence[Array],
     settings: SearchSettings,
     floor: float,
     rng: np.random.Generator,
-) -> tuple[int, float, float, float]:
-    """The two best minima compared on a larger subsample of the data.
+) -> Judgement:
+    """The best minimum compared with the rival, given as one or more poses (where it
+    converged, where the ranking left it), on a larger subsample of the data; the rival
+    counts at its most competitive.
 
     On a few hundred points, a pose that leaves a few per cent of the scan unexplained (a
     part slid along its extrusion, the legs of an L swapped) scores like the true one once
@@ -144,40 +176,44 @@ def judge(
     both are costed on the largest fraction either explains, less `judge_margin` (the
     points where they differ; on the `trim` fraction alone the part they share would
     decide): the cheaper wins, and the ambiguity is the ratio of their costs (the floor
-    added to both). The poses are judged as given (the matcher refines them first, where
-    they stay distinct).
-
-    Returns which pose wins (0: T_best, 1: T_other), its cost, the other's cost and the
-    ambiguity.
+    added to both). A refinement minimises its own robust cost, not this one: a rival can
+    lose ground to the best by converging, so each of its poses is judged.
     """
     points = data[subsample(data, settings.judge_points, rng)]
-    poses = (T_best, T_other)
-    moved = [transform_points(T, points) for T in poses]
-    found = [closest(p) for p in moved]
-    residuals = [np.abs(surface_residuals(c, p)) for c, p in zip(found, moved, strict=True)]
+
+    def residuals(T: Array) -> tuple[Array, Array]:
+        p = transform_points(T, points)
+        c = closest(p)
+        return np.abs(surface_residuals(c, p)), _found(c, len(points))
+
+    best = residuals(T_best)
+    outcomes = [_compare(best, residuals(T), settings, floor) for T in T_rival]
+    # The rival's most competitive pose: one that wins, else the most ambiguous.
+    k = max(range(len(outcomes)), key=lambda i: (outcomes[i][0], outcomes[i][3]))
+    wins, cost_best, cost_rival, ambiguity = outcomes[k]
+    return Judgement(k, wins, cost_best, cost_rival, ambiguity)
+
+
+def _compare(
+    best: tuple[Array, Array], rival: tuple[Array, Array], settings: SearchSettings, floor: float
+) -> tuple[bool, float, float, float]:
+    """(rival wins, best's cost, rival's cost, ambiguity) of two poses' absolute residuals
+    and found masks on the same points."""
+    residuals, found = (best[0], rival[0]), (best[1], rival[1])
     costs = [float(trimmed_rms(r, settings.trim)) for r in residuals]
     better = int(np.argmin(costs))
-    run = Ranked(poses[better], residuals[better], _found(found[better], len(points)))
-    tukey = Tukey(min_scale=floor)
-    cut = tukey.c * residual_scale(run, floor)
-    explained = [
-        float(np.mean((r <= cut) & _found(c, len(points))))
-        for c, r in zip(found, residuals, strict=True)
-    ]
+    run = Ranked(np.eye(4), residuals[better], found[better])
+    cut = Tukey(min_scale=floor).c * residual_scale(run, floor)
+    explained = [float(np.mean((r <= cut) & f)) for r, f in zip(residuals, found, strict=True)]
     more, less = sorted(explained, reverse=True)
     if more - less > settings.judge_unexplained and 1.0 - more <= (1.0 - less) / 2:
         first = int(np.argmax(explained))
-        return first, costs[first], costs[1 - first], 0.0
+        return first == 1, costs[0], costs[1], 0.0
     # Compared on as much of the scan as either explains: where they differ.
     trim = float(np.clip(more - settings.judge_margin, settings.trim, 0.99))
     costs = [float(trimmed_rms(r, trim)) for r in residuals]
     first = int(np.argmin(costs))
-    return (
-        first,
-        costs[first],
-        costs[1 - first],
-        floored_ratio(costs[first], costs[1 - first], floor),
-    )
+    return first == 1, costs[0], costs[1], floored_ratio(costs[first], costs[1 - first], floor)
 
 
 def floored_ratio(best: float, other: float, floor: float) -> float:

@@ -30,28 +30,29 @@ from registration.judge import (
     fits,
     fitted_fraction,
     judge,
+    moved_by,
     rank_minima,
     residual_scale,
     surface_residuals,
+    symmetric_twin,
 )
 from registration.kernels import Kernel, Tukey
 from registration.quality import ScanPasses, pose_covariance, predicted_tre, residual_correlation
 from registration.result import MatchResult, Minimum
-from registration.rigid import Array, transform_points
+from registration.rigid import Array, invert, transform_points
 from registration.search import (
     SearchSettings,
     batched_icp,
     closest_pairs,
-    displacement,
     search,
     subsample,
 )
 from registration.shapes.base import Closest, Shape, check_points
 from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
-from registration.starts import surface_mask
+from registration.starts import surface_points
 from registration.symmetry import find_symmetries
-from registration.verdict import Acceptance, assess_targets, fit_rejection, model_verdict
+from registration.verdict import Acceptance, Rival, assess_targets, fit_rejection, model_verdict
 
 Mode = Literal["auto", "global", "local", "refine"]
 MODES: tuple[str, ...] = ("auto", "global", "local", "refine")
@@ -237,7 +238,8 @@ def _match(
     work = data[used]
     # The search and the refinement work on the points that lie on a surface; the quality
     # (inlier fraction, residuals, covariance) is computed on all of them.
-    on_surface = surface_mask(work, data)
+    surface_of = surface_points(work, data)
+    on_surface = surface_of.loose
     surface = float(on_surface.mean())
     fit = work[on_surface] if on_surface.sum() >= 10 else work
     mid = fit[subsample(fit, settings.mid_points, rng)]
@@ -311,7 +313,13 @@ def _match(
     symmetries = find_symmetries(shape, floor)
     stage["symmetry"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    ranking = rank_minima(runs, mid, extent, settings, floor, symmetries)
+    # What the verdict is about: the targets, or else the model's surface; and how far a
+    # pose may move them and still be the same pose.
+    matters = (
+        targets if targets is not None else shape.samples[:: max(1, len(shape.samples) // 500)]
+    )
+    tolerance = acceptance.tre_limit(extent)
+    ranking = rank_minima(runs, settings, floor, symmetries, matters, tolerance)
 
     def converge(T: Array) -> tuple[IcpResult, list[Array]]:
         # The fast operator's answer is only as good as the sample spacing: a looser stop.
@@ -322,28 +330,53 @@ def _match(
                   closest=near)  # fmt: skip
         return run, poses
 
-    # The two best minima, each refined to where it converges on `rank_points` of the
-    # scan's surface points (the ranking's few iterations leave a start from afar short),
-    # then judged against each other. A rival that converges into the best pose is judged
-    # where the ranking left it: a start in the true pose's long valley may slide into a
-    # wrong pose's, and a rival would be lost.
+    def same_pose(T_a: Array, T_b: Array) -> bool:
+        return moved_by(T_a, T_b, matters) <= tolerance or symmetric_twin(
+            T_a, T_b, symmetries, matters, tolerance
+        )
+
+    # The best minimum, refined to where it converges on `rank_points` of the scan's
+    # surface points (the ranking's few iterations leave a start from afar short of it);
+    # then the rivals, cheapest first, each refined alike and, if it stays apart from the
+    # best, judged against it where it converged and where the ranking left it. A rival
+    # that converges into the best pose is none; each other one makes ambiguous the targets
+    # it moves, if it fits almost as well (on a small patch of a smooth surface, poses
+    # millimetres apart along a valley do; a wrong object fits in many places, each partly).
     coarse, trajectory = converge(runs[ranking.best].T_model_data)
     best_cost = ranking.cost
-    second: Minimum | None = None
-    ambiguity = 0.0
-    if ranking.second is not None:
-        other, other_trajectory = converge(runs[ranking.second].T_model_data)
-        if displacement(coarse.T_model_data, other.T_model_data, mid) > settings.distinct * extent:
-            pair = (coarse.T_model_data, other.T_model_data)
-        else:
-            pair = (runs[ranking.best].T_model_data, runs[ranking.second].T_model_data)
-        winner, best_cost, other_cost, ambiguity = judge(
-            fit, exact, *pair, settings, floor, np.random.default_rng(seed + 1)
-        )
-        T_other = pair[1 - winner]
-        if winner == 1:
+    judged: list[tuple[Array, float, float]] = []  # rival pose, its cost, ambiguity
+    for index in ranking.rivals:
+        if len(judged) == settings.rivals:
+            break
+        other, other_trajectory = converge(runs[index].T_model_data)
+        seen = [coarse.T_model_data, *(T for T, _, _ in judged)]
+        if any(same_pose(T, other.T_model_data) for T in seen):
+            continue
+        # Where it converged, and where the ranking left it if that is apart from the best.
+        poses = [other.T_model_data]
+        if not same_pose(coarse.T_model_data, runs[index].T_model_data):
+            poses.append(runs[index].T_model_data)
+        verdict = judge(fit, exact, coarse.T_model_data, poses, settings, floor,
+                        np.random.default_rng(seed + 1))  # fmt: skip
+        if verdict.rival_wins and verdict.rival == 0:
+            # The rival, refined, fits better: it becomes the best (and the best a rival);
+            # the rivals judged so far are judged against it as they stand.
+            judged = [(coarse.T_model_data, verdict.best_cost, verdict.ambiguity), *judged]
+            best_cost = verdict.rival_cost
             coarse, trajectory = other, other_trajectory
-        second = Minimum(T_other, other_cost)
+            continue
+        # Only where the ranking left it does a rival fit better: a tie at best.
+        ambiguity = 1.0 if verdict.rival_wins else verdict.ambiguity
+        judged.append((poses[verdict.rival], verdict.rival_cost, ambiguity))
+    # Each rival's motion is measured from the best as it was judged: the final refinement
+    # may carry the best further along a valley, but the valley is what makes the targets
+    # ambiguous.
+    rivals = tuple(Rival(T @ invert(coarse.T_model_data), a) for T, _, a in judged)
+    ambiguity = max((a for _, _, a in judged), default=0.0)
+    second: Minimum | None = None
+    if judged:
+        T_second, cost_second, _ = max(judged, key=lambda j: j[2])
+        second = Minimum(T_second, cost_second)
     stage["judge"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -364,6 +397,11 @@ def _match(
     inliers = fits(closest, residuals, floor)
     weights = closest.weights(residuals, kernel)
     inlier_fraction = float(inliers.mean())
+    # The scan's surface points near the model (within the reach: clutter beside the object
+    # is no evidence against the pose; a wrong object's surface, a few millimetres off the
+    # model's, is) and the fraction of them that fit.
+    near_surface = surface_of.strict & (closest.distances < reach)
+    surface_fit = float(inliers[near_surface].mean()) if near_surface.any() else inlier_fraction
     rms = float(np.sqrt(np.mean(residuals[inliers] ** 2))) if inliers.any() else float("inf")
     dof = max(int(inliers.sum()) - 6, 1)
     sigma = float(np.sqrt(np.sum(weights * residuals**2) / max(weights.sum(), 1e-300)))
@@ -379,13 +417,12 @@ def _match(
     worst_tre = float(
         np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))
     )
-    fit_reason = fit_rejection(rms, inlier_fraction, extent, acceptance)
+    fit_reason = fit_rejection(rms, inlier_fraction, surface_fit, extent, acceptance)
     prediction = None
     if targets is not None:
-        rival = None if second is None else second.T_model_data @ np.linalg.inv(best.T_model_data)
         prediction = assess_targets(
-            targets, predicted_tre(covariance, targets), fit_reason, symmetries, rival,
-            ambiguity, extent, acceptance,
+            targets, predicted_tre(covariance, targets), fit_reason, symmetries, rivals,
+            extent, acceptance,
         )  # fmt: skip
         verdict, reason = _worst_target(prediction.verdict, prediction.reason)
     else:
@@ -399,6 +436,7 @@ def _match(
         T_model_data=best.T_model_data,
         rms=rms,
         inlier_fraction=inlier_fraction,
+        surface_fit=surface_fit,
         sigma=sigma,
         iterations=len(history),
         converged=fine_run.converged,
@@ -408,6 +446,7 @@ def _match(
         starts=n_starts,
         best=best,
         second=second,
+        rivals=rivals,
         ambiguity=float(ambiguity),
         covariance=covariance,
         worst_predicted_tre=worst_tre,

@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from registration.quality import predicted_tre
-from registration.rigid import Array, invert
+from registration.rigid import Array
 from registration.symmetry import Symmetry
-from registration.verdict import Acceptance, TargetPrediction, Verdict, assess_targets
+from registration.verdict import Acceptance, Rival, TargetPrediction, Verdict, assess_targets
 
 
 @dataclass(frozen=True)
@@ -35,6 +35,8 @@ class MatchResult:
         T_model_data: (4, 4) maps data coordinates into model coordinates.
         rms: RMS of the inlier residuals [length units].
         inlier_fraction: fraction of data points that fit the model (Tukey weight > 0).
+        surface_fit: fraction of the scan's surface points (not scattered in space, off the
+            sharp edges) within the reach of the model that fit it.
         sigma: robust standard deviation of a residual [length units].
         iterations: ICP iterations of the best refinement.
         converged: the best refinement met the stopping rule before the cap.
@@ -42,6 +44,8 @@ class MatchResult:
         trajectory: pose per iteration of the best refinement (iterations, 4, 4).
         mode: "auto", "global", "local" or "refine".
         starts: initial states evaluated.
+        rivals: the distinct poses judged against the best, each with its motion from the
+            best and its ambiguity; the verdict per target looks at every one.
         best: the best minimum; second: the best minimum distinct from it (and not one of
             its symmetric twins), or None.
         ambiguity: best cost / second cost in [0, 1], both with the floor added in
@@ -68,6 +72,7 @@ class MatchResult:
     T_model_data: Array
     rms: float
     inlier_fraction: float
+    surface_fit: float
     sigma: float
     iterations: int
     converged: bool
@@ -77,6 +82,7 @@ class MatchResult:
     starts: int
     best: Minimum
     second: Minimum | None
+    rivals: tuple[Rival, ...]
     ambiguity: float
     covariance: Array
     worst_predicted_tre: float
@@ -104,13 +110,6 @@ class MatchResult:
         """t (3,) of T_model_data."""
         return self.T_model_data[:3, 3]
 
-    @property
-    def rival_motion(self) -> Array | None:
-        """T_model_model (4, 4) from the best pose to the rival minimum, or None."""
-        if self.second is None:
-            return None
-        return self.second.T_model_data @ invert(self.T_model_data)
-
     def predicted_tre(self, targets_model: Array) -> TargetPrediction:
         """Predicted TRE at targets (K, 3) in the model frame, and for each target whether a
         symmetry or a rival pose moves it, and its verdict."""
@@ -121,8 +120,7 @@ class MatchResult:
             tre,
             self.fit_rejection,
             self.symmetries,
-            self.rival_motion,
-            self.ambiguity,
+            self.rivals,
             self.extent,
             self.acceptance,
         )

@@ -84,8 +84,9 @@ class SearchSettings:
             together, against the surface sample (the scale annealed), before ...
         rank_exact_iterations: ... those against the exact model on mid_points; then the
             minima are ranked on mid_points.
-        converge: ICP iterations (at most) in which the best two minima are refined on
-            rank_points before they are judged (a wrong pose may wander on).
+        converge: ICP iterations (at most) in which the best minimum and its rivals are
+            refined on rank_points before they are judged (a wrong pose may wander on).
+        rivals: rivals refined (cheapest first) until one stays apart from the best.
         trim: fraction of the smallest residuals in a start's cost (robust to outliers and
             partial overlap); the minima are then compared on the fraction the best fits.
         distinct: two poses are distinct minima if they move the data points apart by more
@@ -118,6 +119,7 @@ class SearchSettings:
     rank_iterations: int = 10
     rank_exact_iterations: int = 0
     converge: int = 20
+    rivals: int = 3
     whole_fit: float = 0.95
     whole_scale: float = 0.25
     dense_data: int = 50

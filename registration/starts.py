@@ -11,6 +11,8 @@ Both sets are built as arrays so that all starts are scored at once.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -86,25 +88,59 @@ def robust_centre(data: Array, radius: float) -> Array:
     return pool[dense].mean(axis=0)
 
 
-def surface_mask(points: Array, data: Array, k: int = 8, spread: float = 3.0) -> Array:
-    """(N,) True for the points (N, 3) that lie on the scanned surface, as opposed to
-    spurious returns scattered in space, judged by the density of the whole data (M, 3).
+@dataclass(frozen=True)
+class SurfacePoints:
+    """Which points (N,) lie on the scanned surface, as opposed to spurious returns
+    scattered in space.
 
-    A point's k-th nearest neighbour among (about 8,000 of) the data lies about
-    sqrt(k / (pi rho_surface)) away on a surface and (k / (4/3 pi rho_space))^(1/3) away in
-    scattered clutter: several times farther at any sensible density. A point is on the
-    surface if that distance is at most `spread` times the median's (the data's density
-    varies with range and incidence, by less than spread^2 over a view). Holds while fewer
-    than half the points are spurious; fewer than 4 k points are all kept. Spurious points,
-    if they are many, pull a robust fit that starts a few millimetres off towards them
-    before its scale has shrunk.
+    Attributes:
+        loose: the density test alone (kept for the search and the refinement, sharp edges
+            included).
+        strict: a stricter density test and the flatness test (the points a right pose of
+            the right object must fit; sharp edges and spurious points near the surface
+            left out).
+    """
+
+    loose: Array
+    strict: Array
+
+
+def surface_points(
+    points: Array, data: Array, k: int = 8, spread: tuple[float, float] = (3.0, 2.0),
+    flat: float = 0.25,
+) -> SurfacePoints:  # fmt: skip
+    """Which of the points (N, 3) lie on the scanned surface, judged against the whole data
+    (M, 3), by each point's k nearest neighbours among (about 8,000 of) the data:
+    - density: the k-th neighbour lies about sqrt(k / (pi rho_surface)) away on a surface
+      and (k / (4/3 pi rho_space))^(1/3) away in scattered clutter, several times farther
+      at any sensible density; a point passes if that distance is at most `spread` times
+      the median's (loose, strict; the density varies with range and incidence by less
+      than spread^2);
+    - flatness (strict only): a point on a surface lies on the plane of its neighbours, to
+      the noise and the curvature; a spurious point near the surface has surface
+      neighbours but lies off their plane. A point passes if its distance to that plane is
+      at most `flat` times the neighbours' spread (RMS distance from their centroid).
+    Holds while fewer than half the points are spurious; with fewer than 4 k points, all
+    are kept.
     """
     if len(data) < 4 * k:
-        return np.ones(len(points), dtype=bool)
+        every = np.ones(len(points), dtype=bool)
+        return SurfacePoints(every, every)
     pool = data[:: max(1, len(data) // 8000)]
-    d, _ = cKDTree(pool).query(points, k=k + 1)
-    reach = np.where(d[:, 0] == 0.0, d[:, k], d[:, k - 1])  # a point of the pool finds itself
-    return reach <= spread * np.median(reach)
+    d, idx = cKDTree(pool).query(points, k=k + 1)
+    itself = d[:, 0] == 0.0  # a point of the pool finds itself first
+    reach = np.where(itself, d[:, k], d[:, k - 1])
+    median = np.median(reach)
+    others = np.where(itself[:, None], idx[:, 1:], idx[:, :-1])
+    nb = pool[others]
+    centre = nb.mean(axis=1)
+    q = nb - centre[:, None]
+    _, vecs = np.linalg.eigh(np.einsum("nki,nkj->nij", q, q))
+    off = np.abs(np.einsum("nd,nd->n", points - centre, vecs[:, :, 0]))
+    size = np.sqrt(np.mean(np.einsum("nkd,nkd->nk", q, q), axis=1))
+    loose = reach <= spread[0] * median
+    strict = (reach <= spread[1] * median) & (off <= flat * size)
+    return SurfacePoints(loose, strict)
 
 
 def global_starts(

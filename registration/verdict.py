@@ -34,6 +34,12 @@ class Acceptance:
     Attributes:
         max_rms: largest acceptable inlier RMS [length units]; None: 1 % of the model extent.
         min_inlier_fraction: smallest acceptable fraction of data points that fit.
+        min_surface_fit: smallest acceptable fraction of the scan's surface points near the
+            model (those not scattered in space, by the data's own density and flatness,
+            within the matcher's reach of the model) that fit: a right pose of the right
+            object fits nearly all of them, another object's scan placed on the model
+            leaves a part of its surface a few millimetres off. Lower it for scans that
+            hold other surfaces than the object's close to it.
         max_ambiguity: largest acceptable ratio of best to second-best distinct minimum cost.
         max_predicted_tre: largest acceptable predicted TRE [length units], over the model
             surface or at the targets; None: 2 % of the model extent. It is also the
@@ -42,6 +48,7 @@ class Acceptance:
 
     max_rms: float | None = None
     min_inlier_fraction: float = 0.5
+    min_surface_fit: float = 0.9
     max_ambiguity: float = 0.5
     max_predicted_tre: float | None = None
 
@@ -52,6 +59,21 @@ class Acceptance:
     def tre_limit(self, extent: float) -> float:
         """max_predicted_tre, resolved for a model of this extent [length units]."""
         return self.max_predicted_tre if self.max_predicted_tre is not None else 0.02 * extent
+
+
+@dataclass(frozen=True)
+class Rival:
+    """A distinct pose judged against the best.
+
+    Attributes:
+        motion: T_model_model (4, 4) that takes the best pose, as it was judged, to the
+            rival's (T_rival = motion @ T_best); measured before the final refinement,
+            which may carry the best further along a valley of the cost.
+        ambiguity: the ratio of their costs in [0, 1] (1: they fit alike).
+    """
+
+    motion: Array
+    ambiguity: float
 
 
 @dataclass(frozen=True)
@@ -78,13 +100,18 @@ class TargetPrediction:
 
 
 def fit_rejection(
-    rms: float, inlier_fraction: float, extent: float, acceptance: Acceptance
+    rms: float, inlier_fraction: float, surface_fit: float, extent: float, acceptance: Acceptance
 ) -> str | None:
     """Why the fit itself is rejected, or None if it is good enough."""
     if inlier_fraction < acceptance.min_inlier_fraction:
         return (
             f"only {inlier_fraction:.0%} of the data fit the model "
             f"(needs {acceptance.min_inlier_fraction:.0%})"
+        )
+    if surface_fit < acceptance.min_surface_fit:
+        return (
+            f"only {surface_fit:.0%} of the scan's surface points fit the model (needs "
+            f"{acceptance.min_surface_fit:.0%}): a part of the scanned surface is not the model's"
         )
     limit = acceptance.rms_limit(extent)
     if rms > limit:
@@ -135,8 +162,7 @@ def assess_targets(
     tre: Array,
     fit_reason: str | None,
     symmetries: Sequence[Symmetry],
-    rival_motion: Array | None,
-    ambiguity: float,
+    rivals: Sequence[Rival],
     extent: float,
     acceptance: Acceptance,
 ) -> TargetPrediction:
@@ -145,9 +171,8 @@ def assess_targets(
     Args:
         targets: (K, 3) in the model frame.
         tre: their predicted TRE (K,).
-        rival_motion: T_model_model (4, 4) that takes the best pose to the rival minimum
-            (T_second = rival_motion @ T_best), or None if no rival was found.
-        ambiguity: cost ratio of the best and the rival minimum.
+        rivals: the distinct poses judged against the best; each that fits almost as well
+            (ambiguity above the limit) makes ambiguous the targets it moves.
     """
     tolerance = acceptance.tre_limit(extent)
     moved: list[str | None] = [None] * len(targets)
@@ -157,12 +182,14 @@ def assess_targets(
         shift = symmetry.displacement(targets)
         for k in np.flatnonzero(shift > tolerance):
             moved[k] = moved[k] or f"the model's {symmetry.name} (moves it {shift[k]:.3g})"
-    if rival_motion is not None and ambiguity > acceptance.max_ambiguity:
-        shift = np.linalg.norm(transform_points(rival_motion, targets) - targets, axis=1)
+    for rival in rivals:
+        if rival.ambiguity <= acceptance.max_ambiguity:
+            continue
+        shift = np.linalg.norm(transform_points(rival.motion, targets) - targets, axis=1)
         for k in np.flatnonzero(shift > tolerance):
             moved[k] = moved[k] or (
-                f"a distinct pose that fits almost as well (ambiguity {ambiguity:.2f}, moves "
-                f"it {shift[k]:.3g})"
+                f"a distinct pose that fits almost as well (ambiguity {rival.ambiguity:.2f}, "
+                f"moves it {shift[k]:.3g})"
             )
     for k in range(len(targets)):
         if fit_reason is not None:

@@ -255,8 +255,11 @@ def test_the_judge_prefers_the_pose_that_explains_the_whole_scan() -> None:
     T_slid[0, 3] = 0.004
     settings = SearchSettings()
     rng = np.random.default_rng(1)
-    winner, _, _, ambiguity = judge(data, shape.closest, T_slid, np.eye(4), settings, 1e-6, rng)
-    assert winner == 1 and ambiguity == 0.0
+    verdict = judge(data, shape.closest, T_slid, [np.eye(4)], settings, 1e-6, rng)
+    assert verdict.rival_wins and verdict.ambiguity == 0.0
     # Two equally good poses (the same one twice) stay a tie: ambiguity 1.
-    _, _, _, tie = judge(data, shape.closest, np.eye(4), np.eye(4), settings, 1e-6, rng)
-    assert tie == pytest.approx(1.0)
+    tie = judge(data, shape.closest, np.eye(4), [np.eye(4)], settings, 1e-6, rng)
+    assert not tie.rival_wins and tie.ambiguity == pytest.approx(1.0)
+    # The rival counts at its most competitive pose: slid or not, the true one is a tie.
+    both = judge(data, shape.closest, np.eye(4), [T_slid, np.eye(4)], settings, 1e-6, rng)
+    assert both.rival == 1 and both.ambiguity == pytest.approx(1.0)
