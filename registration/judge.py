@@ -43,12 +43,14 @@ class Ranking:
         best: index of the best run; cost: its cost.
         rivals: indices of the runs that would be a rival (see `rank_minima`), cheapest
             first.
+        costs: every run's cost (on the fraction the best fits).
         fitted: fraction of the subsample the best run fits.
     """
 
     best: int
     cost: float
     rivals: tuple[int, ...]
+    costs: Array
     fitted: float
 
 
@@ -118,7 +120,7 @@ def rank_minima(
         if moved_by(T_best, runs[int(i)].T_model_data, matters) > tolerance
         and not symmetric_twin(T_best, runs[int(i)].T_model_data, symmetries, matters, tolerance)
     )
-    return Ranking(best, float(costs[best]), rivals, fitted)
+    return Ranking(best, float(costs[best]), rivals, costs, fitted)
 
 
 def _found(closest: Closest, n: int) -> Array:
@@ -154,18 +156,10 @@ class Judgement:
     ambiguity: float
 
 
-def judge(
-    data: Array,
-    closest: Callable[[Array], Closest],
-    T_best: Array,
-    T_rival: Sequence[Array],
-    settings: SearchSettings,
-    floor: float,
-    rng: np.random.Generator,
-) -> Judgement:
-    """The best minimum compared with the rival, given as one or more poses (where it
-    converged, where the ranking left it), on a larger subsample of the data; the rival
-    counts at its most competitive.
+class Judge:
+    """Judges the best minimum against rivals on one subsample of `judge_points` of the
+    data (drawn once), with the closest-point operator given; the best pose's residuals
+    are computed once per best pose.
 
     On a few hundred points, a pose that leaves a few per cent of the scan unexplained (a
     part slid along its extrusion, the legs of an L swapped) scores like the true one once
@@ -177,21 +171,41 @@ def judge(
     points where they differ; on the `trim` fraction alone the part they share would
     decide): the cheaper wins, and the ambiguity is the ratio of their costs (the floor
     added to both). A refinement minimises its own robust cost, not this one: a rival can
-    lose ground to the best by converging, so each of its poses is judged.
+    lose ground to the best by converging, so a rival may be given as several poses (where
+    it converged, where the ranking left it) and counts at its most competitive.
     """
-    points = data[subsample(data, settings.judge_points, rng)]
 
-    def residuals(T: Array) -> tuple[Array, Array]:
-        p = transform_points(T, points)
-        c = closest(p)
-        return np.abs(surface_residuals(c, p)), _found(c, len(points))
+    def __init__(
+        self,
+        data: Array,
+        closest: Callable[[Array], Closest],
+        settings: SearchSettings,
+        floor: float,
+        rng: np.random.Generator,
+    ) -> None:
+        self.points = data[subsample(data, settings.judge_points, rng)]
+        self.closest = closest
+        self.settings = settings
+        self.floor = floor
+        self._best: tuple[bytes, tuple[Array, Array]] | None = None
 
-    best = residuals(T_best)
-    outcomes = [_compare(best, residuals(T), settings, floor) for T in T_rival]
-    # The rival's most competitive pose: one that wins, else the most ambiguous.
-    k = max(range(len(outcomes)), key=lambda i: (outcomes[i][0], outcomes[i][3]))
-    wins, cost_best, cost_rival, ambiguity = outcomes[k]
-    return Judgement(k, wins, cost_best, cost_rival, ambiguity)
+    def residuals(self, T: Array) -> tuple[Array, Array]:
+        """Absolute residuals (n,) of the subsample under pose T, and which found the
+        surface (n,)."""
+        p = transform_points(T, self.points)
+        c = self.closest(p)
+        return np.abs(surface_residuals(c, p)), _found(c, len(p))
+
+    def __call__(self, T_best: Array, T_rival: Sequence[Array]) -> Judgement:
+        key = np.asarray(T_best).tobytes()
+        if self._best is None or self._best[0] != key:
+            self._best = (key, self.residuals(T_best))
+        best = self._best[1]
+        outcomes = [_compare(best, self.residuals(T), self.settings, self.floor) for T in T_rival]
+        # The rival's most competitive pose: one that wins, else the most ambiguous.
+        k = max(range(len(outcomes)), key=lambda i: (outcomes[i][0], outcomes[i][3]))
+        wins, cost_best, cost_rival, ambiguity = outcomes[k]
+        return Judgement(k, wins, cost_best, cost_rival, ambiguity)
 
 
 def _compare(

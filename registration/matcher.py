@@ -26,10 +26,11 @@ import numpy as np
 from registration.errors import InputError
 from registration.icp import IcpResult, Variant, icp
 from registration.judge import (
+    Judge,
     Ranked,
     fits,
     fitted_fraction,
-    judge,
+    floored_ratio,
     moved_by,
     rank_minima,
     residual_scale,
@@ -344,10 +345,13 @@ def _match(
     # millimetres apart along a valley do; a wrong object fits in many places, each partly).
     coarse, trajectory = converge(runs[ranking.best].T_model_data)
     best_cost = ranking.cost
+    judge = Judge(fit, exact, settings, floor, np.random.default_rng(seed + 1))
     judged: list[tuple[Array, float, float]] = []  # rival pose, its cost, ambiguity
     for index in ranking.rivals:
         if len(judged) == settings.rivals:
             break
+        if floored_ratio(ranking.cost, ranking.costs[index], floor) < acceptance.max_ambiguity / 2:
+            break  # this rival and the dearer ones fit far worse: none can be ambiguous
         other, other_trajectory = converge(runs[index].T_model_data)
         seen = [coarse.T_model_data, *(T for T, _, _ in judged)]
         if any(same_pose(T, other.T_model_data) for T in seen):
@@ -356,8 +360,7 @@ def _match(
         poses = [other.T_model_data]
         if not same_pose(coarse.T_model_data, runs[index].T_model_data):
             poses.append(runs[index].T_model_data)
-        verdict = judge(fit, exact, coarse.T_model_data, poses, settings, floor,
-                        np.random.default_rng(seed + 1))  # fmt: skip
+        verdict = judge(coarse.T_model_data, poses)
         if verdict.rival_wins and verdict.rival == 0:
             # The rival, refined, fits better: it becomes the best (and the best a rival);
             # the rivals judged so far are judged against it as they stand.

@@ -240,7 +240,7 @@ def test_the_judge_prefers_the_pose_that_explains_the_whole_scan() -> None:
     # model but for the strip beyond the end face (about 5 % of it). Handed the slid pose
     # as the better one, the judge prefers the other and finds no rival.
     from models import builtin_model
-    from registration.judge import judge
+    from registration.judge import Judge
     from registration.search import SearchSettings
 
     bracket = builtin_model("bracket")
@@ -255,11 +255,12 @@ def test_the_judge_prefers_the_pose_that_explains_the_whole_scan() -> None:
     T_slid[0, 3] = 0.004
     settings = SearchSettings()
     rng = np.random.default_rng(1)
-    verdict = judge(data, shape.closest, T_slid, [np.eye(4)], settings, 1e-6, rng)
+    judge = Judge(data, shape.closest, settings, 1e-6, rng)
+    verdict = judge(T_slid, [np.eye(4)])
     assert verdict.rival_wins and verdict.ambiguity == 0.0
     # Two equally good poses (the same one twice) stay a tie: ambiguity 1.
-    tie = judge(data, shape.closest, np.eye(4), [np.eye(4)], settings, 1e-6, rng)
+    tie = judge(np.eye(4), [np.eye(4)])
     assert not tie.rival_wins and tie.ambiguity == pytest.approx(1.0)
     # The rival counts at its most competitive pose: slid or not, the true one is a tie.
-    both = judge(data, shape.closest, np.eye(4), [T_slid, np.eye(4)], settings, 1e-6, rng)
+    both = judge(np.eye(4), [T_slid, np.eye(4)])
     assert both.rival == 1 and both.ambiguity == pytest.approx(1.0)
