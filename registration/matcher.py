@@ -296,10 +296,10 @@ def _match(
     # stopped in wrong minima, which fit most of a scan (sliding along a smooth region) or
     # fit all of it loosely (their robust scale as large as the misfit). Search again,
     # denser.
-    loose = max(settings.whole_scale * shape.sample_lookup.h, 2.0 * floor)
+    scale_limit = max(settings.whole_scale * shape.sample_lookup.h, 2.0 * floor)
     best_fit = max(fitted_fraction(run, floor) for run in runs)
     best_scale = min(residual_scale(run, floor) for run in runs)
-    if mode != "refine" and (best_fit < settings.whole_fit or best_scale > loose):
+    if mode != "refine" and (best_fit < settings.whole_fit or best_scale > scale_limit):
         say(
             f"the best candidate fits {best_fit:.0%} of the scan ({surface:.0%} of it on a "
             f"surface), the closest to a scale of {best_scale:.3g}: searching again, denser"
