@@ -25,13 +25,13 @@ from rich.table import Table
 
 from cell import FixedMesh, make_cell, nominal_T_base_table
 from registration import Acceptance, MeshModel, pose_error, transform_points
-from scenarios.config import load_config
-from scenarios.job_cell import cell_config
-from scenarios.localization import localize
-from scenarios.outputs import read_ply
-from scenarios.placement import draw_true_pose
-from scenarios.runner import RunOptions, run_job
-from scenarios.skull import virtual_and_real
+from scenarios.jobs.config import load_config
+from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.jobs.skull import virtual_and_real
+from scenarios.offline.localization import localize
+from scenarios.offline.placement import draw_true_pose
+from scenarios.outputs.files import read_ply
+from scenarios.realcell.setup import cell_config
 
 
 def _cli_run(out: Path, seed: int) -> tuple[float, dict]:

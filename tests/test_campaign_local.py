@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from scenarios.campaign import CampaignError, plan_campaign, run_campaign
-from scenarios.cli import main
+from scenarios.cli.app import main
 
 CHEAP = "model: housing\nscan:\n  points: 400\n  samples: 20000\n"
 

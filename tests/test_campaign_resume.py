@@ -20,7 +20,7 @@ def test_kill_and_restart_gives_exactly_one_row_per_trial(tmp_path: Path) -> Non
     config = tmp_path / "cheap.yaml"
     config.write_text("model: housing\nscan:\n  points: 400\n  samples: 20000\n")
     out = tmp_path / "campaign"
-    command = [sys.executable, "-m", "scenarios.cli", "campaign", str(config), "--trials",
+    command = [sys.executable, "-m", "scenarios.cli.app", "campaign", str(config), "--trials",
                str(TRIALS), "--out", str(out), "--quiet"]  # fmt: skip
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     trials = out / "trials"

@@ -7,7 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from cell.selfcheck import CheckReport
-from scenarios.cli import main
+from scenarios.cli.app import main
 
 KEYS = {
     "mujoco_warnings",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from importlib.metadata import version
 
-from scenarios.cli import main
+from scenarios.cli.app import main
 
 
 def test_version_prints_the_installed_version(capsys) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from scenarios.cli import main
+from scenarios.cli.app import main
 
 
 def test_model_prints_the_check_of_a_builtin_part(capsys) -> None:

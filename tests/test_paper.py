@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from scenarios.paper import TESTS, noise_sigma, run_test
-from scenarios.runner import run_job
+from scenarios.jobs.paper import TESTS, noise_sigma, run_test
+from scenarios.jobs.runner import run_job
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import trimesh
 
 from registration import pose_error
 from registration.synthetic import asymmetric_blob, partial_scan
-from scenarios.cli import main
+from scenarios.cli.app import main
 
 V, F = asymmetric_blob(size=0.2, subdivisions=4, seed=0)
 

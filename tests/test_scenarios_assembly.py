@@ -15,10 +15,10 @@ from scipy.spatial.transform import Rotation
 from cell import CellConfig, FixedMesh, LooseMesh, make_cell, nominal_T_base_table
 from models import builtin_model
 from registration import pose_error
-from scenarios.assembly import BRACKET_PLATE_M, BRACKET_PROBES
-from scenarios.config import AssemblyConfig
-from scenarios.probing import EdgeNotFoundError, pose_from_edges, probe_part
-from scenarios.runner import RunOptions, run_job
+from scenarios.jobs.assembly import BRACKET_PLATE_M, BRACKET_PROBES
+from scenarios.jobs.config import AssemblyConfig
+from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.offline.probing import EdgeNotFoundError, pose_from_edges, probe_part
 
 
 def _R(yaw: float) -> np.ndarray:
@@ -128,7 +128,7 @@ class _Truth:
 
 def test_pick_figures_from_known_poses() -> None:
     """Rise, slip at the grip point and put-down error from hand-made poses."""
-    from scenarios.evaluation import Evaluator
+    from scenarios.realcell.evaluation import Evaluator
 
     bracket = builtin_model("bracket")
     p_grip = bracket.frame("grasp").T_part_frame[:3, 3]  # (0, -22, 56) mm
@@ -171,9 +171,9 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     settled as built) and compare the reported 3D pose error with one computed here from the
     truth and the estimated pose."""
     from models import ModelErrorSpec, real_model
-    from scenarios.assembly import screw_holes
-    from scenarios.job_cell import cell_config
-    from scenarios.placement import draw_true_pose
+    from scenarios.jobs.assembly import screw_holes
+    from scenarios.offline.placement import draw_true_pose
+    from scenarios.realcell.setup import cell_config
 
     config = AssemblyConfig(seed=2)
     model = builtin_model("bracket")

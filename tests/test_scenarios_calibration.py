@@ -19,7 +19,8 @@ from cell import (
     nominal_T_base_slot,
 )
 from models.robot import Q_HOME, SCREWER
-from scenarios.calibration import (
+from scenarios.jobs.config import ConfigError, parse_config
+from scenarios.offline.calibration import (
     DEFAULT_ARTIFACT,
     CalibrationError,
     CalibrationPlan,
@@ -28,9 +29,8 @@ from scenarios.calibration import (
     identify,
     measure_spheres,
 )
-from scenarios.config import ConfigError, parse_config
-from scenarios.evaluation import Evaluator
-from scenarios.program import change_tool_safely
+from scenarios.offline.program import change_tool_safely
+from scenarios.realcell.evaluation import Evaluator
 
 #: The artifact's real centres differ from its design by up to 2 mm, unknown to the fit.
 SHIFT_M = np.array([[1.5e-3, -1.0e-3, 0.5e-3], [-2.0e-3, 0.5e-3, 1.0e-3], [0.0, 2.0e-3, -1.5e-3]])

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from scenarios.cli import main
-from scenarios.config import (
+from scenarios.cli.app import main
+from scenarios.jobs.config import (
     ConfigError,
     SkullConfig,
     config_yaml,
@@ -18,7 +18,7 @@ from scenarios.config import (
     parse_config,
     shipped_names,
 )
-from scenarios.runner import RunOptions, run_job
+from scenarios.jobs.runner import RunOptions, run_job
 
 
 def test_shipped_configs_load_and_round_trip() -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from scenarios.cli import main
+from scenarios.cli.app import main
 
 
 def test_a_sphere_is_refused_before_any_motion_towards_it(

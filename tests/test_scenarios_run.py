@@ -13,12 +13,12 @@ import pytest
 import yaml
 
 from cell import FixedMesh, make_cell
-from scenarios.cli import main
-from scenarios.config import load_config
-from scenarios.job_cell import cell_config
-from scenarios.outputs import read_ply
-from scenarios.placement import draw_true_pose
-from scenarios.skull import virtual_and_real
+from scenarios.cli.app import main
+from scenarios.jobs.config import load_config
+from scenarios.jobs.skull import virtual_and_real
+from scenarios.offline.placement import draw_true_pose
+from scenarios.outputs.files import read_ply
+from scenarios.realcell.setup import cell_config
 
 SHORT = """scenario: skull
 seed: 11

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 from models import ObjectModel, TriangleMesh
-from scenarios.targets import TargetsFileError, generate_targets, read_targets, targets_path
+from scenarios.offline.targets import TargetsFileError, generate_targets, read_targets, targets_path
 
 
 def test_targets_file_is_read_in_the_mesh_units(tmp_path: Path) -> None:

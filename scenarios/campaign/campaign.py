@@ -28,7 +28,7 @@ from scenarios.campaign.register_config import (
 from scenarios.campaign.store import ResultStore, write_atomic
 from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
 from scenarios.campaign.trials import STAGES, Trial, trial_id
-from scenarios.config import read_yaml_mapping
+from scenarios.jobs.config import read_yaml_mapping
 
 Backend = Literal["local", "dask"]
 BACKENDS: tuple[str, ...] = ("local", "dask")
@@ -75,7 +75,7 @@ def base_config(name: str, stage: str) -> dict[str, Any]:
         data.pop("stage", None)
         return parse_register_config(data, str(path)).model_dump(mode="json")
     if stage == "full":
-        from scenarios.config import load_config
+        from scenarios.jobs.config import load_config
 
         config = load_config(name).model_dump(mode="json")
         if "output" in config:
@@ -124,7 +124,7 @@ def resolve_config(spec: CampaignSpec, values: dict[str, Any]) -> dict[str, Any]
     label = ", ".join(f"{k}={v}" for k, v in values.items()) or "base"
     if spec.stage == "register":
         return parse_register_config(config, f"sweep point {label}").model_dump(mode="json")
-    from scenarios.config import ConfigError, parse_config
+    from scenarios.jobs.config import ConfigError, parse_config
 
     try:
         return parse_config(config, f"sweep point {label}").model_dump(mode="json")

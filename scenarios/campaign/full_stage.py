@@ -24,8 +24,8 @@ def _number(value: Any) -> float:
 def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
     """Run the scenario `config` (a scenario config dict) with `seed`, without recording or
     figures; returns the flat metrics of the row ([m], [rad], [s])."""
-    from scenarios.config import parse_config
-    from scenarios.runner import RunOptions, run_job
+    from scenarios.jobs.config import parse_config
+    from scenarios.jobs.runner import RunOptions, run_job
 
     t0 = time.perf_counter()
     data = {**config, "seed": int(seed)}

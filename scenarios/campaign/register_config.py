@@ -12,7 +12,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from scenarios.campaign.errors import CampaignError
-from scenarios.config import Placement, Registration, describe_validation_error
+from scenarios.jobs.config import Placement, Registration, describe_validation_error
 
 _SKULL = Registration()  # the skull job's verdict thresholds: the trials judge alike
 

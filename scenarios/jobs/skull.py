@@ -25,19 +25,19 @@ import numpy as np
 from cell import nominal_T_base_table
 from models import ObjectModel, load_model, real_model
 from registration import Acceptance, MeshModel
-from scenarios.calibration import CalibrationResult
-from scenarios.calibration_step import calibrate_arm, calibration_results
-from scenarios.config import SkullConfig
-from scenarios.job_cell import build_job_cell, model_error
-from scenarios.localization import localize
-from scenarios.program import (
+from scenarios.jobs.config import SkullConfig
+from scenarios.offline.calibration import CalibrationResult
+from scenarios.offline.calibration_step import calibrate_arm, calibration_results
+from scenarios.offline.localization import localize
+from scenarios.offline.program import (
     OfflineProgram,
     burr_hole_operations,
     execute_program,
     plan_program,
 )
-from scenarios.scan import ScanData, crop_to_object, execute_scan, plan_scan
-from scenarios.targets import generate_targets, read_targets, targets_path
+from scenarios.offline.scan import ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.targets import generate_targets, read_targets, targets_path
+from scenarios.realcell.setup import build_job_cell, model_error
 
 Progress = Callable[[str], None]
 
@@ -65,9 +65,9 @@ def run_skull(
     progress: Progress | None = None,
     recording: Any | None = None,
 ) -> dict[str, Any]:
-    """Run the skull job; returns the results (see scenarios.results for the keys)."""
-    from scenarios import outputs
-    from scenarios.results import skull_results
+    """Run the skull job; returns the results (see scenarios.jobs.results for the keys)."""
+    from scenarios.jobs.results import skull_results
+    from scenarios.outputs import files as outputs
 
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()

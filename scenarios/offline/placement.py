@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenarios.config import Placement
+from scenarios.jobs.config import Placement
 
 
 def _resting(R: np.ndarray, xy: np.ndarray, vertices: np.ndarray, lift_m: float) -> np.ndarray:

@@ -30,7 +30,7 @@ from registration import (
 from registration.icp import icp
 from registration.quality import trimmed_rms
 from registration.rigid import Array, invert, random_transform
-from scenarios.run_folder import write_atomic
+from scenarios.outputs.run_folder import write_atomic
 
 
 @dataclass(frozen=True)

@@ -10,13 +10,13 @@ import numpy as np
 
 from cell import nominal_kinematics
 from models import ObjectModel
-from scenarios.evaluation import TargetEvaluation
-from scenarios.program import OfflineProgram
-from scenarios.rapid import program_module
-from scenarios.run_folder import write_atomic
+from scenarios.offline.program import OfflineProgram
+from scenarios.offline.rapid import program_module
+from scenarios.outputs.run_folder import write_atomic
+from scenarios.realcell.evaluation import TargetEvaluation
 
 if TYPE_CHECKING:
-    from scenarios.localization import Localization
+    from scenarios.offline.localization import Localization
 
 
 def write_ply(path: Path, points: np.ndarray) -> Path:
@@ -44,7 +44,7 @@ def read_ply(path: Path) -> np.ndarray:
 def write_program(
     path: Path, program: OfflineProgram, virtual: ObjectModel, T_table_nominal: np.ndarray
 ) -> Path:
-    """The RAPID module of `program` (see scenarios.rapid)."""
+    """The RAPID module of `program` (see scenarios.offline.rapid)."""
     text = program_module(program, nominal_kinematics(), T_table_nominal)
     return write_atomic(path, lambda tmp: tmp.write_text(text))
 

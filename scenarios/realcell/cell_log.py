@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from cell import Controller
-from scenarios.evaluation import Evaluator
+from scenarios.realcell.evaluation import Evaluator
 
 
 class CellLog:

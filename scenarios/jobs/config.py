@@ -116,7 +116,7 @@ class Program(_Section):
 
 
 class Calibration(_Section):
-    """In-cell kinematic calibration before the scan (scenarios.calibration): with the table
+    """In-cell kinematic calibration before the scan (scenarios.offline.calibration): with the table
     at `table_position_m` [m], the laser views each reference sphere from `views_per_sphere`
     arm configurations, `lines_per_view` static lines each (averaged), from `standoff_m`
     (near, far) [m] with views tilted up to `max_tilt_deg` from the vertical. The run stops

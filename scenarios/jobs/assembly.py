@@ -28,13 +28,11 @@ import numpy as np
 from cell import nominal_T_base_table
 from models import BurrHole, ObjectModel, builtin_model, real_model
 from registration import Acceptance, MeshModel
-from scenarios.calibration_step import calibrate_arm, calibration_results
-from scenarios.config import AssemblyConfig
-from scenarios.evaluation import TargetEvaluation
-from scenarios.job_cell import build_job_cell, model_error
-from scenarios.localization import localize
-from scenarios.probing import EdgeProbe, probe_part
-from scenarios.program import (
+from scenarios.jobs.config import AssemblyConfig
+from scenarios.offline.calibration_step import calibrate_arm, calibration_results
+from scenarios.offline.localization import localize
+from scenarios.offline.probing import EdgeProbe, probe_part
+from scenarios.offline.program import (
     OfflineProgram,
     Operation,
     burr_hole_operations,
@@ -42,7 +40,9 @@ from scenarios.program import (
     execute_program,
     plan_program,
 )
-from scenarios.scan import crop_to_object, execute_scan, plan_scan
+from scenarios.offline.scan import crop_to_object, execute_scan, plan_scan
+from scenarios.realcell.evaluation import TargetEvaluation
+from scenarios.realcell.setup import build_job_cell, model_error
 
 Progress = Callable[[str], None]
 MM = 1e-3
@@ -108,7 +108,7 @@ def run_assembly(
     recording: Any | None = None,
 ) -> dict[str, Any]:
     """Run the assembly job; returns the results."""
-    from scenarios import outputs
+    from scenarios.outputs import files as outputs
 
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()

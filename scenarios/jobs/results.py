@@ -8,11 +8,11 @@ import numpy as np
 from rich.table import Table
 from rich.text import Text
 
-from scenarios.config import SkullConfig
-from scenarios.evaluation import PoseEvaluation, TargetEvaluation
+from scenarios.jobs.config import SkullConfig
+from scenarios.realcell.evaluation import PoseEvaluation, TargetEvaluation
 
 if TYPE_CHECKING:
-    from scenarios.localization import Localization
+    from scenarios.offline.localization import Localization
 
 #: Goals of the skull job with the default noise [m].
 GOAL_RMS_M = 0.5e-3

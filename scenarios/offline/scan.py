@@ -18,8 +18,8 @@ from cell.errors import CellError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
-from scenarios.config import Scan
 from scenarios.errors import ScenarioError
+from scenarios.jobs.config import Scan
 
 Progress = Callable[[str], None]
 #: Table positions tried, in order, for a pass or an operation that the arm cannot reach [m].
@@ -194,7 +194,7 @@ def execute_scan(
     """Run the passes on the (real) cell with the laser in hand; every line's points go into
     the table frame with the table readout of that line."""
     say = progress or (lambda _msg: None)
-    from scenarios.program import change_tool_safely
+    from scenarios.offline.program import change_tool_safely
 
     change_tool_safely(controller, "laser")
     points, index, origins, times, which, joints = [], [], [], [], [], []

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from cell import Kinematics, nominal_T_base_table
 from models.robot import TOOLS
-from scenarios.program import OfflineProgram
+from scenarios.offline.program import OfflineProgram
 
 _UNUSED = "9E+09"
 

@@ -24,12 +24,12 @@ from cell import (
     make_cell,
 )
 from models import ModelErrorSpec, ObjectModel
-from scenarios.calibration_step import artifact_fixtures, check_artifact_clearance
-from scenarios.cell_log import CellLog
-from scenarios.config import Calibration, Noise, Placement
-from scenarios.evaluation import Evaluator
-from scenarios.placement import draw_true_pose, nominal_pose
-from scenarios.scan import ObjectBox
+from scenarios.jobs.config import Calibration, Noise, Placement
+from scenarios.offline.calibration_step import artifact_fixtures, check_artifact_clearance
+from scenarios.offline.placement import draw_true_pose, nominal_pose
+from scenarios.offline.scan import ObjectBox
+from scenarios.realcell.cell_log import CellLog
+from scenarios.realcell.evaluation import Evaluator
 
 
 @dataclass(frozen=True, eq=False)

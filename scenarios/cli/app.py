@@ -150,7 +150,7 @@ def register(
 ) -> None:
     """Register data points to a model surface and print the transform and its quality."""
     from registration.io import load_pose, unit_scale
-    from scenarios.register import (
+    from scenarios.cli.register import (
         load_named_targets,
         register_files,
         render_result,
@@ -187,7 +187,7 @@ def run(
     """Run a job headless and write a run folder (results, table, figures, recording)."""
     from rich.console import Console
 
-    from scenarios.runner import RunOptions, run_job
+    from scenarios.jobs.runner import RunOptions, run_job
 
     def progress(message: str) -> None:
         if not quiet:
@@ -205,7 +205,7 @@ def run(
     if "table" in results:
         typer.echo(results["table"])
     elif results.get("scenario") in ("skull", "assembly"):
-        from scenarios.results import results_table
+        from scenarios.jobs.results import results_table
 
         Console().print(results_table(results))
     typer.echo(f"run folder: {folder}")

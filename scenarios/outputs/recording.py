@@ -28,10 +28,10 @@ import rerun.blueprint as rrb
 from cell import Kinematics, nominal_T_base_table
 from models import ObjectModel
 from registration import MatchResult, invert
-from scenarios.evaluation import TargetEvaluation
-from scenarios.program import OfflineProgram
-from scenarios.rapid import quat_wxyz
-from scenarios.scan import ScanData
+from scenarios.offline.program import OfflineProgram
+from scenarios.offline.rapid import quat_wxyz
+from scenarios.offline.scan import ScanData
+from scenarios.realcell.evaluation import TargetEvaluation
 
 #: Geom groups shown: environment, objects, arm visuals, tools (not collision-only ones).
 _SHOWN_GROUPS = (0, 1, 2, 4)

@@ -18,7 +18,7 @@ from cell import Controller, Kinematics, nominal_T_base_table
 from cell.errors import CellError
 from models import BurrHole
 from models.robot import Q_HOME, TABLE_TRAVEL
-from scenarios.scan import TABLE_CANDIDATES_M, UnreachablePlanError
+from scenarios.offline.scan import TABLE_CANDIDATES_M, UnreachablePlanError
 
 
 @dataclass(frozen=True)

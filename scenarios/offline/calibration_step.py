@@ -1,6 +1,6 @@
 """The kinematic calibration as a step of a job (skull, assembly): the reference spheres in
 the real cell, the view plan from the run's `calibration:` section, the calibration itself
-(scenarios.calibration) handing the calibrated arm to the controller, and the figures the
+(scenarios.offline.calibration) handing the calibrated arm to the controller, and the figures the
 run reports, with the evaluator's measure of the arm against the truth.
 """
 
@@ -12,16 +12,16 @@ from typing import Any
 import numpy as np
 
 from cell import Controller, FixedPrimitive, Kinematics
-from scenarios.calibration import (
+from scenarios.jobs.config import Calibration
+from scenarios.offline.calibration import (
     DEFAULT_ARTIFACT,
     CalibrationError,
     CalibrationPlan,
     CalibrationResult,
     calibrate,
 )
-from scenarios.config import Calibration
-from scenarios.evaluation import Evaluator
-from scenarios.scan import ObjectBox
+from scenarios.offline.scan import ObjectBox
+from scenarios.realcell.evaluation import Evaluator
 
 Progress = Callable[[str], None]
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from registration import MODES, InputError, MatchResult, load_model, load_points, match
 from registration.io import load_targets
-from scenarios.run_folder import write_json
+from scenarios.outputs.run_folder import write_json
 
 
 @dataclass(frozen=True)

@@ -169,7 +169,7 @@ def probe_part(
     first two probes (one edge) are placed from the nominal pose `T_table_nominal`; the
     others from the pose corrected by that edge, as a 2D adjusting routine does."""
     say = progress or (lambda _msg: None)
-    from scenarios.program import change_tool_safely
+    from scenarios.offline.program import change_tool_safely
 
     change_tool_safely(controller, "ir")
     T_guess = np.array(T_table_nominal, dtype=float)

@@ -15,7 +15,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from scenarios.config import (
+from scenarios.errors import ScenarioError
+from scenarios.jobs.config import (
     AssemblyConfig,
     Config,
     PaperConfig,
@@ -23,8 +24,7 @@ from scenarios.config import (
     config_yaml,
     load_config,
 )
-from scenarios.errors import ScenarioError
-from scenarios.run_folder import RunFolder
+from scenarios.outputs.run_folder import RunFolder
 
 Progress = Callable[[str], None]
 
@@ -44,7 +44,7 @@ Job = Callable[[Any, RunFolder, Progress, RunOptions], dict[str, Any]]
 def _paper(
     config: PaperConfig, folder: RunFolder, progress: Progress, options: RunOptions
 ) -> dict[str, Any]:
-    from scenarios.paper import TESTS, plot_cases, run_paper, table_text
+    from scenarios.jobs.paper import TESTS, plot_cases, run_paper, table_text
 
     cases = run_paper(config.seed, progress)
     rows = [case.row for case in cases]
@@ -60,7 +60,7 @@ def _paper(
 def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
     if not (options.rrd and config.output.rrd) and not options.spawn:
         return None
-    from scenarios.recording import Recording
+    from scenarios.outputs.recording import Recording
 
     return Recording(folder.file("run.rrd"), spawn=options.spawn)
 
@@ -84,7 +84,7 @@ def _recorded(
 def _skull(
     config: SkullConfig, folder: RunFolder, progress: Progress, options: RunOptions
 ) -> dict[str, Any]:
-    from scenarios.skull import run_skull
+    from scenarios.jobs.skull import run_skull
 
     return _recorded(run_skull, config, folder, progress, options)
 
@@ -92,7 +92,7 @@ def _skull(
 def _assembly(
     config: AssemblyConfig, folder: RunFolder, progress: Progress, options: RunOptions
 ) -> dict[str, Any]:
-    from scenarios.assembly import run_assembly
+    from scenarios.jobs.assembly import run_assembly
 
     return _recorded(run_assembly, config, folder, progress, options)
 
