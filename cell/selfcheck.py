@@ -8,8 +8,6 @@ table poses, and laser points against an analytic plane and sphere.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -27,6 +25,7 @@ from cell.kinematics import Kinematics
 from cell.simulation import Simulation
 from cell.transforms import make_T, pose_error
 from cell.truth import CellTruth
+from models.atomic import write_text
 from models.robot import BODY_NAMES, FLANGE_SITE, Q_HOME, TABLE_TRAVEL, TOOLS
 
 FK_TOL_M = 1e-9
@@ -243,15 +242,7 @@ def write_json(report: CheckReport, path: str | Path) -> None:
             f"cannot write the check report to {str(path)!r}: folder {str(path.parent)!r} "
             "does not exist"
         )
-    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(report.to_json(), f, indent=2)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text(path, json.dumps(report.to_json(), indent=2) + "\n")
 
 
 def render(report: CheckReport) -> Table:

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from models.atomic import write_bytes
 from models.errors import MeshFileError
 from models.mesh import TriangleMesh
 from models.units import unit_scale
@@ -29,15 +28,7 @@ def write_mesh(mesh: TriangleMesh, path: str | Path, units: str | float = "mm") 
     out = trimesh.Trimesh(np.asarray(mesh.vertices) / scale, np.asarray(mesh.faces), process=False)
     data = out.export(file_type=suffix[1:])
     payload = data.encode() if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
     try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-        os.replace(tmp, path)
+        return write_bytes(path, payload)
     except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
         raise MeshFileError(f"{path}: cannot write: {exc}") from None
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path

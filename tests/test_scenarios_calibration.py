@@ -29,7 +29,7 @@ from scenarios.offline.calibration import (
     identify,
     measure_spheres,
 )
-from scenarios.offline.program import change_tool_safely
+from scenarios.offline.moves import change_tool_safely
 from scenarios.realcell.evaluation import Evaluator
 
 #: The artifact's real centres differ from its design by up to 2 mm, unknown to the fit.

@@ -19,13 +19,14 @@ from typing import Any, Literal
 
 import yaml
 
+from models.atomic import write_text
 from scenarios.campaign.errors import CampaignError
 from scenarios.campaign.register_config import (
     CASES,
     default_register_config,
     parse_register_config,
 )
-from scenarios.campaign.store import ResultStore, write_atomic
+from scenarios.campaign.store import ResultStore
 from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
 from scenarios.campaign.trials import STAGES, Trial, trial_id
 from scenarios.jobs.config import read_yaml_mapping
@@ -166,7 +167,7 @@ def _check_folder(spec: CampaignSpec, folder: Path) -> None:
                 f"resume it with the same options or choose another --out"
             )
         record["trials"] = max(spec.trials, int(old.get("trials", 0)))
-    write_atomic(path, yaml.safe_dump(record, sort_keys=False))
+    write_text(path, yaml.safe_dump(record, sort_keys=False))
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scenarios.campaign.report import CALIBRATION_GOAL, group_rows, per_target
+from models.atomic import write_atomic
+from scenarios.campaign.rows import CALIBRATION_GOAL, group_rows, per_target
 
 Rows = list[dict[str, str]]
 
@@ -18,10 +19,10 @@ def _save(fig: object, path: Path) -> Path:
     """Save a figure through a temporary file and close it."""
     import matplotlib.pyplot as plt
 
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")  # type: ignore[attr-defined]
-    plt.close(fig)  # type: ignore[arg-type]
-    tmp.replace(path)
+    try:
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png"))  # type: ignore[attr-defined]
+    finally:
+        plt.close(fig)  # type: ignore[arg-type]
     return path
 
 

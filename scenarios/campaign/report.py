@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.campaign.store import read_csv, write_atomic
-
-CALIBRATION_GOAL = (0.67, 1.5)
-"""Goal of the median measured / predicted TRE ratio."""
+from models.atomic import write_text
+from scenarios.campaign.plots import write_plots
+from scenarios.campaign.rows import CALIBRATION_GOAL, group_rows, per_target
+from scenarios.campaign.store import read_csv
 
 STAGE_NOTES = {
     "register": (
@@ -45,23 +45,6 @@ def _quantiles(x: np.ndarray) -> dict[str, float]:
     q = np.quantile(x, [0.05, 0.25, 0.5, 0.75, 0.95])
     return {"n": len(x), "median": float(q[2]), "q05": float(q[0]), "q25": float(q[1]),
             "q75": float(q[3]), "q95": float(q[4]), "max": float(x.max())}  # fmt: skip
-
-
-def target_columns(rows: list[dict[str, str]], prefix: str, suffix: str) -> list[str]:
-    """Per-target columns `<prefix><k><suffix>` present in the rows."""
-    names = set().union(*(r.keys() for r in rows)) if rows else set()
-    return sorted(
-        (c for c in names if c.startswith(prefix) and c.endswith(suffix)),
-        key=lambda c: int(c[len(prefix) : len(c) - len(suffix)]),
-    )
-
-
-def per_target(rows: list[dict[str, str]], prefix: str, suffix: str) -> np.ndarray:
-    """All per-target values of the rows (every target of every row), flattened."""
-    columns = target_columns(rows, prefix, suffix)
-    return np.array(
-        [float(r[c]) for r in rows for c in columns if r.get(c, "") not in ("", None)], dtype=float
-    )
 
 
 @dataclass(frozen=True)
@@ -112,17 +95,6 @@ def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
         tre_ratio=_quantiles(per_target(right_accepted, "ratio_t", "")),
         trial_seconds=_quantiles(_floats(rows, "trial_seconds")),
     )
-
-
-def group_rows(
-    rows: list[dict[str, str]], keys: list[str]
-) -> list[tuple[str, list[dict[str, str]]]]:
-    """Rows grouped by their sweep values (`vary.<key>` columns), in sweep-point order."""
-    groups: dict[str, list[dict[str, str]]] = {}
-    for row in sorted(rows, key=lambda r: (int(r.get("point", 0) or 0), r["trial_id"])):
-        label = ", ".join(f"{k}={row.get(f'vary.{k}', '')}" for k in keys) or "all"
-        groups.setdefault(label, []).append(row)
-    return list(groups.items())
 
 
 def _mm(x: float) -> str:
@@ -195,10 +167,9 @@ def write_report(folder: Path, csv_path: Path, stage: str, keys: list[str]) -> l
         "groups": [asdict(s) for s in summaries],
     }
     files = [
-        write_atomic(folder / "report.md", markdown(summaries, stage)),
-        write_atomic(folder / "report.json", json.dumps(_json_ready(data), indent=2)),
+        write_text(folder / "report.md", markdown(summaries, stage)),
+        write_text(folder / "report.json", json.dumps(_json_ready(data), indent=2)),
     ]
-    from scenarios.campaign.plots import write_plots
 
     files.extend(write_plots(folder, read_csv(csv_path), keys))
     return files

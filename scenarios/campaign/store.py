@@ -12,22 +12,11 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-
-def write_atomic(path: Path, text: str) -> Path:
-    """Write `text` to `path` completely or not at all (temp file, fsync, os.replace)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-    return path
+from models.atomic import write_text
 
 
 def _plain(value: Any) -> Any:
@@ -55,7 +44,7 @@ class ResultStore:
 
     def write(self, row: dict[str, Any]) -> Path:
         """Store one row (must hold "trial_id")."""
-        return write_atomic(
+        return write_text(
             self.path(str(row["trial_id"])),
             json.dumps({k: _plain(v) for k, v in row.items()}, sort_keys=False),
         )
@@ -74,7 +63,7 @@ class ResultStore:
         writer = csv.DictWriter(buffer, fieldnames=list(columns), restval="", lineterminator="\n")
         writer.writeheader()
         writer.writerows(rows)
-        return write_atomic(Path(path), buffer.getvalue())
+        return write_text(Path(path), buffer.getvalue())
 
 
 def read_csv(path: str | Path) -> list[dict[str, str]]:

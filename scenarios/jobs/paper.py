@@ -17,6 +17,7 @@ from typing import Literal
 import numpy as np
 
 from models import ellipsoid
+from models.atomic import write_atomic
 from registration import (
     Acceptance,
     MatchResult,
@@ -30,7 +31,6 @@ from registration import (
 from registration.icp import icp
 from registration.quality import trimmed_rms
 from registration.rigid import Array, invert, random_transform
-from scenarios.outputs.run_folder import write_atomic
 
 
 @dataclass(frozen=True)
@@ -232,5 +232,5 @@ def plot_cases(cases: list[PaperCase], path: str) -> None:
                 ax.legend(fontsize=7, loc="upper left")
     fig.suptitle(f"Seed paper experiments: ellipsoid {ellipsoid.RADII} m, 55 model points")
     fig.tight_layout()
-    write_atomic(Path(path), lambda tmp: fig.savefig(tmp, dpi=90))
+    write_atomic(Path(path), lambda tmp: fig.savefig(tmp, dpi=90, format="png"))
     plt.close(fig)

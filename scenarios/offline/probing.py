@@ -15,6 +15,7 @@ import numpy as np
 
 from cell import Controller, nominal_T_base_table
 from scenarios.errors import ScenarioError
+from scenarios.offline.moves import change_tool_safely
 
 Progress = Callable[[str], None]
 #: The IR sensor looks straight down (TCP z = -table z).
@@ -169,8 +170,6 @@ def probe_part(
     first two probes (one edge) are placed from the nominal pose `T_table_nominal`; the
     others from the pose corrected by that edge, as a 2D adjusting routine does."""
     say = progress or (lambda _msg: None)
-    from scenarios.offline.program import change_tool_safely
-
     change_tool_safely(controller, "ir")
     T_guess = np.array(T_table_nominal, dtype=float)
     points, total = [], 0

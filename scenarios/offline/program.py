@@ -17,8 +17,8 @@ import numpy as np
 from cell import Controller, Kinematics, nominal_T_base_table
 from cell.errors import CellError
 from models import BurrHole
-from models.robot import Q_HOME, TABLE_TRAVEL
-from scenarios.offline.scan import TABLE_CANDIDATES_M, UnreachablePlanError
+from models.robot import TABLE_TRAVEL
+from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
 
 
 @dataclass(frozen=True)
@@ -171,16 +171,6 @@ def plan_program(
         f"the {len(operations)} operations ({', '.join(o.name for o in operations)}) are not "
         f"all reachable at any table position of {TABLE_CANDIDATES_M} m"
     )
-
-
-def change_tool_safely(controller: Controller, tool: str) -> None:
-    """Change to `tool` through the home pose (wrist up, above the arm's base): the cell's
-    tool change goes straight from where the arm is to the rack, and from the table that
-    joint move can sweep the tool in hand through the tools hanging in the rack."""
-    if controller.tool_in_hand == tool:
-        return
-    controller.move_joints(np.array(Q_HOME))
-    controller.change_tool(tool)
 
 
 @dataclass(frozen=True)

@@ -18,18 +18,13 @@ from cell.errors import CellError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
-from scenarios.errors import ScenarioError
 from scenarios.jobs.config import Scan
+from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
 
 Progress = Callable[[str], None]
 #: Table positions tried, in order, for a pass or an operation that the arm cannot reach [m].
-TABLE_CANDIDATES_M = (0.0, -0.1, 0.1, -0.2, 0.2, -0.3, 0.3, -0.4, 0.4)
 #: Points closer than this to the table top are the table, not the object [m].
 TABLE_CLEARANCE_M = 0.003
-
-
-class UnreachablePlanError(ScenarioError, ValueError):
-    """No table position lets the arm reach a planned pass or operation."""
 
 
 @dataclass(frozen=True)
@@ -194,8 +189,6 @@ def execute_scan(
     """Run the passes on the (real) cell with the laser in hand; every line's points go into
     the table frame with the table readout of that line."""
     say = progress or (lambda _msg: None)
-    from scenarios.offline.program import change_tool_safely
-
     change_tool_safely(controller, "laser")
     points, index, origins, times, which, joints = [], [], [], [], [], []
     T_laser = controller.T_flange_tcp("laser")

@@ -10,9 +10,9 @@ import numpy as np
 
 from cell import nominal_kinematics
 from models import ObjectModel
+from models.atomic import write_atomic
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import program_module
-from scenarios.outputs.run_folder import write_atomic
 from scenarios.realcell.evaluation import TargetEvaluation
 
 if TYPE_CHECKING:

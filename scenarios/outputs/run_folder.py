@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from models.atomic import write_text
 
 
 def _jsonable(value: Any) -> Any:
@@ -32,25 +32,10 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def write_atomic(path: Path, write: Callable[[Path], None]) -> Path:
-    """Call write(tmp_path) on a temporary file beside `path`, then rename it into place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
 def write_json(path: Path, data: Any) -> Path:
     """Write data as indented JSON, atomically; numpy values become plain numbers."""
     text = json.dumps(_jsonable(data), indent=2) + "\n"
-    return write_atomic(path, lambda tmp: tmp.write_text(text))
+    return write_text(path, text)
 
 
 class RunFolder:
@@ -72,7 +57,7 @@ class RunFolder:
         return self.path / name
 
     def write_text(self, name: str, text: str) -> Path:
-        return write_atomic(self.file(name), lambda tmp: tmp.write_text(text))
+        return write_text(self.file(name), text)
 
     def write_json(self, name: str, data: Any) -> Path:
         return write_json(self.file(name), data)

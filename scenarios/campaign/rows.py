@@ -1,0 +1,37 @@
+"""The rows of a campaign's table, as read back from results.csv (strings), grouped and
+unpacked for the report and the figures."""
+
+from __future__ import annotations
+
+import numpy as np
+
+CALIBRATION_GOAL = (0.67, 1.5)
+"""Goal of the median measured / predicted TRE ratio."""
+
+
+def target_columns(rows: list[dict[str, str]], prefix: str, suffix: str) -> list[str]:
+    """Per-target columns `<prefix><k><suffix>` present in the rows."""
+    names = set().union(*(r.keys() for r in rows)) if rows else set()
+    return sorted(
+        (c for c in names if c.startswith(prefix) and c.endswith(suffix)),
+        key=lambda c: int(c[len(prefix) : len(c) - len(suffix)]),
+    )
+
+
+def per_target(rows: list[dict[str, str]], prefix: str, suffix: str) -> np.ndarray:
+    """All per-target values of the rows (every target of every row), flattened."""
+    columns = target_columns(rows, prefix, suffix)
+    return np.array(
+        [float(r[c]) for r in rows for c in columns if r.get(c, "") not in ("", None)], dtype=float
+    )
+
+
+def group_rows(
+    rows: list[dict[str, str]], keys: list[str]
+) -> list[tuple[str, list[dict[str, str]]]]:
+    """Rows grouped by their sweep values (`vary.<key>` columns), in sweep-point order."""
+    groups: dict[str, list[dict[str, str]]] = {}
+    for row in sorted(rows, key=lambda r: (int(r.get("point", 0) or 0), r["trial_id"])):
+        label = ", ".join(f"{k}={row.get(f'vary.{k}', '')}" for k in keys) or "all"
+        groups.setdefault(label, []).append(row)
+    return list(groups.items())
