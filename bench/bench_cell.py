@@ -22,8 +22,8 @@ from rich.table import Table
 
 from cell import CellConfig, FixedMesh, LaserConfig, make_cell, nominal_kinematics
 from cell.sensors import RAY_GROUPS
-from cell.transforms import make_T
 from models.robot import Q_HOME
+from registration.rigid import make_T
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
 

@@ -14,8 +14,8 @@ import numpy as np
 from cell.config import CellConfig, FixedMesh, FixedPrimitive, LooseMesh, LoosePart
 from cell.errors import CellConfigError
 from cell.mass import MassProperties, mesh_mass_properties
-from cell.transforms import R_to_quat_wxyz, make_T, quat_wxyz_to_R
 from models.robot import ROBOT_FILE, TABLE_TOP_POS, ArmGeometry, arm_xml, scene_xml
+from registration.rigid import R_to_quat_wxyz, make_T, quat_wxyz_to_R
 
 #: Geom group of objects' exact surfaces (seen by the rays) and of contact-only pieces.
 OBJECT_GROUP = 1

@@ -25,7 +25,6 @@ from cell.sensors import IRSensor, LaserReading, LaserScanner
 from cell.simulation import Simulation
 from cell.toolchanger import ToolChanger
 from cell.trajectory import joint_trajectory, quintic, straight_path
-from cell.transforms import make_T, quat_wxyz_to_R
 from models.robot import (
     FINGER_TRAVEL,
     JOINT_SPEED,
@@ -36,6 +35,7 @@ from models.robot import (
     TOOLS,
     slot_pos,
 )
+from registration.rigid import make_T, quat_wxyz_to_R
 
 _TOOL_SPECS = {t.name: t for t in TOOLS}
 #: Default settle time after a move [s].

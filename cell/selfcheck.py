@@ -23,10 +23,10 @@ from cell.errors import CellConfigError, CellError
 from cell.factory import make_cell, nominal_kinematics
 from cell.kinematics import Kinematics
 from cell.simulation import Simulation
-from cell.transforms import make_T, pose_error
 from cell.truth import CellTruth
 from models.atomic import write_text
 from models.robot import BODY_NAMES, FLANGE_SITE, Q_HOME, TABLE_TRAVEL, TOOLS
+from registration.rigid import make_T, pose_error
 
 FK_TOL_M = 1e-9
 IK_SUCCESS_MIN = 0.99
@@ -138,7 +138,7 @@ def ik_figures(kin: Kinematics, n: int = 200, seed: int = 1) -> tuple[float, flo
         result = kin.ik(T, Q_HOME)
         if result.success:
             successes += 1
-            p_err, _ = pose_error(kin.fk(result.q), T)
+            _, p_err = pose_error(kin.fk(result.q), T)
             worst = max(worst, p_err)
     return successes / n, worst
 
@@ -153,11 +153,11 @@ def _tool_cycle(controller: Controller, truth: CellTruth, tool: str) -> str:
         for p in ((1.0, -0.2, 0.9), (1.2, 0.2, 0.8)):
             controller.move_tcp(make_T(_R_DOWN, np.array(p)))
             T_pred = controller.kinematics.fk(truth.q()) @ controller.T_flange_tcp()
-            err, _ = pose_error(T_pred, truth.T_base_tcp(tool))
+            _, err = pose_error(T_pred, truth.T_base_tcp(tool))
             if err > TOOL_FOLLOW_TOL_M:
                 return f"TCP {err:.3g} m away from the flange's prediction while carried"
         controller.return_tool()
-        err, _ = pose_error(sim.site_T(sim.slot_site[tool]), sim.body_T(sim.tool_body[tool]))
+        _, err = pose_error(sim.site_T(sim.slot_site[tool]), sim.body_T(sim.tool_body[tool]))
         if controller.tool_in_hand is not None or err > TOOL_RETURN_TOL_M:
             return f"not back in its slot ({err:.3g} m away)"
     except CellError as exc:

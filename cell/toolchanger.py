@@ -12,7 +12,7 @@ import numpy as np
 
 from cell.errors import ToolChangerError
 from cell.simulation import Simulation
-from cell.transforms import R_to_quat_wxyz, inv_T, pose_error
+from registration.rigid import R_to_quat_wxyz, invert, pose_error
 
 #: The changer engages only when the tool's interface is this close to the flange [m], [rad].
 CAPTURE_DISTANCE_M = 3e-3
@@ -30,7 +30,7 @@ class ToolChanger:
 
     def _set_weld(self, eq: int, body1: int, body2: int) -> None:
         """Write body2's pose in body1's frame as the weld's relative pose, then activate it."""
-        T_1_2 = inv_T(self.sim.body_T(body1)) @ self.sim.body_T(body2)
+        T_1_2 = invert(self.sim.body_T(body1)) @ self.sim.body_T(body2)
         self.sim.model.eq_data[eq, 3:6] = T_1_2[:3, 3]
         self.sim.model.eq_data[eq, 6:10] = R_to_quat_wxyz(T_1_2[:3, :3])
         self.sim.data.eq_active[eq] = 1
@@ -39,7 +39,7 @@ class ToolChanger:
         """The tool whose interface is within capture range of the flange, if any."""
         T_flange = self.sim.site_T(self.sim.flange_site)
         for name, body in self.sim.tool_body.items():
-            dp, dr = pose_error(T_flange, self.sim.body_T(body))
+            dr, dp = pose_error(T_flange, self.sim.body_T(body))
             if dp <= CAPTURE_DISTANCE_M and dr <= CAPTURE_ANGLE_RAD:
                 return name
         return None
@@ -70,7 +70,7 @@ class ToolChanger:
             raise ToolChangerError("cannot unlock: the changer holds no tool")
         sim, name = self.sim, self.held
         mujoco.mj_forward(sim.model, sim.data)
-        dp, dr = pose_error(sim.site_T(sim.slot_site[name]), sim.body_T(sim.tool_body[name]))
+        dr, dp = pose_error(sim.site_T(sim.slot_site[name]), sim.body_T(sim.tool_body[name]))
         if dp > CAPTURE_DISTANCE_M or dr > CAPTURE_ANGLE_RAD:
             raise ToolChangerError(
                 f"cannot unlock the {name!r} tool here: it is {dp * 1e3:.3g} mm and {dr:.3g} rad "
@@ -89,4 +89,4 @@ class ToolChanger:
 
 def flange_offset(sim: Simulation, name: str) -> np.ndarray:
     """(4, 4) pose of tool `name`'s frame in the flange frame, as welded now (truth)."""
-    return inv_T(sim.site_T(sim.flange_site)) @ sim.body_T(sim.tool_body[name])
+    return invert(sim.site_T(sim.flange_site)) @ sim.body_T(sim.tool_body[name])

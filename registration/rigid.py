@@ -1,4 +1,6 @@
-"""Rigid transforms as 4x4 homogeneous matrices: build, apply, compose, measure."""
+"""Rigid transforms as 4x4 homogeneous matrices: build, apply, compose, measure, and the
+scalar-first quaternions of MuJoCo and RAPID. The project's one rigid-transform module:
+`cell` and `scenarios` use it too (it depends on numpy and scipy alone)."""
 
 from __future__ import annotations
 
@@ -37,15 +39,28 @@ def invert(T: Array) -> Array:
 
 
 def rotation_angle(R: Array) -> float:
-    """Angle of a rotation matrix (3, 3) [rad], in [0, pi]."""
-    c = (np.trace(R) - 1.0) / 2.0
-    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+    """Angle of a rotation matrix (3, 3) [rad], in [0, pi] (accurate near 0 and pi)."""
+    c = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+    s = np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) / 2.0
+    return float(np.arctan2(s, c))
 
 
 def pose_error(T_estimate: Array, T_truth: Array) -> tuple[float, float]:
     """Rotation error [rad] and translation error [length units] between two transforms."""
     dR = T_estimate[:3, :3] @ T_truth[:3, :3].T
     return rotation_angle(dR), float(np.linalg.norm(T_estimate[:3, 3] - T_truth[:3, 3]))
+
+
+def quat_wxyz_to_R(q: Array) -> Array:
+    """Rotation (3, 3) of a scalar-first (w, x, y, z) quaternion: the convention of MuJoCo and
+    of ABB RAPID (scipy and rerun are scalar-last; convert here, nowhere else)."""
+    return Rotation.from_quat(np.asarray(q, dtype=float), scalar_first=True).as_matrix()
+
+
+def R_to_quat_wxyz(R: Array) -> Array:
+    """Scalar-first unit quaternion (w, x, y, z) (4,) of a rotation (3, 3), with w >= 0."""
+    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
+    return q if q[0] >= 0 else -q
 
 
 def exp_se3(xi: Array) -> Array:

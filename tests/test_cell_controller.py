@@ -25,8 +25,8 @@ from cell import (
 )
 from cell.build import RealParameters, draw_real_parameters
 from cell.simulation import Simulation
-from cell.transforms import make_T
 from models.robot import ArmGeometry, arm_xml
+from registration.rigid import make_T
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
 

@@ -14,7 +14,7 @@ from cell import (
     nominal_kinematics,
     ur5_kinematics,
 )
-from cell.transforms import pose_error
+from registration.rigid import pose_error
 
 # -- independent analytic models ---------------------------------------------------------------
 
@@ -74,7 +74,7 @@ def test_fk_matches_the_analytic_model(robot) -> None:
     rng = np.random.default_rng(0)
     for _ in range(50):
         q = kin.random_configuration(rng)
-        dp, dr = pose_error(kin.fk(q), fk(q))
+        dr, dp = pose_error(kin.fk(q), fk(q))
         assert dp < 1e-9 and dr < 1e-9  # same numbers, different code: float precision
 
 
@@ -127,7 +127,7 @@ def test_ik_round_trips_random_targets(robot) -> None:
         result = kin.ik(T, seed)
         if result.success:
             solved += 1
-            dp, dr = pose_error(kin.fk(result.q), T)
+            dr, dp = pose_error(kin.fk(result.q), T)
             assert dp < 1e-8 and dr < 1e-8
             assert np.all(result.q >= kin.lower) and np.all(result.q <= kin.upper)
     assert solved >= 39  # reachable by construction; at most one miss in 40
@@ -165,7 +165,7 @@ def test_targets_outside_joint_limits_are_refused() -> None:
     T = kin.fk(q_out)
     result = kin.ik(T, np.zeros(6))
     assert np.all(result.q >= kin.lower) and np.all(result.q <= kin.upper)
-    dp, dr = pose_error(kin.fk(result.q), T)
+    dr, dp = pose_error(kin.fk(result.q), T)
     assert (result.success and dp < 1e-8 and dr < 1e-8) or (not result.success and dp + dr > 1e-6)
 
 

@@ -14,9 +14,9 @@ from scipy.spatial.transform import Rotation
 from cell import CellConfig, CellConfigError, LooseMesh, make_cell
 from cell.build import OBJECT_GROUP
 from cell.mass import mesh_mass_properties
-from cell.transforms import inv_T, make_T, pose_error
 from models import builtin_model
 from registration import MeshModel
+from registration.rigid import invert, make_T, pose_error
 
 MM = 1e-3
 #: The bracket: base plate 80 x 50 x 6 mm, upright 80 x 6 x 56 mm sharing a 80 x 6 x 6 mm
@@ -72,7 +72,7 @@ def test_a_loose_part_starts_where_it_lies_on_the_table_and_takes_a_given_mass()
     part = replace(_bracket(0.0), mass_kg=0.5)
     controller, truth = make_cell(CellConfig(seed=22, parts=(part,)))
     assert abs(truth.table_error_m()) > 1.5e-4
-    T = inv_T(truth.T_base_table()) @ truth.T_base_object("bracket")
+    T = invert(truth.T_base_table()) @ truth.T_base_object("bracket")
     d_rot, d_pos = pose_error(T, part.T_table_object)
     assert d_pos < 3e-5 and np.degrees(d_rot) < 0.01  # contact softness: 15 um
     assert truth.simulation.model.body_mass[truth.simulation.model.body("bracket").id] == 0.5
@@ -109,20 +109,20 @@ def test_loose_bracket_has_aluminium_mass_and_rests_still(bracket_cell) -> None:
     assert sim.model.body_mass[body] == pytest.approx(ALUMINIUM * BRACKET_VOLUME_M3, rel=1e-4)
     # It rests where it was put: origin on the table top within 0.1 mm (contact softness),
     # the yaw kept within 0.01 deg.
-    T0 = inv_T(truth.T_base_table()) @ truth.T_base_object("bracket")
+    T0 = invert(truth.T_base_table()) @ truth.T_base_object("bracket")
     d_rot, d_pos = pose_error(T0, part.T_table_object)
     assert d_pos < 1e-4 and np.degrees(d_rot) < 0.01
     # Still for 3 s of simulated time: no sample more than 0.05 mm from the first.
     samples = []
     for _ in range(30):
         sim.settle(0.1)
-        samples.append((inv_T(truth.T_base_table()) @ truth.T_base_object("bracket"))[:3, 3])
+        samples.append((invert(truth.T_base_table()) @ truth.T_base_object("bracket"))[:3, 3])
     assert np.max(np.linalg.norm(np.array(samples) - samples[0], axis=1)) < 5e-5
     # The table carries it by friction: 0.4 m out at full speed and back, it stays put on
     # the table within 0.05 mm and 0.01 deg.
     controller.move_table(0.4)
     controller.move_table(0.0)
-    T1 = inv_T(truth.T_base_table()) @ truth.T_base_object("bracket")
+    T1 = invert(truth.T_base_table()) @ truth.T_base_object("bracket")
     d_rot, d_pos = pose_error(T1, T0)
     assert d_pos < 5e-5 and np.degrees(d_rot) < 0.01
     assert sim.warnings() == 0

@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from cell import CellConfig, make_cell
 from cell.trajectory import joint_trajectory, straight_path
-from cell.transforms import R_to_quat_wxyz, inv_T, make_T, quat_wxyz_to_R
 from models.robot import JOINT_SPEED
+from registration.rigid import R_to_quat_wxyz, invert, make_T, quat_wxyz_to_R
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
 
@@ -53,7 +53,7 @@ def test_quaternions_follow_mujoco(v: list) -> None:
 
 def test_inverse_transform() -> None:
     T = make_T(quat_wxyz_to_R(np.array([0.5, 0.5, -0.5, 0.5])), np.array([0.1, -0.2, 0.3]))
-    np.testing.assert_allclose(inv_T(T) @ T, np.eye(4), atol=1e-15)
+    np.testing.assert_allclose(invert(T) @ T, np.eye(4), atol=1e-15)
 
 
 def test_straight_path_interpolates_pose() -> None:

@@ -10,7 +10,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from cell import CellConfig, FixedMesh, FixedPrimitive, LoosePart, make_cell
-from cell.transforms import inv_T, make_T, pose_error
+from registration.rigid import invert, make_T, pose_error
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
 
@@ -23,20 +23,20 @@ def test_every_tool_is_picked_carried_and_returned_in_the_real_cell() -> None:
         assert controller.tool_in_hand == tool
         T_flange_tool = truth.T_flange_tool(tool)
         # Seated within the changer's capture range despite the arm's kinematic error.
-        dp, dr = pose_error(T_flange_tool, np.eye(4))
+        dr, dp = pose_error(T_flange_tool, np.eye(4))
         assert dp < 3e-3 and dr < 0.02
         for p in ((1.0, -0.2, 0.9), (1.2, 0.25, 0.75)):
             controller.move_tcp(make_T(R_DOWN, np.array(p)))
             # The tool (and its TCP) follows the flange rigidly: same relative pose.
-            dp, dr = pose_error(truth.T_flange_tool(tool), T_flange_tool)
+            dr, dp = pose_error(truth.T_flange_tool(tool), T_flange_tool)
             assert dp < 1e-6 and dr < 1e-6
             # The TCP is where the nominal model says, up to the arm's absolute accuracy.
             T_pred = controller.T_base_tcp()
-            dp, _ = pose_error(T_pred, truth.T_base_tcp(tool))
+            _, dp = pose_error(T_pred, truth.T_base_tcp(tool))
             assert dp < 2e-3
         controller.return_tool()
         assert controller.tool_in_hand is None
-        dp, _ = pose_error(sim.site_T(sim.slot_site[tool]), sim.body_T(sim.tool_body[tool]))
+        _, dp = pose_error(sim.site_T(sim.slot_site[tool]), sim.body_T(sim.tool_body[tool]))
         assert dp < 3e-3  # back in its slot, held by the rack weld
         assert sim.data.eq_active[sim.rack_eq[tool]] == 1
         assert sim.data.eq_active[sim.flange_eq[tool]] == 0
@@ -118,7 +118,7 @@ def test_laser_pass_over_a_mesh_object_gives_points_on_its_surface(ideal: bool) 
     # Points on the object (above the table top by more than 2 mm), in the object frame.
     z_top = truth.T_base_table()[2, 3]
     on_object = P[P[:, 2] > z_top + 2e-3]
-    p_object = on_object @ inv_T(T_base_object)[:3, :3].T + inv_T(T_base_object)[:3, 3]
+    p_object = on_object @ invert(T_base_object)[:3, :3].T + invert(T_base_object)[:3, 3]
     sq, _, _ = igl.point_mesh_squared_distance(p_object, mesh.vertices, mesh.faces)
     distance = np.sqrt(sq)
     assert len(on_object) > 500

@@ -270,8 +270,7 @@ def run_assembly(
             )
     timings["execute"] = time.perf_counter() - t0
     if "laser_3d" in programs:
-        outputs.write_program(folder / "program.mod", programs["laser_3d"], virtual,
-                              T_table_nominal)  # fmt: skip
+        outputs.write_program(folder / "program.mod", programs["laser_3d"], T_table_nominal)
         if recording is not None:
             recording.log_targets(programs["laser_3d"], targets["laser_3d"])
     timings["total"] = time.perf_counter() - t_total

@@ -200,7 +200,7 @@ def run_skull(
     targets_model = np.array([h.p_entry for h in virtual.burr_holes])
     predicted = located.result.predicted_tre(targets_model).tre if located is not None else None
     if program is not None:
-        outputs.write_program(folder / "program.mod", program, virtual, T_table_nominal)
+        outputs.write_program(folder / "program.mod", program, T_table_nominal)
     if recording is not None and program is not None:
         recording.log_targets(program, target_evals)
     timings["total"] = time.perf_counter() - t_total

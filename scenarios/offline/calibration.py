@@ -35,8 +35,8 @@ import numpy as np
 from cell import Controller, FixedPrimitive, Kinematics, nominal_T_base_slot, nominal_T_base_table
 from cell.controller import RACK_APPROACH_M
 from cell.errors import CellError
-from cell.transforms import make_T
 from models.robot import LASER, Q_HOME, ArmGeometry
+from registration.rigid import make_T
 from scenarios.errors import ScenarioError
 
 Progress = Callable[[str], None]

@@ -14,19 +14,13 @@ import re
 
 import numpy as np
 import pinocchio as pin
-from scipy.spatial.transform import Rotation
 
 from cell import Kinematics, nominal_T_base_table
 from models.robot import TOOLS
+from registration.rigid import R_to_quat_wxyz
 from scenarios.offline.program import OfflineProgram
 
 _UNUSED = "9E+09"
-
-
-def quat_wxyz(R: np.ndarray) -> np.ndarray:
-    """(4,) unit quaternion (w, x, y, z) of a rotation matrix (3, 3), w >= 0."""
-    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
-    return q if q[0] >= 0 else -q
 
 
 def _num(x: float) -> str:
@@ -36,7 +30,7 @@ def _num(x: float) -> str:
 
 def _pose_text(T: np.ndarray) -> str:
     p = T[:3, 3] * 1e3
-    q = quat_wxyz(T[:3, :3])
+    q = R_to_quat_wxyz(T[:3, :3])
     return f"[[{', '.join(_num(v) for v in p)}],[{', '.join(f'{v:.8f}' for v in q)}]]"
 
 

@@ -41,9 +41,7 @@ def read_ply(path: Path) -> np.ndarray:
     return np.frombuffer(data[end:], dtype="<f8").reshape(-1, 3)
 
 
-def write_program(
-    path: Path, program: OfflineProgram, virtual: ObjectModel, T_table_nominal: np.ndarray
-) -> Path:
+def write_program(path: Path, program: OfflineProgram, T_table_nominal: np.ndarray) -> Path:
     """The RAPID module of `program` (see scenarios.offline.rapid)."""
     text = program_module(program, nominal_kinematics(), T_table_nominal)
     return write_atomic(path, lambda tmp: tmp.write_text(text))

@@ -28,8 +28,8 @@ import rerun.blueprint as rrb
 from cell import Kinematics, nominal_T_base_table
 from models import ObjectModel
 from registration import MatchResult, invert
+from registration.rigid import R_to_quat_wxyz
 from scenarios.offline.program import OfflineProgram
-from scenarios.offline.rapid import quat_wxyz
 from scenarios.offline.scan import ScanData
 from scenarios.realcell.evaluation import TargetEvaluation
 
@@ -55,7 +55,7 @@ def blueprint() -> rrb.Blueprint:
 
 
 def _xyzw(R: np.ndarray) -> np.ndarray:
-    w, x, y, z = quat_wxyz(R)
+    w, x, y, z = R_to_quat_wxyz(R)
     return np.array([x, y, z, w])
 
 
