@@ -29,8 +29,8 @@ from scenarios.jobs.config import load_config
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.jobs.skull import virtual_and_real
 from scenarios.offline.localization import localize
-from scenarios.offline.placement import draw_true_pose
 from scenarios.outputs.files import read_ply
+from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
 

@@ -172,7 +172,7 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     truth and the estimated pose."""
     from models import ModelErrorSpec, real_model
     from scenarios.jobs.assembly import screw_holes
-    from scenarios.offline.placement import draw_true_pose
+    from scenarios.realcell.placement import draw_true_pose
     from scenarios.realcell.setup import cell_config
 
     config = AssemblyConfig(seed=2)

@@ -16,8 +16,8 @@ from cell import FixedMesh, make_cell
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.jobs.skull import virtual_and_real
-from scenarios.offline.placement import draw_true_pose
 from scenarios.outputs.files import read_ply
+from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
 SHORT = """scenario: skull

@@ -12,9 +12,10 @@ from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.jobs.config import Scan, SkullConfig
 from scenarios.jobs.skull import virtual_and_real
 from scenarios.offline.localization import localize
-from scenarios.offline.placement import draw_true_pose, nominal_pose
+from scenarios.offline.placement import nominal_pose
 from scenarios.offline.program import burr_hole_operations, execute_program, plan_program
 from scenarios.offline.scan import ObjectBox, crop_to_object, execute_scan, plan_scan
+from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
 SHORT_SCAN = Scan(speed_m_s=0.25, period_s=0.02)

@@ -14,12 +14,13 @@ R = Rz(yaw) Ry(pitch) Rx(roll).
 
 from __future__ import annotations
 
-import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+
+from models.atomic import write_text
 
 #: Stand-in for a massless moving body [kg, kg m^2 about its joint origin]: MuJoCo (and other
 #: simulators) refuse a moving body without mass and inertia; 1e-10 is far below any link's.
@@ -94,18 +95,9 @@ def urdf_text(model: pin.Model, name: str, tip_frame: str, base_link: str = "bas
 def write_urdf(
     path: str | Path, model: pin.Model, name: str, tip_frame: str, base_link: str = "base_link"
 ) -> Path:
-    """Write `urdf_text(model, name, tip_frame, base_link)` to `path` atomically (a temporary
-    file beside it, then `os.replace`): a reader never sees a partial file."""
-    path = Path(path)
-    text = urdf_text(model, name, tip_frame, base_link)
-    # Not tempfile.mkstemp: its files are private (mode 0600), the URDF is for other programs.
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    """Write `urdf_text(model, name, tip_frame, base_link)` to `path` atomically (see
+    models.atomic): a reader never sees a partial file."""
+    return write_text(path, urdf_text(model, name, tip_frame, base_link))
 
 
 def _link_names(model: pin.Model, base_link: str) -> list[str]:

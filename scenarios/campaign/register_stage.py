@@ -20,7 +20,7 @@ from registration import Acceptance, MeshModel, ScanPasses, match
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_config import RegisterConfig, parse_register_config
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
-from scenarios.offline.placement import draw_true_pose
+from scenarios.realcell.placement import draw_true_pose
 
 MAX_TARGETS = 8
 """Targets reported per trial (columns err_t0_m ... of the results table)."""

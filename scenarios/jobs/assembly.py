@@ -29,7 +29,7 @@ from cell import nominal_T_base_table
 from models import BurrHole, ObjectModel, builtin_model, real_model
 from registration import Acceptance, MeshModel
 from scenarios.jobs.config import AssemblyConfig
-from scenarios.offline.calibration_step import calibrate_arm, calibration_results
+from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.localization import localize
 from scenarios.offline.probing import EdgeProbe, probe_part
 from scenarios.offline.program import (
@@ -41,7 +41,7 @@ from scenarios.offline.program import (
     plan_program,
 )
 from scenarios.offline.scan import crop_to_object, execute_scan, plan_scan
-from scenarios.realcell.evaluation import TargetEvaluation
+from scenarios.realcell.evaluation import TargetEvaluation, calibration_results
 from scenarios.realcell.setup import build_job_cell, model_error
 
 Progress = Callable[[str], None]

@@ -27,7 +27,7 @@ from models import ObjectModel, load_model, real_model
 from registration import Acceptance, MeshModel
 from scenarios.jobs.config import SkullConfig
 from scenarios.offline.calibration import CalibrationResult
-from scenarios.offline.calibration_step import calibrate_arm, calibration_results
+from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.localization import localize
 from scenarios.offline.program import (
     OfflineProgram,
@@ -37,6 +37,7 @@ from scenarios.offline.program import (
 )
 from scenarios.offline.scan import ScanData, crop_to_object, execute_scan, plan_scan
 from scenarios.offline.targets import generate_targets, read_targets, targets_path
+from scenarios.realcell.evaluation import calibration_results
 from scenarios.realcell.setup import build_job_cell, model_error
 
 Progress = Callable[[str], None]

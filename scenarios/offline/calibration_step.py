@@ -7,11 +7,10 @@ run reports, with the evaluator's measure of the arm against the truth.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
-from cell import Controller, FixedPrimitive, Kinematics
+from cell import Controller
 from scenarios.jobs.config import Calibration
 from scenarios.offline.calibration import (
     DEFAULT_ARTIFACT,
@@ -21,7 +20,6 @@ from scenarios.offline.calibration import (
     calibrate,
 )
 from scenarios.offline.scan import ObjectBox
-from scenarios.realcell.evaluation import Evaluator
 
 Progress = Callable[[str], None]
 
@@ -36,14 +34,6 @@ def calibration_plan(section: Calibration, seed: int) -> CalibrationPlan:
         max_tilt_rad=float(np.deg2rad(section.max_tilt_deg)),
         seed=seed,
     )
-
-
-def artifact_fixtures(seed: int) -> tuple[FixedPrimitive, ...]:
-    """The calibration spheres as they really stand: their design centres moved by a seeded
-    1 mm (per axis) that the calibration does not know."""
-    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
-    centres = DEFAULT_ARTIFACT.centres_table
-    return DEFAULT_ARTIFACT.fixtures(centres + rng.normal(0.0, 1e-3, centres.shape))
 
 
 def check_artifact_clearance(box: ObjectBox, crop_margin_m: float) -> None:
@@ -85,25 +75,3 @@ def calibrate_arm(
         f"{calibration.residual_rms_after_m * 1e3:.3f} mm, {calibration.seconds:.1f} s"
     )
     return calibration
-
-
-def calibration_results(
-    evaluator: Evaluator,
-    nominal: Kinematics,
-    calibration: CalibrationResult | None,
-    q_job: np.ndarray,
-    tool: str,
-) -> dict[str, Any]:
-    """The calibration's figures and, from the truth, the TCP error of `tool` on the nominal
-    and the calibrated arm at the job's configurations `q_job` (K, 6)."""
-    out: dict[str, Any] = {"enabled": calibration is not None}
-    models = {"nominal": nominal}
-    if calibration is not None:
-        out.update(calibration.summary())
-        models["calibrated"] = calibration.kinematics
-    for label, kin in models.items():
-        e = evaluator.kinematics_error(kin, q_job, tool)
-        out[f"tcp_error_{label}_mean_m"] = e.mean_m
-        out[f"tcp_error_{label}_max_m"] = e.max_m
-    out["tcp_error_configurations"] = len(q_job)
-    return out

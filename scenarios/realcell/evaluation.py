@@ -10,6 +10,7 @@ body poses, to show the real cell as it moved.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -18,6 +19,7 @@ from cell import CellTruth, Kinematics, nominal_T_base_slot
 from models import ObjectModel
 from models.robot import Q_HOME, TOOLS
 from registration import pose_error, transform_points
+from scenarios.offline.calibration import CalibrationResult
 
 
 @dataclass(frozen=True)
@@ -234,3 +236,25 @@ class Evaluator:
         return KinematicsEvaluation(
             float(raw.mean()), float(raw.max()), float(aligned.mean()), float(aligned.max()), len(q)
         )
+
+
+def calibration_results(
+    evaluator: Evaluator,
+    nominal: Kinematics,
+    calibration: CalibrationResult | None,
+    q_job: np.ndarray,
+    tool: str,
+) -> dict[str, Any]:
+    """The calibration's figures and, from the truth, the TCP error of `tool` on the nominal
+    and the calibrated arm at the job's configurations `q_job` (K, 6)."""
+    out: dict[str, Any] = {"enabled": calibration is not None}
+    models = {"nominal": nominal}
+    if calibration is not None:
+        out.update(calibration.summary())
+        models["calibrated"] = calibration.kinematics
+    for label, kin in models.items():
+        e = evaluator.kinematics_error(kin, q_job, tool)
+        out[f"tcp_error_{label}_mean_m"] = e.mean_m
+        out[f"tcp_error_{label}_max_m"] = e.max_m
+    out["tcp_error_configurations"] = len(q_job)
+    return out

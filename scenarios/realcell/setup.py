@@ -25,11 +25,13 @@ from cell import (
 )
 from models import ModelErrorSpec, ObjectModel
 from scenarios.jobs.config import Calibration, Noise, Placement
-from scenarios.offline.calibration_step import artifact_fixtures, check_artifact_clearance
-from scenarios.offline.placement import draw_true_pose, nominal_pose
+from scenarios.offline.calibration import DEFAULT_ARTIFACT
+from scenarios.offline.calibration_step import check_artifact_clearance
+from scenarios.offline.placement import nominal_pose
 from scenarios.offline.scan import ObjectBox
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
+from scenarios.realcell.placement import draw_true_pose
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,6 +66,14 @@ def cell_config(
         laser=LaserConfig(sigma_m=noise.laser_sigma_m),
         fixtures=fixtures,
     )
+
+
+def artifact_fixtures(seed: int) -> tuple[FixedPrimitive, ...]:
+    """The calibration spheres as they really stand: their design centres moved by a seeded
+    1 mm (per axis) that the calibration does not know."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
+    centres = DEFAULT_ARTIFACT.centres_table
+    return DEFAULT_ARTIFACT.fixtures(centres + rng.normal(0.0, 1e-3, centres.shape))
 
 
 def build_job_cell(
