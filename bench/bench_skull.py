@@ -26,8 +26,8 @@ from rich.table import Table
 from cell import FixedMesh, make_cell, nominal_T_base_table
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.jobs.config import load_config
+from scenarios.jobs.pipeline import object_models
 from scenarios.jobs.runner import RunOptions, run_job
-from scenarios.jobs.skull import virtual_and_real
 from scenarios.offline.localization import localize
 from scenarios.outputs.files import read_ply
 from scenarios.realcell.placement import draw_true_pose
@@ -76,20 +76,21 @@ def main() -> None:
     config = load_config("skull")
     folder = Path(run_job("skull", seed=0, out=out, options=RunOptions(rrd=False))[0])
     points = read_ply(folder / "scan.ply")
-    virtual, real = virtual_and_real(config)
+    virtual, real = object_models(config)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 5]))
-    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
+    T_table_true = draw_true_pose(config.cell.object.placement, real.mesh.vertices, rng)
     fixture = FixedMesh("object", real.mesh.vertices, real.mesh.faces, T_table_true)
-    _, truth = make_cell(cell_config(config.noise, config.seed, (fixture,)))
+    _, truth = make_cell(cell_config(config.cell.noise, config.seed, (fixture,)))
     T_base_true = truth.T_base_object("object")
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     acceptance = Acceptance(max_rms=1e-3, max_predicted_tre=1e-3)
+    registration = config.localization.registration
     targets = np.array([h.p_entry for h in virtual.burr_holes])
     table = Table(title=f"matching one scan ({len(points)} object points), seed 0")
     for col in ("points used", "seconds", "verdict", "pose error [deg, mm]", "target max [mm]"):
         table.add_column(col.replace("[", "\\["), justify="right")
     for label, max_points, voxel in (
-        ("job: 3 mm voxels, 6000", config.registration.max_points, config.registration.voxel_m),
+        ("job: 3 mm voxels, 6000", registration.max_points, registration.voxel_m),
         ("peer: every point", len(points), 0.0),
     ):
         t0 = time.perf_counter()

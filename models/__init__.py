@@ -23,6 +23,7 @@ _EXPORTS = {
     "TriangleMesh": "models.mesh",
     "ObjectModel": "models.model",
     "BurrHole": "models.targets",
+    "ProbeLine": "models.targets",
     "OperationFrame": "models.targets",
     "SkullPhantom": "models.skull",
     "make_skull": "models.skull",

@@ -9,7 +9,7 @@ import numpy as np
 from models.errors import MeshDataError, UnknownModelError
 from models.mesh import TriangleMesh
 from models.surfaces import AnalyticSurface
-from models.targets import BurrHole, OperationFrame
+from models.targets import BurrHole, OperationFrame, ProbeLine
 
 
 @dataclass(frozen=True, eq=False)
@@ -19,7 +19,8 @@ class ObjectModel:
     `mesh` is the exact surface in the object's model frame [m]: rays and registration use
     it. `convex_pieces` are closed convex meshes [m] for MuJoCo contacts (concave objects have
     several). `burr_holes` (skull) and `frames` (parts) are the operation targets in the model
-    frame. `points` (K, 3) [m] is a reference point set of the model (the paper's 55 points
+    frame; `probe_lines` are the IR probe lines across a flat part's edges (2D adjusting).
+    `points` (K, 3) [m] is a reference point set of the model (the paper's 55 points
     on the ellipsoid), `surface` its analytic surface r(u, v) where it has one. `source` says
     where the model came from ("built-in", a file path, "... + model error").
     """
@@ -29,6 +30,7 @@ class ObjectModel:
     convex_pieces: tuple[TriangleMesh, ...]
     burr_holes: tuple[BurrHole, ...] = ()
     frames: tuple[OperationFrame, ...] = ()
+    probe_lines: tuple[ProbeLine, ...] = ()
     points: np.ndarray | None = None
     surface: AnalyticSurface | None = None
     source: str = "built-in"

@@ -18,7 +18,7 @@ import numpy as np
 import trimesh
 
 from models.mesh import TriangleMesh
-from models.targets import OperationFrame
+from models.targets import OperationFrame, ProbeLine
 
 MM = 1e-3
 _DOWN = np.diag([1.0, -1.0, -1.0])  # z down, x kept: approach from above
@@ -34,6 +34,7 @@ class Part:
     mesh: TriangleMesh
     convex_pieces: tuple[TriangleMesh, ...]
     frames: tuple[OperationFrame, ...]
+    probe_lines: tuple[ProbeLine, ...] = ()
 
 
 def _box(
@@ -58,6 +59,24 @@ def _frame(name: str, kind: str, R: np.ndarray, p_mm: tuple[float, float, float]
     T[:3, :3] = R
     T[:3, 3] = np.array(p_mm) * MM
     return OperationFrame(name, kind, T)
+
+
+def _probe(
+    name: str,
+    inside_mm: tuple[float, float],
+    outside_mm: tuple[float, float],
+    normal: tuple[float, float],
+    offset_mm: float,
+    step_mm: float,
+) -> ProbeLine:
+    return ProbeLine(
+        name,
+        np.array([*inside_mm, 0.0]) * MM,
+        np.array([*outside_mm, 0.0]) * MM,
+        np.array([*normal, 0.0]),
+        offset_mm * MM,
+        step_mm * MM,
+    )
 
 
 def _solid(solids: list[trimesh.Trimesh], holes: list[trimesh.Trimesh]) -> TriangleMesh:
@@ -97,7 +116,14 @@ def make_bracket() -> Part:
         _frame("screw_upright_right", "screw", R_front, (25, -19, 38)),
     )
     pieces = tuple(TriangleMesh.from_trimesh(m) for m in (base, upright))
-    return Part("bracket", _solid([base, upright], holes), pieces, frames)
+    # IR probe lines of the base plate (6 mm high): two across the front edge (y = +25 mm),
+    # one across the left edge (x = -40 mm), clear of its holes and of the upright.
+    probes = (
+        _probe("front 1", (-15, 5), (-15, 50), (0.0, 1.0), 25, 6),
+        _probe("front 2", (15, 5), (15, 50), (0.0, 1.0), 25, 6),
+        _probe("left", (-15, 16), (-65, 16), (-1.0, 0.0), 40, 6),
+    )
+    return Part("bracket", _solid([base, upright], holes), pieces, frames, probes)
 
 
 _HOUSING_SIZE_MM = (100.0, 70.0, 40.0)

@@ -43,7 +43,13 @@ def _skull(seed: int) -> ObjectModel:
 def _part(make: Callable[[], Part]) -> Callable[[int], ObjectModel]:
     def build(seed: int) -> ObjectModel:
         part = make()
-        return ObjectModel(part.name, part.mesh, part.convex_pieces, frames=part.frames)
+        return ObjectModel(
+            part.name,
+            part.mesh,
+            part.convex_pieces,
+            frames=part.frames,
+            probe_lines=part.probe_lines,
+        )
 
     return build
 

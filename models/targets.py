@@ -1,4 +1,5 @@
-"""Operation targets in an object's model frame: burr holes (skull) and named frames (parts)."""
+"""Operation targets in an object's model frame: burr holes (skull) and named frames (parts);
+and the IR probe lines across a flat part's edges (2D adjusting)."""
 
 from __future__ import annotations
 
@@ -94,3 +95,31 @@ class OperationFrame:
             raise MeshDataError(f"T_part_frame of {self.name!r} has a bottom row {T[3]}")
         T.setflags(write=False)
         object.__setattr__(self, "T_part_frame", T)
+
+
+@dataclass(frozen=True, eq=False)
+class ProbeLine:
+    """An IR probe line across one straight edge of a flat part, in the part frame [m].
+
+    `p_inside` (3,) lies on the part's top face, `p_outside` (3,) beyond the edge on the
+    table; the edge is the line {x: normal . x = offset} of the part frame, `normal` (3,) the
+    unit outward normal in the table plane; `step_m` is the height of the part at the edge
+    (the step the IR sensor sees).
+    """
+
+    name: str
+    p_inside: np.ndarray
+    p_outside: np.ndarray
+    normal: np.ndarray
+    offset: float
+    step_m: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "p_inside", _vector3(self.p_inside, "p_inside"))
+        object.__setattr__(self, "p_outside", _vector3(self.p_outside, "p_outside"))
+        n = np.array(self.normal, dtype=float)
+        if n.shape != (3,) or not np.isclose(np.linalg.norm(n), 1.0, atol=1e-9) or n[2] != 0:
+            raise MeshDataError(f"normal must be a horizontal unit vector, got {self.normal!r}")
+        object.__setattr__(self, "normal", _vector3(n, "normal"))
+        if not self.step_m > 0:
+            raise MeshDataError(f"step_m must be positive [m], got {self.step_m}")

@@ -1,4 +1,5 @@
-"""Runnable jobs: paper, skull, assembly; offline programming, evaluation, logging, CLI.
+"""Runnable jobs (one pipeline for every cell job, and the seed paper's experiments), the
+offline stages, the simulated real cell and its evaluation, the outputs, the command line.
 
     >>> from scenarios import run_job, RunOptions
     >>> folder, results = run_job("skull", seed=3, options=RunOptions(rrd=False))
@@ -14,15 +15,14 @@ from typing import Any
 _EXPORTS = {
     "ScenarioError": "scenarios.errors",
     "ConfigError": "scenarios.jobs.config",
-    "SkullConfig": "scenarios.jobs.config",
-    "AssemblyConfig": "scenarios.jobs.config",
+    "JobConfig": "scenarios.jobs.config",
     "PaperConfig": "scenarios.jobs.config",
     "load_config": "scenarios.jobs.config",
     "parse_config": "scenarios.jobs.config",
     "RunOptions": "scenarios.jobs.runner",
     "run_job": "scenarios.jobs.runner",
-    "run_skull": "scenarios.jobs.skull",
-    "run_assembly": "scenarios.jobs.assembly",
+    "run_cell_job": "scenarios.jobs.pipeline",
+    "RunResult": "scenarios.jobs.result",
     "Evaluator": "scenarios.realcell.evaluation",
     "OfflineProgram": "scenarios.offline.program",
     "Operation": "scenarios.offline.program",

@@ -7,7 +7,7 @@ from pathlib import Path
 from models import builtin_model
 from scenarios.campaign import plan_campaign, run_campaign
 
-SHORT = "scenario: skull\nscan: {speed_m_s: 0.25, period_s: 0.02}\n"
+SHORT = "name: skull\nlocalization:\n  scan: {speed_m_s: 0.25, period_s: 0.02}\n"
 
 
 def test_one_full_skull_trial(tmp_path: Path) -> None:
@@ -18,7 +18,7 @@ def test_one_full_skull_trial(tmp_path: Path) -> None:
     outcome = run_campaign(spec, tmp_path / "campaign", progress=False)
     (row,) = outcome.rows
     assert row["status"] == "ok", row.get("error")
-    assert row["seed"] == 3 and row["scenario"] == "skull"
+    assert row["seed"] == 3 and row["job"] == "skull"
     holes = builtin_model("skull", 0).burr_holes
     assert row["targets"].split(";") == [h.name for h in holes]
     # The scenario's own evaluator (the truth of the simulated cell): an accepted match and

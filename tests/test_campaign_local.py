@@ -112,6 +112,6 @@ def test_cli_campaign_runs_and_reports_bad_options(tmp_path: Path, capsys) -> No
     assert "false accepts" in text and "2 trials run now" in text
     assert len(read_rows(out / "results.csv")) == 2
     assert main(["campaign", config, "--vary", "laser.sigmaa=1e-4", "--out", str(out)]) == 2
-    assert "unknown config key 'laser.sigmaa'" in capsys.readouterr().err
+    assert "unknown key 'laser.sigmaa'" in capsys.readouterr().err
     assert main(["campaign", config, "--backend", "slurm", "--out", str(tmp_path / "x")]) == 2
     assert "unknown backend 'slurm'" in capsys.readouterr().err

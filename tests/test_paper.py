@@ -62,6 +62,6 @@ def test_run_paper_writes_a_complete_run_folder(tmp_path) -> None:
     assert on_disk["status"] == "complete"
     assert [r["test"] for r in on_disk["rows"]] == [1, 2, 3, 4, 5]
     assert (folder / "paper.png").stat().st_size > 10_000
-    assert (folder / "config.yaml").read_text().startswith("scenario: paper")
+    assert (folder / "config.yaml").read_text().startswith("kind: paper")
     assert "global, no noise" in (folder / "paper_table.txt").read_text()
     assert not list(folder.glob(".*"))  # no temporary files left behind

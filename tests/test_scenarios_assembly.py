@@ -15,10 +15,16 @@ from scipy.spatial.transform import Rotation
 from cell import CellConfig, FixedMesh, LooseMesh, make_cell, nominal_T_base_table
 from models import builtin_model
 from registration import pose_error
-from scenarios.jobs.assembly import BRACKET_PLATE_M, BRACKET_PROBES
-from scenarios.jobs.config import AssemblyConfig
+from scenarios.jobs.config import load_config
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.probing import EdgeNotFoundError, pose_from_edges, probe_part
+
+#: The bracket's IR probe lines (part data, in the model).
+BRACKET_PROBES = builtin_model("bracket").probe_lines
+
+
+def _assembly(seed: int):  # the shipped assembly job
+    return load_config("assembly", {"seed": seed})
 
 
 def _R(yaw: float) -> np.ndarray:
@@ -50,7 +56,7 @@ def test_ir_probing_passes_over_a_hole_under_a_probe_line() -> None:
     assert np.hypot(p_inside[0] + 0.028, p_inside[1] - 0.006) < 0.0033  # over the hole
     fixture = FixedMesh("part", bracket.mesh.vertices, bracket.mesh.faces, T_true)
     controller, _ = make_cell(CellConfig(seed=3, fixtures=(fixture,)).ideal())
-    result = probe_part(controller, BRACKET_PROBES, np.eye(4), 0.03, BRACKET_PLATE_M)
+    result = probe_part(controller, BRACKET_PROBES, np.eye(4), 0.03)
     rotation, translation = pose_error(result.T_table_object, T_true)
     assert translation < 1.5e-4 and np.degrees(rotation) < 0.1
 
@@ -61,7 +67,7 @@ def test_ir_probing_finds_the_bracket_in_an_ideal_cell() -> None:
     T_true[:3, :3], T_true[:3, 3] = _R(np.deg2rad(4.0)), [0.009, -0.011, 0.0]
     fixture = FixedMesh("part", bracket.mesh.vertices, bracket.mesh.faces, T_true)
     controller, truth = make_cell(CellConfig(seed=3, fixtures=(fixture,)).ideal())
-    result = probe_part(controller, BRACKET_PROBES, np.eye(4), 0.03, BRACKET_PLATE_M)
+    result = probe_part(controller, BRACKET_PROBES, np.eye(4), 0.03)
     rotation, translation = pose_error(result.T_table_object, T_true)
     # Bisection to 0.1 mm on each edge, positions from the encoders; no noise: the pose
     # within 0.15 mm and 0.1 deg.
@@ -72,14 +78,14 @@ def test_ir_probing_finds_the_bracket_in_an_ideal_cell() -> None:
     # A part that is not there: the first probe line finds no edge and says so.
     empty, _ = make_cell(CellConfig(seed=3).ideal())
     with pytest.raises(EdgeNotFoundError, match="no edge between"):
-        probe_part(empty, BRACKET_PROBES, np.eye(4), 0.03, BRACKET_PLATE_M)
+        probe_part(empty, BRACKET_PROBES, np.eye(4), 0.03)
     assert isinstance(truth.T_base_table(), np.ndarray)
 
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory: pytest.TempPathFactory) -> dict:
     out = tmp_path_factory.mktemp("runs")
-    folder, res = run_job(AssemblyConfig(seed=2), out=out, options=RunOptions(rrd=True))
+    folder, res = run_job(_assembly(2), out=out, options=RunOptions(rrd=True))
     res["folder"] = str(folder)
     return res
 
@@ -89,11 +95,11 @@ def test_assembly_run_completes_with_both_methods(results: dict) -> None:
     folder = Path(results["folder"])
     for name in ("config.yaml", "results.json", "scan.ply", "program.mod", "run.rrd"):
         assert (folder / name).is_file(), name
-    assert (folder / "assembly.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (folder / "methods.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((folder / "results.json").read_text())["status"] == "complete"
     methods = results["methods"]
-    assert set(methods) == {"ir_2d", "laser_3d"}
-    assert methods["ir_2d"]["ir_readings"] <= 3 * (1 + 12 + 6)
+    assert list(methods) == ["surface", "probe"]
+    assert methods["probe"]["ir_readings"] <= 3 * (1 + 12 + 6)
     for row in methods.values():
         assert len(row["targets"]) == 2  # the two screws driven from above
         # Tolerances with the default noise: pose within 1 deg / 2 mm, screws within 2 mm.
@@ -171,20 +177,20 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     settled as built) and compare the reported 3D pose error with one computed here from the
     truth and the estimated pose."""
     from models import ModelErrorSpec, real_model
-    from scenarios.jobs.assembly import screw_holes
+    from scenarios.offline.operations import screw_targets
     from scenarios.realcell.placement import draw_true_pose
     from scenarios.realcell.setup import cell_config
 
-    config = AssemblyConfig(seed=2)
+    config = _assembly(2)
     model = builtin_model("bracket")
-    virtual = model.__class__(**{**model.__dict__, "burr_holes": screw_holes(model)})
+    virtual = model.__class__(**{**model.__dict__, "burr_holes": screw_targets(model)})
+    noise = config.cell.noise
     spec = ModelErrorSpec(
-        deformation_rms=config.noise.model_deformation_rms_m,
-        noise_rms=config.noise.model_noise_rms_m,
+        deformation_rms=noise.model_deformation_rms_m, noise_rms=noise.model_noise_rms_m
     )
     real, _ = real_model(virtual, spec, seed=config.seed)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 6]))
-    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
+    T_table_true = draw_true_pose(config.cell.object.placement, real.mesh.vertices, rng)
     part = LooseMesh(
         "part",
         real.mesh.vertices,
@@ -192,7 +198,7 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
         T_table_true,
         convex_pieces=tuple(p.vertices for p in real.convex_pieces),
     )
-    _, truth = make_cell(replace(cell_config(config.noise, config.seed, ()), parts=(part,)))
+    _, truth = make_cell(replace(cell_config(noise, config.seed, ()), parts=(part,)))
     T_estimate = np.array(
         json.loads((Path(results["folder"]) / "results.json").read_text())["registration"][
             "T_table_object"

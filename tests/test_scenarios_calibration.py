@@ -174,6 +174,6 @@ def test_bad_artifacts_and_settings_are_refused() -> None:
     with pytest.raises(ValueError, match="sphere centres"):
         SphereArtifact(np.zeros((2, 2)))
     with pytest.raises(ConfigError, match="standoff_m"):
-        parse_config({"scenario": "skull", "calibration": {"standoff_m": [0.3, 0.2]}})
+        parse_config({"calibration": {"standoff_m": [0.3, 0.2]}})
     with pytest.raises(ConfigError, match=r"calibration\.views_per_sphere"):
-        parse_config({"scenario": "skull", "calibration": {"views_per_sphere": 2}})
+        parse_config({"calibration": {"views_per_sphere": 2}})

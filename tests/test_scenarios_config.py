@@ -11,8 +11,10 @@ import yaml
 
 from scenarios.cli.app import main
 from scenarios.jobs.config import (
+    CellSection,
     ConfigError,
-    SkullConfig,
+    JobConfig,
+    ObjectSection,
     config_yaml,
     load_config,
     parse_config,
@@ -25,25 +27,25 @@ def test_shipped_configs_load_and_round_trip() -> None:
     assert {"paper", "skull", "assembly"} <= set(shipped_names())
     for name in ("paper", "skull", "assembly"):
         config = load_config(name)
-        assert config.scenario == name
+        assert config.name == name
         again = parse_config(yaml.safe_load(config_yaml(config)))
         assert again == config
 
 
 def test_unknown_key_is_named(tmp_path: Path) -> None:
     path = tmp_path / "bad.yaml"
-    path.write_text("scenario: skull\nscan:\n  standof_m: 0.3\n")
-    with pytest.raises(ConfigError, match=r"unknown key 'scan\.standof_m'"):
+    path.write_text("localization:\n  scan:\n    standof_m: 0.3\n")
+    with pytest.raises(ConfigError, match=r"unknown key 'localization\.scan\.standof_m'"):
         load_config(path)
 
 
 def test_bad_value_is_named_with_what_was_given() -> None:
-    with pytest.raises(ConfigError, match=r"scan\.speed_m_s: .*greater than 0.*-1"):
-        parse_config({"scenario": "skull", "scan": {"speed_m_s": -1}})
-    with pytest.raises(ConfigError, match=r"program\.tool.*'drill'"):
-        parse_config({"scenario": "skull", "program": {"tool": "drill"}})
-    with pytest.raises(ConfigError, match=r"'scenario' must be one of .*'welding'"):
-        parse_config({"scenario": "welding"})
+    with pytest.raises(ConfigError, match=r"localization\.scan\.speed_m_s: .*greater than 0.*-1"):
+        parse_config({"localization": {"scan": {"speed_m_s": -1}}})
+    with pytest.raises(ConfigError, match=r"operations\.tool.*'drill'"):
+        parse_config({"operations": {"tool": "drill"}})
+    with pytest.raises(ConfigError, match=r"'kind' must be one of .*'welding'"):
+        parse_config({"kind": "welding"})
     assert isinstance(ConfigError("x"), ValueError)
 
 
@@ -51,10 +53,10 @@ def test_bad_files_are_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no such configuration file"):
         load_config(tmp_path / "missing.yaml")
     broken = tmp_path / "broken.yaml"
-    broken.write_text("scenario: skull\nscan: [1, 2\n")
+    broken.write_text("localization:\n  scan: [1, 2\n")
     with pytest.raises(ConfigError, match="not valid YAML"):
         load_config(broken)
-    with pytest.raises(ConfigError, match="unknown scenario 'skul'; shipped: assembly, paper"):
+    with pytest.raises(ConfigError, match="unknown job 'skul'; shipped: assembly, paper"):
         load_config("skul")
 
 
@@ -62,14 +64,16 @@ def test_cli_reports_a_bad_config_in_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = tmp_path / "bad.yaml"
-    path.write_text("scenario: skull\nplacement:\n  range_tilt_deg: 90\n")
+    path.write_text("cell:\n  object:\n    placement:\n      range_tilt_deg: 90\n")
     assert main(["run", str(path), "--out", str(tmp_path / "runs")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "placement.range_tilt_deg" in err[0] and "90" in err[0]
+    assert len(err) == 1 and "cell.object.placement.range_tilt_deg" in err[0] and "90" in err[0]
 
 
 def test_a_failing_run_leaves_results_incomplete_with_the_reason(tmp_path: Path) -> None:
-    config = SkullConfig(model=str(tmp_path / "no_such_mesh.stl"))
+    config = JobConfig(
+        cell=CellSection(object=ObjectSection(model=str(tmp_path / "no_such_mesh.stl")))
+    )
     with pytest.raises(Exception, match="no such file"):
         run_job(config, out=tmp_path / "runs", options=RunOptions(rrd=True))
     folder = (tmp_path / "runs" / "latest").resolve()
@@ -77,7 +81,7 @@ def test_a_failing_run_leaves_results_incomplete_with_the_reason(tmp_path: Path)
     assert results["status"] == "incomplete"
     assert "no such file" in results["reason"]
     written = yaml.safe_load((folder / "config.yaml").read_text())
-    assert written["model"].endswith("no_such_mesh.stl")
+    assert written["cell"]["object"]["model"].endswith("no_such_mesh.stl")
     assert not (folder / "program.mod").exists()
     # The recording had started: it is removed, not left half written.
     assert not (folder / "run.rrd").exists() and not list(folder.glob(".*"))

@@ -15,14 +15,14 @@ import yaml
 from cell import FixedMesh, make_cell
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
-from scenarios.jobs.skull import virtual_and_real
+from scenarios.jobs.pipeline import object_models
 from scenarios.outputs.files import read_ply
 from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
-SHORT = """scenario: skull
-seed: 11
-scan: {speed_m_s: 0.25, period_s: 0.02}
+SHORT = """seed: 11
+localization:
+  scan: {speed_m_s: 0.25, period_s: 0.02}
 """
 
 
@@ -44,12 +44,12 @@ def test_run_folder_has_every_file(folder: Path) -> None:
     assert not list(folder.glob(".*"))  # no temporary file left behind
     # The resolved config reloads to the same configuration.
     written = load_config(folder / "config.yaml")
-    assert written.seed == 11 and written.scan.speed_m_s == 0.25
+    assert written.seed == 11 and written.localization.scan.speed_m_s == 0.25
 
 
 def test_results_json_has_the_keys_and_consistent_numbers(folder: Path) -> None:
     results = json.loads((folder / "results.json").read_text())
-    assert results["status"] == "complete" and results["scenario"] == "skull"
+    assert results["status"] == "complete" and results["job"] == "short"
     assert results["seed"] == 11 and results["scan_points"] >= 10_000
     reg = results["registration"]
     for key in ("rms_m", "rotation_error_deg", "translation_error_m", "ambiguity", "verdict"):
@@ -74,14 +74,14 @@ def test_true_targets_agree_with_an_independent_rebuild_of_the_truth(folder: Pat
     place the real targets; the run's evaluator must have used the same points."""
     results = json.loads((folder / "results.json").read_text())
     config = load_config(folder / "config.yaml")
-    _, real = virtual_and_real(config)
+    _, real = object_models(config)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 5]))
-    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
+    T_table_true = draw_true_pose(config.cell.object.placement, real.mesh.vertices, rng)
     fixture = FixedMesh("object", real.mesh.vertices, real.mesh.faces, T_table_true)
-    _, truth = make_cell(cell_config(config.noise, config.seed, (fixture,)))
+    _, truth = make_cell(cell_config(config.cell.noise, config.seed, (fixture,)))
     assert results["table_position_m"] == 0.0  # the rebuilt table sits there too
     T = truth.T_base_object("object")
-    offset = config.program.touch_offset_m
+    offset = config.operations.touch_offset_m
     for hole, row in zip(real.burr_holes, results["targets"], strict=True):
         p = T[:3, :3] @ (hole.p_entry - offset * hole.direction) + T[:3, 3]
         # The table's per-move repeatability (0.01 mm sigma) separates the two.
@@ -110,4 +110,4 @@ def test_latest_points_at_the_run(folder: Path) -> None:
     latest = folder.parent / "latest"
     assert latest.is_symlink() and latest.resolve() == folder
     config = yaml.safe_load((folder / "config.yaml").read_text())
-    assert config["scenario"] == "skull"
+    assert config["kind"] == "cell" and config["name"] == "short"

@@ -9,8 +9,8 @@ from igl import point_mesh_squared_distance
 
 from cell import FixedMesh, make_cell, nominal_T_base_table
 from registration import Acceptance, MeshModel, pose_error, transform_points
-from scenarios.jobs.config import Scan, SkullConfig
-from scenarios.jobs.skull import virtual_and_real
+from scenarios.jobs.config import JobConfig, LocalizationSection, Scan
+from scenarios.jobs.pipeline import object_models
 from scenarios.offline.localization import localize
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.program import burr_hole_operations, execute_program, plan_program
@@ -23,11 +23,12 @@ SHORT_SCAN = Scan(speed_m_s=0.25, period_s=0.02)
 
 @pytest.fixture(scope="module")
 def run() -> dict:
-    config = SkullConfig(seed=12, scan=SHORT_SCAN)
-    virtual, real = virtual_and_real(config)
+    config = JobConfig(seed=12, localization=LocalizationSection(scan=SHORT_SCAN))
+    virtual, real = object_models(config)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 5]))
-    T_table_nominal = nominal_pose(config.placement, virtual.mesh.vertices)
-    T_table_true = draw_true_pose(config.placement, real.mesh.vertices, rng)
+    placement = config.cell.object.placement
+    T_table_nominal = nominal_pose(placement, virtual.mesh.vertices)
+    T_table_true = draw_true_pose(placement, real.mesh.vertices, rng)
     fixture = FixedMesh(
         "object",
         real.mesh.vertices,
@@ -35,23 +36,23 @@ def run() -> dict:
         T_table_true,
         convex_pieces=tuple(p.vertices for p in real.convex_pieces),
     )
-    controller, truth = make_cell(cell_config(config.noise, config.seed, (fixture,)))
+    controller, truth = make_cell(cell_config(config.cell.noise, config.seed, (fixture,)))
     box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
-    plan = plan_scan(controller.kinematics, box, config.scan, controller.read_joints())
-    scan = execute_scan(controller, plan, config.scan)
+    plan = plan_scan(controller.kinematics, box, SHORT_SCAN, controller.read_joints())
+    scan = execute_scan(controller, plan, SHORT_SCAN)
     points = scan.points_table[crop_to_object(scan.points_table, box, 0.06)]
     located = localize(
         points,
         MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
-        config.registration.max_points,
+        config.localization.registration.max_points,
         Acceptance(max_rms=1e-3, max_predicted_tre=1e-3),
         config.seed,
-        config.registration.voxel_m,
+        config.localization.registration.voxel_m,
     )
     out = {"config": config, "located": located, "points": points, "real": real}
     out["T_table_true"], out["truth"] = T_table_true, truth
-    offset = config.program.touch_offset_m
-    ops = burr_hole_operations(virtual.burr_holes, config.program.approach_m, offset)
+    offset = config.operations.touch_offset_m
+    ops = burr_hole_operations(virtual.burr_holes, config.operations.approach_m, offset)
     program = plan_program(
         controller.kinematics,
         controller.T_flange_tcp("screwer"),
@@ -65,7 +66,7 @@ def run() -> dict:
     def touched(name: str) -> None:  # the truth, read by the test itself
         touches[name] = (truth.T_base_tcp("screwer").copy(), truth.T_base_object("object"))
 
-    execute_program(controller, program, config.program.touch_speed_m_s, on_touch=touched)
+    execute_program(controller, program, config.operations.touch_speed_m_s, on_touch=touched)
     out["touches"], out["program"] = touches, program
     return out
 
@@ -93,7 +94,7 @@ def test_registration_is_accepted_and_close_to_the_true_pose(run: dict) -> None:
 
 
 def test_touched_targets_are_within_tolerance_of_the_true_targets(run: dict) -> None:
-    offset = run["config"].program.touch_offset_m
+    offset = run["config"].operations.touch_offset_m
     errors = []
     for hole in run["real"].burr_holes:
         T_tcp, T_object = run["touches"][hole.name]

@@ -44,7 +44,7 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
     accepted = verdict == "accepted"
     rotation_deg = registration.get("rotation_error_deg")
     row: dict[str, Any] = {
-        "scenario": results.get("scenario"),
+        "job": results.get("job"),
         "model": results.get("model"),
         "run_status": results.get("status"),
         "n_points": results.get("scan_points"),

@@ -7,13 +7,14 @@ scalars otherwise (`true`, `skull`).
 
 from __future__ import annotations
 
-import copy
 import itertools
 from typing import Any
 
 import yaml
 
 from scenarios.campaign.errors import CampaignError
+from scenarios.jobs.config import ConfigError
+from scenarios.jobs.config import set_dotted as config_set_dotted
 
 Sweep = tuple[tuple[str, tuple[Any, ...]], ...]
 """Ordered (key, values) pairs; the sweep points are their cross product."""
@@ -68,18 +69,9 @@ def sweep_points(sweep: Sweep) -> list[dict[str, Any]]:
 
 
 def set_dotted(config: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
-    """A deep copy of `config` with the dotted `key` set to `value`. Every part of the path
-    but the last must already exist (a typo is refused, naming the keys that exist)."""
-    out = copy.deepcopy(config)
-    node = out
-    parts = key.split(".")
-    for depth, part in enumerate(parts):
-        if not isinstance(node, dict) or part not in node:
-            where = ".".join(parts[:depth]) or "(top)"
-            valid = sorted(node) if isinstance(node, dict) else []
-            raise CampaignError(f"unknown config key {key!r}: {where} has keys {valid}")
-        if depth == len(parts) - 1:
-            node[part] = value
-        else:
-            node = node[part]
-    return out
+    """A deep copy of `config` with the dotted `key` set to `value` (see
+    scenarios.jobs.config.set_dotted); a typo raises CampaignError naming the keys that exist."""
+    try:
+        return config_set_dotted(config, key, value)
+    except ConfigError as exc:
+        raise CampaignError(str(exc)) from None

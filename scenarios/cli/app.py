@@ -177,9 +177,17 @@ def run(
     out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
     model: Annotated[
         str | None,
-        typer.Option("--model", help="Replace the skull by this mesh (.stl, .obj, .ply)."),
+        typer.Option("--model", help="Replace the job's object by this mesh (.stl, .obj, .ply)."),
     ] = None,
     units: Annotated[str, typer.Option("--units", help="Units of --model: mm or m.")] = "mm",
+    assign: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            help="KEY=VALUE: set any configuration value by its dotted key (e.g. "
+            "cell.noise.laser_sigma_m=2e-4, calibration.enabled=false); repeatable.",
+        ),
+    ] = None,
     spawn: Annotated[bool, typer.Option("--spawn", help="Show the run in a rerun viewer.")] = False,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write run.rrd.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
@@ -187,13 +195,17 @@ def run(
     """Run a job headless and write a run folder (results, table, figures, recording)."""
     from rich.console import Console
 
+    from scenarios.jobs.config import parse_assignment
     from scenarios.jobs.runner import RunOptions, run_job
 
     def progress(message: str) -> None:
         if not quiet:
             typer.echo(f"  {message}", err=True)
 
-    overrides = {} if model is None else {"model": model, "units": units}
+    overrides: dict[str, object] = {}
+    if model is not None:
+        overrides |= {"cell.object.model": model, "cell.object.units": units}
+    overrides |= dict(parse_assignment(text) for text in assign or [])
     folder, results = run_job(
         name,
         seed=seed,
@@ -204,8 +216,8 @@ def run(
     )
     if "table" in results:
         typer.echo(results["table"])
-    elif results.get("scenario") in ("skull", "assembly"):
-        from scenarios.jobs.results import results_table
+    else:
+        from scenarios.jobs.result import results_table
 
         Console().print(results_table(results))
     typer.echo(f"run folder: {folder}")

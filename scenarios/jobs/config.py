@@ -1,12 +1,24 @@
-"""Run configurations: YAML files validated by pydantic (an unknown key or a bad value is named).
+"""Job configurations: YAML files validated by pydantic (an unknown key or a bad value is
+named, with the valid keys near it).
 
-Shipped configurations live in `scenarios/configs/<name>.yaml`; `load_config("skull")` reads a
-shipped one, `load_config("my.yaml")` a user's file. Values are SI ([m], [rad] where the key
-says so, degrees only in keys ending in `_deg`).
+A cell job is one configuration of the one pipeline (scenarios.jobs.pipeline):
+- `cell`: the robot, the object and how it is placed, the cell's error sources;
+- `calibration`: the in-cell kinematic calibration before anything else;
+- `localization`: 3D surface matching (`surface`), 2D IR edge probing (`probe`), or both
+  side by side (the first one's pose drives the program);
+- `operations`: what the program does and where its targets come from;
+- `checks`: the goals the run is held to.
+The seed paper's experiments (`kind: paper`) are a job of their own.
+
+Shipped configurations live in `scenarios/jobs/configs/<name>.yaml`; `load_config("skull")`
+reads a shipped one, `load_config("my.yaml")` a user's file, and `--set KEY=VALUE` overrides
+any value by its dotted key. Values are SI ([m], [rad] where the key says so, degrees only in
+keys ending in `_deg`).
 """
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import Any, Literal
 
@@ -64,12 +76,17 @@ class ScanPass(_Section):
 
 
 class Scan(_Section):
-    """The scan plan's parameters."""
+    """The scan plan's parameters: the laser's stand-off [m], sweep speed [m/s] and line
+    period [s], the sweep's margin beyond the object's nominal footprint [m], the passes; the
+    points kept as the object's are those above the table within its nominal footprint
+    enlarged by `crop_margin_m` [m] (how far the object may lie from where it is believed to
+    be), and the scan must keep at least `min_points` of them."""
 
     standoff_m: float = Field(0.28, gt=0.05, le=0.6)
     speed_m_s: float = Field(0.1, gt=0.0, le=0.5)
     period_s: float = Field(0.01, ge=0.002, le=0.5)
     margin_m: float = Field(0.04, ge=0.0, le=0.3)
+    crop_margin_m: float = Field(0.06, ge=0.0, le=0.3)
     min_points: int = Field(10_000, ge=100)
     passes: tuple[ScanPass, ...] = Field(
         (
@@ -101,18 +118,6 @@ class Registration(_Section):
     max_rms_m: float = Field(1.0e-3, gt=0.0)
     max_predicted_tre_m: float = Field(1.0e-3, gt=0.0)
     min_inlier_fraction: float = Field(0.5, gt=0.0, le=1.0)
-
-
-class Program(_Section):
-    """The offline program: tool, approach and touch moves. The pointer (the screwer's tip)
-    ends in a ball of 3 mm radius around its TCP: a `touch_offset_m` of 4 mm stops the ball
-    1 mm before the entry, along the trajectory."""
-
-    tool: Literal["screwer"] = "screwer"
-    approach_m: float = Field(0.06, gt=0.0, le=0.3)
-    touch_offset_m: float = Field(0.004, ge=0.0, le=0.05)
-    touch_speed_m_s: float = Field(0.02, gt=0.0, le=0.5)
-    spins: int = Field(12, ge=1, le=72)
 
 
 class Calibration(_Section):
@@ -149,71 +154,122 @@ class Output(_Section):
     plots: bool = True
 
 
-class SkullConfig(_Section):
-    """The skull job: scan, match, correct, touch the burr-hole entries, evaluate."""
+class ObjectSection(_Section):
+    """The object of the job: a built-in model (`skull`, `bracket`, `housing`, `lid`,
+    `ellipsoid`) or a mesh file in `units`, `fixed` on the table or lying `loose` on it (a
+    part the gripper picks), at a pose drawn around the nominal one. Its operation targets
+    come from the model (burr holes, screw frames), from `targets_file`, from a
+    `<mesh>.targets.yaml` beside a mesh file, or are generated on its upper surface."""
 
-    scenario: Literal["skull"] = "skull"
-    seed: int = Field(0, ge=0)
     model: str = "skull"
-    units: str = "mm"
-    targets_file: str | None = None
+    units: Literal["m", "mm"] = "mm"
+    fixing: Literal["fixed", "loose"] = "fixed"
     placement: Placement = Placement()
+    targets_file: str | None = None
+
+
+class CellSection(_Section):
+    """The cell: the object and the error sources of the real cell and of the model."""
+
+    object: ObjectSection = ObjectSection()
     noise: Noise = Noise()
+
+
+class Probe(_Section):
+    """2D adjusting by IR edge probing: the IR sensor looks down from `height_m` [m] above the
+    table along the probe lines that the part's model defines."""
+
+    height_m: float = Field(0.03, gt=0.01, le=0.1)
+
+
+class LocalizationSection(_Section):
+    """How the object is located: `methods` in order, each of `surface` (laser scan matched
+    to the virtual model) and `probe` (IR edge probing, position and heading only); the first
+    one's pose drives the program, the others are run side by side for comparison."""
+
+    methods: tuple[Literal["surface", "probe"], ...] = Field(("surface",), min_length=1)
     scan: Scan = Scan()
     registration: Registration = Registration()
-    program: Program = Program()
-    calibration: Calibration = Calibration()
-    output: Output = Output()
+    probe: Probe = Probe()
+
+    @model_validator(mode="after")
+    def _distinct(self) -> LocalizationSection:
+        if len(set(self.methods)) != len(self.methods):
+            raise ValueError(f"methods must not repeat, got {list(self.methods)}")
+        return self
 
 
-class AssemblyConfig(_Section):
-    """The assembly job: locate a part by IR edge probing (2D) and by surface matching (3D),
-    pick it, change tool and drive its screws."""
+class Pick(_Section):
+    """A pick before the operations: the gripper takes the part at its operation frame
+    `frame` (turned `turn_deg` about its z so that the fingers close across it), lifts it
+    `lift_m` [m] at `speed_m_s`, holds it `hold_s` [s], puts it down where it took it and
+    opens to `open_m` [m]."""
 
-    scenario: Literal["assembly"] = "assembly"
-    seed: int = Field(0, ge=0)
-    part: Literal["bracket"] = "bracket"  # the part with IR probe lines
-    placement: Placement = Placement(
-        yaw_deg=0.0, range_xy_m=0.015, range_yaw_deg=6.0, range_tilt_deg=0.0, lift_m=0.0
-    )
-    # A machined part differs from its CAD model by its tolerance (0.05 mm), not by a CT
-    # segmentation's 0.3 mm.
-    noise: Noise = Noise(model_deformation_rms_m=5.0e-5, model_noise_rms_m=2.0e-5)
-    # From above, the L-bracket's two legs (50 and 56 mm) nearly swap under a half turn and
-    # the part could slide along its length: the side passes see its L-shaped end faces, and
-    # the search runs without the 2D pose (an independent method).
-    scan: Scan = Scan(
-        standoff_m=0.25,
-        passes=(
-            ScanPass(tilt_deg=0.0, offset_m=0.0),
-            ScanPass(tilt_deg=30.0, offset_m=-0.03),
-            ScanPass(tilt_deg=45.0, heading_deg=90.0),
-            ScanPass(tilt_deg=45.0, heading_deg=-90.0),
-        ),
-        min_points=3000,
-    )
-    # One point per 1 mm cube: the end faces and the hole rims that tell the bracket's
-    # pose apart are a few millimetres wide.
-    registration: Registration = Registration(voxel_m=0.001, max_points=4000)
-    calibration: Calibration = Calibration()
+    frame: str = "grasp"
+    turn_deg: float = Field(90.0, ge=-180.0, le=180.0)
+    approach_m: float = Field(0.08, gt=0.0, le=0.3)
+    lift_m: float = Field(0.04, ge=0.0, le=0.2)
+    speed_m_s: float = Field(0.05, gt=0.0, le=0.5)
+    hold_s: float = Field(1.0, ge=0.0, le=10.0)
+    open_m: float = Field(0.03, gt=0.0, le=0.08)
+
+
+class OperationsSection(_Section):
+    """What the program does at each target of the object, with `tool`:
+    - `touch`: the tool tip stops `touch_offset_m` [m] before the target's entry, along its
+      axis (the pointer touching a burr-hole entry);
+    - `screw`: the same, then the screwer spins `screw_speed_rad_s` for `screw_s`.
+    Each starts from `approach_m` back along the axis and moves there at `touch_speed_m_s`;
+    the tool may spin about its axis (`spins` tried) for reach. `per_method: true` runs the
+    operations once with each localization method's pose (to compare them); otherwise with
+    the first method's. An optional `pick` comes first (with the first method's pose)."""
+
+    kind: Literal["touch", "screw"] = "touch"
+    tool: Literal["screwer"] = "screwer"
+    approach_m: float = Field(0.06, gt=0.0, le=0.3)
     touch_offset_m: float = Field(0.004, ge=0.0, le=0.05)
-    probe_height_m: float = Field(0.03, gt=0.01, le=0.1)
+    touch_speed_m_s: float = Field(0.02, gt=0.0, le=0.5)
+    spins: int = Field(12, ge=1, le=72)
+    screw_speed_rad_s: float = Field(20.0, gt=0.0, le=200.0)
+    screw_s: float = Field(0.5, ge=0.0, le=10.0)
+    per_method: bool = False
+    pick: Pick | None = None
+
+
+class Checks(_Section):
+    """The goals a run is held to: RMS and largest error of the achieved tool tips against
+    the true targets [m] (None: no goal). A match that is not accepted stops the run before
+    any motion towards the object, whatever the goals."""
+
+    target_error_rms_m: float | None = Field(0.5e-3, gt=0.0)
+    target_error_max_m: float | None = Field(1.0e-3, gt=0.0)
+
+
+class JobConfig(_Section):
+    """A cell job: calibrate, scan, localize, program, execute, evaluate, export (see the
+    module's docstring for the sections)."""
+
+    kind: Literal["cell"] = "cell"
+    name: str = "job"
+    seed: int = Field(0, ge=0)
+    cell: CellSection = CellSection()
+    calibration: Calibration = Calibration()
+    localization: LocalizationSection = LocalizationSection()
+    operations: OperationsSection = OperationsSection()
+    checks: Checks = Checks()
     output: Output = Output()
 
 
 class PaperConfig(_Section):
     """The seed paper's experiments on the ellipsoid."""
 
-    scenario: Literal["paper"] = "paper"
+    kind: Literal["paper"] = "paper"
+    name: str = "paper"
     seed: int = Field(0, ge=0)
 
 
-Config = SkullConfig | AssemblyConfig | PaperConfig
-_KINDS: dict[str, type[BaseModel]] = {
-    "skull": SkullConfig,
-    "assembly": AssemblyConfig,
-    "paper": PaperConfig,
-}
+Config = JobConfig | PaperConfig
+_KINDS: dict[str, type[BaseModel]] = {"cell": JobConfig, "paper": PaperConfig}
 
 
 def shipped_names() -> tuple[str, ...]:
@@ -247,32 +303,75 @@ def read_yaml_mapping(path: Path, error: type[Exception] = ConfigError) -> dict[
 
 
 def parse_config(data: dict[str, Any], source: str = "config") -> Config:
-    """Validate a configuration mapping; its `scenario` key picks the kind."""
+    """Validate a configuration mapping; its `kind` key ("cell" by default) picks the
+    schema."""
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: a configuration must be a mapping, got {type(data).__name__}")
-    kind = data.get("scenario")
+    kind = data.get("kind", "cell")
     if kind not in _KINDS:
-        raise ConfigError(f"{source}: 'scenario' must be one of {sorted(_KINDS)}, got {kind!r}")
+        raise ConfigError(f"{source}: 'kind' must be one of {sorted(_KINDS)}, got {kind!r}")
     try:
         return _KINDS[kind].model_validate(data)  # type: ignore[return-value]
     except ValidationError as exc:
         raise ConfigError(f"{source}: {describe_validation_error(exc)}") from None
 
 
+def set_dotted(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+    """A deep copy of the mapping `data` with the dotted `key` (e.g. "cell.noise.laser_sigma_m")
+    set to `value`. Every part of the path but the last must already exist: a typo is refused,
+    naming the keys that do."""
+    out = copy.deepcopy(data)
+    node = out
+    parts = key.split(".")
+    for depth, part in enumerate(parts):
+        if not isinstance(node, dict) or part not in node:
+            where = ".".join(parts[:depth]) or "(top)"
+            valid = ", ".join(sorted(node)) if isinstance(node, dict) else "none (not a section)"
+            raise ConfigError(f"unknown key {key!r}: the keys of {where} are {valid}")
+        if depth == len(parts) - 1:
+            node[part] = value
+        else:
+            node = node[part]
+    return out
+
+
+def with_overrides(config: Config, overrides: dict[str, Any], source: str = "--set") -> Config:
+    """The configuration with each dotted key of `overrides` set to its value, validated as
+    the YAML is (a bad key or value raises ConfigError naming it)."""
+    data = config.model_dump(mode="json")
+    for key, value in overrides.items():
+        data = set_dotted(data, key, value)
+    return parse_config(data, source)
+
+
+def parse_assignment(text: str) -> tuple[str, Any]:
+    """KEY=VALUE of `--set`: the value read as YAML (numbers, true/false, null, lists)."""
+    key, sep, raw = text.partition("=")
+    if not sep or not key.strip():
+        raise ConfigError(f"--set takes KEY=VALUE with a dotted KEY, got {text!r}")
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else ""
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"--set {text!r}: the value is not valid YAML ({exc})") from None
+    return key.strip(), value
+
+
 def load_config(name_or_path: str | Path, overrides: dict[str, Any] | None = None) -> Config:
-    """A shipped configuration by name or a YAML file by path, with `overrides` (top-level
-    keys such as seed, model, units) applied before validation."""
+    """A shipped configuration by name or a YAML file by path, with `overrides` (dotted keys,
+    e.g. {"seed": 3, "cell.object.model": "part.stl"}) applied and validated. A configuration
+    without a `name` is named after its file."""
     text = str(name_or_path)
     path = Path(text)
     if text in shipped_names():
         path = CONFIG_DIR / f"{text}.yaml"
     elif path.suffix not in (".yaml", ".yml"):
         raise ConfigError(
-            f"unknown scenario {text!r}; shipped: {', '.join(shipped_names())}, or give a "
-            f".yaml file"
+            f"unknown job {text!r}; shipped: {', '.join(shipped_names())}, or give a .yaml file"
         )
-    data = {**read_yaml_mapping(path), **(overrides or {})}
-    return parse_config(data, str(path))
+    data = read_yaml_mapping(path)
+    data.setdefault("name", path.stem)
+    config = parse_config(data, str(path))
+    return with_overrides(config, overrides, str(path)) if overrides else config
 
 
 def config_yaml(config: Config) -> str:

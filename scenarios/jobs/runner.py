@@ -1,10 +1,10 @@
-"""`twincell run NAME|CONFIG.yaml`: the registry of runnable jobs and the run-folder protocol.
+"""`twincell run NAME|CONFIG.yaml`: the run-folder protocol around a job.
 
-A job is a function (config, run folder, progress, options) -> results. The runner creates
-the folder, writes the resolved config.yaml first and results.json last; if the job fails or
-is interrupted, results.json says "status": "incomplete" with the reason, and the error goes
-on. A job may report its own status (the skull job says "refused" when the match is not
-accepted).
+A job is a configuration: a cell job (scenarios.jobs.pipeline) or the seed paper's
+experiments. The runner creates the folder, writes the resolved config.yaml first and
+results.json last, in one place; if the job fails or is interrupted, results.json says
+"status": "incomplete" with the reason, and the error goes on. A cell job reports its own
+status ("refused" when the localization is not accepted).
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from typing import Any
 
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import (
-    AssemblyConfig,
     Config,
+    JobConfig,
     PaperConfig,
-    SkullConfig,
     config_yaml,
     load_config,
+    with_overrides,
 )
 from scenarios.outputs.run_folder import RunFolder
 
@@ -65,39 +65,25 @@ def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
     return Recording(folder.file("run.rrd"), spawn=options.spawn)
 
 
-def _recorded(
-    run: Any, config: Any, folder: RunFolder, progress: Progress, options: RunOptions
+def _cell(
+    config: JobConfig, folder: RunFolder, progress: Progress, options: RunOptions
 ) -> dict[str, Any]:
-    """Run a scenario with its recording; the recording is kept only if the run completes."""
+    """A cell job through the pipeline, with its recording (kept only if the run completes)."""
+    from scenarios.jobs.pipeline import run_cell_job
+
     recording = _recording(folder, config, options)
     try:
-        results = run(config, folder.path, progress, recording)
+        result = run_cell_job(config, folder.path, progress, recording)
     except BaseException:
         if recording is not None:
             recording.close(keep=False)
         raise
     if recording is not None:
         recording.close(keep=True)
-    return results
+    return result.to_json()
 
 
-def _skull(
-    config: SkullConfig, folder: RunFolder, progress: Progress, options: RunOptions
-) -> dict[str, Any]:
-    from scenarios.jobs.skull import run_skull
-
-    return _recorded(run_skull, config, folder, progress, options)
-
-
-def _assembly(
-    config: AssemblyConfig, folder: RunFolder, progress: Progress, options: RunOptions
-) -> dict[str, Any]:
-    from scenarios.jobs.assembly import run_assembly
-
-    return _recorded(run_assembly, config, folder, progress, options)
-
-
-JOBS: dict[str, Job] = {"paper": _paper, "skull": _skull, "assembly": _assembly}
+JOBS: dict[str, Job] = {"paper": _paper, "cell": _cell}
 
 
 def run_job(
@@ -109,33 +95,30 @@ def run_job(
     options: RunOptions | None = None,
 ) -> tuple[Path, dict[str, Any]]:
     """Run a shipped job by name, a YAML config by path, or a config object, into a new run
-    folder; returns the folder and the results. `seed` and `overrides` (top-level keys such
-    as model, units) replace the file's values."""
+    folder; returns the folder and the results. `seed` and `overrides` (dotted keys, e.g.
+    {"cell.object.model": "part.stl"}) replace the configuration's values."""
     extra = dict(overrides or {})
     if seed is not None:
         extra["seed"] = seed
-    if isinstance(name, SkullConfig | AssemblyConfig | PaperConfig):
-        config: Config = type(name).model_validate({**name.model_dump(), **extra})
+    if isinstance(name, JobConfig | PaperConfig):
+        config: Config = with_overrides(name, extra) if extra else name
     else:
         config = load_config(name, extra)
-    if config.scenario not in JOBS:
-        raise ScenarioError(
-            f"unknown scenario {config.scenario!r}; available: {', '.join(sorted(JOBS))}"
-        )
+    if config.kind not in JOBS:
+        raise ScenarioError(f"unknown kind {config.kind!r}; available: {', '.join(sorted(JOBS))}")
     say = progress or (lambda _msg: None)
-    label = config.scenario if not isinstance(name, str | Path) else Path(str(name)).stem
-    folder = RunFolder(out, label)
+    folder = RunFolder(out, config.name)
     folder.write_text("config.yaml", config_yaml(config))
     results: dict[str, Any] = {
         "status": "incomplete",
         "reason": "running",
-        "scenario": config.scenario,
+        "job": config.name,
         "seed": config.seed,
     }
     folder.write_json("results.json", results)
     t0 = time.perf_counter()
     try:
-        results.update(JOBS[config.scenario](config, folder, say, options or RunOptions()))
+        results.update(JOBS[config.kind](config, folder, say, options or RunOptions()))
     except BaseException as exc:
         reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"{exc}"
         results.update(status="incomplete", reason=reason)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, nominal_T_base_table
+from models import ProbeLine
 from scenarios.errors import ScenarioError
 from scenarios.offline.moves import change_tool_safely
 
@@ -24,19 +25,6 @@ _R_DOWN = np.diag([1.0, -1.0, -1.0])
 
 class EdgeNotFoundError(ScenarioError, LookupError):
     """The height step of an edge was not where the probe line searched for it."""
-
-
-@dataclass(frozen=True)
-class EdgeProbe:
-    """A probe line across one edge of the part, in the part's NOMINAL frame [m]:
-    `p_inside` lies on the part's top face, `p_outside` beyond the edge on the table; the
-    edge is the line {x: n . x = offset} of the part frame, n the unit outward normal."""
-
-    name: str
-    p_inside: np.ndarray
-    p_outside: np.ndarray
-    normal: np.ndarray
-    offset: float
 
 
 @dataclass(frozen=True)
@@ -118,7 +106,7 @@ def find_edge(
 
 
 def pose_from_edges(
-    probes: tuple[EdgeProbe, ...], points_table: np.ndarray, z_m: float
+    probes: tuple[ProbeLine, ...], points_table: np.ndarray, z_m: float
 ) -> np.ndarray:
     """T_table_object (4, 4) of a flat part from edge points (K, 3): the heading from two
     points of the first edge (its probes 0 and 1), the position from every edge's offset."""
@@ -140,7 +128,7 @@ def pose_from_edges(
 
 
 def _first_edge_update(
-    probes: tuple[EdgeProbe, ...], points_table: np.ndarray, T_table_nominal: np.ndarray
+    probes: tuple[ProbeLine, ...], points_table: np.ndarray, T_table_nominal: np.ndarray
 ) -> np.ndarray:
     """The nominal pose turned to the heading of the first edge and moved along its normal
     onto it (along the edge, the position stays nominal)."""
@@ -159,10 +147,9 @@ def _first_edge_update(
 
 def probe_part(
     controller: Controller,
-    probes: tuple[EdgeProbe, ...],
+    probes: tuple[ProbeLine, ...],
     T_table_nominal: np.ndarray,
     height_m: float,
-    step_m: float,
     resolution_m: float = 1e-4,
     progress: Progress | None = None,
 ) -> ProbeResult:
@@ -181,7 +168,7 @@ def probe_part(
     for k, probe in enumerate(probes):
         R, t = T_guess[:3, :3], T_guess[:3, 3]
         p_in, p_out = R @ probe.p_inside + t, R @ probe.p_outside + t
-        point, n = find_edge(controller, p_in, p_out, height_m, step_m, resolution_m)
+        point, n = find_edge(controller, p_in, p_out, height_m, probe.step_m, resolution_m)
         points.append(point)
         total += n
         say(f"IR edge {probe.name}: found after {n} readings")

@@ -13,10 +13,9 @@ from models import ObjectModel
 from models.atomic import write_atomic
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import program_module
-from scenarios.realcell.evaluation import TargetEvaluation
 
 if TYPE_CHECKING:
-    from scenarios.offline.localization import Localization
+    from scenarios.jobs.result import RunResult
 
 
 def write_ply(path: Path, points: np.ndarray) -> Path:
@@ -47,21 +46,20 @@ def write_program(path: Path, program: OfflineProgram, T_table_nominal: np.ndarr
     return write_atomic(path, lambda tmp: tmp.write_text(text))
 
 
-def write_plots(
-    folder: Path,
-    located: Localization | None,
-    targets: tuple[TargetEvaluation, ...],
-    predicted_tre: np.ndarray | None,
-    virtual: ObjectModel,
+def write_figures(
+    folder: Path, result: RunResult, surface: Any | None, virtual: ObjectModel
 ) -> list[Path]:
-    """registration.png (ICP rms per iteration; scan points seen from above) and
-    targets.png (achieved error against predicted TRE per target)."""
+    """The run's figures: registration.png (the final ICP's RMS per iteration, the scan points
+    used seen from above) when a surface match ran; targets.png (each target's achieved error
+    against its predicted TRE, with the goals); methods.png when several localization methods
+    ran side by side (each one's pose error and target errors)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     written = []
+    located = None if surface is None else surface.localization
     if located is not None:
         fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
         history = np.asarray(located.result.history) * 1e3
@@ -78,80 +76,82 @@ def write_plots(
         fig.tight_layout()
         written.append(_save(fig, folder / "registration.png"))
         plt.close(fig)
-    if targets:
-        names = [t.name for t in targets]
-        by_name = {h.name: i for i, h in enumerate(virtual.burr_holes)}
+    primary = result.primary
+    if primary.targets:
+        names = [t.name for t in primary.targets]
         fig, ax = plt.subplots(figsize=(7, 4))
         x = np.arange(len(names))
-        ax.bar(x - 0.2, [t.error_m * 1e3 for t in targets], 0.4, label="achieved error")
-        if predicted_tre is not None:
-            ax.bar(
-                x + 0.2,
-                [predicted_tre[by_name[n]] * 1e3 for n in names],
-                0.4,
-                label="predicted TRE",
-            )
-        ax.axhline(1.0, color="r", ls="--", lw=1, label="goal max 1 mm")
-        ax.axhline(0.5, color="orange", ls=":", lw=1, label="goal rms 0.5 mm")
+        ax.bar(x - 0.2, [t.error_m * 1e3 for t in primary.targets], 0.4, label="achieved error")
+        if primary.predicted_tre_m:
+            ax.bar(x + 0.2, np.array(primary.predicted_tre_m) * 1e3, 0.4, label="predicted TRE")
+        goals = (
+            ("target_error_max_m", "r", "--", "max"),
+            ("target_error_rms_m", "orange", ":", "rms"),
+        )
+        for name, colour, style, label in goals:
+            if name in result.checks:
+                limit = result.checks[name][0] * 1e3
+                ax.axhline(limit, color=colour, ls=style, lw=1, label=f"goal {label} {limit:g} mm")
         ax.set_xticks(x, names, rotation=20)
         ax.set_ylabel("[mm]")
         ax.legend()
-        ax.set_title("target errors")
+        ax.set_title(f"target errors ({primary.method} pose)")
         fig.tight_layout()
         written.append(_save(fig, folder / "targets.png"))
         plt.close(fig)
+    if len(result.methods) > 1 and any(r.targets for r in result.methods):
+        written.append(_methods_figure(folder, result))
     return written
 
 
-def write_assembly_plot(folder: Path, results: dict[str, Any]) -> Path | None:
-    """assembly.png: the two methods side by side (pose error in rotation and translation,
-    error of each screw tip) from the assembly job's results; None if nothing was driven."""
-    methods = results.get("methods", {})
-    if not any(m.get("targets") for m in methods.values()):
-        return None
-    import matplotlib
+_LABELS = {"surface": "3D surface matching", "probe": "2D IR edge probing"}
 
-    matplotlib.use("Agg")
+
+def _methods_figure(folder: Path, result: RunResult) -> Path:
+    """methods.png: the localization methods side by side: pose error in rotation and
+    translation, and the achieved error of each target with each method's pose."""
     import matplotlib.pyplot as plt
 
-    labels = {"laser_3d": "3D surface matching", "ir_2d": "2D IR edge probing"}
-    names = list(methods)
+    reports = result.methods
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(12, 4), width_ratios=(1, 1, 2))
-    colours = ("tab:blue", "tab:orange")
-    for ax, key, scale, unit in (
-        (a, "rotation_error_deg", 1.0, "deg"),
-        (b, "translation_error_m", 1e3, "mm"),
-    ):
-        values = [methods[n][key] * scale for n in names]
-        ax.bar(range(len(names)), values, color=colours[: len(names)])
-        ax.set_xticks(range(len(names)), [labels.get(n, n) for n in names], rotation=10)
+    colours = ("tab:blue", "tab:orange", "tab:green")
+    labels = [_LABELS.get(r.method, r.method) for r in reports]
+    for ax, values, unit, title in (
+        (a, [np.nan if r.pose is None else r.pose.rotation_error_deg for r in reports], "deg",
+         "pose error, rotation"),
+        (b, [np.nan if r.pose is None else r.pose.translation_error_m * 1e3 for r in reports],
+         "mm", "pose error, translation"),
+    ):  # fmt: skip
+        ax.bar(range(len(reports)), values, color=colours[: len(reports)])
+        ax.set_xticks(range(len(reports)), labels, rotation=10)
         ax.set_ylabel(f"[{unit}]")
-        ax.set_title(f"pose error, {key.split('_')[0]}")
-    screws = [t["name"] for t in methods[names[0]]["targets"]]
-    x = np.arange(len(screws))
-    width = 0.8 / len(names)
-    for k, n in enumerate(names):
-        errors = {t["name"]: t["error_m"] * 1e3 for t in methods[n]["targets"]}
+        ax.set_title(title)
+    names = list(dict.fromkeys(t.name for r in reports for t in r.targets))
+    x = np.arange(len(names))
+    width = 0.8 / len(reports)
+    for k, report in enumerate(reports):
+        errors = {t.name: t.error_m * 1e3 for t in report.targets}
         c.bar(
-            x + (k - (len(names) - 1) / 2) * width,
-            [errors.get(s, np.nan) for s in screws],
+            x + (k - (len(reports) - 1) / 2) * width,
+            [errors.get(n, np.nan) for n in names],
             width,
-            color=colours[k % 2],
-            label=labels.get(n, n),
+            color=colours[k % len(colours)],
+            label=labels[k],
         )
-    c.set_xticks(x, screws)
+    c.set_xticks(x, names, rotation=10)
     c.set_ylabel("[mm]")
-    c.set_title("screw tip against the true screw frame")
+    c.set_title("tool tip against the true target")
     c.legend()
-    pick = results.get("pick")
-    if pick:
-        fig.suptitle(
-            f"assembly, seed {results.get('seed')}: lifted {pick['lifted_m'] * 1e3:.1f} mm, "
-            f"slip {pick['slip_m'] * 1e3:.2f} mm, "
-            f"put down {pick['placed_displacement_m'] * 1e3:.2f} mm from where it was"
+    title = f"{result.job}, seed {result.seed}"
+    if result.pick is not None:
+        pick = result.pick
+        title += (
+            f": lifted {pick.lifted_m * 1e3:.1f} mm, slip {pick.slip_m * 1e3:.2f} mm, put down "
+            f"{pick.placed_displacement_m * 1e3:.2f} mm from where it was"
         )
+    fig.suptitle(title)
     fig.tight_layout()
-    path = _save(fig, folder / "assembly.png")
+    path = _save(fig, folder / "methods.png")
     plt.close(fig)
     return path
 

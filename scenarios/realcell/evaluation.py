@@ -75,6 +75,14 @@ class PickEvaluation:
     placed_displacement_m: float
     placed_rotation_deg: float
 
+    def to_json(self) -> dict[str, float]:
+        return {
+            "lifted_m": self.lifted_m,
+            "slip_m": self.slip_m,
+            "placed_displacement_m": self.placed_displacement_m,
+            "placed_rotation_deg": self.placed_rotation_deg,
+        }
+
 
 @dataclass(frozen=True)
 class KinematicsEvaluation:
@@ -238,23 +246,39 @@ class Evaluator:
         )
 
 
-def calibration_results(
+@dataclass(frozen=True, eq=False)
+class CalibrationReport:
+    """The calibration's figures (None if the job did not calibrate) and, from the truth, the
+    tool's TCP error of the nominal and the calibrated arm at the job's configurations."""
+
+    calibration: CalibrationResult | None
+    nominal: KinematicsEvaluation
+    calibrated: KinematicsEvaluation | None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"enabled": self.calibration is not None}
+        if self.calibration is not None:
+            out.update(self.calibration.summary())
+        for label, e in (("nominal", self.nominal), ("calibrated", self.calibrated)):
+            if e is not None:
+                out[f"tcp_error_{label}_mean_m"] = e.mean_m
+                out[f"tcp_error_{label}_max_m"] = e.max_m
+        out["tcp_error_configurations"] = self.nominal.configurations
+        return out
+
+
+def calibration_report(
     evaluator: Evaluator,
     nominal: Kinematics,
     calibration: CalibrationResult | None,
     q_job: np.ndarray,
     tool: str,
-) -> dict[str, Any]:
+) -> CalibrationReport:
     """The calibration's figures and, from the truth, the TCP error of `tool` on the nominal
     and the calibrated arm at the job's configurations `q_job` (K, 6)."""
-    out: dict[str, Any] = {"enabled": calibration is not None}
-    models = {"nominal": nominal}
+    calibrated = None
     if calibration is not None:
-        out.update(calibration.summary())
-        models["calibrated"] = calibration.kinematics
-    for label, kin in models.items():
-        e = evaluator.kinematics_error(kin, q_job, tool)
-        out[f"tcp_error_{label}_mean_m"] = e.mean_m
-        out[f"tcp_error_{label}_max_m"] = e.max_m
-    out["tcp_error_configurations"] = len(q_job)
-    return out
+        calibrated = evaluator.kinematics_error(calibration.kinematics, q_job, tool)
+    return CalibrationReport(
+        calibration, evaluator.kinematics_error(nominal, q_job, tool), calibrated
+    )

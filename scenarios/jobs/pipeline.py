@@ -1,0 +1,433 @@
+"""The one pipeline of every cell job: calibrate, scan, localize, program, execute, evaluate,
+export.
+
+The runner (`run_cell_job`) alone holds the real cell's truth: it sets the cell up
+(scenarios.realcell), hands the stages the controller and the virtual model, nothing else,
+and asks the evaluator after each stage what really happened. The stages (scenarios.offline)
+see the cell as a program on a real controller would. What the run records of the truth (the
+evaluator's moments, the rerun recording of the bodies) goes through the hooks the runner
+passes to the stages.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cell import Controller, nominal_T_base_table
+from models import ObjectModel, real_model
+from registration import Acceptance, MeshModel
+from scenarios.jobs.config import JobConfig
+from scenarios.jobs.result import MatchReport, MethodReport, RunResult
+from scenarios.offline.calibration import CalibrationResult
+from scenarios.offline.calibration_step import calibrate_arm
+from scenarios.offline.localization import Localization, localize
+from scenarios.offline.operations import grasp_operation, target_operations, virtual_model
+from scenarios.offline.pick import execute_pick
+from scenarios.offline.probing import ProbeResult, probe_part
+from scenarios.offline.program import OfflineProgram, execute_program, plan_program
+from scenarios.offline.scan import ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.outputs import files as outputs
+from scenarios.realcell.cell_log import CellLog
+from scenarios.realcell.evaluation import Evaluator, calibration_report
+from scenarios.realcell.setup import build_job_cell, model_error
+
+Progress = Callable[[str], None]
+
+
+# -- the stages' typed results ------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class ScanStage:
+    """The scan: what the laser measured, which points were kept as the object's (N,), and
+    those points (M, 3) in the nominal table frame."""
+
+    scan: ScanData
+    keep: np.ndarray
+    points_table: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class LocatedPose:
+    """One localization method's pose of the object in the nominal table frame (4, 4), or
+    None; whether it may drive a program, and why not."""
+
+    method: str
+    T_table_object: np.ndarray | None
+    accepted: bool
+    reason: str
+    localization: Localization | None = None
+    probe: ProbeResult | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramStage:
+    """The corrected programs: the pick (if any) and the operations, by method."""
+
+    pick: OfflineProgram | None
+    operations: dict[str, OfflineProgram]
+
+
+# -- the runner's hooks: the truth recorded at the stages' moments -------------------------------
+class RunHooks:
+    """The stages' moments go to the evaluator (it records the truth then), their moves to
+    the recording (the true bodies, the arm's path)."""
+
+    def __init__(self, evaluator: Evaluator, log: CellLog) -> None:
+        self.evaluator = evaluator
+        self.log = log
+
+    def moment(self, name: str, tool: str) -> None:
+        self.evaluator.record_touch(name, tool)
+
+    def moved(self, what: str) -> None:
+        if what == "view":
+            self.log.bodies()
+        else:
+            self.log.moved(what)
+
+
+def _acceptance(config: JobConfig) -> Acceptance:
+    r = config.localization.registration
+    return Acceptance(
+        max_rms=r.max_rms_m,
+        min_inlier_fraction=r.min_inlier_fraction,
+        max_ambiguity=r.max_ambiguity,
+        max_predicted_tre=r.max_predicted_tre_m,
+    )
+
+
+# -- the stages ---------------------------------------------------------------------------------
+def scan_stage(
+    controller: Controller, box: Any, config: JobConfig, say: Progress, hooks: RunHooks
+) -> ScanStage:
+    """Plan the laser passes in the virtual cell, run them on the real one, keep the points
+    within the object's nominal footprint."""
+    section = config.localization.scan
+    plan = plan_scan(controller.kinematics, box, section, controller.read_joints())
+    say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
+    scan = execute_scan(controller, plan, section, say)
+    keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
+    say(f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object")
+    return ScanStage(scan, keep, scan.points_table[keep])
+
+
+def surface_pose(
+    scanned: ScanStage,
+    virtual: ObjectModel,
+    config: JobConfig,
+    prior: np.ndarray | None,
+    say: Progress,
+) -> LocatedPose:
+    """Surface matching of the scan to the virtual model, with a verdict per operation
+    target; too few object points refuse it."""
+    section = config.localization
+    if len(scanned.points_table) < section.scan.min_points:
+        reason = (
+            f"the scan has {len(scanned.points_table)} object points, fewer than the "
+            f"{section.scan.min_points} required"
+        )
+        return LocatedPose("surface", None, False, reason)
+    r = section.registration
+    located = localize(
+        scanned.points_table,
+        MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
+        r.max_points,
+        _acceptance(config),
+        config.seed,
+        r.voxel_m,
+        r.mode,
+        prior,  # the start of mode "refine" only
+        scanned.scan.line_pass[scanned.scan.line_index][scanned.keep],
+        r.pass_sigma_m,
+        targets_model=np.array([h.p_entry for h in virtual.burr_holes]),
+    )
+    m = located.result
+    say(f"match: {m.verdict} (rms {m.rms * 1e3:.3f} mm, ambiguity {m.ambiguity:.2f}, "
+        f"{m.seconds:.2f} s)")  # fmt: skip
+    accepted = m.verdict == "accepted"
+    return LocatedPose("surface", located.T_table_object, accepted, m.reason, localization=located)
+
+
+def program_stage(
+    controller: Controller,
+    virtual: ObjectModel,
+    config: JobConfig,
+    poses: tuple[LocatedPose, ...],
+) -> ProgramStage:
+    """Correct and solve the operations with the first method's pose (and, with
+    `per_method`, once with each accepted method's pose), and the pick before them."""
+    section = config.operations
+    kin = controller.kinematics
+    pick = None
+    if section.pick is not None:
+        pick = plan_program(
+            kin,
+            controller.T_flange_tcp("gripper"),
+            "gripper",
+            (grasp_operation(virtual, section.pick),),
+            poses[0].T_table_object,  # type: ignore[arg-type]
+            controller.read_joints(),
+            spins=2,
+        )
+    operations = target_operations(virtual, section)
+    programs: dict[str, OfflineProgram] = {}
+    for pose in poses if section.per_method else poses[:1]:
+        if pose.T_table_object is None or not pose.accepted:
+            continue
+        prefix = f"{pose.method}:" if section.per_method else ""
+        programs[pose.method] = plan_program(
+            kin,
+            controller.T_flange_tcp(section.tool),
+            section.tool,
+            tuple(replace(op, name=prefix + op.name) for op in operations),
+            pose.T_table_object,
+            controller.read_joints(),
+            section.spins,
+        )
+    return ProgramStage(pick, programs)
+
+
+def execute_stage(
+    controller: Controller,
+    programs: ProgramStage,
+    config: JobConfig,
+    hooks: RunHooks,
+    say: Progress,
+) -> None:
+    """Run the pick, then each program: at each target the tool stops at the touch (and the
+    screwer spins for `screw`)."""
+    section = config.operations
+    if programs.pick is not None and section.pick is not None:
+        execute_pick(controller, programs.pick, section.pick, hooks)
+    for method, program in programs.operations.items():
+
+        def at_target(name: str) -> None:
+            hooks.moment(name, section.tool)
+            if section.kind == "screw":
+                controller.spin_screwer(section.screw_speed_rad_s, section.screw_s)
+
+        execute_program(
+            controller, program, section.touch_speed_m_s, on_touch=at_target, on_move=hooks.moved
+        )
+        say(f"{method}: {len(program.operations)} operations at table {program.table_position_m} m")
+
+
+# -- the runner ---------------------------------------------------------------------------------
+def object_models(config: JobConfig) -> tuple[ObjectModel, ObjectModel]:
+    """The job's object: its virtual model with the operations' targets (what the planner
+    knows) and its real entity (the model error drawn from the seed: the truth)."""
+    virtual = virtual_model(config.cell.object, config.operations.kind, config.seed)
+    real, _ = real_model(virtual, model_error(config.cell.noise), seed=config.seed)
+    return virtual, real
+
+
+def run_cell_job(
+    config: JobConfig,
+    folder: Path,
+    progress: Progress | None = None,
+    recording: Any | None = None,
+) -> RunResult:
+    """Run a cell job into `folder`; returns its result (written by the caller)."""
+    say = progress or (lambda _msg: None)
+    t_total = time.perf_counter()
+    timings: dict[str, float] = {}
+
+    # The virtual model and the real cell (the truth stays here).
+    t0 = time.perf_counter()
+    obj = config.cell.object
+    say(f"model {obj.model!r}: virtual and real entity")
+    virtual, real = object_models(config)
+    loose = obj.fixing == "loose"
+    cell = build_job_cell(
+        virtual,
+        real,
+        obj.placement,
+        config.cell.noise,
+        config.calibration,
+        config.seed,
+        stream=6 if loose else 5,  # the true placement's random stream
+        crop_margin_m=config.localization.scan.crop_margin_m,
+        recording=recording,
+        name="part" if loose else "object",
+        loose=loose,
+        rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
+    )
+    controller, evaluator = cell.controller, cell.evaluator
+    hooks = RunHooks(evaluator, cell.log)
+    timings["setup"] = time.perf_counter() - t0
+
+    # Calibrate: every later stage uses the calibrated arm.
+    nominal = controller.kinematics
+    calibration: CalibrationResult | None = None
+    if config.calibration.enabled:
+        t0 = time.perf_counter()
+        calibration = calibrate_arm(
+            controller, config.calibration, config.seed, say, lambda: hooks.moved("view")
+        )
+        timings["calibrate"] = time.perf_counter() - t0
+        hooks.moved("view")
+
+    # Localize: probing first (quick, and the prior of a surface match in mode "refine"),
+    # then the scan and the surface match.
+    methods = config.localization.methods
+    poses: dict[str, LocatedPose] = {}
+    if "probe" in methods:
+        t0 = time.perf_counter()
+        probed = probe_part(
+            controller,
+            virtual.probe_lines,
+            cell.T_table_nominal,
+            config.localization.probe.height_m,
+            progress=say,
+        )
+        poses["probe"] = LocatedPose("probe", probed.T_table_object, True, "", probe=probed)
+        timings["probe"] = time.perf_counter() - t0
+        hooks.moved("view")
+    scanned = None
+    if "surface" in methods:
+        t0 = time.perf_counter()
+        scanned = scan_stage(controller, cell.box, config, say, hooks)
+        timings["scan"] = time.perf_counter() - t0
+        if recording is not None:
+            recording.log_scan(scanned.scan, scanned.keep, controller.kinematics)
+        hooks.moved("view")
+        outputs.write_ply(folder / "scan.ply", scanned.points_table)
+        t0 = time.perf_counter()
+        prior = poses["probe"].T_table_object if "probe" in poses else None
+        poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
+        timings["register"] = time.perf_counter() - t0
+        located = poses["surface"].localization
+        if recording is not None and located is not None:
+            recording.log_icp(located.result, virtual)
+    ordered = tuple(poses[m] for m in methods)
+    # Each method's pose against the truth, now (a pick may move the part later).
+    s0 = controller.table_position()
+    pose_errors = {
+        p.method: evaluator.pose_error(nominal_T_base_table(s0) @ p.T_table_object)
+        for p in ordered
+        if p.T_table_object is not None
+    }
+
+    # Program and execute, only if the pose that drives the program is accepted.
+    primary = ordered[0]
+    time_at_verdict_s = controller.time_s
+    t0 = time.perf_counter()
+    programs = ProgramStage(None, {})
+    if primary.accepted:
+        programs = program_stage(controller, virtual, config, ordered)
+        execute_stage(controller, programs, config, hooks, say)
+    else:
+        say(f"refused: {primary.reason}; no motion towards the object")
+    timings["execute"] = time.perf_counter() - t0
+    motion_after_match_s = controller.time_s - time_at_verdict_s
+
+    # Evaluate (truth) and export.
+    reports = []
+    for pose in ordered:
+        program = programs.operations.get(pose.method)
+        targets = ()
+        if program is not None:
+            prefix = f"{pose.method}:" if config.operations.per_method else ""
+            targets = tuple(
+                replace(t, name=t.name.removeprefix(prefix))
+                for t in evaluator.targets(
+                    config.operations.touch_offset_m, virtual, program.T_base_object, prefix
+                )
+            )
+        predicted: tuple[float, ...] = ()
+        if pose.localization is not None:
+            holes = np.array([h.p_entry for h in virtual.burr_holes])
+            tre = pose.localization.result.predicted_tre(holes).tre
+            by_name = dict(zip((h.name for h in virtual.burr_holes), tre, strict=True))
+            predicted = tuple(float(by_name[t.name]) for t in targets)
+        reports.append(
+            MethodReport(
+                pose.method,
+                pose.accepted,
+                pose.reason,
+                pose_errors.get(pose.method),
+                targets,
+                predicted,
+                None if pose.probe is None else pose.probe.readings,
+            )
+        )
+    pick_eval = grasp_error = None
+    if programs.pick is not None and config.operations.pick is not None:
+        frame = config.operations.pick.frame
+        pick_eval = evaluator.pick(frame, "pick: closed", "pick: lifted", "pick: placed", frame)
+        grasp_error = evaluator.frame_error(frame, frame)
+        say(
+            f"pick: gripper within {grasp_error * 1e3:.2f} mm of the true grasp frame; lifted "
+            f"{pick_eval.lifted_m * 1e3:.1f} mm, slip {pick_eval.slip_m * 1e3:.3f} mm, put "
+            f"down {pick_eval.placed_displacement_m * 1e3:.3f} mm from where it was"
+        )
+    primary_program = programs.operations.get(primary.method)
+    if primary_program is not None:
+        outputs.write_program(folder / "program.mod", primary_program, cell.T_table_nominal)
+        if recording is not None:
+            recording.log_targets(primary_program, reports[0].targets)
+    # The arm's accuracy, from the truth, where the job used it: scan lines and targets.
+    q_job = np.empty((0, 6))
+    if scanned is not None:
+        q_job = scanned.scan.line_q[:: max(1, len(scanned.scan.line_q) // 60)]
+    touches = [p.q_touch for prog in programs.operations.values() for p in prog.operations]
+    if touches:
+        q_job = np.vstack([q_job, *touches])
+    if len(q_job) == 0:
+        q_job = np.array([controller.read_joints()])
+    calibration_figures = calibration_report(
+        evaluator, nominal, calibration, q_job, config.operations.tool
+    )
+    errors = reports[0].errors()
+    checks: dict[str, tuple[float, bool]] = {}
+    if len(errors):
+        for name, limit, value in (
+            ("target_error_rms_m", config.checks.target_error_rms_m, np.sqrt(np.mean(errors**2))),
+            ("target_error_max_m", config.checks.target_error_max_m, errors.max()),
+        ):
+            if limit is not None:
+                checks[name] = (limit, bool(value <= limit))
+    timings["total"] = time.perf_counter() - t_total
+    result = RunResult(
+        status="complete" if primary.accepted else "refused",
+        reason="" if primary.accepted else primary.reason,
+        job=config.name,
+        seed=config.seed,
+        model=obj.model,
+        scan_points=0 if scanned is None else len(scanned.points_table),
+        match=_match_report(poses.get("surface")),
+        methods=tuple(reports),
+        checks=checks,
+        pick=pick_eval,
+        grasp_error_m=grasp_error,
+        calibration=calibration_figures,
+        timings=timings,
+        motion_after_match_s=motion_after_match_s,
+        tool_in_hand=controller.tool_in_hand,
+        table_position_m=None if primary_program is None else primary_program.table_position_m,
+    )
+    if config.output.plots:
+        outputs.write_figures(folder, result, poses.get("surface"), virtual)
+    return result
+
+
+def _match_report(pose: LocatedPose | None) -> MatchReport | None:
+    if pose is None or pose.localization is None:
+        return None
+    located = pose.localization
+    m = located.result
+    return MatchReport(
+        m.rms,
+        m.ambiguity,
+        m.verdict,
+        m.reason,
+        m.seconds,
+        len(located.points_used),
+        m.inlier_fraction,
+        located.T_table_object,
+    )

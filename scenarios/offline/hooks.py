@@ -1,0 +1,31 @@
+"""What a stage tells the run while it moves the cell: a moment worth recording and a move.
+
+The stages see the real cell only through the controller. The run (the runner) may want to
+record the truth at those moments (the evaluator) or show the cell as it moved (the rerun
+recording); it passes a `StageHooks` whose methods the stages call. The stages never learn
+what the hooks do.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+
+class StageHooks(Protocol):
+    """Callbacks of a stage into its run."""
+
+    def moment(self, name: str, tool: str) -> None:
+        """The program reached a moment named `name` with `tool` in hand (a touch, a pick)."""
+
+    def moved(self, what: str) -> None:
+        """The arm or the table moved (`what`: e.g. "tool change", "approach", "view")."""
+
+
+class NoHooks:
+    """Hooks that do nothing (a stage run on its own)."""
+
+    def moment(self, name: str, tool: str) -> None:
+        return None
+
+    def moved(self, what: str) -> None:
+        return None
