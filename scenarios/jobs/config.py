@@ -23,7 +23,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from scenarios.errors import ScenarioError
 
@@ -225,7 +232,7 @@ class OperationsSection(_Section):
     the first method's. An optional `pick` comes first (with the first method's pose)."""
 
     kind: Literal["touch", "screw"] = "touch"
-    tool: Literal["screwer"] = "screwer"
+    tool: str = "screwer"
     approach_m: float = Field(0.06, gt=0.0, le=0.3)
     touch_offset_m: float = Field(0.004, ge=0.0, le=0.05)
     touch_speed_m_s: float = Field(0.02, gt=0.0, le=0.5)
@@ -234,6 +241,22 @@ class OperationsSection(_Section):
     screw_s: float = Field(0.5, ge=0.0, le=10.0)
     per_method: bool = False
     pick: Pick | None = None
+
+    @field_validator("tool")
+    @classmethod
+    def _known_tool(cls, tool: str) -> str:
+        from models.robot import TOOLS
+
+        names = [t.name for t in TOOLS]
+        if tool not in names:
+            raise ValueError(f"tool must be one of the cell's tools {names}")
+        return tool
+
+    @model_validator(mode="after")
+    def _screwer_screws(self) -> OperationsSection:
+        if self.kind == "screw" and self.tool != "screwer":
+            raise ValueError(f"screw operations need the screwer, got tool {self.tool!r}")
+        return self
 
 
 class Checks(_Section):

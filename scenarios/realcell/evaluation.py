@@ -110,6 +110,7 @@ class Evaluator:
         self._real = real
         self._name = object_name
         self._touches: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._scratch: mujoco.MjData | None = None
 
     # -- moments recorded during the run --------------------------------------------------------
     def record_touch(self, target: str, tool: str) -> None:
@@ -204,9 +205,16 @@ class Evaluator:
 
     # -- for the recording ------------------------------------------------------------------------
     def body_poses(self) -> dict[str, np.ndarray]:
-        """(4, 4) true pose of every body of the real cell, by name (world = robot base)."""
+        """(4, 4) true pose of every body of the real cell, by name (world = robot base),
+        computed on a copy of the simulation's state: the real cell is only read."""
         sim = self._truth.simulation
-        model, data = sim.model, sim.data
+        model = sim.model
+        if self._scratch is None:
+            self._scratch = mujoco.MjData(model)
+        data = self._scratch
+        data.qpos[:] = sim.data.qpos
+        data.mocap_pos[:] = sim.data.mocap_pos
+        data.mocap_quat[:] = sim.data.mocap_quat
         mujoco.mj_kinematics(model, data)
         poses = {}
         for b in range(1, model.nbody):
