@@ -94,6 +94,38 @@ def test_program_module_is_written(folder: Path) -> None:
     assert text.count("MoveL") == 8 and text.count("MoveJ") == 4
 
 
+def test_the_calibrated_arm_and_the_targets_are_exported(folder: Path) -> None:
+    """The calibrated arm (URDF), the tool's TCP (tooldata.json) and the corrected targets
+    (targets.csv) agree: the URDF's flange at each target's joints, with the tool's TCP, is
+    the target's pose (the program was solved with the calibrated arm); the nominal arm is
+    exported too and differs from it by the calibration's correction."""
+    import csv
+
+    import pinocchio as pin
+
+    calibrated = pin.buildModelFromUrdf(str(folder / "robot_calibrated.urdf"))
+    nominal = pin.buildModelFromUrdf(str(folder / "robot_nominal.urdf"))
+    tool = json.loads((folder / "tooldata.json").read_text())
+    assert tool["tool"] == "screwer" and tool["rapid"].startswith("PERS tooldata tScrewer")
+    T_flange_tcp = np.array(tool["T_flange_tcp"])
+    rows = list(csv.DictReader((folder / "targets.csv").read_text().splitlines()))
+    assert len(rows) == 8  # 4 operations, approach and touch
+    gaps = []
+    for row in rows:
+        q = np.array([float(row[f"q{k}_rad"]) for k in range(1, 7)])
+        poses = []
+        for model in (calibrated, nominal):
+            data = model.createData()
+            pin.framesForwardKinematics(model, data, q)
+            T = data.oMf[model.getFrameId("flange")].homogeneous @ T_flange_tcp
+            poses.append(T)
+        p_target = np.array([float(row[k]) for k in ("x_m", "y_m", "z_m")])
+        assert np.linalg.norm(poses[0][:3, 3] - p_target) < 1e-5  # the IK's tolerance
+        gaps.append(np.linalg.norm(poses[1][:3, 3] - p_target))
+    # The nominal arm puts the tool 0.1-1 mm off: what the calibration corrected.
+    assert 1e-4 < max(gaps) < 2e-3
+
+
 def test_rrd_file_verifies(folder: Path) -> None:
     rerun = Path(sys.executable).with_name("rerun")
     done = subprocess.run(

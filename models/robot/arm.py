@@ -30,12 +30,12 @@ Q_HOME = np.array([0.0, 0.0, 0.0, 0.0, np.pi / 2, 0.0])
 
 # Joint axes in the parent-aligned link frames.
 _AXES = ((0, 0, 1), (0, 1, 0), (0, 1, 0), (1, 0, 0), (0, 1, 0), (1, 0, 0))
-# Servo gains: stiffness [N m/rad], damping [N m s/rad], torque limit [N m], rotor inertia
-# reflected through the gearbox [kg m^2]. Gravity is compensated (body gravcomp), so the gains
-# only carry the dynamics.
+# Servo gains: stiffness [N m/rad], damping [N m s/rad], torque limit (JOINT_TORQUE) [N m],
+# rotor inertia reflected through the gearbox [kg m^2]. Gravity is compensated (body
+# gravcomp), so the gains only carry the dynamics.
 _KP = (4.0e5, 4.0e5, 2.0e5, 2.0e4, 2.0e4, 1.0e4)
 _KV = (8.0e3, 8.0e3, 4.0e3, 4.0e2, 4.0e2, 2.0e2)
-_TORQUE = (4000.0, 4000.0, 2500.0, 600.0, 600.0, 300.0)
+JOINT_TORQUE = (4000.0, 4000.0, 2500.0, 600.0, 600.0, 300.0)
 _ARMATURE = (8.0, 8.0, 4.0, 0.4, 0.4, 0.2)
 # Masses [kg] of the links (base is fixed and massless for dynamics purposes).
 _MASS = (0.0, 90.0, 28.0, 30.0, 10.0, 3.0, 0.6)
@@ -204,7 +204,7 @@ def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") ->
     actuators = "\n".join(
         f'    <general name="{JOINT_NAMES[i]}" joint="{JOINT_NAMES[i]}" '
         f'ctrlrange="{JOINT_LOWER[i] - 0.2:.12g} {JOINT_UPPER[i] + 0.2:.12g}" '
-        f'forcerange="{-_TORQUE[i]:g} {_TORQUE[i]:g}" gainprm="{_KP[i]:g}" '
+        f'forcerange="{-JOINT_TORQUE[i]:g} {JOINT_TORQUE[i]:g}" gainprm="{_KP[i]:g}" '
         f'biastype="affine" biasprm="0 {-_KP[i]:g} {-_KV[i]:g}"/>'
         for i in range(6)
     )

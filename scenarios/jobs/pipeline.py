@@ -32,6 +32,7 @@ from scenarios.offline.pick import execute_pick
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
 from scenarios.offline.scan import ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator, calibration_report
@@ -368,9 +369,12 @@ def run_cell_job(
         )
     primary_program = programs.operations.get(primary.method)
     if primary_program is not None:
-        outputs.write_program(folder / "program.mod", primary_program, cell.T_table_nominal)
+        export_program(folder, primary_program, cell.T_table_nominal)
         if recording is not None:
             recording.log_targets(primary_program, reports[0].targets)
+    exports.write_robot_urdf(
+        folder, nominal, None if calibration is None else calibration.kinematics
+    )
     # The arm's accuracy, from the truth, where the job used it: scan lines and targets.
     q_job = np.empty((0, 6))
     if scanned is not None:
@@ -414,6 +418,14 @@ def run_cell_job(
     if config.output.plots:
         outputs.write_figures(folder, result, poses.get("surface"), virtual)
     return result
+
+
+def export_program(folder: Path, program: OfflineProgram, T_table_nominal: np.ndarray) -> None:
+    """The corrected program for the user's controller: program.mod (ABB RAPID), the
+    corrected targets as CSV and JSON, and the tool's data."""
+    outputs.write_program(folder / "program.mod", program, T_table_nominal)
+    exports.write_targets(folder, program)
+    exports.write_tooldata(folder, program.tool)
 
 
 def _match_report(pose: LocatedPose | None) -> MatchReport | None:

@@ -63,6 +63,17 @@ def _identifier(name: str, prefix: str) -> str:
     return f"{prefix}{body[:1].upper()}{body[1:]}"[:32]
 
 
+def tooldata_text(tool: str) -> str:
+    """The RAPID declaration of the cell's `tool` (nominal TCP, mass, centre of gravity half
+    way to the TCP): `PERS tooldata tName := [...];`."""
+    spec = next(t for t in TOOLS if t.name == tool)
+    cog = _num(spec.p_tool_tcp[2] * 1e3 / 2)
+    return (
+        f"PERS tooldata {_identifier(tool, 't')} := [TRUE,{_pose_text(spec.T_tool_tcp)},"
+        f"[{_num(spec.mass)},[0,0,{cog}],[1,0,0,0],0,0,0]];"
+    )
+
+
 def program_module(
     program: OfflineProgram,
     kin: Kinematics,
@@ -73,22 +84,18 @@ def program_module(
     """The RAPID module text of `program`: tooldata, wobjdata (uframe = nominal fixture,
     oframe = correction), robtargets in the object frame, MoveJ to each approach, MoveL to
     the touch and back."""
-    spec = next(t for t in TOOLS if t.name == program.tool)
     T_base_uframe = nominal_T_base_table(program.table_position_m) @ T_table_object_nominal
     T_uframe_oframe = np.linalg.inv(T_table_object_nominal) @ program.T_table_object
     tool = _identifier(program.tool, "t")
     wobj = "wobjObject"
     eax = f"[{_num(program.table_position_m * 1e3)},{','.join([_UNUSED] * 5)}]"
-    mass = spec.mass
-    cog = _num(spec.p_tool_tcp[2] * 1e3 / 2)
     lines = [
         f"MODULE {module}",
         "  ! Offline program corrected by 3D surface matching (twincell).",
         "  ! Lengths in mm, quaternions [q1 (w), q2, q3, q4]; table = external axis A [mm].",
         "  ! uframe: the object's nominal pose on the table; oframe: the registration's",
         "  ! correction; robtargets: the tool poses as programmed on the virtual model.",
-        f"  PERS tooldata {tool} := [TRUE,{_pose_text(spec.T_tool_tcp)},"
-        f"[{_num(mass)},[0,0,{cog}],[1,0,0,0],0,0,0]];",
+        f"  {tooldata_text(program.tool)}",
         f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",{_pose_text(T_base_uframe)},'
         f"{_pose_text(T_uframe_oframe)}];",
         f"  CONST speeddata vTouch := [{_num(touch_speed_m_s * 1e3)},500,5000,1000];",

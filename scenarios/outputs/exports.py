@@ -1,0 +1,104 @@
+"""What a run hands the rest of the user's toolchain besides the RAPID module: the arm as URDF
+(nominal, and calibrated when the job calibrated it), the tool's data, and the corrected
+targets as CSV and JSON for any controller."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from cell import Kinematics
+from models.atomic import write_text
+from models.robot import JOINT_SPEED, JOINT_TORQUE, TOOLS
+from models.robot.urdf import urdf_text
+from registration.rigid import R_to_quat_wxyz
+from scenarios.offline.program import OfflineProgram
+from scenarios.offline.rapid import tooldata_text
+
+
+def _with_limits(kinematics: Kinematics) -> pin.Model:
+    """A copy of the arm's model with finite speed and effort limits (the data sheet's,
+    where the model file gives none)."""
+    model = pin.Model(kinematics.model)
+    if not np.isfinite(model.upperVelocityLimit).all():
+        model.upperVelocityLimit = np.asarray(JOINT_SPEED, dtype=float)
+    if not np.isfinite(model.upperEffortLimit).all():
+        model.upperEffortLimit = np.asarray(JOINT_TORQUE, dtype=float)
+    return model
+
+
+def write_robot_urdf(
+    folder: Path, nominal: Kinematics, calibrated: Kinematics | None
+) -> list[Path]:
+    """robot_nominal.urdf and, if the arm was calibrated, robot_calibrated.urdf (the
+    identified link lengths and joint zero offsets), tip link `flange` (ABB's tool0)."""
+    written = [
+        write_text(
+            folder / "robot_nominal.urdf",
+            urdf_text(_with_limits(nominal), "arm_nominal", nominal.tip_frame),
+        )
+    ]
+    if calibrated is not None:
+        written.append(
+            write_text(
+                folder / "robot_calibrated.urdf",
+                urdf_text(_with_limits(calibrated), "arm_calibrated", calibrated.tip_frame),
+            )
+        )
+    return written
+
+
+def write_tooldata(folder: Path, tool: str) -> Path:
+    """tooldata.json: the tool's TCP in the flange frame (4, 4) [m], position [m] and
+    scalar-first quaternion, mass [kg], and its RAPID tooldata declaration."""
+    spec = {t.name: t for t in TOOLS}[tool]
+    T = spec.T_tool_tcp
+    data = {
+        "tool": tool,
+        "T_flange_tcp": T.tolist(),
+        "position_m": T[:3, 3].tolist(),
+        "quaternion_wxyz": R_to_quat_wxyz(T[:3, :3]).tolist(),
+        "mass_kg": spec.mass,
+        "rapid": tooldata_text(tool),
+    }
+    return write_text(folder / "tooldata.json", json.dumps(data, indent=2) + "\n")
+
+
+def write_targets(folder: Path, program: OfflineProgram) -> list[Path]:
+    """targets.csv and targets.json: every corrected target of the program in the robot's
+    base frame (approach and touch poses, position [m] and scalar-first quaternion, joints
+    [rad]) at the program's table position [m]: what any controller needs to run it."""
+    rows = []
+    for planned in program.operations:
+        for kind, T, q in (
+            ("approach", planned.T_base_approach, planned.q_approach),
+            ("touch", planned.T_base_touch, planned.q_touch),
+        ):
+            w, x, y, z = (float(v) for v in R_to_quat_wxyz(T[:3, :3]))
+            rows.append(
+                {"operation": planned.operation.name, "pose": kind}
+                | {"table_position_m": program.table_position_m}
+                | {"x_m": float(T[0, 3]), "y_m": float(T[1, 3]), "z_m": float(T[2, 3])}
+                | {"qw": w, "qx": x, "qy": y, "qz": z}
+                | {f"q{k + 1}_rad": float(v) for k, v in enumerate(q)}
+            )
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]) if rows else ["operation"])
+    writer.writeheader()
+    writer.writerows(rows)
+    data = {
+        "tool": program.tool,
+        "table_position_m": program.table_position_m,
+        "T_table_object": program.T_table_object.tolist(),
+        "frame": "robot base; poses of the tool's TCP",
+        "targets": rows,
+    }
+    return [
+        write_text(folder / "targets.csv", buffer.getvalue()),
+        write_text(folder / "targets.json", json.dumps(data, indent=2) + "\n"),
+    ]
