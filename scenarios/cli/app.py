@@ -180,6 +180,14 @@ def run(
         typer.Option("--model", help="Replace the job's object by this mesh (.stl, .obj, .ply)."),
     ] = None,
     units: Annotated[str, typer.Option("--units", help="Units of --model: mm or m.")] = "mm",
+    program: Annotated[
+        str | None,
+        typer.Option(
+            "--program",
+            help="Your RAPID module (.mod) written for the virtual cell: its work object's "
+            "robtargets become the operations, and the run writes it back corrected.",
+        ),
+    ] = None,
     assign: Annotated[
         list[str] | None,
         typer.Option(
@@ -205,6 +213,8 @@ def run(
     overrides: dict[str, object] = {}
     if model is not None:
         overrides |= {"cell.object.model": model, "cell.object.units": units}
+    if program is not None:
+        overrides["operations.program"] = program
     overrides |= dict(parse_assignment(text) for text in assign or [])
     folder, results = run_job(
         name,

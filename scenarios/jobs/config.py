@@ -229,7 +229,14 @@ class OperationsSection(_Section):
     Each starts from `approach_m` back along the axis and moves there at `touch_speed_m_s`;
     the tool may spin about its axis (`spins` tried) for reach. `per_method: true` runs the
     operations once with each localization method's pose (to compare them); otherwise with
-    the first method's. An optional `pick` comes first (with the first method's pose)."""
+    the first method's. An optional `pick` comes first (with the first method's pose).
+
+    The targets come from the object's model, or from the user's own RAPID module
+    (`program`, a .mod file written for the virtual cell, e.g. in RobotStudio): the
+    robtargets of its work object `wobj` (default: the one its moves use), approach and
+    touch recognised from the MoveJ/MoveL pattern or listed in `pairs` ([approach, touch]
+    target names); the robtargets are the touch poses themselves (no touch offset). The run
+    writes that module back corrected: only the work object's oframe changes."""
 
     kind: Literal["touch", "screw"] = "touch"
     tool: str = "screwer"
@@ -241,6 +248,9 @@ class OperationsSection(_Section):
     screw_s: float = Field(0.5, ge=0.0, le=10.0)
     per_method: bool = False
     pick: Pick | None = None
+    program: str | None = None
+    wobj: str | None = None
+    pairs: tuple[tuple[str, str], ...] | None = None
 
     @field_validator("tool")
     @classmethod
@@ -251,6 +261,12 @@ class OperationsSection(_Section):
         if tool not in names:
             raise ValueError(f"tool must be one of the cell's tools {names}")
         return tool
+
+    @model_validator(mode="after")
+    def _program_keys(self) -> OperationsSection:
+        if self.program is None and (self.wobj is not None or self.pairs is not None):
+            raise ValueError("wobj and pairs belong to a RAPID program: set program too")
+        return self
 
     @model_validator(mode="after")
     def _screwer_screws(self) -> OperationsSection:

@@ -21,16 +21,28 @@ import numpy as np
 
 from cell import Controller, nominal_T_base_table
 from models import ObjectModel, real_model
+from models.atomic import write_text
 from registration import Acceptance, MeshModel
 from scenarios.jobs.config import JobConfig
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.localization import Localization, localize
-from scenarios.offline.operations import grasp_operation, target_operations, virtual_model
+from scenarios.offline.operations import (
+    UserProgram,
+    check_program_frame,
+    grasp_operation,
+    program_operations,
+    program_targets,
+    read_user_program,
+    target_operations,
+    virtual_model,
+)
 from scenarios.offline.pick import execute_pick
+from scenarios.offline.placement import nominal_pose
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
+from scenarios.offline.rapid_module import with_oframe
 from scenarios.offline.scan import ScanData, crop_to_object, execute_scan, plan_scan
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
@@ -159,9 +171,11 @@ def program_stage(
     virtual: ObjectModel,
     config: JobConfig,
     poses: tuple[LocatedPose, ...],
+    user: UserProgram | None,
 ) -> ProgramStage:
     """Correct and solve the operations with the first method's pose (and, with
-    `per_method`, once with each accepted method's pose), and the pick before them."""
+    `per_method`, once with each accepted method's pose), and the pick before them. A
+    user's program keeps its poses (no spin about the tool axis) and its table position."""
     section = config.operations
     kin = controller.kinematics
     pick = None
@@ -175,7 +189,11 @@ def program_stage(
             controller.read_joints(),
             spins=2,
         )
-    operations = target_operations(virtual, section)
+    if user is None:
+        operations = target_operations(virtual, section)
+        spins, table = section.spins, None
+    else:
+        operations, spins, table = program_operations(user), 1, (user.table_position_m,)
     programs: dict[str, OfflineProgram] = {}
     for pose in poses if section.per_method else poses[:1]:
         if pose.T_table_object is None or not pose.accepted:
@@ -188,7 +206,8 @@ def program_stage(
             tuple(replace(op, name=prefix + op.name) for op in operations),
             pose.T_table_object,
             controller.read_joints(),
-            section.spins,
+            spins,
+            **({} if table is None else {"table_positions": table}),
         )
     return ProgramStage(pick, programs)
 
@@ -219,10 +238,15 @@ def execute_stage(
 
 
 # -- the runner ---------------------------------------------------------------------------------
-def object_models(config: JobConfig) -> tuple[ObjectModel, ObjectModel]:
-    """The job's object: its virtual model with the operations' targets (what the planner
-    knows) and its real entity (the model error drawn from the seed: the truth)."""
+def object_models(
+    config: JobConfig, user: UserProgram | None = None
+) -> tuple[ObjectModel, ObjectModel]:
+    """The job's object: its virtual model with the operations' targets (from the model, or
+    the touches of the user's program; what the planner knows) and its real entity (the
+    model error drawn from the seed: the truth)."""
     virtual = virtual_model(config.cell.object, config.operations.kind, config.seed)
+    if user is not None:
+        virtual = replace(virtual, burr_holes=program_targets(user))
     real, _ = real_model(virtual, model_error(config.cell.noise), seed=config.seed)
     return virtual, real
 
@@ -242,7 +266,12 @@ def run_cell_job(
     t0 = time.perf_counter()
     obj = config.cell.object
     say(f"model {obj.model!r}: virtual and real entity")
-    virtual, real = object_models(config)
+    user = None if config.operations.program is None else read_user_program(config.operations)
+    virtual, real = object_models(config, user)
+    if user is not None:
+        T_table_nominal = nominal_pose(obj.placement, virtual.mesh.vertices)
+        check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
+        say(f"program {config.operations.program}: {len(user.operations)} touches")
     loose = obj.fixing == "loose"
     cell = build_job_cell(
         virtual,
@@ -320,14 +349,15 @@ def run_cell_job(
     t0 = time.perf_counter()
     programs = ProgramStage(None, {})
     if primary.accepted:
-        programs = program_stage(controller, virtual, config, ordered)
+        programs = program_stage(controller, virtual, config, ordered, user)
         execute_stage(controller, programs, config, hooks, say)
     else:
         say(f"refused: {primary.reason}; no motion towards the object")
     timings["execute"] = time.perf_counter() - t0
     motion_after_match_s = controller.time_s - time_at_verdict_s
 
-    # Evaluate (truth) and export.
+    # Evaluate (truth) and export. A user's robtargets are the touch poses themselves.
+    touch_offset = 0.0 if user is not None else config.operations.touch_offset_m
     reports = []
     for pose in ordered:
         program = programs.operations.get(pose.method)
@@ -336,9 +366,7 @@ def run_cell_job(
             prefix = f"{pose.method}:" if config.operations.per_method else ""
             targets = tuple(
                 replace(t, name=t.name.removeprefix(prefix))
-                for t in evaluator.targets(
-                    config.operations.touch_offset_m, virtual, program.T_base_object, prefix
-                )
+                for t in evaluator.targets(touch_offset, virtual, program.T_base_object, prefix)
             )
         predicted: tuple[float, ...] = ()
         if pose.localization is not None:
@@ -369,7 +397,7 @@ def run_cell_job(
         )
     primary_program = programs.operations.get(primary.method)
     if primary_program is not None:
-        export_program(folder, primary_program, cell.T_table_nominal)
+        export_program(folder, primary_program, cell.T_table_nominal, user)
         if recording is not None:
             recording.log_targets(primary_program, reports[0].targets)
     exports.write_robot_urdf(
@@ -420,10 +448,20 @@ def run_cell_job(
     return result
 
 
-def export_program(folder: Path, program: OfflineProgram, T_table_nominal: np.ndarray) -> None:
-    """The corrected program for the user's controller: program.mod (ABB RAPID), the
-    corrected targets as CSV and JSON, and the tool's data."""
-    outputs.write_program(folder / "program.mod", program, T_table_nominal)
+def export_program(
+    folder: Path, program: OfflineProgram, T_table_nominal: np.ndarray, user: UserProgram | None
+) -> None:
+    """The corrected program for the user's controller: program.mod (ABB RAPID: the user's
+    own module with its work object's oframe corrected, or one written here), the corrected
+    targets as CSV and JSON, and the tool's data."""
+    if user is None:
+        outputs.write_program(folder / "program.mod", program, T_table_nominal)
+    else:
+        T_base_object = program.T_base_object
+        T_uframe_oframe = np.linalg.inv(user.wobj.T_base_uframe) @ T_base_object
+        write_text(
+            folder / "program.mod", with_oframe(user.module, user.wobj.name, T_uframe_oframe)
+        )
     exports.write_targets(folder, program)
     exports.write_tooldata(folder, program.tool)
 

@@ -8,14 +8,24 @@ operation frames.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from models import BurrHole, ObjectModel, load_model
+from registration.rigid import pose_error
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import ObjectSection, OperationsSection, Pick
 from scenarios.offline.program import Operation, burr_hole_operations
+from scenarios.offline.rapid_module import (
+    RapidError,
+    RapidModule,
+    TouchOperation,
+    WobjData,
+    read_module,
+    touch_operations,
+)
 from scenarios.offline.targets import generate_targets, read_targets, targets_path
 
 
@@ -71,3 +81,88 @@ def grasp_operation(model: ObjectModel, pick: Pick) -> Operation:
     Rz = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
     T[:3, :3] = T[:3, :3] @ Rz
     return Operation(pick.frame, T, pick.approach_m)
+
+
+@dataclass(frozen=True, eq=False)
+class UserProgram:
+    """The user's RAPID module, its work object and the touch operations read from it; the
+    table position its robtargets were taught at [m] (external axis A, 0 if unused)."""
+
+    module: RapidModule
+    wobj: WobjData
+    operations: tuple[TouchOperation, ...]
+    table_position_m: float
+
+
+def read_user_program(section: OperationsSection) -> UserProgram:
+    """Read the RAPID module of `section.program` and its touch operations; raises
+    RapidError (naming the file and the line) for a module that cannot be used."""
+    assert section.program is not None
+    path = Path(section.program)
+    if not path.is_file():
+        raise RapidError(f"RAPID program not found: {path}")
+    module = read_module(path)
+    wobj_name = section.wobj
+    if wobj_name is None:
+        used = sorted(
+            {m.wobj for m in module.moves if m.wobj is not None and m.T_wobj_tcp is not None}
+        )
+        if len(used) != 1:
+            raise RapidError(
+                f"{path}: its moves use the work objects {used or 'none'}; name the one that "
+                "holds the object's targets (operations.wobj)"
+            )
+        wobj_name = used[0]
+    operations = touch_operations(module, wobj_name, section.pairs)
+    wobj = next(w for w in module.wobjs.values() if w.name.casefold() == wobj_name.casefold())
+    if wobj.robhold or wobj.ufmec.strip():
+        raise RapidError(
+            f"{path}: line {wobj.line}: work object {wobj.name} is held by the robot or moved "
+            f"by a mechanical unit ({wobj.ufmec!r}); a fixed user frame is needed"
+        )
+    eax = [t.eax[0] for t in module.targets.values() if t.eax[0] < 9e8]
+    table_position_m = float(eax[0]) * 1e-3 if eax else 0.0
+    return UserProgram(module, wobj, operations, table_position_m)
+
+
+def program_targets(program: UserProgram) -> tuple[BurrHole, ...]:
+    """The user program's touches as targets: the TCP at touch is the target, the tool's z
+    axis its direction."""
+    return tuple(
+        BurrHole(op.name, op.T_wobj_touch[:3, 3], op.T_wobj_touch[:3, 2], 0.01)
+        for op in program.operations
+    )
+
+
+def program_operations(program: UserProgram) -> tuple[Operation, ...]:
+    """The user program's touches as operations, approach and touch poses as written."""
+    return tuple(
+        Operation(
+            op.name,
+            op.T_wobj_touch,
+            float(np.linalg.norm(op.T_wobj_approach[:3, 3] - op.T_wobj_touch[:3, 3])),
+            op.T_wobj_approach,
+        )
+        for op in program.operations
+    )
+
+
+def check_program_frame(
+    program: UserProgram,
+    T_base_object_nominal: np.ndarray,
+    tolerance_m: float = 2e-3,
+    tolerance_deg: float = 1.0,
+) -> None:
+    """The work object's object frame (uframe @ oframe) must be the object's nominal pose of
+    the configuration: both describe the same virtual cell. Raises RapidError otherwise."""
+    w = program.wobj
+    T_program = w.T_base_uframe @ w.T_uframe_oframe
+    rotation, translation = pose_error(T_program, T_base_object_nominal)
+    if translation > tolerance_m or np.degrees(rotation) > tolerance_deg:
+        raise RapidError(
+            f"{program.module.path}: line {w.line}: the object frame of work object {w.name} "
+            f"lies {translation * 1e3:.1f} mm and {np.degrees(rotation):.2f} deg from the "
+            "object's nominal pose in the configuration (cell.object.placement, the table at "
+            f"{program.table_position_m:.3f} m): the program and the configuration must "
+            "describe the same virtual cell"
+        )

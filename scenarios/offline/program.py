@@ -24,14 +24,18 @@ from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, ch
 @dataclass(frozen=True)
 class Operation:
     """A touch operation: the tool pose at touch in the object frame (4, 4), z into the
-    object, and the approach distance back along z [m]."""
+    object, and the approach distance back along z [m]; or, for a program written elsewhere,
+    the approach pose itself (`T_object_approach_as_written`, 4 x 4)."""
 
     name: str
     T_object_touch: np.ndarray
     approach_m: float
+    T_object_approach_as_written: np.ndarray | None = None
 
     @property
     def T_object_approach(self) -> np.ndarray:
+        if self.T_object_approach_as_written is not None:
+            return np.array(self.T_object_approach_as_written)
         T = self.T_object_touch.copy()
         T[:3, 3] -= self.approach_m * T[:3, 2]
         return T
@@ -155,12 +159,13 @@ def plan_program(
     T_table_object: np.ndarray,
     q_seed: np.ndarray,
     spins: int = 12,
+    table_positions: tuple[float, ...] = TABLE_CANDIDATES_M,
 ) -> OfflineProgram:
     """Correct every operation by the measured `T_table_object` and solve it, at the first
-    table position where the nominal arm reaches them all (spin about the tool axis chosen
-    for the least joint motion)."""
+    of `table_positions` [m] where the arm reaches them all (spin about the tool axis chosen
+    for the least joint motion; `spins=1` keeps the operations' own orientation)."""
     lo, hi = TABLE_TRAVEL
-    for s in TABLE_CANDIDATES_M:
+    for s in table_positions:
         if not lo <= s <= hi:
             continue
         T_base_object = nominal_T_base_table(s) @ T_table_object
@@ -169,7 +174,7 @@ def plan_program(
             return OfflineProgram(tool, s, T_table_object.copy(), planned)
     raise UnreachablePlanError(
         f"the {len(operations)} operations ({', '.join(o.name for o in operations)}) are not "
-        f"all reachable at any table position of {TABLE_CANDIDATES_M} m"
+        f"all reachable at any table position of {table_positions} m"
     )
 
 

@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from scenarios.errors import ScenarioError
+
 
 def _words(text: str) -> frozenset[str]:
     return frozenset(text.split())
@@ -78,7 +80,7 @@ _PREDEFINED = {"tool0": "tooldata", "wobj0": "wobjdata", "load0": "loaddata"}
 _QUATERNION_NORM_TOLERANCE = 1e-3
 
 
-class RapidError(ValueError):
+class RapidError(ScenarioError, ValueError):
     """A RAPID module that cannot be read or used: the message names the file (if any), the
     line and what is wrong."""
 

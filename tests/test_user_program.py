@@ -1,0 +1,162 @@
+"""A user's own RAPID module drives the skull job: its work object's robtargets are the
+operations, the run writes the module back with only the work object's oframe corrected, and
+bad modules are refused before any simulation starts."""
+
+from __future__ import annotations
+
+import difflib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from cell import nominal_T_base_table
+from models import builtin_model
+from scenarios.cli.app import main
+from scenarios.jobs.config import load_config
+from scenarios.offline.placement import nominal_pose
+
+SHORT = ["--set", "localization.scan.speed_m_s=0.25", "--set", "localization.scan.period_s=0.02"]
+
+
+def _pose(T: np.ndarray) -> str:
+    """A RAPID pose [[x,y,z],[q1,q2,q3,q4]] in mm, scalar-first quaternion."""
+    q = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
+    q = q if q[0] >= 0 else -q
+    p = T[:3, 3] * 1e3
+    return f"[[{p[0]:.3f},{p[1]:.3f},{p[2]:.3f}],[{q[0]:.9f},{q[1]:.9f},{q[2]:.9f},{q[3]:.9f}]]"
+
+
+def _frame(p: np.ndarray, z: np.ndarray) -> np.ndarray:
+    z = z / np.linalg.norm(z)
+    x = np.cross([0.0, 1.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, p
+    return T
+
+
+def skull_module(wobj_offset_mm: float = 0.0) -> str:
+    """The skull's burr-hole touches as a RobotStudio user would program them on the virtual
+    cell: the work object on the phantom's nominal pose (table at 0), the pointer's tip 1 mm
+    before each entry, approached 60 mm back along the trajectory."""
+    config = load_config("skull")
+    skull = builtin_model("skull", 0)
+    T_base_object = nominal_T_base_table(0.0) @ nominal_pose(
+        config.cell.object.placement, skull.mesh.vertices
+    )
+    T_base_object[0, 3] += wobj_offset_mm * 1e-3
+    eax = "[0,9E+09,9E+09,9E+09,9E+09,9E+09]"
+    lines = [
+        "MODULE SkullProgram",
+        "  ! Burr-hole touches programmed in RobotStudio on the virtual cell.",
+        "  PERS tooldata tPointer := [TRUE,[[0,0,200],[1,0,0,0]],[2,[0,0,100],[1,0,0,0],0,0,0]];",
+        f'  PERS wobjdata wobjSkull := [FALSE,TRUE,"",{_pose(T_base_object)},[[0,0,0],[1,0,0,0]]];',
+        "  CONST speeddata vTouch := [20,500,5000,1000];",
+    ]
+    for k, hole in enumerate(skull.burr_holes):
+        T_touch = _frame(hole.p_entry - 0.001 * hole.direction, hole.direction)
+        T_app = T_touch.copy()
+        T_app[:3, 3] -= 0.06 * hole.direction
+        for name, T in ((f"pApp{k}", T_app), (f"pTouch{k}", T_touch)):
+            lines.append(f"  CONST robtarget {name} := [{_pose(T)[1:-1]},[0,0,0,0],{eax}];")
+    lines.append("  PROC main()")
+    for k in range(len(skull.burr_holes)):
+        lines += [
+            f"    ! hole {k}",
+            f"    MoveJ pApp{k}, v500, z10, tPointer\\WObj:=wobjSkull;",
+            f"    MoveL pTouch{k}, vTouch, fine, tPointer\\WObj:=wobjSkull;",
+            f"    MoveL pApp{k}, v100, z10, tPointer\\WObj:=wobjSkull;",
+        ]
+    lines += ["  ENDPROC", "ENDMODULE", ""]
+    return "\n".join(lines)
+
+
+def _rapidcheck(path: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "rapidchecker", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    root = tmp_path_factory.mktemp("program")
+    module = root / "skull_program.mod"
+    module.write_text(skull_module())
+    out = root / "runs"
+    args = ["run", "skull", "--program", str(module), "--out", str(out), "--no-rrd", "--quiet"]
+    assert main([*args, *SHORT]) == 0
+    return module, (out / "latest").resolve()
+
+
+def test_the_program_s_touches_are_the_operations(run: tuple[Path, Path]) -> None:
+    module, folder = run
+    assert _rapidcheck(module).returncode == 0  # the input is valid RAPID
+    results = json.loads((folder / "results.json").read_text())
+    assert results["status"] == "complete"
+    assert [t["name"] for t in results["targets"]] == [f"pTouch{k}" for k in range(4)]
+    # Each touch lands on its robtarget on the real phantom (the evaluator's truth): the
+    # skull job's tolerance for a short scan.
+    errors = np.array([t["error_m"] for t in results["targets"]])
+    assert errors.max() < 1.5e-3
+
+
+def test_the_module_comes_back_with_only_its_oframe_corrected(run: tuple[Path, Path]) -> None:
+    module, folder = run
+    before = module.read_text().splitlines()
+    after = (folder / "program.mod").read_text().splitlines()
+    changed = [
+        line for line in difflib.unified_diff(before, after, lineterm="", n=0)
+        if line.startswith(("+", "-")) and not line.startswith(("+++", "---"))
+    ]  # fmt: skip
+    assert len(changed) == 2 and all("wobjdata wobjSkull" in line for line in changed)
+    old, new = changed[0][1:], changed[1][1:]
+    assert old.split("[[0,0,0],[1,0,0,0]]")[0] == new[: len(old.split("[[0,0,0],[1,0,0,0]]")[0])]
+    assert _rapidcheck(folder / "program.mod").returncode == 0
+    # The new oframe moves the object frame to the measured pose of the phantom.
+    from scenarios.offline.rapid_module import read_module
+
+    read = read_module(folder / "program.mod")
+    w = read.wobjs["wobjSkull"]
+    results = json.loads((folder / "results.json").read_text())
+    T_measured = nominal_T_base_table(0.0) @ np.array(results["registration"]["T_table_object"])
+    np.testing.assert_allclose(w.T_base_uframe @ w.T_uframe_oframe, T_measured, atol=1e-6)
+    original = read_module(module)
+    assert {n: t.T_wobj_tcp.tolist() for n, t in original.targets.items()} == {
+        n: t.T_wobj_tcp.tolist() for n, t in read.targets.items()
+    }
+
+
+def test_bad_modules_are_refused_before_the_cell_starts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = skull_module()
+    cases = {
+        "syntax": (good.replace("vTouch, fine", "vTouch fine", 1), "line"),
+        "instruction": (good.replace("! hole 0", "Sing 3;", 1), "Sing"),
+        "no robtarget": (
+            good.replace("PROC main()", "PROC main()\n    WaitTime 1;").replace(
+                "\\WObj:=wobjSkull", ""
+            ),
+            "work object",
+        ),
+        "frame": (skull_module(wobj_offset_mm=25.0), "25.0 mm"),
+    }
+    for label, (text, message) in cases.items():
+        path = tmp_path / f"{label}.mod"
+        path.write_text(text)
+        out = tmp_path / label
+        code = main(["run", "skull", "--program", str(path), "--out", str(out), "--no-rrd"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2, label
+        assert message in err[-1] and "Traceback" not in "\n".join(err), (label, err)
+        results = json.loads(((out / "latest") / "results.json").read_text())
+        assert results["status"] == "incomplete"
+        assert "scan_points" not in results  # stopped before the cell moved
