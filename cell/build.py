@@ -14,7 +14,7 @@ import numpy as np
 from cell.config import CellConfig, FixedMesh, FixedPrimitive, LooseMesh, LoosePart
 from cell.errors import CellConfigError
 from cell.mass import MassProperties, mesh_mass_properties
-from models.robot import ROBOT_FILE, TABLE_TOP_POS, ArmGeometry, arm_xml, scene_xml
+from models.robot import ROBOT_FILE, TABLE_TOP_POS, scene_xml
 from registration.rigid import R_to_quat_wxyz, make_T, quat_wxyz_to_R
 
 #: Geom group of objects' exact surfaces (seen by the rays) and of contact-only pieces.
@@ -31,21 +31,23 @@ LOOSE_SOLIMP = (0.95, 0.99, 0.0005, 0.5, 2.0)
 LOOSE_CONDIM = 4
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RealParameters:
-    """The real cell's hidden parameters drawn from the config (the truth)."""
+    """The real cell's hidden parameters drawn from the config (the truth): the real arm's
+    kinematic deviations from the nominal (see cell.robots) and the table's bias [m]."""
 
-    arm: ArmGeometry
+    deviations: np.ndarray
     table_bias_m: float
 
 
 def draw_real_parameters(config: CellConfig) -> RealParameters:
     """Draw the real arm's deviations and the table bias from `config.seed`."""
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 1]))
-    d_lengths = rng.normal(0.0, 1.0, 6) * config.arm.length_sigma_m
-    d_offsets = rng.normal(0.0, 1.0, 6) * config.arm.offset_sigma_rad
+    deviations = config.robot.draw_deviations(
+        rng, config.arm.length_sigma_m, config.arm.offset_sigma_rad
+    )
     bias = float(rng.normal(0.0, 1.0)) * config.table.bias_sigma_m
-    return RealParameters(ArmGeometry().perturbed(d_lengths, d_offsets), bias)
+    return RealParameters(deviations, bias)
 
 
 def _add_fixture(spec: mujoco.MjSpec, obj: FixedMesh | FixedPrimitive) -> None:
@@ -166,10 +168,11 @@ def _add_convex_pieces(
         )
 
 
-def build_model(config: CellConfig, arm: ArmGeometry | None = None) -> mujoco.MjModel:
-    """Compile the cell's MuJoCo model with the given arm geometry (default nominal)."""
+def build_model(config: CellConfig, deviations: np.ndarray | None = None) -> mujoco.MjModel:
+    """Compile the cell's MuJoCo model with its robot's arm deviated by `deviations`
+    (default: the nominal arm)."""
     spec = mujoco.MjSpec.from_string(
-        scene_xml(), include={ROBOT_FILE: arm_xml(arm or ArmGeometry()).encode()}
+        scene_xml(), include={ROBOT_FILE: config.robot.mjcf(deviations).encode()}
     )
     for obj in config.fixtures:
         _add_fixture(spec, obj)

@@ -12,6 +12,7 @@ from typing import Literal
 import numpy as np
 
 from cell.errors import CellConfigError
+from cell.robots import Robot, irb2400
 
 
 def _nonneg(owner: str, **values: float) -> None:
@@ -24,9 +25,9 @@ def _nonneg(owner: str, **values: float) -> None:
 class ArmErrors:
     """Kinematic deviations of the real arm from its nominal model (drawn once per cell).
 
-    `length_sigma_m` per link length (d1, a1, a2, a3, d4, d6) and `offset_sigma_rad` per joint
-    zero offset. The defaults give an industrial arm's absolute accuracy, about 0.2-0.5 mm at
-    the TCP.
+    `length_sigma_m` per length deviation (the built-in arm's six link lengths; another arm's
+    joint axis positions) and `offset_sigma_rad` per joint zero offset (see cell.robots).
+    The defaults give an industrial arm's absolute accuracy, about 0.2-0.5 mm at the TCP.
     """
 
     length_sigma_m: float = 1.5e-4
@@ -273,9 +274,11 @@ class LoosePart:
 
 @dataclass(frozen=True)
 class CellConfig:
-    """Everything that defines a simulated cell. `seed` draws the real cell's errors."""
+    """Everything that defines a simulated cell: its `robot` (cell.robots), the error
+    sources, the objects on the table. `seed` draws the real cell's errors."""
 
     seed: int = 0
+    robot: Robot = field(default_factory=irb2400)
     arm: ArmErrors = field(default_factory=ArmErrors)
     encoder: EncoderNoise = field(default_factory=EncoderNoise)
     table: TableErrors = field(default_factory=TableErrors)

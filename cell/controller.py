@@ -21,13 +21,13 @@ from cell.errors import (
     UnreachableTargetError,
 )
 from cell.kinematics import Kinematics
+from cell.robots import Robot, irb2400
 from cell.sensors import IRSensor, LaserReading, LaserScanner
 from cell.simulation import Simulation
 from cell.toolchanger import ToolChanger
 from cell.trajectory import joint_trajectory, quintic, straight_path
 from models.robot import (
     FINGER_TRAVEL,
-    JOINT_SPEED,
     SLOT_QUAT,
     TABLE_SPEED,
     TABLE_TOP_POS,
@@ -76,8 +76,10 @@ class Controller:
         table: TableAxis,
         laser: LaserScanner,
         ir: IRSensor,
+        robot: Robot | None = None,
     ) -> None:
         self._sim = sim
+        self._robot = robot or irb2400()
         self._encoders = encoders
         self._table = table
         self._laser = laser
@@ -88,6 +90,17 @@ class Controller:
         self.laser_config = laser.config
 
     # -- state --------------------------------------------------------------------------------
+    @property
+    def robot(self) -> Robot:
+        """The arm's model as its data sheet gives it (cell.robots): the nominal kinematics,
+        the parameters its calibration identifies, home, speeds; nothing of the real arm."""
+        return self._robot
+
+    @property
+    def q_home(self) -> np.ndarray:
+        """(6,) the arm's home configuration [rad]."""
+        return self._robot.q_home.copy()
+
     @property
     def tools(self) -> tuple[str, ...]:
         """Names of the tools in the cell."""
@@ -128,7 +141,7 @@ class Controller:
             raise CellConfigError(f"speed must be a fraction in (0, 1], got {speed!r}")
         q1 = self.kinematics.check_limits(q_target)
         sim = self._sim
-        q, qd = joint_trajectory(sim.arm_setpoint(), q1, JOINT_SPEED, sim.dt, speed)
+        q, qd = joint_trajectory(sim.arm_setpoint(), q1, self._robot.joint_speed, sim.dt, speed)
         sim.run(sim.arm_act, q + sim.arm_ff * qd)
         sim.settle(settle_s)
 
@@ -214,7 +227,7 @@ class Controller:
                         f"{r.rotation_error_rad:.3g} rad (or a configuration flip)"
                     )
                 qs[k + 1] = r.q
-            peak = np.max(np.abs(np.diff(qs, axis=0)) / (duration / n) / JOINT_SPEED)
+            peak = np.max(np.abs(np.diff(qs, axis=0)) / (duration / n) / self._robot.joint_speed)
             if peak <= 1.0:
                 break
             duration *= peak * 1.05

@@ -17,7 +17,7 @@ from models.robot import IR, LASER, ROBOT_PATH
 
 
 def nominal_kinematics() -> Kinematics:
-    """Pinocchio kinematics of the nominal arm (robot-only MJCF), tip frame `flange`."""
+    """Pinocchio kinematics of the built-in arm (its robot-only MJCF), tip frame `flange`."""
     return Kinematics.from_mjcf(ROBOT_PATH, "flange")
 
 
@@ -39,7 +39,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     """
     config = config or CellConfig()
     params = draw_real_parameters(config)
-    sim = Simulation(build_model(config, params.arm))
+    sim = Simulation(build_model(config, params.deviations), config.robot.q_home)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 2]))
     encoders = Encoders(sim, config.encoder.sigma_rad, rng)
     table = TableAxis(sim, params.table_bias_m, config.table.repeat_sigma_m, rng)
@@ -47,5 +47,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     laser = LaserScanner(sim.model, sim.tcp_site[LASER.name], config.laser, rng)
     ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
     sim.settle(0.2)
-    controller = Controller(sim, nominal_kinematics(), encoders, table, laser, ir)
+    controller = Controller(
+        sim, config.robot.kinematics(), encoders, table, laser, ir, config.robot
+    )
     return controller, CellTruth(config, params, sim, table)

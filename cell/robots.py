@@ -1,12 +1,368 @@
-"""Other arms for the robot-agnostic kinematics: a UR5 from example-robot-data (URDF)."""
+"""The cell's arm: the built-in IRB 2400-class arm, the UR5 of example-robot-data, or any 6-axis
+arm given as a URDF or a robot-only MJCF file.
+
+A `Robot` gives what the cell and its planner need of an arm:
+- its nominal kinematics (Pinocchio) and, for a vector of deviations of its kinematic
+  parameters, the deviated arm's (the real arm, drawn from the cell's seed; the calibrated
+  arm, identified in the cell);
+- the robot-only MJCF that MuJoCo simulates for those deviations: bodies `link1`..`link6`,
+  joints and position servos `joint1`..`joint6`, a `flange` site where the tools lock;
+- its home configuration, joint speeds and efforts, and who makes it (RAPID is ABB's).
+
+The kinematic base frame is the cell's world frame: an arm standing elsewhere than the world's
+origin (on a pedestal beside the table, say) carries its mount in its first joint's placement.
+
+Deviations: the built-in arm has its twelve (six link lengths, six joint zero offsets, see
+models.robot.ArmGeometry); any other arm has four per joint: the joint's zero offset [rad] and
+the position of its axis in its parent link [m] (x, y, z), 24 in all.
+"""
 
 from __future__ import annotations
 
 import sysconfig
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
 
 from cell.errors import CellConfigError
 from cell.kinematics import Kinematics
+from models.robot import JOINT_NAMES, JOINT_SPEED, JOINT_TORQUE, Q_HOME, ArmGeometry, arm_xml
+
+#: Deviation names of the built-in arm, in the order of its deviation vectors (12,).
+IRB_PARAMETERS: tuple[str, ...] = (
+    "d1", "a1", "a2", "a3", "d4", "d6",
+    "offset1", "offset2", "offset3", "offset4", "offset5", "offset6",
+)  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """An arm of the cell (see the module's docstring).
+
+    Attributes:
+        name: "irb2400", "ur5" or the file's stem.
+        vendor: who makes it ("abb" gets RAPID programs; others the targets as CSV/JSON).
+        q_home: (6,) home configuration [rad]: wrist above the table, flange down.
+        joint_speed: (6,) speed limits [rad/s]; joint_effort: (6,) [N m].
+        parameters: names of the kinematic deviations; lengths: (P,) True where a deviation
+            is a length [m] (else an angle [rad]).
+        tip_frame: the flange frame of the kinematics.
+    """
+
+    name: str
+    vendor: str
+    q_home: np.ndarray
+    joint_speed: np.ndarray
+    joint_effort: np.ndarray
+    parameters: tuple[str, ...]
+    lengths: np.ndarray
+    _kinematics: Callable[[np.ndarray], Kinematics] = field(repr=False)
+    _mjcf: Callable[[np.ndarray], str] = field(repr=False)
+    tip_frame: str = "flange"
+
+    def zero(self) -> np.ndarray:
+        """The nominal arm's deviations (P,) (all zero)."""
+        return np.zeros(len(self.parameters))
+
+    def kinematics(self, deviations: np.ndarray | None = None) -> Kinematics:
+        """Pinocchio kinematics of the arm with `deviations` (P,) (default: the nominal)."""
+        return self._kinematics(self._check(deviations))
+
+    def mjcf(self, deviations: np.ndarray | None = None) -> str:
+        """The robot-only MJCF of the arm with `deviations` (P,) (default: the nominal)."""
+        return self._mjcf(self._check(deviations))
+
+    def draw_deviations(
+        self, rng: np.random.Generator, length_sigma_m: float, angle_sigma_rad: float
+    ) -> np.ndarray:
+        """Deviations (P,) of a real arm: Gaussian, `length_sigma_m` on lengths and
+        `angle_sigma_rad` on angles."""
+        return rng.normal(0.0, 1.0, len(self.parameters)) * self.sigmas(
+            length_sigma_m, angle_sigma_rad
+        )
+
+    def sigmas(self, length_sigma_m: float, angle_sigma_rad: float) -> np.ndarray:
+        """(P,) the given sigma of each deviation by its kind (a prior, say)."""
+        return np.where(self.lengths, length_sigma_m, angle_sigma_rad)
+
+    def _check(self, deviations: np.ndarray | None) -> np.ndarray:
+        if deviations is None:
+            return self.zero()
+        d = np.asarray(deviations, dtype=float)
+        if d.shape != (len(self.parameters),) or not np.isfinite(d).all():
+            raise CellConfigError(
+                f"{self.name}: deviations must be {len(self.parameters)} finite numbers "
+                f"({', '.join(self.parameters)}), got shape {d.shape}"
+            )
+        return d
+
+
+# -- the built-in arm -------------------------------------------------------------------------
+def irb2400() -> Robot:
+    """The cell's IRB 2400-class arm (models.robot.arm), at the world's origin."""
+
+    def geometry(d: np.ndarray) -> ArmGeometry:
+        return ArmGeometry().perturbed(d[:6], d[6:])
+
+    return Robot(
+        name="irb2400",
+        vendor="abb",
+        q_home=np.array(Q_HOME, dtype=float),
+        joint_speed=np.array(JOINT_SPEED, dtype=float),
+        joint_effort=np.array(JOINT_TORQUE, dtype=float),
+        parameters=IRB_PARAMETERS,
+        lengths=np.array([True] * 6 + [False] * 6),
+        _kinematics=lambda d: Kinematics.from_geometry(geometry(d)),
+        _mjcf=lambda d: arm_xml(geometry(d)),
+    )
+
+
+# -- any 6-axis arm from a file -----------------------------------------------------------------
+@dataclass(frozen=True)
+class Servo:
+    """Position servos of a file arm: stiffness [N m/rad], damping [N m s/rad] and the
+    rotor inertia reflected through each gearbox [kg m^2], per joint (6,)."""
+
+    kp: tuple[float, ...]
+    kv: tuple[float, ...]
+    armature: tuple[float, ...]
+
+
+def _mount(xyz: tuple[float, float, float], yaw_deg: float) -> pin.SE3:
+    c, s = np.cos(np.deg2rad(yaw_deg)), np.sin(np.deg2rad(yaw_deg))
+    return pin.SE3(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array(xyz, float))
+
+
+def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:
+    """The Pinocchio model of a 6-axis arm file (URDF or robot-only MJCF); raises
+    CellConfigError for a missing file, another format, a missing tip frame, or other than
+    six revolute joints."""
+    p = Path(path)
+    if not p.is_file():
+        raise CellConfigError(f"robot file not found: {p}")
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".urdf":
+            model = pin.buildModelFromUrdf(str(p))
+        elif suffix in (".xml", ".mjcf"):
+            model = pin.buildModelFromMJCF(str(p))
+        else:
+            raise CellConfigError(
+                f"robot file {p} has unknown format {p.suffix!r}; valid: .urdf, .xml (MJCF)"
+            )
+    except (RuntimeError, ValueError) as exc:
+        raise CellConfigError(f"{p}: cannot be read as a robot: {exc}") from None
+    revolute = [
+        model.names[j]
+        for j in range(1, model.njoints)
+        if model.joints[j].shortname().startswith(("JointModelR", "JointModelRevolute"))
+    ]
+    if model.nq != 6 or len(revolute) != 6:
+        raise CellConfigError(
+            f"{p}: the cell needs a 6-axis arm (six revolute joints); this one has {model.nq} "
+            f"position variables and revolute joints {revolute}"
+        )
+    if not model.existFrame(tip_frame):
+        frames = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP)]
+        raise CellConfigError(
+            f"{p}: no frame {tip_frame!r} for the flange; its frames are {frames}"
+        )
+    return model
+
+
+def _motion_axis(model: pin.Model, j: int) -> np.ndarray:
+    """Unit axis (3,) of revolute joint j in its own frame (its constant motion subspace)."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    S = np.asarray(data.joints[j].S).reshape(6)
+    return S[3:] / np.linalg.norm(S[3:])
+
+
+def _deviated(model: pin.Model, axes: list[np.ndarray], d: np.ndarray) -> pin.Model:
+    """A copy of `model` with each joint's zero offset d[4k] [rad] and axis position
+    d[4k+1:4k+4] [m] (in its parent) changed."""
+    out = pin.Model(model)
+    for k in range(6):
+        j = k + 1
+        M = out.jointPlacements[j]
+        offset = pin.SE3(pin.exp3(axes[k] * d[4 * k]), np.zeros(3))
+        shifted = pin.SE3(M.rotation, M.translation + d[4 * k + 1 : 4 * k + 4])
+        out.jointPlacements[j] = shifted * offset
+    return out
+
+
+def _f(values: np.ndarray | tuple[float, ...]) -> str:
+    return " ".join(f"{float(v):.12g}" for v in values)
+
+
+def _six(inertia: np.ndarray) -> tuple[float, ...]:
+    """MJCF's fullinertia order: Ixx, Iyy, Izz, Ixy, Ixz, Iyz."""
+    i = np.asarray(inertia)
+    return (i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2], i[1, 2])
+
+
+def _quat(R: np.ndarray) -> str:
+    q = pin.Quaternion(R)
+    return _f((q.w, q.x, q.y, q.z))
+
+
+def arm_mjcf(
+    model: pin.Model,
+    tip_frame: str,
+    servo: Servo,
+    effort: np.ndarray,
+    q_home: np.ndarray,
+    radius_m: float,
+    name: str,
+) -> str:
+    """The robot-only MJCF of a 6-axis Pinocchio model, named as the cell expects: bodies
+    `base`, `link1`..`link6`, joints and servos `joint1`..`joint6`, a `flange` site at the
+    tip frame. Each link's geometry is a capsule of `radius_m` from its joint to the next
+    (kinematics and inertias are the model's; no meshes); a pedestal stands under the
+    mount."""
+    tip = model.frames[model.getFrameId(tip_frame)]
+    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+    mount = model.jointPlacements[1].translation
+
+    def body(k: int, indent: str) -> str:
+        j = k + 1
+        M = model.jointPlacements[j]
+        inertia = model.inertias[j]
+        inertia_com = inertia.inertia  # about the centre of mass, joint frame
+        axis = _motion_axis(model, j)
+        lines = [
+            f'{indent}<body name="link{j}" pos="{_f(M.translation)}" quat="{_quat(M.rotation)}" '
+            'gravcomp="1">',
+        ]
+        if inertia.mass > 0:
+            lines.append(
+                f'{indent}  <inertial pos="{_f(inertia.lever)}" mass="{inertia.mass:.12g}" '
+                f'fullinertia="{_f(_six(inertia_com))}"/>'
+            )
+        else:
+            lines.append(
+                f'{indent}  <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-9 1e-9 1e-9"/>'
+            )
+        lines.append(
+            f'{indent}  <joint name="{JOINT_NAMES[k]}" axis="{_f(axis)}" '
+            f'range="{lower[k]:.12g} {upper[k]:.12g}" armature="{servo.armature[k]:g}"/>'
+        )
+        child = model.jointPlacements[j + 1].translation if j < 6 else tip.placement.translation
+        if np.linalg.norm(child) > 1e-3:
+            for cls in ("collision", "visual"):
+                lines.append(
+                    f'{indent}  <geom class="{cls}" type="capsule" size="{radius_m:g}" '
+                    f'fromto="0 0 0 {_f(child)}"/>'
+                )
+        if j == 6:
+            P = tip.placement
+            lines.append(
+                f'{indent}  <site name="flange" pos="{_f(P.translation)}" '
+                f'quat="{_quat(P.rotation)}" size="0.01"/>'
+            )
+        else:
+            lines.append(body(k + 1, indent + "  "))
+        lines.append(f"{indent}</body>")
+        return "\n".join(lines)
+
+    names = ("base", *(f"link{j}" for j in range(1, 7)))
+    excludes = "\n".join(
+        f'    <exclude body1="{a}" body2="{b}"/>'
+        for i, a in enumerate(names)
+        for b in names[i + 1 :]
+    )
+    actuators = "\n".join(
+        f'    <general name="{JOINT_NAMES[k]}" joint="{JOINT_NAMES[k]}" '
+        f'ctrlrange="{lower[k] - 0.2:.12g} {upper[k] + 0.2:.12g}" '
+        f'forcerange="{-effort[k]:g} {effort[k]:g}" gainprm="{servo.kp[k]:g}" '
+        f'biastype="affine" biasprm="0 {-servo.kp[k]:g} {-servo.kv[k]:g}"/>'
+        for k in range(6)
+    )
+    height = max(float(mount[2]), 0.01)
+    return f"""<mujoco model="{name}">
+  <compiler angle="radian" autolimits="true"/>
+
+  <default>
+    <default class="{name}">
+      <default class="visual">
+        <geom group="2" contype="0" conaffinity="0" rgba="0.35 0.55 0.75 1"/>
+      </default>
+      <default class="collision">
+        <geom group="3" rgba="0.5 0.5 0.5 1"/>
+      </default>
+    </default>
+  </default>
+
+  <worldbody>
+    <body name="base" childclass="{name}">
+      <inertial pos="0 0 0.1" mass="50" diaginertia="1 1 1"/>
+      <geom class="collision" type="cylinder" size="0.1 {height / 2:.6g}"
+            pos="{mount[0]:.6g} {mount[1]:.6g} {height / 2:.6g}"/>
+      <geom class="visual" type="cylinder" size="0.1 {height / 2:.6g}"
+            pos="{mount[0]:.6g} {mount[1]:.6g} {height / 2:.6g}"/>
+{body(0, "      ")}
+    </body>
+  </worldbody>
+
+  <contact>
+{excludes}
+  </contact>
+
+  <actuator>
+{actuators}
+  </actuator>
+
+  <keyframe>
+    <key name="home" qpos="{_f(q_home)}" ctrl="{_f(q_home)}"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+def robot_from_file(
+    path: str | Path,
+    tip_frame: str,
+    *,
+    mount_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    mount_yaw_deg: float = 0.0,
+    q_home: np.ndarray | None = None,
+    servo: Servo | None = None,
+    radius_m: float = 0.05,
+    vendor: str = "",
+    name: str | None = None,
+) -> Robot:
+    """A 6-axis arm from a URDF or robot-only MJCF file, its base at `mount_xyz` [m] turned
+    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`."""
+    model = load_arm_model(path, tip_frame)
+    model.jointPlacements[1] = _mount(mount_xyz, mount_yaw_deg) * model.jointPlacements[1]
+    axes = [_motion_axis(model, j) for j in range(1, 7)]
+    speed = np.asarray(model.velocityLimit, dtype=float)
+    effort = np.asarray(model.effortLimit, dtype=float)
+    if not (np.isfinite(speed).all() and np.isfinite(effort).all() and (speed > 0).all()):
+        raise CellConfigError(
+            f"{path}: every joint needs finite velocity and effort limits (got {speed.tolist()} "
+            f"rad/s, {effort.tolist()} N m)"
+        )
+    home = np.zeros(6) if q_home is None else np.asarray(q_home, dtype=float)
+    servo = servo or Servo(
+        (2e4,) * 3 + (2e3,) * 3, (4e2,) * 3 + (4e1,) * 3, (1.0,) * 3 + (0.1,) * 3
+    )
+    label = name or Path(path).stem
+    parameters = tuple(f"{kind}{k + 1}" for k in range(6) for kind in ("offset", "x", "y", "z"))
+    lengths = np.array([kind != "offset" for _ in range(6) for kind in ("offset", "x", "y", "z")])
+
+    def kinematics(d: np.ndarray) -> Kinematics:
+        return Kinematics(_deviated(model, axes, d), tip_frame)
+
+    def mjcf(d: np.ndarray) -> str:
+        return arm_mjcf(_deviated(model, axes, d), tip_frame, servo, effort, home, radius_m, label)
+
+    return Robot(
+        label, vendor, home, speed, effort, parameters, lengths, kinematics, mjcf, tip_frame
+    )
 
 
 def example_robot_data_share() -> Path:
@@ -20,8 +376,44 @@ def example_robot_data_share() -> Path:
     return share
 
 
+def ur5_urdf() -> Path:
+    """The UR5's URDF in example-robot-data."""
+    return (
+        example_robot_data_share()
+        / "example-robot-data" / "robots" / "ur_description" / "urdf" / "ur5_robot.urdf"
+    )  # fmt: skip
+
+
+#: Where the UR5 stands in the cell: on a pedestal beside the table, between it and the
+#: tool rack, within its 0.85 m reach of both.
+UR5_MOUNT_XYZ = (0.75, -0.45, 0.45)
+UR5_MOUNT_YAW_DEG = 0.0
+UR5_HOME = np.array([0.0, -1.2, 1.6, -1.97, -1.5708, 0.0])
+
+
+def ur5() -> Robot:
+    """The UR5 of example-robot-data (URDF, flange `tool0`) mounted for the cell."""
+    return robot_from_file(
+        ur5_urdf(),
+        "tool0",
+        mount_xyz=UR5_MOUNT_XYZ,
+        mount_yaw_deg=UR5_MOUNT_YAW_DEG,
+        q_home=UR5_HOME,
+        servo=Servo(
+            kp=(1e4, 1e4, 6e3, 1e3, 1e3, 5e2),
+            kv=(2e2, 2e2, 1.2e2, 2e1, 2e1, 1e1),
+            armature=(0.5, 0.5, 0.3, 0.05, 0.05, 0.03),
+        ),
+        radius_m=0.045,
+        vendor="universal robots",
+        name="ur5",
+    )
+
+
+BUILTIN: dict[str, Callable[[], Robot]] = {"irb2400": irb2400, "ur5": ur5}
+
+
 def ur5_kinematics() -> Kinematics:
-    """Kinematics of a UR5 (ur5_robot.urdf), tip frame `tool0`."""
+    """Kinematics of the UR5 (ur5_robot.urdf) at the origin, tip frame `tool0`."""
     share = example_robot_data_share()
-    urdf = share / "example-robot-data" / "robots" / "ur_description" / "urdf" / "ur5_robot.urdf"
-    return Kinematics.from_urdf(urdf, "tool0", package_dirs=[str(share)])
+    return Kinematics.from_urdf(ur5_urdf(), "tool0", package_dirs=[str(share)])

@@ -15,8 +15,9 @@ from models.robot import FLANGE_SITE, JOINT_NAMES, Q_HOME, TOOLS
 class Simulation:
     """A compiled cell model with its data, reset to the `home` keyframe."""
 
-    def __init__(self, model: mujoco.MjModel) -> None:
+    def __init__(self, model: mujoco.MjModel, q_home: np.ndarray | None = None) -> None:
         self.model = model
+        self.q_home = np.array(Q_HOME if q_home is None else q_home, dtype=float)
         self.data = mujoco.MjData(model)
         m = model
         self.dt = float(m.opt.timestep)
@@ -51,7 +52,7 @@ class Simulation:
         m, d = self.model, self.data
         mujoco.mj_resetDataKeyframe(m, d, self.home_key)
         d.ctrl[:] = 0.0
-        d.ctrl[self.arm_act] = Q_HOME
+        d.ctrl[self.arm_act] = self.q_home
         d.ctrl[self.finger_act] = m.actuator_ctrlrange[self.finger_act, 1]
         d.qpos[self.finger_qadr] = d.ctrl[self.finger_act]
         mujoco.mj_forward(m, d)

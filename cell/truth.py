@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
-
 import numpy as np
 
 from cell.build import RealParameters
@@ -14,7 +11,6 @@ from cell.errors import UnknownNameError
 from cell.kinematics import Kinematics
 from cell.simulation import Simulation
 from cell.toolchanger import flange_offset
-from models.robot import ArmGeometry, arm_xml
 
 
 class CellTruth:
@@ -33,9 +29,9 @@ class CellTruth:
         self._table = table
 
     @property
-    def arm(self) -> ArmGeometry:
-        """The real arm's kinematic parameters."""
-        return self.params.arm
+    def deviations(self) -> np.ndarray:
+        """The real arm's kinematic deviations from its nominal (see cell.robots)."""
+        return self.params.deviations
 
     @property
     def simulation(self) -> Simulation:
@@ -75,11 +71,8 @@ class CellTruth:
         return self._sim.site_T(self._sim.tcp_site[tool])
 
     def kinematics(self) -> Kinematics:
-        """Pinocchio kinematics of the REAL arm (its perturbed robot-only MJCF)."""
-        with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / "real_arm.xml"
-            path.write_text(arm_xml(self.params.arm))
-            return Kinematics.from_mjcf(path, "flange")
+        """Pinocchio kinematics of the REAL arm (the robot with the drawn deviations)."""
+        return self.config.robot.kinematics(self.params.deviations)
 
     def T_flange_tool(self, tool: str) -> np.ndarray:
         """(4, 4) true pose of `tool`'s frame in the true flange frame."""

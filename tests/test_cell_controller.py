@@ -25,7 +25,6 @@ from cell import (
 )
 from cell.build import RealParameters, draw_real_parameters
 from cell.simulation import Simulation
-from models.robot import ArmGeometry, arm_xml
 from registration.rigid import make_T
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
@@ -41,7 +40,7 @@ def laser_cell() -> tuple[Controller, CellTruth]:
 
 def test_controller_exposes_no_truth() -> None:
     controller, _ = make_cell(CellConfig(seed=1))
-    hidden = (Simulation, CellTruth, RealParameters, ArmGeometry, mujoco.MjModel, mujoco.MjData)
+    hidden = (Simulation, CellTruth, RealParameters, mujoco.MjModel, mujoco.MjData)
     public = [name for name in dir(controller) if not name.startswith("_")]
     for name in public:
         value = getattr(controller, name)
@@ -51,7 +50,8 @@ def test_controller_exposes_no_truth() -> None:
 def test_real_arm_deviates_by_an_industrial_arms_accuracy() -> None:
     kin = nominal_kinematics()
     params = draw_real_parameters(CellConfig(seed=0))
-    m = mujoco.MjModel.from_xml_string(arm_xml(params.arm))
+    config = CellConfig(seed=0)
+    m = mujoco.MjModel.from_xml_string(config.robot.mjcf(params.deviations))
     d = mujoco.MjData(m)
     rng = np.random.default_rng(0)
     errors = []
@@ -66,7 +66,7 @@ def test_real_arm_deviates_by_an_industrial_arms_accuracy() -> None:
 
 def test_ideal_config_zeroes_every_error() -> None:
     controller, truth = make_cell(CellConfig(seed=3).ideal())
-    assert truth.arm == ArmGeometry()
+    assert not truth.deviations.any()
     controller.move_table(0.3)
     assert controller.table_position() == truth.table_position_m()
     np.testing.assert_array_equal(controller.read_joints(), truth.q())

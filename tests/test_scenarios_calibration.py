@@ -25,7 +25,6 @@ from scenarios.offline.calibration import (
     CalibrationError,
     CalibrationPlan,
     SphereArtifact,
-    geometry_of,
     identify,
     measure_spheres,
 )
@@ -48,13 +47,13 @@ def calibrated() -> dict:
         1, DEFAULT_ARTIFACT.fixtures(DEFAULT_ARTIFACT.centres_table + SHIFT_M)
     )
     measured = measure_spheres(controller, DEFAULT_ARTIFACT, CalibrationPlan())
-    fit = identify(measured)
+    fit = identify(measured, controller.robot)
     return {
         "controller": controller,
         "truth": truth,
         "measured": measured,
         "fit": fit,
-        "kinematics": Kinematics.from_geometry(geometry_of(fit.deviations)),
+        "kinematics": controller.robot.kinematics(fit.deviations),
     }
 
 
@@ -124,12 +123,13 @@ def test_the_evaluator_measures_the_same_tip_error(calibrated: dict) -> None:
 def test_the_observable_parameters_are_found(calibrated: dict) -> None:
     """The upper arm, elbow and forearm lengths and the offsets of joints 2-5 (what sphere
     views see) against the real arm's; the laser is back in its slot."""
-    real = calibrated["truth"].arm
-    fit = geometry_of(calibrated["fit"].deviations)
+    names = calibrated["controller"].robot.parameters
+    real = dict(zip(names, calibrated["truth"].deviations, strict=True))
+    fit = dict(zip(names, calibrated["fit"].deviations, strict=True))
     for name in ("a2", "a3", "d4"):
-        assert abs(getattr(fit, name) - getattr(real, name)) < 0.03e-3, name
-    for j in (1, 2, 3, 4):
-        assert abs(fit.joint_offsets[j] - real.joint_offsets[j]) < 0.04e-3, f"offset{j + 1}"
+        assert abs(fit[name] - real[name]) < 0.03e-3, name
+    for name in ("offset2", "offset3", "offset4", "offset5"):
+        assert abs(fit[name] - real[name]) < 0.04e-3, name
     assert calibrated["controller"].tool_in_hand is None
 
 
@@ -144,12 +144,12 @@ def test_too_few_points_are_refused(calibrated: dict) -> None:
         p_laser=measured.p_laser[keep],
     )
     with pytest.raises(CalibrationError, match=r"points per sphere .*at least 200"):
-        identify(few)
+        identify(few, calibrated["controller"].robot)
 
 
 def test_a_poor_fit_is_refused(calibrated: dict) -> None:
     with pytest.raises(CalibrationError, match=r"residual RMS .* above the limit"):
-        identify(calibrated["measured"], max_residual_rms_m=1e-6)
+        identify(calibrated["measured"], calibrated["controller"].robot, max_residual_rms_m=1e-6)
 
 
 def test_no_sphere_in_view_is_refused() -> None:

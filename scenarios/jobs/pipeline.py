@@ -401,7 +401,7 @@ def run_cell_job(
         if recording is not None:
             recording.log_targets(primary_program, reports[0].targets)
     exports.write_robot_urdf(
-        folder, nominal, None if calibration is None else calibration.kinematics
+        folder, controller.robot, nominal, None if calibration is None else calibration.kinematics
     )
     # The arm's accuracy, from the truth, where the job used it: scan lines and targets.
     q_job = np.empty((0, 6))

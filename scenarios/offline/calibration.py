@@ -7,8 +7,9 @@ the laser looks at each sphere from many arm configurations (tilts, headings, tu
 laser about its axis, near and far), a few static laser lines per view. Every laser point is
 reconstructed from the measured joints, its range and ray, and a candidate arm geometry; its
 residual is its distance to its sphere's centre minus the sphere's radius. Gauss-Newton with
-a weak prior on the deviations identifies the twelve parameters of `ArmGeometry` (six lengths,
-six joint zero offsets) jointly with the spheres' centres, which need not be known.
+a weak prior on the deviations identifies the arm's kinematic parameters (cell.robots: the
+built-in arm's six link lengths and six joint zero offsets; another arm's zero offset and axis
+position of each joint) jointly with the spheres' centres, which need not be known.
 
 The laser's mounting on the flange is part of the model: the tool changer locks a tool where
 the flange meets it, so a tool fetched with an inaccurate arm sits off its nominal mounting by
@@ -35,26 +36,12 @@ import numpy as np
 from cell import Controller, FixedPrimitive, Kinematics, nominal_T_base_slot, nominal_T_base_table
 from cell.controller import RACK_APPROACH_M
 from cell.errors import CellError
-from models.robot import LASER, Q_HOME, ArmGeometry
+from cell.robots import Robot
+from models.robot import LASER
 from registration.rigid import make_T
 from scenarios.errors import ScenarioError
 
 Progress = Callable[[str], None]
-#: The identified parameters, in the order of the deviation vectors (12,) [m, rad].
-PARAMETER_NAMES: tuple[str, ...] = (
-    "d1",
-    "a1",
-    "a2",
-    "a3",
-    "d4",
-    "d6",
-    "offset1",
-    "offset2",
-    "offset3",
-    "offset4",
-    "offset5",
-    "offset6",
-)
 #: Finite-difference step of the numeric Jacobian [m or rad].
 _STEP = 1e-6
 
@@ -176,8 +163,9 @@ class CalibrationResult:
     """The identified arm.
 
     Attributes:
-        geometry: the calibrated `ArmGeometry`; kinematics: Pinocchio on it.
-        deviations: (12,) identified deviations from the nominal, see PARAMETER_NAMES [m, rad].
+        kinematics: Pinocchio on the calibrated arm.
+        parameters: the names of the arm's deviations (cell.robots).
+        deviations: (P,) identified deviations from the nominal [m, rad].
         centres_base: (S, 3) estimated sphere centres in the base frame [m].
         residual_rms_before_m: point residual RMS with the nominal arm (centres fitted) [m].
         residual_rms_after_m: the same with the calibrated arm [m].
@@ -185,8 +173,8 @@ class CalibrationResult:
         seconds: wall time of measurement and identification [s].
     """
 
-    geometry: ArmGeometry
     kinematics: Kinematics
+    parameters: tuple[str, ...]
     deviations: np.ndarray
     centres_base: np.ndarray
     residual_rms_before_m: float
@@ -206,7 +194,7 @@ class CalibrationResult:
             "views": self.views,
             "iterations": self.iterations,
             "deviations": {
-                n: float(v) for n, v in zip(PARAMETER_NAMES, self.deviations, strict=True)
+                n: float(v) for n, v in zip(self.parameters, self.deviations, strict=True)
             },
         }
 
@@ -254,7 +242,7 @@ def plan_views(
 def _fetch_laser(controller: Controller) -> np.ndarray:
     """Fetch the laser from its slot through the home pose; the joints (6,) [rad] at the lock
     (averaged encoder readings)."""
-    controller.move_joints(np.array(Q_HOME))
+    controller.move_joints(controller.q_home)
     controller.return_tool()
     T_slot = nominal_T_base_slot(LASER.name)
     T_above = T_slot.copy()
@@ -292,7 +280,7 @@ def measure_spheres(
     kin = controller.kinematics
     T_laser = controller.T_flange_tcp()
     dirs = controller.laser_directions_tcp
-    views = plan_views(kin, centres, plan, np.array(Q_HOME))
+    views = plan_views(kin, centres, plan, controller.q_home)
     q_lines, lines, spheres, points = [], [], [], []
     margin = artifact.radius_m + 0.01
     for s, q in views:
@@ -317,7 +305,7 @@ def measure_spheres(
         spheres.append(np.full(int(keep.sum()), s))
         points.append(p_laser[keep])
     say(f"calibration: {len(views)} views of {len(centres)} spheres, {len(q_lines)} lines")
-    controller.move_joints(np.array(Q_HOME))
+    controller.move_joints(controller.q_home)
     controller.return_tool()
     if not points:
         raise CalibrationError(
@@ -341,7 +329,7 @@ def measure_spheres(
 # -- identification ---------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Identification:
-    """The fit: deviations (12,) [m, rad] (see PARAMETER_NAMES), sphere centres (S, 3) in the
+    """The fit: deviations (P,) [m, rad] (see cell.robots), sphere centres (S, 3) in the
     base frame [m], point residual RMS with the nominal arm and with the identified one [m]
     (centres fitted for each), inlier points used, Gauss-Newton iterations of both fits."""
 
@@ -351,12 +339,6 @@ class Identification:
     residual_rms_after_m: float
     points: int
     iterations: int
-
-
-def geometry_of(deviations: np.ndarray) -> ArmGeometry:
-    """The nominal arm changed by `deviations` (12,) (see PARAMETER_NAMES) [m, rad]."""
-    d = np.asarray(deviations, dtype=float)
-    return ArmGeometry().perturbed(d[:6], d[6:])
 
 
 def points_base(m: SphereMeasurements, kin: Kinematics) -> np.ndarray:
@@ -373,6 +355,7 @@ def _residuals(p: np.ndarray, centres: np.ndarray, sphere: np.ndarray, r: float)
 
 def _fit(
     m: SphereMeasurements,
+    robot: Robot,
     use: np.ndarray,
     deviations: np.ndarray,
     centres: np.ndarray,
@@ -382,13 +365,13 @@ def _fit(
     iterations: int,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Gauss-Newton on the points `use` (N,) bool: sphere centres, and the arm's deviations
-    if `free_arm`, with the prior sigmas (12,) on the deviations."""
+    if `free_arm`, with the prior sigmas (P,) on the deviations."""
     S = len(centres)
     sphere, radius = m.sphere[use], m.radius_m
     dev, c = deviations.copy(), centres.copy()
     done = 0
     for done in range(1, iterations + 1):  # noqa: B007 (the count is returned)
-        kin = Kinematics.from_geometry(geometry_of(dev))
+        kin = robot.kinematics(dev)
         p = points_base(m, kin)[use]
         res = _residuals(p, c, sphere, radius)
         n = (p - c[sphere]) / np.linalg.norm(p - c[sphere], axis=1)[:, None]
@@ -396,21 +379,22 @@ def _fit(
         for s in range(S):
             J_c[sphere == s, 3 * s : 3 * s + 3] = -n[sphere == s]
         if free_arm:
-            J_d = np.empty((len(p), 12))
-            for j in range(12):
+            P = len(dev)
+            J_d = np.empty((len(p), P))
+            for j in range(P):
                 step = dev.copy()
                 step[j] += _STEP
-                p_j = points_base(m, Kinematics.from_geometry(geometry_of(step)))[use]
+                p_j = points_base(m, robot.kinematics(step))[use]
                 J_d[:, j] = np.einsum("ni,ni->n", n, p_j - p) / _STEP
             J = np.hstack([J_d, J_c]) / point_sigma_m
-            J = np.vstack([J, np.hstack([np.diag(1.0 / prior), np.zeros((12, 3 * S))])])
+            J = np.vstack([J, np.hstack([np.diag(1.0 / prior), np.zeros((P, 3 * S))])])
             rvec = np.concatenate([res / point_sigma_m, dev / prior])
         else:
             J, rvec = J_c, res
         delta = np.linalg.lstsq(J, -rvec, rcond=None)[0]
         if free_arm:
-            dev = dev + delta[:12]
-            c = c + delta[12:].reshape(S, 3)
+            dev = dev + delta[: len(dev)]
+            c = c + delta[len(dev) :].reshape(S, 3)
         else:
             c = c + delta.reshape(S, 3)
         if np.max(np.abs(delta)) < 1e-9:
@@ -420,6 +404,7 @@ def _fit(
 
 def identify(
     m: SphereMeasurements,
+    robot: Robot,
     *,
     prior_sigma_m: float = 1e-3,
     prior_sigma_rad: float = 1e-3,
@@ -428,7 +413,8 @@ def identify(
     min_points_per_sphere: int = 200,
     iterations: int = 10,
 ) -> Identification:
-    """Identify the arm's deviations from the measurements.
+    """Identify the deviations of `robot`'s arm (its model, cell.robots) from the
+    measurements.
 
     The prior (sigmas [m] for lengths, [rad] for offsets) holds the directions the data do
     not see. Points whose residual is beyond 4 robust sigmas (at least 0.3 mm) of a first fit
@@ -441,11 +427,13 @@ def identify(
             f"points per sphere {counts.tolist()}: each sphere needs at least "
             f"{min_points_per_sphere} laser points"
         )
-    prior = np.array([prior_sigma_m] * 6 + [prior_sigma_rad] * 6)
-    zero = np.zeros(12)
+    prior = robot.sigmas(prior_sigma_m, prior_sigma_rad)
+    zero = robot.zero()
     use = np.ones(m.points, dtype=bool)
-    dev, c, its_first = _fit(m, use, zero, m.centres_base, True, prior, point_sigma_m, iterations)
-    kin = Kinematics.from_geometry(geometry_of(dev))
+    dev, c, its_first = _fit(
+        m, robot, use, zero, m.centres_base, True, prior, point_sigma_m, iterations
+    )
+    kin = robot.kinematics(dev)
     res = _residuals(points_base(m, kin), c, m.sphere, m.radius_m)
     sigma = 1.4826 * float(np.median(np.abs(res - np.median(res))))
     use = np.abs(res) <= max(4.0 * sigma, 3e-4)
@@ -455,11 +443,11 @@ def identify(
             f"inlier points per sphere {counts.tolist()} after the first fit: each sphere "
             f"needs at least {min_points_per_sphere}"
         )
-    dev, c, its = _fit(m, use, dev, c, True, prior, point_sigma_m, iterations)
-    kin_after = Kinematics.from_geometry(geometry_of(dev))
+    dev, c, its = _fit(m, robot, use, dev, c, True, prior, point_sigma_m, iterations)
+    kin_after = robot.kinematics(dev)
     after = _residuals(points_base(m, kin_after)[use], c, m.sphere[use], m.radius_m)
-    kin_before = Kinematics.from_geometry(ArmGeometry())
-    _, c0, _ = _fit(m, use, zero, c, False, prior, point_sigma_m, iterations)
+    kin_before = robot.kinematics()
+    _, c0, _ = _fit(m, robot, use, zero, c, False, prior, point_sigma_m, iterations)
     before = _residuals(points_base(m, kin_before)[use], c0, m.sphere[use], m.radius_m)
     rms_before = float(np.sqrt(np.mean(before**2)))
     rms_after = float(np.sqrt(np.mean(after**2)))
@@ -485,11 +473,11 @@ def calibrate(
     t0 = time.perf_counter()
     plan = plan or CalibrationPlan()
     m = measure_spheres(controller, artifact, plan, progress, on_view)
-    fit = identify(m, max_residual_rms_m=max_residual_rms_m)
-    geometry = geometry_of(fit.deviations)
+    robot = controller.robot
+    fit = identify(m, robot, max_residual_rms_m=max_residual_rms_m)
     return CalibrationResult(
-        geometry,
-        Kinematics.from_geometry(geometry),
+        robot.kinematics(fit.deviations),
+        robot.parameters,
         fit.deviations,
         fit.centres_base,
         fit.residual_rms_before_m,

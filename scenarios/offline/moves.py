@@ -3,10 +3,7 @@ for reach, the error when none serves, and the safe tool change."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from cell import Controller
-from models.robot import Q_HOME
 from scenarios.errors import ScenarioError
 
 #: Table positions tried, in order, for a pass or an operation the arm must reach [m].
@@ -23,5 +20,5 @@ def change_tool_safely(controller: Controller, tool: str) -> None:
     joint move can sweep the tool in hand through the tools hanging in the rack."""
     if controller.tool_in_hand == tool:
         return
-    controller.move_joints(np.array(Q_HOME))
+    controller.move_joints(controller.q_home)
     controller.change_tool(tool)

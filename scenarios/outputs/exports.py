@@ -13,41 +13,40 @@ import numpy as np
 import pinocchio as pin
 
 from cell import Kinematics
+from cell.robots import Robot
 from models.atomic import write_text
-from models.robot import JOINT_SPEED, JOINT_TORQUE, TOOLS
+from models.robot import TOOLS
 from models.robot.urdf import urdf_text
 from registration.rigid import R_to_quat_wxyz
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import tooldata_text
 
 
-def _with_limits(kinematics: Kinematics) -> pin.Model:
-    """A copy of the arm's model with finite speed and effort limits (the data sheet's,
-    where the model file gives none)."""
+def _with_limits(kinematics: Kinematics, robot: Robot) -> pin.Model:
+    """A copy of the arm's model with the robot's speed and effort limits (its data sheet's,
+    which the model built from the built-in arm's MJCF does not carry)."""
     model = pin.Model(kinematics.model)
-    if not np.isfinite(model.upperVelocityLimit).all():
-        model.upperVelocityLimit = np.asarray(JOINT_SPEED, dtype=float)
-    if not np.isfinite(model.upperEffortLimit).all():
-        model.upperEffortLimit = np.asarray(JOINT_TORQUE, dtype=float)
+    model.upperVelocityLimit = np.asarray(robot.joint_speed, dtype=float)
+    model.upperEffortLimit = np.asarray(robot.joint_effort, dtype=float)
     return model
 
 
 def write_robot_urdf(
-    folder: Path, nominal: Kinematics, calibrated: Kinematics | None
+    folder: Path, robot: Robot, nominal: Kinematics, calibrated: Kinematics | None
 ) -> list[Path]:
     """robot_nominal.urdf and, if the arm was calibrated, robot_calibrated.urdf (the
     identified link lengths and joint zero offsets), tip link `flange` (ABB's tool0)."""
     written = [
         write_text(
             folder / "robot_nominal.urdf",
-            urdf_text(_with_limits(nominal), "arm_nominal", nominal.tip_frame),
+            urdf_text(_with_limits(nominal, robot), "arm_nominal", nominal.tip_frame),
         )
     ]
     if calibrated is not None:
         written.append(
             write_text(
                 folder / "robot_calibrated.urdf",
-                urdf_text(_with_limits(calibrated), "arm_calibrated", calibrated.tip_frame),
+                urdf_text(_with_limits(calibrated, robot), "arm_calibrated", calibrated.tip_frame),
             )
         )
     return written

@@ -17,7 +17,7 @@ import numpy as np
 
 from cell import CellTruth, Kinematics, nominal_T_base_slot
 from models import ObjectModel
-from models.robot import Q_HOME, TOOLS
+from models.robot import TOOLS
 from registration import pose_error, transform_points
 from scenarios.offline.calibration import CalibrationResult
 
@@ -239,7 +239,7 @@ class Evaluator:
         spec = {t.name: t for t in TOOLS}[tool]
         real = self._truth.kinematics()
         T_base_slot = nominal_T_base_slot(tool)
-        q_slot = kinematics.solve(T_base_slot, np.array(Q_HOME))
+        q_slot = kinematics.solve(T_base_slot, self._truth.config.robot.q_home)
         T_flange_tool = np.linalg.solve(real.fk(q_slot), T_base_slot)
         q = np.asarray(q_samples, dtype=float).reshape(-1, 6)
         p_model = np.array([(kinematics.fk(qi) @ spec.T_tool_tcp)[:3, 3] for qi in q])
