@@ -172,7 +172,8 @@ def build_model(config: CellConfig, deviations: np.ndarray | None = None) -> muj
     """Compile the cell's MuJoCo model with its robot's arm deviated by `deviations`
     (default: the nominal arm)."""
     spec = mujoco.MjSpec.from_string(
-        scene_xml(), include={ROBOT_FILE: config.robot.mjcf(deviations).encode()}
+        scene_xml(rack_xyz=config.rack_xyz),
+        include={ROBOT_FILE: config.robot.mjcf(deviations).encode()},
     )
     for obj in config.fixtures:
         _add_fixture(spec, obj)

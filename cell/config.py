@@ -13,6 +13,7 @@ import numpy as np
 
 from cell.errors import CellConfigError
 from cell.robots import Robot, irb2400
+from models.robot import RACK_POS
 
 
 def _nonneg(owner: str, **values: float) -> None:
@@ -274,11 +275,14 @@ class LoosePart:
 
 @dataclass(frozen=True)
 class CellConfig:
-    """Everything that defines a simulated cell: its `robot` (cell.robots), the error
-    sources, the objects on the table. `seed` draws the real cell's errors."""
+    """Everything that defines a simulated cell: its `robot` (cell.robots), where its tool
+    rack stands (`rack_xyz` [m], the rack frame; the slots are 0.25 m apart along x and 0.8 m
+    above it), the error sources, the objects on the table. `seed` draws the real cell's
+    errors."""
 
     seed: int = 0
     robot: Robot = field(default_factory=irb2400)
+    rack_xyz: tuple[float, float, float] = RACK_POS
     arm: ArmErrors = field(default_factory=ArmErrors)
     encoder: EncoderNoise = field(default_factory=EncoderNoise)
     table: TableErrors = field(default_factory=TableErrors)
@@ -288,6 +292,12 @@ class CellConfig:
     parts: tuple[LoosePart | LooseMesh, ...] = ()
 
     def __post_init__(self) -> None:
+        rack = np.asarray(self.rack_xyz, dtype=float)
+        if rack.shape != (3,) or not np.isfinite(rack).all() or not -0.5 <= rack[2] <= 1.0:
+            raise CellConfigError(
+                f"rack_xyz must be 3 finite numbers [m] with the rack's z in [-0.5, 1.0] (its "
+                f"slots 0.8 m above it), got {self.rack_xyz!r}"
+            )
         names = [o.name for o in (*self.fixtures, *self.parts)]
         if len(set(names)) != len(names):
             raise CellConfigError(f"object names on the table must be unique, got {names}")

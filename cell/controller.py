@@ -28,6 +28,7 @@ from cell.toolchanger import ToolChanger
 from cell.trajectory import joint_trajectory, quintic, straight_path
 from models.robot import (
     FINGER_TRAVEL,
+    RACK_POS,
     SLOT_QUAT,
     TABLE_SPEED,
     TABLE_TOP_POS,
@@ -46,9 +47,10 @@ RACK_APPROACH_M = 0.12
 LINEAR_PERIOD_S = 0.01
 
 
-def nominal_T_base_slot(tool: str) -> np.ndarray:
-    """(4, 4) nominal pose of `tool`'s rack slot in the robot base frame."""
-    return make_T(quat_wxyz_to_R(np.array(SLOT_QUAT)), np.array(slot_pos(_index(tool))))
+def nominal_T_base_slot(tool: str, rack_xyz: tuple[float, float, float] = RACK_POS) -> np.ndarray:
+    """(4, 4) nominal pose of `tool`'s rack slot in the robot base frame, for the rack at
+    `rack_xyz` [m] (its nominal place in the cell's layout)."""
+    return make_T(quat_wxyz_to_R(np.array(SLOT_QUAT)), np.array(slot_pos(_index(tool), rack_xyz)))
 
 
 def nominal_T_base_table(table_position_m: float) -> np.ndarray:
@@ -77,9 +79,11 @@ class Controller:
         laser: LaserScanner,
         ir: IRSensor,
         robot: Robot | None = None,
+        rack_xyz: tuple[float, float, float] = RACK_POS,
     ) -> None:
         self._sim = sim
         self._robot = robot or irb2400()
+        self._rack_xyz = rack_xyz
         self._encoders = encoders
         self._table = table
         self._laser = laser
@@ -95,6 +99,10 @@ class Controller:
         """The arm's model as its data sheet gives it (cell.robots): the nominal kinematics,
         the parameters its calibration identifies, home, speeds; nothing of the real arm."""
         return self._robot
+
+    def T_base_slot(self, tool: str) -> np.ndarray:
+        """(4, 4) nominal pose of `tool`'s rack slot in the base frame (the cell's layout)."""
+        return nominal_T_base_slot(tool, self._rack_xyz)
 
     @property
     def q_home(self) -> np.ndarray:
@@ -254,7 +262,7 @@ class Controller:
         name = self.tool_in_hand
         if name is None:
             return
-        T_slot = nominal_T_base_slot(name)
+        T_slot = self.T_base_slot(name)
         T_tcp = self.T_flange_tcp()
         self._approach(T_slot)
         self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
@@ -267,7 +275,7 @@ class Controller:
         if self.tool_in_hand == tool:
             return
         self.return_tool()
-        T_slot = nominal_T_base_slot(tool)
+        T_slot = self.T_base_slot(tool)
         self._approach(T_slot)
         self.move_linear(T_slot, speed_m_s=0.1)
         self.lock()

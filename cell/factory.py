@@ -48,6 +48,6 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
     sim.settle(0.2)
     controller = Controller(
-        sim, config.robot.kinematics(), encoders, table, laser, ir, config.robot
+        sim, config.robot.kinematics(), encoders, table, laser, ir, config.robot, config.rack_xyz
     )
     return controller, CellTruth(config, params, sim, table)

@@ -182,9 +182,24 @@ class Kinematics:
             if best is None or score < best[0]:
                 best = (score, q, dp, dr)
             if dp <= tol_position_m and dr <= tol_rotation_rad:
+                q = self.nearest_turns(q, seed) if attempt else q
                 return IKResult(q, True, dp, dr, total_iterations, attempt + 1)
         assert best is not None
         return IKResult(best[1], False, best[2], best[3], total_iterations, extra_seeds + 1)
+
+    def nearest_turns(self, q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+        """`q` (6,) with each joint turned by whole turns (2 pi, the same pose) to the value
+        nearest `q_ref` within its limits: a solution found from a random seed, brought back
+        next to the arm's configuration."""
+        out = np.array(q, dtype=float)
+        turns = np.round((np.asarray(q_ref, dtype=float) - out) / (2.0 * np.pi))
+        for k in np.flatnonzero(turns):
+            for n in (turns[k], turns[k] - np.sign(turns[k])):
+                value = out[k] + 2.0 * np.pi * n
+                if self.lower[k] <= value <= self.upper[k]:
+                    out[k] = value
+                    break
+        return out
 
     def _dls(
         self, oMdes: pin.SE3, q: np.ndarray, tol_p: float, tol_r: float, max_iterations: int

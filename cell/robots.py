@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import sysconfig
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +50,10 @@ class Robot:
         parameters: names of the kinematic deviations; lengths: (P,) True where a deviation
             is a length [m] (else an angle [rad]).
         tip_frame: the flange frame of the kinematics.
+        T_world_base: (4, 4) where the arm's own base stands in the cell (its mount; the
+            kinematics' base frame is the cell's, the mount in the first joint's placement).
+        identified: (P,) bool, the deviations an in-cell calibration identifies (default
+            all); the others it holds at zero.
     """
 
     name: str
@@ -62,6 +66,17 @@ class Robot:
     _kinematics: Callable[[np.ndarray], Kinematics] = field(repr=False)
     _mjcf: Callable[[np.ndarray], str] = field(repr=False)
     tip_frame: str = "flange"
+    T_world_base: np.ndarray = field(default_factory=lambda: np.eye(4))
+    identified: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.identified is None:
+            object.__setattr__(self, "identified", np.ones(len(self.parameters), dtype=bool))
+
+    @property
+    def rapid(self) -> bool:
+        """Whether the arm's controller runs RAPID (an ABB arm)."""
+        return self.vendor.lower() == "abb"
 
     def zero(self) -> np.ndarray:
         """The nominal arm's deviations (P,) (all zero)."""
@@ -166,7 +181,9 @@ def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:
             f"position variables and revolute joints {revolute}"
         )
     if not model.existFrame(tip_frame):
-        frames = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP)]
+        frames = [
+            f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)
+        ]
         raise CellConfigError(
             f"{p}: no frame {tip_frame!r} for the flange; its frames are {frames}"
         )
@@ -333,10 +350,28 @@ def robot_from_file(
     radius_m: float = 0.05,
     vendor: str = "",
     name: str | None = None,
+    limits: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Robot:
     """A 6-axis arm from a URDF or robot-only MJCF file, its base at `mount_xyz` [m] turned
-    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`."""
+    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`.
+    `limits` (lower, upper) (6,) [rad], within the file's, are the cell's joint ranges (its
+    safety configuration: e.g. the upper arm kept above the shoulder)."""
     model = load_arm_model(path, tip_frame)
+    if limits is not None:
+        lower, upper = (np.asarray(v, dtype=float) for v in limits)
+        if (
+            lower.shape != (6,)
+            or upper.shape != (6,)
+            or (lower >= upper).any()
+            or (lower < model.lowerPositionLimit - 1e-9).any()
+            or (upper > model.upperPositionLimit + 1e-9).any()
+        ):
+            raise CellConfigError(
+                f"{path}: joint ranges {lower.tolist()} .. {upper.tolist()} rad must be six "
+                f"increasing pairs within the arm's {model.lowerPositionLimit.tolist()} .. "
+                f"{model.upperPositionLimit.tolist()}"
+            )
+        model.lowerPositionLimit, model.upperPositionLimit = lower, upper
     model.jointPlacements[1] = _mount(mount_xyz, mount_yaw_deg) * model.jointPlacements[1]
     axes = [_motion_axis(model, j) for j in range(1, 7)]
     speed = np.asarray(model.velocityLimit, dtype=float)
@@ -361,7 +396,23 @@ def robot_from_file(
         return arm_mjcf(_deviated(model, axes, d), tip_frame, servo, effort, home, radius_m, label)
 
     return Robot(
-        label, vendor, home, speed, effort, parameters, lengths, kinematics, mjcf, tip_frame
+        label,
+        vendor,
+        home,
+        speed,
+        effort,
+        parameters,
+        lengths,
+        kinematics,
+        mjcf,
+        tip_frame,
+        _mount(mount_xyz, mount_yaw_deg).homogeneous,
+        # Joint 1's axis position shifts the whole arm: the spheres' free centres take any
+        # shift, and every tool, locked where the shifted flange meets its slot (all slots
+        # face down), carries the same shift back: the calibration cannot see it and the
+        # job does not need it; fitted, it only combines with joint 1's offset into a turn
+        # about the spheres that the noise pulls about.
+        np.array([k not in (1, 2, 3) for k in range(24)]),
     )
 
 
@@ -384,21 +435,35 @@ def ur5_urdf() -> Path:
     )  # fmt: skip
 
 
-#: Where the UR5 stands in the cell: on a pedestal beside the table, between it and the
-#: tool rack, within its 0.85 m reach of both.
-UR5_MOUNT_XYZ = (0.75, -0.45, 0.45)
+#: Where the UR5 stands in the cell: on a pedestal at the table's near corner (clear of the
+#: table's sweep), the table and the rack (cell ur5) within its 0.85 m reach.
+UR5_MOUNT_XYZ = (0.55, -0.1, 0.45)
 UR5_MOUNT_YAW_DEG = 0.0
 UR5_HOME = np.array([0.0, -1.2, 1.6, -1.97, -1.5708, 0.0])
+#: The UR5's joint ranges in the cell [rad], its safety configuration: the upper arm above
+#: the shoulder and the elbow bent up (no pose reaches down through the pedestal or the
+#: table), one wrist configuration (wrist 2 negative), and wrist 1 kept where no tool on the
+#: flange folds back into the forearm or the upper arm (over those ranges the tools' bodies
+#: stay clear of both by the arm's and the tools' radii).
+UR5_LIMITS = (
+    np.array([-np.pi, -np.pi, 0.0, -4.5, -2.6, -2 * np.pi]),
+    np.array([np.pi, 0.0, np.pi, -0.2, -0.05, 2 * np.pi]),
+)
 
 
-def ur5() -> Robot:
-    """The UR5 of example-robot-data (URDF, flange `tool0`) mounted for the cell."""
+def ur5(
+    mount_xyz: tuple[float, float, float] = UR5_MOUNT_XYZ,
+    mount_yaw_deg: float = UR5_MOUNT_YAW_DEG,
+    q_home: np.ndarray | None = None,
+) -> Robot:
+    """The UR5 of example-robot-data (URDF, flange `tool0`) mounted for the cell, its servos
+    sized for its 3 kg payload class."""
     return robot_from_file(
         ur5_urdf(),
         "tool0",
-        mount_xyz=UR5_MOUNT_XYZ,
-        mount_yaw_deg=UR5_MOUNT_YAW_DEG,
-        q_home=UR5_HOME,
+        mount_xyz=mount_xyz,
+        mount_yaw_deg=mount_yaw_deg,
+        q_home=UR5_HOME if q_home is None else q_home,
         servo=Servo(
             kp=(1e4, 1e4, 6e3, 1e3, 1e3, 5e2),
             kv=(2e2, 2e2, 1.2e2, 2e1, 2e1, 1e1),
@@ -407,10 +472,66 @@ def ur5() -> Robot:
         radius_m=0.045,
         vendor="universal robots",
         name="ur5",
+        limits=UR5_LIMITS,
     )
 
 
-BUILTIN: dict[str, Callable[[], Robot]] = {"irb2400": irb2400, "ur5": ur5}
+#: The built-in arms by name.
+BUILTIN: tuple[str, ...] = ("irb2400", "ur5")
+
+
+def make_robot(
+    model: str,
+    flange: str | None = None,
+    mount_xyz: tuple[float, float, float] | None = None,
+    mount_yaw_deg: float = 0.0,
+    q_home: np.ndarray | None = None,
+    vendor: str | None = None,
+) -> Robot:
+    """The arm `model`: a built-in one by name (BUILTIN) or a 6-axis URDF / robot-only MJCF
+    file with its flange frame `flange`, mounted at `mount_xyz` [m] turned `mount_yaw_deg`,
+    home `q_home` (6,) [rad]. Raises CellConfigError naming what is wrong."""
+    if q_home is not None:
+        q_home = np.asarray(q_home, dtype=float)
+        if q_home.shape != (6,) or not np.isfinite(q_home).all():
+            raise CellConfigError(f"home must be 6 finite joint values, got {q_home.tolist()}")
+    if model == "irb2400":
+        if flange is not None or mount_xyz is not None or mount_yaw_deg:
+            raise CellConfigError(
+                "the irb2400 is built in: it has its flange and stands at the cell's origin "
+                "(flange and mount are for a robot file or the ur5)"
+            )
+        robot = irb2400()
+        if q_home is not None:
+            robot = replace(robot, q_home=q_home)
+    elif model == "ur5":
+        if flange is not None:
+            raise CellConfigError("the ur5 is built in: its flange is tool0")
+        robot = ur5(
+            UR5_MOUNT_XYZ if mount_xyz is None else mount_xyz,
+            mount_yaw_deg,
+            q_home,
+        )
+    else:
+        if not flange:
+            raise CellConfigError(
+                f"robot file {model}: name its flange frame (built-in arms: {', '.join(BUILTIN)})"
+            )
+        robot = robot_from_file(
+            model,
+            flange,
+            mount_xyz=(0.0, 0.0, 0.0) if mount_xyz is None else mount_xyz,
+            mount_yaw_deg=mount_yaw_deg,
+            q_home=q_home,
+        )
+    if q_home is not None:
+        kin = robot.kinematics()
+        if (q_home < kin.lower).any() or (q_home > kin.upper).any():
+            raise CellConfigError(
+                f"{robot.name}: home {np.round(q_home, 4).tolist()} rad is outside the joint "
+                f"limits {np.round(kin.lower, 4).tolist()} .. {np.round(kin.upper, 4).tolist()}"
+            )
+    return robot if vendor is None else replace(robot, vendor=vendor)
 
 
 def ur5_kinematics() -> Kinematics:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from models.robot.arm import JOINT_NAMES
 from models.robot.table import table_actuator_xml, table_worldbody_xml
 from models.robot.tools import (
+    RACK_POS,
     TOOL_GROUP,
     rack_worldbody_xml,
     tools_actuator_xml,
@@ -18,8 +19,9 @@ ROBOT_FILE = "irb2400.xml"
 TIMESTEP = 0.002
 
 
-def scene_xml(robot_file: str = ROBOT_FILE) -> str:
-    """The scene MJCF; it includes the robot-only file `robot_file`."""
+def scene_xml(robot_file: str = ROBOT_FILE, rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
+    """The scene MJCF; it includes the robot-only file `robot_file`; the tool rack stands at
+    `rack_xyz` [m]."""
     sensors = "\n".join(
         f'    <jointpos name="{name}" joint="{name}"/>' for name in (*JOINT_NAMES, "table_slide")
     )
@@ -52,8 +54,8 @@ def scene_xml(robot_file: str = ROBOT_FILE) -> str:
     <light pos="0.5 0 3" dir="0 0 -1" directional="true"/>
     <geom name="floor" type="plane" size="0 0 0.05" rgba="0.55 0.55 0.55 1"/>
 {table_worldbody_xml()}
-{rack_worldbody_xml()}
-{tools_worldbody_xml()}
+{rack_worldbody_xml(rack_xyz)}
+{tools_worldbody_xml(rack_xyz)}
   </worldbody>
 
   <contact>

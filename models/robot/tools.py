@@ -70,17 +70,22 @@ SLOT_X = (0.0, 0.25, 0.5, 0.75)
 SLOT_QUAT = (0.0, 1.0, 0.0, 0.0)
 
 
-def slot_pos(index: int) -> tuple[float, float, float]:
-    """World position [m] of rack slot `index` (the seated tool frame's origin)."""
-    return (RACK_POS[0] + SLOT_X[index], RACK_POS[1], SLOT_HEIGHT)
+def slot_pos(
+    index: int, rack_xyz: tuple[float, float, float] = RACK_POS
+) -> tuple[float, float, float]:
+    """World position [m] of rack slot `index` (the seated tool frame's origin) for the rack
+    standing at `rack_xyz` [m]."""
+    return (rack_xyz[0] + SLOT_X[index], rack_xyz[1], rack_xyz[2] + SLOT_HEIGHT)
 
 
 def _plate() -> str:
     return '<geom type="cylinder" size="0.045 0.008" pos="0 0 0.008" rgba="0.3 0.3 0.35 1"/>'
 
 
-def _tool_body(spec: ToolSpec, index: int, content: str) -> str:
-    x, y, z = slot_pos(index)
+def _tool_body(
+    spec: ToolSpec, index: int, content: str, rack_xyz: tuple[float, float, float]
+) -> str:
+    x, y, z = slot_pos(index, rack_xyz)
     qw, qx, qy, qz = SLOT_QUAT
     tcp = " ".join(f"{v:.12g}" for v in spec.p_tool_tcp)
     tq = " ".join(f"{v:.12g}" for v in spec.quat_tool_tcp)
@@ -93,7 +98,7 @@ def _tool_body(spec: ToolSpec, index: int, content: str) -> str:
     </body>"""
 
 
-def tools_worldbody_xml() -> str:
+def tools_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
     """The tool bodies, each seated in its rack slot (free joints held by rack welds)."""
     gripper = f"""      <geom type="box" size="0.05 0.03 0.035" pos="0 0 0.05" mass="0.9"/>
       <body name="finger_left" pos="0.009 0 0" gravcomp="1">
@@ -115,24 +120,27 @@ def tools_worldbody_xml() -> str:
     ir = """      <geom type="box" size="0.02 0.02 0.02" pos="0 0 0.03" mass="0.2"/>"""
     laser = """      <geom type="box" size="0.06 0.03 0.045" pos="0 0 0.055" mass="0.6"/>"""
     contents = {"gripper": gripper, "screwer": screwer, "ir": ir, "laser": laser}
-    return "\n".join(_tool_body(spec, i, contents[spec.name]) for i, spec in enumerate(TOOLS))
+    return "\n".join(
+        _tool_body(spec, i, contents[spec.name], rack_xyz) for i, spec in enumerate(TOOLS)
+    )
 
 
-def rack_worldbody_xml() -> str:
-    """The static rack: a beam on two posts, one slot plate and one slot site per tool."""
-    x0, y0, _ = RACK_POS
+def rack_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
+    """The static rack, its frame at `rack_xyz` [m] (the slots `SLOT_HEIGHT` above it): a
+    beam on two posts standing on the floor, one slot site per tool."""
+    x0, y0, z0 = rack_xyz
     length = SLOT_X[-1] - SLOT_X[0] + 0.3
     cx = x0 + (SLOT_X[0] + SLOT_X[-1]) / 2.0
     slots = "\n".join(
-        f'      <site name="slot_{spec.name}" pos="{slot_pos(i)[0] - x0:.12g} 0 {SLOT_HEIGHT}" '
+        f'      <site name="slot_{spec.name}" pos="{SLOT_X[i]:.12g} 0 {SLOT_HEIGHT}" '
         f'quat="{" ".join(str(v) for v in SLOT_QUAT)}" size="0.01"/>'
         for i, spec in enumerate(TOOLS)
     )
     beam = f'size="{length / 2:.6g} 0.03 0.02" pos="{cx - x0:.6g} -0.12 {SLOT_HEIGHT - 0.03}"'
-    h = (SLOT_HEIGHT - 0.05) / 2
-    post_l = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 - length / 2:.6g} -0.12 {h:.6g}"'
-    post_r = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 + length / 2:.6g} -0.12 {h:.6g}"'
-    return f"""    <body name="rack" pos="{x0} {y0} 0">
+    h = (z0 + SLOT_HEIGHT - 0.05) / 2
+    post_l = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 - length / 2:.6g} -0.12 {h - z0:.6g}"'
+    post_r = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 + length / 2:.6g} -0.12 {h - z0:.6g}"'
+    return f"""    <body name="rack" pos="{x0} {y0} {z0}">
       <geom type="box" {beam} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_l} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_r} rgba="0.4 0.4 0.45 1"/>

@@ -188,6 +188,15 @@ def run(
             "robtargets become the operations, and the run writes it back corrected.",
         ),
     ] = None,
+    cell: Annotated[
+        str | None,
+        typer.Option(
+            "--cell",
+            help="The cell to run the job in: a shipped cell (ur5: the UR5 of "
+            "example-robot-data, the rack placed for its reach) or a cell YAML (robot file, "
+            "flange, mount, rack).",
+        ),
+    ] = None,
     assign: Annotated[
         list[str] | None,
         typer.Option(
@@ -223,6 +232,7 @@ def run(
         progress=progress,
         overrides=overrides,
         options=RunOptions(rrd=not no_rrd, spawn=spawn),
+        cell=cell,
     )
     if "table" in results:
         typer.echo(results["table"])

@@ -32,9 +32,11 @@ from pydantic import (
     model_validator,
 )
 
+from cell.robots import BUILTIN
 from scenarios.errors import ScenarioError
 
 CONFIG_DIR = Path(__file__).parent / "configs"
+CELL_DIR = CONFIG_DIR / "cells"
 
 
 class ConfigError(ScenarioError, ValueError):
@@ -175,9 +177,50 @@ class ObjectSection(_Section):
     targets_file: str | None = None
 
 
-class CellSection(_Section):
-    """The cell: the object and the error sources of the real cell and of the model."""
+class RobotSection(_Section):
+    """The cell's arm: `irb2400` (the built-in IRB 2400-class arm), `ur5` (the UR5 of
+    example-robot-data) or a 6-axis arm file (`.urdf`, or `.xml` robot-only MJCF) whose
+    flange frame is `flange` (required for a file). `mount_xyz` [m] and `mount_yaw_deg` place
+    the arm's base in the cell (a file arm or the UR5; the built-in arm stands at the origin);
+    `home_deg` (6 values) is its home configuration, the start of every job (a file arm's
+    default: all zero). `vendor: abb` gets RAPID programs; other arms get the targets as
+    CSV/JSON."""
 
+    model: str = "irb2400"
+    flange: str | None = None
+    mount_xyz: tuple[float, float, float] | None = None
+    mount_yaw_deg: float = Field(0.0, ge=-180.0, le=180.0)
+    home_deg: tuple[float, float, float, float, float, float] | None = None
+    vendor: str | None = None
+
+    @model_validator(mode="after")
+    def _file_needs_flange(self) -> RobotSection:
+        if self.model in BUILTIN:
+            if self.flange is not None or (self.model == "irb2400" and self.mount_xyz):
+                raise ValueError(
+                    f"robot {self.model!r} is built in: it knows its flange (and the irb2400 "
+                    "stands at the origin); flange and mount_xyz are for a robot file"
+                )
+            return self
+        if not self.model.lower().endswith((".urdf", ".xml", ".mjcf")):
+            raise ValueError(
+                f"robot model {self.model!r} is neither built in ({', '.join(BUILTIN)}) "
+                "nor a .urdf or .xml (MJCF) file"
+            )
+        if not self.flange:
+            raise ValueError(
+                f"robot file {self.model!r} needs `flange`: the name of its flange frame"
+            )
+        return self
+
+
+class CellSection(_Section):
+    """The cell: its robot, where the tool rack stands (`rack_xyz` [m]: the rack frame, the
+    slots 0.25 m apart along x from it and 0.8 m above it), the object, and the error
+    sources of the real cell and of the model."""
+
+    robot: RobotSection = RobotSection()
+    rack_xyz: tuple[float, float, float] = (0.0, -0.85, 0.0)
     object: ObjectSection = ObjectSection()
     noise: Noise = Noise()
 
@@ -395,10 +438,47 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     return key.strip(), value
 
 
-def load_config(name_or_path: str | Path, overrides: dict[str, Any] | None = None) -> Config:
+def shipped_cells() -> tuple[str, ...]:
+    """Names of the cells shipped with the package (`--cell NAME`)."""
+    return tuple(sorted(p.stem for p in CELL_DIR.glob("*.yaml")))
+
+
+def _flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        dotted = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out |= _flatten(value, dotted + ".")
+        else:
+            out[dotted] = value
+    return out
+
+
+def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
+    """A cell (`--cell`): a shipped one by name or a YAML file by path, holding the keys of
+    a job configuration that make the cell (the `cell` section's robot and rack, and what
+    follows from the layout, e.g. `calibration.table_position_m`); returned as dotted
+    overrides of the job's configuration, validated with it."""
+    text = str(name_or_path)
+    path = Path(text)
+    if text in shipped_cells():
+        path = CELL_DIR / f"{text}.yaml"
+    elif path.suffix not in (".yaml", ".yml"):
+        raise ConfigError(
+            f"unknown cell {text!r}; shipped: {', '.join(shipped_cells())}, or give a .yaml file"
+        )
+    return _flatten(read_yaml_mapping(path))
+
+
+def load_config(
+    name_or_path: str | Path,
+    overrides: dict[str, Any] | None = None,
+    cell: str | Path | None = None,
+) -> Config:
     """A shipped configuration by name or a YAML file by path, with `overrides` (dotted keys,
-    e.g. {"seed": 3, "cell.object.model": "part.stl"}) applied and validated. A configuration
-    without a `name` is named after its file."""
+    e.g. {"seed": 3, "cell.object.model": "part.stl"}) applied and validated, after the
+    `cell` (see `cell_overrides`) if one is given. A configuration without a `name` is named
+    after its file."""
     text = str(name_or_path)
     path = Path(text)
     if text in shipped_names():
@@ -410,6 +490,8 @@ def load_config(name_or_path: str | Path, overrides: dict[str, Any] | None = Non
     data = read_yaml_mapping(path)
     data.setdefault("name", path.stem)
     config = parse_config(data, str(path))
+    if cell is not None:
+        config = with_overrides(config, cell_overrides(cell), f"cell {cell}")
     return with_overrides(config, overrides, str(path)) if overrides else config
 
 

@@ -20,10 +20,13 @@ from typing import Any
 import numpy as np
 
 from cell import Controller, nominal_T_base_table
+from cell.errors import CellConfigError
+from cell.robots import Robot, make_robot
 from models import ObjectModel, real_model
 from models.atomic import write_text
 from registration import Acceptance, MeshModel
-from scenarios.jobs.config import JobConfig
+from scenarios.errors import ScenarioError
+from scenarios.jobs.config import JobConfig, RobotSection
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
@@ -43,7 +46,8 @@ from scenarios.offline.placement import nominal_pose
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
 from scenarios.offline.rapid_module import with_oframe
-from scenarios.offline.scan import ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.reach import check_reach
+from scenarios.offline.scan import ObjectBox, ScanData, crop_to_object, execute_scan, plan_scan
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.realcell.cell_log import CellLog
@@ -251,6 +255,22 @@ def object_models(
     return virtual, real
 
 
+def job_robot(section: RobotSection) -> Robot:
+    """The cell's arm as the job's configuration names it (cell.robots)."""
+    home = None if section.home_deg is None else np.deg2rad(section.home_deg)
+    try:
+        return make_robot(
+            section.model,
+            section.flange,
+            section.mount_xyz,
+            section.mount_yaw_deg,
+            home,
+            section.vendor,
+        )
+    except CellConfigError as exc:
+        raise ScenarioError(f"cell.robot: {exc}") from None
+
+
 def run_cell_job(
     config: JobConfig,
     folder: Path,
@@ -266,12 +286,34 @@ def run_cell_job(
     t0 = time.perf_counter()
     obj = config.cell.object
     say(f"model {obj.model!r}: virtual and real entity")
+    robot = job_robot(config.cell.robot)
+    if config.operations.program is not None and not robot.rapid:
+        raise ScenarioError(
+            f"--program takes a RAPID module, which only an ABB arm runs; this cell's arm is "
+            f"the {robot.name} ({robot.vendor or 'vendor unknown'})"
+        )
     user = None if config.operations.program is None else read_user_program(config.operations)
     virtual, real = object_models(config, user)
+    T_table_nominal = nominal_pose(obj.placement, virtual.mesh.vertices)
     if user is not None:
-        T_table_nominal = nominal_pose(obj.placement, virtual.mesh.vertices)
         check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
         say(f"program {config.operations.program}: {len(user.operations)} touches")
+    # Can this arm do this job here at all? Asked of the virtual cell, before the real one.
+    reach = check_reach(
+        robot,
+        config,
+        ObjectBox.of(virtual.mesh.vertices, T_table_nominal),
+        T_table_nominal,
+        target_operations(virtual, config.operations) if user is None else program_operations(user),
+        None
+        if config.operations.pick is None
+        else grasp_operation(virtual, config.operations.pick),
+        None if user is None else (user.table_position_m,),
+    )
+    say(
+        f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
+        "the operations in the virtual cell"
+    )
     loose = obj.fixing == "loose"
     cell = build_job_cell(
         virtual,
@@ -286,6 +328,8 @@ def run_cell_job(
         name="part" if loose else "object",
         loose=loose,
         rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
+        robot=robot,
+        rack_xyz=config.cell.rack_xyz,
     )
     controller, evaluator = cell.controller, cell.evaluator
     hooks = RunHooks(evaluator, cell.log)
@@ -396,8 +440,11 @@ def run_cell_job(
             f"down {pick_eval.placed_displacement_m * 1e3:.3f} mm from where it was"
         )
     primary_program = programs.operations.get(primary.method)
+    program_file = None
     if primary_program is not None:
-        export_program(folder, primary_program, cell.T_table_nominal, user)
+        program_file = export_program(
+            folder, primary_program, cell.T_table_nominal, user, controller.robot, say
+        )
         if recording is not None:
             recording.log_targets(primary_program, reports[0].targets)
     exports.write_robot_urdf(
@@ -442,6 +489,8 @@ def run_cell_job(
         motion_after_match_s=motion_after_match_s,
         tool_in_hand=controller.tool_in_hand,
         table_position_m=None if primary_program is None else primary_program.table_position_m,
+        robot=controller.robot.name,
+        program_file=program_file,
     )
     if config.output.plots:
         outputs.write_figures(folder, result, poses.get("surface"), virtual)
@@ -449,11 +498,26 @@ def run_cell_job(
 
 
 def export_program(
-    folder: Path, program: OfflineProgram, T_table_nominal: np.ndarray, user: UserProgram | None
-) -> None:
-    """The corrected program for the user's controller: program.mod (ABB RAPID: the user's
-    own module with its work object's oframe corrected, or one written here), the corrected
-    targets as CSV and JSON, and the tool's data."""
+    folder: Path,
+    program: OfflineProgram,
+    T_table_nominal: np.ndarray,
+    user: UserProgram | None,
+    robot: Robot,
+    say: Progress,
+) -> str | None:
+    """The corrected program for the user's controller: the corrected targets as CSV and
+    JSON (in the arm's own base frame) and the tool's data, and for an ABB arm program.mod
+    (RAPID: the user's own module with its work object's oframe corrected, or one written
+    here). Returns the program's file name, or None for an arm that does not run RAPID."""
+    exports.write_targets(folder, program, robot.T_world_base)
+    exports.write_tooldata(folder, program.tool)
+    if not robot.rapid:
+        say(
+            f"program: no RAPID module for the {robot.name} ({robot.vendor or 'vendor unknown'}"
+            "; RAPID is for ABB arms): the corrected targets are in targets.csv and "
+            "targets.json"
+        )
+        return None
     if user is None:
         outputs.write_program(folder / "program.mod", program, T_table_nominal)
     else:
@@ -462,8 +526,7 @@ def export_program(
         write_text(
             folder / "program.mod", with_oframe(user.module, user.wobj.name, T_uframe_oframe)
         )
-    exports.write_targets(folder, program)
-    exports.write_tooldata(folder, program.tool)
+    return "program.mod"
 
 
 def _match_report(pose: LocatedPose | None) -> MatchReport | None:

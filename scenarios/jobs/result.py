@@ -75,6 +75,8 @@ class RunResult:
         motion_after_match_s: controller time spent moving after the verdict [s].
         tool_in_hand: the tool at the end of the run.
         table_position_m: the table position of the program, if one ran.
+        robot: the cell's arm; program_file: the robot program written for its controller
+            (program.mod for an ABB arm), or None (the targets are in targets.csv/json).
     """
 
     status: str
@@ -93,6 +95,8 @@ class RunResult:
     motion_after_match_s: float
     tool_in_hand: str | None
     table_position_m: float | None
+    robot: str = "irb2400"
+    program_file: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -161,6 +165,8 @@ class RunResult:
             "motion_after_match_s": self.motion_after_match_s,
             "tool_in_hand": self.tool_in_hand,
             "table_position_m": self.table_position_m,
+            "robot": self.robot,
+            "program_file": self.program_file,
             **self.extra,
         }
 

@@ -20,6 +20,7 @@ from scenarios.jobs.config import (
     Config,
     JobConfig,
     PaperConfig,
+    cell_overrides,
     config_yaml,
     load_config,
     with_overrides,
@@ -93,17 +94,22 @@ def run_job(
     progress: Progress | None = None,
     overrides: dict[str, Any] | None = None,
     options: RunOptions | None = None,
+    cell: str | Path | None = None,
 ) -> tuple[Path, dict[str, Any]]:
     """Run a shipped job by name, a YAML config by path, or a config object, into a new run
     folder; returns the folder and the results. `seed` and `overrides` (dotted keys, e.g.
-    {"cell.object.model": "part.stl"}) replace the configuration's values."""
+    {"cell.object.model": "part.stl"}) replace the configuration's values, after those of
+    the `cell` (a shipped cell's name, e.g. "ur5", or a cell YAML) if one is given."""
     extra = dict(overrides or {})
     if seed is not None:
         extra["seed"] = seed
     if isinstance(name, JobConfig | PaperConfig):
-        config: Config = with_overrides(name, extra) if extra else name
+        config: Config = name
+        if cell is not None:
+            config = with_overrides(config, cell_overrides(cell), f"cell {cell}")
+        config = with_overrides(config, extra) if extra else config
     else:
-        config = load_config(name, extra)
+        config = load_config(name, extra, cell)
     if config.kind not in JOBS:
         raise ScenarioError(f"unknown kind {config.kind!r}; available: {', '.join(sorted(JOBS))}")
     say = progress or (lambda _msg: None)

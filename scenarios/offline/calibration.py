@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell import Controller, FixedPrimitive, Kinematics, nominal_T_base_slot, nominal_T_base_table
+from cell import Controller, FixedPrimitive, Kinematics, nominal_T_base_table
 from cell.controller import RACK_APPROACH_M
 from cell.errors import CellError
 from cell.robots import Robot
@@ -244,7 +244,7 @@ def _fetch_laser(controller: Controller) -> np.ndarray:
     (averaged encoder readings)."""
     controller.move_joints(controller.q_home)
     controller.return_tool()
-    T_slot = nominal_T_base_slot(LASER.name)
+    T_slot = controller.T_base_slot(LASER.name)
     T_above = T_slot.copy()
     T_above[2, 3] += RACK_APPROACH_M
     controller.move_joints(controller.kinematics.solve(T_above, controller.read_joints()))
@@ -318,7 +318,7 @@ def measure_spheres(
         np.concatenate(spheres),
         np.concatenate(points),
         q_lock,
-        nominal_T_base_slot(LASER.name),
+        controller.T_base_slot(LASER.name),
         LASER.T_tool_tcp,
         centres,
         artifact.radius_m,
@@ -379,22 +379,23 @@ def _fit(
         for s in range(S):
             J_c[sphere == s, 3 * s : 3 * s + 3] = -n[sphere == s]
         if free_arm:
-            P = len(dev)
+            free = np.flatnonzero(robot.identified)
+            P = len(free)
             J_d = np.empty((len(p), P))
-            for j in range(P):
+            for col, j in enumerate(free):
                 step = dev.copy()
                 step[j] += _STEP
                 p_j = points_base(m, robot.kinematics(step))[use]
-                J_d[:, j] = np.einsum("ni,ni->n", n, p_j - p) / _STEP
+                J_d[:, col] = np.einsum("ni,ni->n", n, p_j - p) / _STEP
             J = np.hstack([J_d, J_c]) / point_sigma_m
-            J = np.vstack([J, np.hstack([np.diag(1.0 / prior), np.zeros((P, 3 * S))])])
-            rvec = np.concatenate([res / point_sigma_m, dev / prior])
+            J = np.vstack([J, np.hstack([np.diag(1.0 / prior[free]), np.zeros((P, 3 * S))])])
+            rvec = np.concatenate([res / point_sigma_m, dev[free] / prior[free]])
         else:
             J, rvec = J_c, res
         delta = np.linalg.lstsq(J, -rvec, rcond=None)[0]
         if free_arm:
-            dev = dev + delta[: len(dev)]
-            c = c + delta[len(dev) :].reshape(S, 3)
+            dev[free] = dev[free] + delta[:P]
+            c = c + delta[P:].reshape(S, 3)
         else:
             c = c + delta.reshape(S, 3)
         if np.max(np.abs(delta)) < 1e-9:

@@ -23,9 +23,12 @@ from scenarios.offline.rapid import tooldata_text
 
 
 def _with_limits(kinematics: Kinematics, robot: Robot) -> pin.Model:
-    """A copy of the arm's model with the robot's speed and effort limits (its data sheet's,
-    which the model built from the built-in arm's MJCF does not carry)."""
+    """A copy of the arm's model in its own base frame (the mount taken out of the first
+    joint's placement) with the robot's speed and effort limits (its data sheet's, which the
+    model built from the built-in arm's MJCF does not carry)."""
     model = pin.Model(kinematics.model)
+    T = robot.T_world_base
+    model.jointPlacements[1] = pin.SE3(T[:3, :3], T[:3, 3]).inverse() * model.jointPlacements[1]
     model.upperVelocityLimit = np.asarray(robot.joint_speed, dtype=float)
     model.upperEffortLimit = np.asarray(robot.joint_effort, dtype=float)
     return model
@@ -35,7 +38,8 @@ def write_robot_urdf(
     folder: Path, robot: Robot, nominal: Kinematics, calibrated: Kinematics | None
 ) -> list[Path]:
     """robot_nominal.urdf and, if the arm was calibrated, robot_calibrated.urdf (the
-    identified link lengths and joint zero offsets), tip link `flange` (ABB's tool0)."""
+    identified kinematic parameters), in the arm's own base frame (as targets.csv), tip link
+    the flange frame (ABB's and UR's tool0)."""
     written = [
         write_text(
             folder / "robot_nominal.urdf",
@@ -68,15 +72,20 @@ def write_tooldata(folder: Path, tool: str) -> Path:
     return write_text(folder / "tooldata.json", json.dumps(data, indent=2) + "\n")
 
 
-def write_targets(folder: Path, program: OfflineProgram) -> list[Path]:
-    """targets.csv and targets.json: every corrected target of the program in the robot's
-    base frame (approach and touch poses, position [m] and scalar-first quaternion, joints
-    [rad]) at the program's table position [m]: what any controller needs to run it."""
+def write_targets(
+    folder: Path, program: OfflineProgram, T_world_base: np.ndarray | None = None
+) -> list[Path]:
+    """targets.csv and targets.json: every corrected target of the program in the arm's own
+    base frame (approach and touch poses of the TCP, position [m] and scalar-first
+    quaternion, joints [rad]) at the program's table position [m]: what any controller needs
+    to run it. `T_world_base` (4, 4) is where the arm's base stands in the cell (its mount;
+    default: at the cell's origin)."""
+    T_base_world = np.linalg.inv(np.eye(4) if T_world_base is None else T_world_base)
     rows = []
     for planned in program.operations:
         for kind, T, q in (
-            ("approach", planned.T_base_approach, planned.q_approach),
-            ("touch", planned.T_base_touch, planned.q_touch),
+            ("approach", T_base_world @ planned.T_base_approach, planned.q_approach),
+            ("touch", T_base_world @ planned.T_base_touch, planned.q_touch),
         ):
             w, x, y, z = (float(v) for v in R_to_quat_wxyz(T[:3, :3]))
             rows.append(
@@ -94,7 +103,8 @@ def write_targets(folder: Path, program: OfflineProgram) -> list[Path]:
         "tool": program.tool,
         "table_position_m": program.table_position_m,
         "T_table_object": program.T_table_object.tolist(),
-        "frame": "robot base; poses of the tool's TCP",
+        "frame": "the arm's base; poses of the tool's TCP",
+        "T_cell_base": (np.eye(4) if T_world_base is None else T_world_base).tolist(),
         "targets": rows,
     }
     return [

@@ -238,7 +238,7 @@ class Evaluator:
         that model (see KinematicsEvaluation)."""
         spec = {t.name: t for t in TOOLS}[tool]
         real = self._truth.kinematics()
-        T_base_slot = nominal_T_base_slot(tool)
+        T_base_slot = nominal_T_base_slot(tool, self._truth.config.rack_xyz)
         q_slot = kinematics.solve(T_base_slot, self._truth.config.robot.q_home)
         T_flange_tool = np.linalg.solve(real.fk(q_slot), T_base_slot)
         q = np.asarray(q_samples, dtype=float).reshape(-1, 6)

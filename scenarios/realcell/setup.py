@@ -23,7 +23,9 @@ from cell import (
     TableErrors,
     make_cell,
 )
+from cell.robots import Robot, irb2400
 from models import ModelErrorSpec, ObjectModel
+from models.robot import RACK_POS
 from scenarios.jobs.config import Calibration, Noise, Placement
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
@@ -55,11 +57,18 @@ def model_error(noise: Noise) -> ModelErrorSpec:
 
 
 def cell_config(
-    noise: Noise, seed: int, fixtures: tuple[FixedMesh | FixedPrimitive, ...]
+    noise: Noise,
+    seed: int,
+    fixtures: tuple[FixedMesh | FixedPrimitive, ...],
+    robot: Robot | None = None,
+    rack_xyz: tuple[float, float, float] = RACK_POS,
 ) -> CellConfig:
-    """The real cell's configuration from the run's noise section."""
+    """The real cell's configuration from the run's noise section, with its `robot` (default
+    the built-in arm) and the tool rack at `rack_xyz` [m]."""
     return CellConfig(
         seed=seed,
+        robot=robot or irb2400(),
+        rack_xyz=rack_xyz,
         arm=ArmErrors(noise.arm_length_sigma_m, noise.arm_offset_sigma_rad),
         encoder=EncoderNoise(noise.encoder_sigma_rad),
         table=TableErrors(noise.table_bias_sigma_m, noise.table_repeat_sigma_m),
@@ -89,6 +98,8 @@ def build_job_cell(
     name: str = "object",
     loose: bool = False,
     rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0),
+    robot: Robot | None = None,
+    rack_xyz: tuple[float, float, float] = RACK_POS,
 ) -> JobCell:
     """Place the real entity at a true pose drawn around the nominal one (random stream
     `stream` of `seed`), fixed on the table or `loose`; add the calibration spheres if the
@@ -109,12 +120,12 @@ def build_job_cell(
         part = LooseMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = replace(cell_config(noise, seed, spheres), parts=(part,))
+        config = replace(cell_config(noise, seed, spheres, robot, rack_xyz), parts=(part,))
     else:
         fixed = FixedMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = cell_config(noise, seed, (fixed, *spheres))
+        config = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz)
     controller, truth = make_cell(config)
     evaluator = Evaluator(truth, real, name)
     log = CellLog(recording, controller, evaluator)

@@ -1,0 +1,134 @@
+"""The cell's arm from a file: the UR5 of example-robot-data as the cell simulates it and as
+the planner models it, its kinematic deviations, and every robot file the cell must refuse."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from cell import CellConfig, make_cell
+from cell.errors import CellConfigError
+from cell.robots import irb2400, load_arm_model, make_robot, robot_from_file, ur5, ur5_urdf
+
+#: MuJoCo and Pinocchio agree to rounding on the same kinematic chain [m].
+FK_TOL_M = 1e-9
+
+
+def _urdf_without_meshes() -> str:
+    """The UR5's URDF with its visual and collision elements (package:// meshes) removed."""
+    return re.sub(r"<(visual|collision)>.*?</\1>", "", ur5_urdf().read_text(), flags=re.S)
+
+
+def test_the_planner_reads_the_ur5_as_mujoco_compiles_its_urdf() -> None:
+    """Ground truth: MuJoCo's own URDF compiler on the example-robot-data file."""
+    m = mujoco.MjModel.from_xml_string(_urdf_without_meshes())
+    d = mujoco.MjData(m)
+    kin = ur5(mount_xyz=(0.0, 0.0, 0.0)).kinematics()
+    rng = np.random.default_rng(3)
+    body = m.body("wrist_3_link").id
+    for _ in range(50):
+        q = kin.random_configuration(rng)
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        T = kin.fk(q, "wrist_3_link")
+        assert np.linalg.norm(d.xpos[body] - T[:3, 3]) < FK_TOL_M
+        assert np.abs(d.xmat[body].reshape(3, 3) - T[:3, :3]).max() < FK_TOL_M
+
+
+@pytest.mark.parametrize("deviated", [False, True])
+def test_the_simulated_ur5_is_the_planned_one(deviated: bool) -> None:
+    """The MJCF the cell simulates (mounted, and with drawn deviations) puts its flange site
+    where Pinocchio's model of the same arm puts the flange."""
+    robot = ur5()
+    d_arm = robot.draw_deviations(np.random.default_rng(1), 2e-3, 2e-3) if deviated else None
+    m = mujoco.MjModel.from_xml_string(robot.mjcf(d_arm))
+    d = mujoco.MjData(m)
+    kin = robot.kinematics(d_arm)
+    site = m.site("flange").id
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        q = kin.random_configuration(rng)
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        T = kin.fk(q)
+        assert np.linalg.norm(d.site_xpos[site] - T[:3, 3]) < FK_TOL_M
+        assert np.abs(d.site_xmat[site].reshape(3, 3) - T[:3, :3]).max() < FK_TOL_M
+
+
+def test_the_mount_places_the_arm_and_the_deviations_move_the_flange() -> None:
+    here, there = ur5(mount_xyz=(0.0, 0.0, 0.0)), ur5(mount_xyz=(0.5, -0.2, 0.45))
+    q = here.q_home
+    shift = there.kinematics().fk(q)[:3, 3] - here.kinematics().fk(q)[:3, 3]
+    np.testing.assert_allclose(shift, [0.5, -0.2, 0.45], atol=1e-12)
+    np.testing.assert_allclose(there.T_world_base[:3, 3], [0.5, -0.2, 0.45])
+    # 24 parameters: a zero offset and an axis position per joint.
+    assert len(there.parameters) == 24 and there.lengths.sum() == 18
+    d = np.zeros(24)
+    d[there.parameters.index("z2")] = 1e-3
+    moved = there.kinematics(d).fk(q)[:3, 3] - there.kinematics().fk(q)[:3, 3]
+    assert np.linalg.norm(moved) == pytest.approx(1e-3, rel=1e-6)  # a pure shift of joint 2
+
+
+def test_a_ur5_cell_runs_its_arm_where_it_is_commanded() -> None:
+    """The UR5 cell with the rack moved in: a tool change and a move; the real flange
+    (truth) is within the arm's deviations of where the nominal model puts it."""
+    controller, truth = make_cell(CellConfig(seed=2, robot=ur5(), rack_xyz=(0.2, -0.8, -0.1)))
+    assert controller.robot.name == "ur5" and not controller.robot.rapid
+    controller.change_tool("laser")
+    assert controller.tool_in_hand == "laser"
+    q = controller.q_home + np.array([0.2, -0.1, 0.1, 0.0, 0.1, 0.3])
+    controller.move_joints(q)
+    np.testing.assert_allclose(truth.q(), q, atol=2e-3)  # servo tracking
+    real = truth.kinematics().fk(truth.q())[:3, 3]
+    gap = np.linalg.norm(real - controller.kinematics.fk(truth.q())[:3, 3])
+    assert 1e-5 < gap < 3e-3  # the real arm is not the nominal one
+
+
+# -- files the cell refuses -------------------------------------------------------------------
+def test_a_missing_or_foreign_robot_file_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(CellConfigError, match=r"robot file not found: .*nowhere\.urdf"):
+        load_arm_model(tmp_path / "nowhere.urdf", "tool0")
+    step = tmp_path / "arm.step"
+    step.write_text("ISO-10303-21;")
+    with pytest.raises(CellConfigError, match=r"unknown format '\.step'; valid: \.urdf, \.xml"):
+        load_arm_model(step, "tool0")
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot name='x'><link name='a'>")
+    with pytest.raises(CellConfigError, match=r"broken\.urdf: cannot be read as a robot"):
+        load_arm_model(broken, "tool0")
+
+
+def test_a_robot_without_the_named_flange_is_refused(tmp_path: Path) -> None:
+    arm = tmp_path / "ur5.urdf"
+    arm.write_text(_urdf_without_meshes())
+    with pytest.raises(CellConfigError, match=r"no frame 'flange_link' for the flange; its "
+                       r"frames are .*'tool0'"):  # fmt: skip
+        load_arm_model(arm, "flange_link")
+
+
+def test_a_robot_with_other_than_six_joints_is_refused(tmp_path: Path) -> None:
+    """The UR5 with its last joint fixed: five revolute joints."""
+    text = _urdf_without_meshes().replace(
+        '<joint name="wrist_3_joint" type="revolute">', '<joint name="wrist_3_joint" type="fixed">'
+    )
+    arm = tmp_path / "five.urdf"
+    arm.write_text(text)
+    with pytest.raises(CellConfigError, match=r"needs a 6-axis arm .* has 5 position variables"):
+        load_arm_model(arm, "tool0")
+
+
+def test_bad_robot_choices_are_refused() -> None:
+    with pytest.raises(CellConfigError, match="irb2400 is built in"):
+        make_robot("irb2400", mount_xyz=(1.0, 0.0, 0.0))
+    with pytest.raises(CellConfigError, match="name its flange frame"):
+        make_robot(str(ur5_urdf()))
+    with pytest.raises(CellConfigError, match=r"home .* outside the joint limits"):
+        make_robot("ur5", q_home=np.array([0.0, 1.0, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(CellConfigError, match=r"joint ranges .* within the arm's"):
+        robot_from_file(ur5_urdf(), "tool0", limits=(np.full(6, -7.0), np.full(6, 7.0)))
+    with pytest.raises(CellConfigError, match="deviations must be 12 finite numbers"):
+        irb2400().kinematics(np.zeros(24))
