@@ -1,9 +1,10 @@
-"""The README's per-seed tables of the skull and assembly jobs, rerun.
+"""The README's per-seed tables of the skull job (built-in cell, UR5 cell) and the assembly
+job, rerun.
 
 Usage: python bench/readme_tables.py [--seeds 8] [--write]
-Prints the two tables (each seed as it finishes); with --write, puts them into README.md
-between their `<!-- table:skull -->` and `<!-- table:assembly -->` markers. The run time
-column is the wall time of each assembly run on this machine.
+Prints the three tables (each seed as it finishes); with --write, puts them into README.md
+between their `<!-- table:skull -->`, `<!-- table:ur5 -->` and `<!-- table:assembly -->`
+markers. The run time column is the wall time of each assembly run on this machine.
 """
 
 from __future__ import annotations
@@ -31,11 +32,15 @@ def main() -> None:
     print(SKULL_HEADER)
     skull = skull_rows(seeds, say=print)
     print()
+    print(SKULL_HEADER)
+    ur5 = skull_rows(seeds, say=print, cell="ur5")
+    print()
     print(ASSEMBLY_HEADER)
     assembly = assembly_rows(seeds, say=print)
     if args.write:
         text = README.read_text()
         text = replace_table(text, "skull", SKULL_HEADER, skull)
+        text = replace_table(text, "ur5", SKULL_HEADER, ur5)
         text = replace_table(text, "assembly", ASSEMBLY_HEADER, assembly)
         README.write_text(text)
         print(f"written into {README}")

@@ -1,6 +1,6 @@
 """The README's per-seed tables hold: seed 0 of the skull job (with and without the
-calibration) and of the assembly job, rerun, gives the README's rows within their printed
-precision (run times aside)."""
+calibration, in the built-in cell and the UR5 cell) and of the assembly job, rerun, gives the
+README's rows within their printed precision (run times aside)."""
 
 from __future__ import annotations
 
@@ -23,6 +23,12 @@ def _close(fresh: str, printed: str, columns: slice) -> None:
 def test_skull_table_seed_0() -> None:
     (fresh,) = skull_rows([0])
     printed = readme_table(README, "skull")[0]
+    _close(fresh, printed, slice(None))
+
+
+def test_ur5_table_seed_0() -> None:
+    (fresh,) = skull_rows([0], cell="ur5")
+    printed = readme_table(README, "ur5")[0]
     _close(fresh, printed, slice(None))
 
 

@@ -1,4 +1,5 @@
-"""The README's per-seed tables of the skull and assembly jobs, made from runs.
+"""The README's per-seed tables of the skull job (in the built-in cell and the UR5 cell) and
+of the assembly job, made from runs.
 
 `python bench/readme_tables.py` runs the jobs and prints (or, with --write, puts into
 README.md between the `<!-- table:NAME -->` markers) the tables; a test reruns a few seeds
@@ -62,19 +63,28 @@ def assembly_row(seed: int, results: dict[str, Any]) -> str:
     )
 
 
-def _run(name: str, seed: int, out: Path, overrides: dict[str, Any] | None = None) -> dict:
+def _run(
+    name: str,
+    seed: int,
+    out: Path,
+    overrides: dict[str, Any] | None = None,
+    cell: str | None = None,
+) -> dict:
     _, results = run_job(name, seed=seed, out=out, overrides=overrides,
-                         options=RunOptions(rrd=False))  # fmt: skip
+                         options=RunOptions(rrd=False), cell=cell)  # fmt: skip
     return results
 
 
-def skull_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
-    """The skull table's rows for `seeds` (two runs each: calibrated, nominal arm)."""
+def skull_rows(
+    seeds: Iterable[int], say: Progress | None = None, cell: str | None = None
+) -> list[str]:
+    """The skull table's rows for `seeds` (two runs each: calibrated, nominal arm), in the
+    built-in cell or the shipped `cell` (e.g. "ur5")."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
         for seed in seeds:
-            calibrated = _run("skull", seed, Path(tmp))
-            nominal = _run("skull", seed, Path(tmp), {"calibration.enabled": False})
+            calibrated = _run("skull", seed, Path(tmp), cell=cell)
+            nominal = _run("skull", seed, Path(tmp), {"calibration.enabled": False}, cell)
             rows.append(skull_row(seed, calibrated, nominal))
             if say is not None:
                 say(rows[-1])
