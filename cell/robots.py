@@ -351,9 +351,12 @@ def robot_from_file(
     vendor: str = "",
     name: str | None = None,
     limits: tuple[np.ndarray, np.ndarray] | None = None,
+    speed: np.ndarray | None = None,
+    effort: np.ndarray | None = None,
 ) -> Robot:
     """A 6-axis arm from a URDF or robot-only MJCF file, its base at `mount_xyz` [m] turned
-    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`.
+    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`; `speed`
+    [rad/s] and `effort` [N m] (6,) replace the file's joint limits (an MJCF file has none).
     `limits` (lower, upper) (6,) [rad], within the file's, are the cell's joint ranges (its
     safety configuration: e.g. the upper arm kept above the shoulder)."""
     model = load_arm_model(path, tip_frame)
@@ -374,12 +377,19 @@ def robot_from_file(
         model.lowerPositionLimit, model.upperPositionLimit = lower, upper
     model.jointPlacements[1] = _mount(mount_xyz, mount_yaw_deg) * model.jointPlacements[1]
     axes = [_motion_axis(model, j) for j in range(1, 7)]
-    speed = np.asarray(model.velocityLimit, dtype=float)
-    effort = np.asarray(model.effortLimit, dtype=float)
-    if not (np.isfinite(speed).all() and np.isfinite(effort).all() and (speed > 0).all()):
+    speed = np.asarray(model.velocityLimit if speed is None else speed, dtype=float)
+    effort = np.asarray(model.effortLimit if effort is None else effort, dtype=float)
+    if (
+        speed.shape != (6,)
+        or effort.shape != (6,)
+        or not (np.isfinite(speed).all() and np.isfinite(effort).all())
+        or (speed <= 0).any()
+        or (effort <= 0).any()
+    ):
         raise CellConfigError(
-            f"{path}: every joint needs finite velocity and effort limits (got {speed.tolist()} "
-            f"rad/s, {effort.tolist()} N m)"
+            f"{path}: every joint needs a finite positive speed and effort limit (got "
+            f"{speed.tolist()} rad/s, {effort.tolist()} N m); give them in the cell "
+            "(cell.robot.speed_deg_s, cell.robot.effort_nm) where the file has none"
         )
     home = np.zeros(6) if q_home is None else np.asarray(q_home, dtype=float)
     servo = servo or Servo(
@@ -487,14 +497,22 @@ def make_robot(
     mount_yaw_deg: float = 0.0,
     q_home: np.ndarray | None = None,
     vendor: str | None = None,
+    limits: tuple[np.ndarray, np.ndarray] | None = None,
+    speed: np.ndarray | None = None,
+    effort: np.ndarray | None = None,
 ) -> Robot:
     """The arm `model`: a built-in one by name (BUILTIN) or a 6-axis URDF / robot-only MJCF
     file with its flange frame `flange`, mounted at `mount_xyz` [m] turned `mount_yaw_deg`,
-    home `q_home` (6,) [rad]. Raises CellConfigError naming what is wrong."""
+    home `q_home` (6,) [rad], joint ranges `limits` (lower, upper) (6,) [rad] (a file arm;
+    default the file's). Raises CellConfigError naming what is wrong."""
     if q_home is not None:
         q_home = np.asarray(q_home, dtype=float)
         if q_home.shape != (6,) or not np.isfinite(q_home).all():
             raise CellConfigError(f"home must be 6 finite joint values, got {q_home.tolist()}")
+    if model in BUILTIN and limits is not None:
+        raise CellConfigError(
+            f"the {model} is built in with its joint ranges; limits are for a robot file"
+        )
     if model == "irb2400":
         if flange is not None or mount_xyz is not None or mount_yaw_deg:
             raise CellConfigError(
@@ -523,6 +541,9 @@ def make_robot(
             mount_xyz=(0.0, 0.0, 0.0) if mount_xyz is None else mount_xyz,
             mount_yaw_deg=mount_yaw_deg,
             q_home=q_home,
+            limits=limits,
+            speed=speed,
+            effort=effort,
         )
     if q_home is not None:
         kin = robot.kinematics()

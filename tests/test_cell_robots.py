@@ -132,3 +132,20 @@ def test_bad_robot_choices_are_refused() -> None:
         robot_from_file(ur5_urdf(), "tool0", limits=(np.full(6, -7.0), np.full(6, 7.0)))
     with pytest.raises(CellConfigError, match="deviations must be 12 finite numbers"):
         irb2400().kinematics(np.zeros(24))
+
+
+def test_a_robot_only_mjcf_file_is_read_as_the_built_in_arm() -> None:
+    """The built-in arm's own MJCF, given as a file (MJCF carries no speed limits: they
+    are given, and refused when not): the same flange at random joints."""
+    from models.robot import JOINT_SPEED, JOINT_TORQUE, ROBOT_PATH
+
+    with pytest.raises(CellConfigError, match=r"positive speed .*\(cell\.robot\.speed_deg_s"):
+        make_robot(str(ROBOT_PATH), flange="flange")
+    speed, effort = np.array(JOINT_SPEED), np.array(JOINT_TORQUE)
+    as_file = make_robot(str(ROBOT_PATH), flange="flange", speed=speed, effort=effort)
+    assert as_file.name == "irb2400" and len(as_file.parameters) == 24
+    built_in = irb2400().kinematics()
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q = built_in.random_configuration(rng)
+        np.testing.assert_allclose(as_file.kinematics().fk(q), built_in.fk(q), atol=FK_TOL_M)

@@ -137,5 +137,30 @@ def test_bad_cells_are_refused_naming_what_is_valid(tmp_path: Path) -> None:
     bad = tmp_path / "cell.yaml"
     bad.write_text("cell:\n  robot:\n    model: ur5\n    mount: [0, 0, 0]\n")
     with pytest.raises(ConfigError, match=r"unknown key 'cell\.robot\.mount': the keys of "
-                       r"cell\.robot are flange, home_deg, model, mount_xyz"):  # fmt: skip
+                       r"cell\.robot are effort_nm, flange, home_deg, limits_deg, model, "
+                       r"mount_xyz"):  # fmt: skip
         load_config("skull", cell=bad)
+
+
+def test_a_cell_file_names_its_arm_beside_it(tmp_path: Path) -> None:
+    """A user's cell: the UR5's URDF as a file next to the cell YAML (relative path), with
+    its flange, mount, home and joint ranges; the job's arm is that file's."""
+    from cell.robots import UR5_HOME, UR5_LIMITS, ur5, ur5_urdf
+    from scenarios.jobs.pipeline import job_robot
+
+    (tmp_path / "arms").mkdir()
+    (tmp_path / "arms" / "my_arm.urdf").write_text(ur5_urdf().read_text())
+    lo, hi = (np.rad2deg(v).tolist() for v in UR5_LIMITS)
+    cell = tmp_path / "my_cell.yaml"
+    cell.write_text(
+        "cell:\n  robot:\n    model: arms/my_arm.urdf\n    flange: tool0\n"
+        f"    mount_xyz: [0.55, -0.1, 0.45]\n    home_deg: {np.rad2deg(UR5_HOME).tolist()}\n"
+        f"    limits_deg: [{lo}, {hi}]\n"
+    )
+    robot = job_robot(load_config("skull", cell=cell).cell.robot)  # type: ignore[union-attr]
+    assert robot.name == "my_arm" and not robot.rapid
+    reference = ur5()
+    np.testing.assert_allclose(robot.q_home, reference.q_home, atol=1e-12)
+    q = reference.q_home + 0.3
+    np.testing.assert_allclose(robot.kinematics().fk(q), reference.kinematics().fk(q), atol=1e-12)
+    np.testing.assert_allclose(robot.kinematics().upper, UR5_LIMITS[1], atol=1e-12)

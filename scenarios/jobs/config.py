@@ -183,14 +183,26 @@ class RobotSection(_Section):
     flange frame is `flange` (required for a file). `mount_xyz` [m] and `mount_yaw_deg` place
     the arm's base in the cell (a file arm or the UR5; the built-in arm stands at the origin);
     `home_deg` (6 values) is its home configuration, the start of every job (a file arm's
-    default: all zero). `vendor: abb` gets RAPID programs; other arms get the targets as
-    CSV/JSON."""
+    default: all zero); `limits_deg` (lower, upper: 6 values each, within the file's) the
+    joint ranges the cell allows it (its safety configuration; default the file's);
+    `speed_deg_s` and `effort_nm` (6 values each) its joints' speed and effort limits where
+    the file has none (an MJCF file) or they are to be replaced.
+    `vendor: abb` gets RAPID programs; other arms get the targets as CSV/JSON."""
 
     model: str = "irb2400"
     flange: str | None = None
     mount_xyz: tuple[float, float, float] | None = None
     mount_yaw_deg: float = Field(0.0, ge=-180.0, le=180.0)
     home_deg: tuple[float, float, float, float, float, float] | None = None
+    limits_deg: (
+        tuple[
+            tuple[float, float, float, float, float, float],
+            tuple[float, float, float, float, float, float],
+        ]
+        | None
+    ) = None
+    speed_deg_s: tuple[float, float, float, float, float, float] | None = None
+    effort_nm: tuple[float, float, float, float, float, float] | None = None
     vendor: str | None = None
 
     @model_validator(mode="after")
@@ -458,7 +470,8 @@ def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
     """A cell (`--cell`): a shipped one by name or a YAML file by path, holding the keys of
     a job configuration that make the cell (the `cell` section's robot and rack, and what
     follows from the layout, e.g. `calibration.table_position_m`); returned as dotted
-    overrides of the job's configuration, validated with it."""
+    overrides of the job's configuration, validated with it. A robot file it names
+    (`cell.robot.model`) is relative to the cell file's folder."""
     text = str(name_or_path)
     path = Path(text)
     if text in shipped_cells():
@@ -467,7 +480,12 @@ def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
         raise ConfigError(
             f"unknown cell {text!r}; shipped: {', '.join(shipped_cells())}, or give a .yaml file"
         )
-    return _flatten(read_yaml_mapping(path))
+    overrides = _flatten(read_yaml_mapping(path))
+    model = overrides.get("cell.robot.model")
+    if isinstance(model, str) and model.lower().endswith((".urdf", ".xml", ".mjcf")):
+        # A robot file named in a cell file is found beside it.
+        overrides["cell.robot.model"] = str((path.parent / model).resolve())
+    return overrides
 
 
 def load_config(

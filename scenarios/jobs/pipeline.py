@@ -258,6 +258,9 @@ def object_models(
 def job_robot(section: RobotSection) -> Robot:
     """The cell's arm as the job's configuration names it (cell.robots)."""
     home = None if section.home_deg is None else np.deg2rad(section.home_deg)
+    limits = None
+    if section.limits_deg is not None:
+        limits = (np.deg2rad(section.limits_deg[0]), np.deg2rad(section.limits_deg[1]))
     try:
         return make_robot(
             section.model,
@@ -266,6 +269,9 @@ def job_robot(section: RobotSection) -> Robot:
             section.mount_yaw_deg,
             home,
             section.vendor,
+            limits,
+            None if section.speed_deg_s is None else np.deg2rad(section.speed_deg_s),
+            None if section.effort_nm is None else np.asarray(section.effort_nm, dtype=float),
         )
     except CellConfigError as exc:
         raise ScenarioError(f"cell.robot: {exc}") from None
