@@ -89,11 +89,33 @@ class Controller:
         self._laser = laser
         self._ir = ir
         self._changer = ToolChanger(sim)
-        self.kinematics = kinematics
+        self._nominal = kinematics
+        self._kinematics = kinematics
         self.laser_directions_tcp = laser.dirs_tcp.copy()
-        self.laser_config = laser.config
+        c = laser.config
+        #: The laser's data sheet: its rays (see laser_directions_tcp), measuring range [m] and
+        #: the largest incidence it returns from [rad]; its noise and errors are not told.
+        self.laser_range_m = (c.range_min_m, c.range_max_m)
+        self.laser_max_incidence_rad = c.max_incidence_rad
 
     # -- state --------------------------------------------------------------------------------
+    @property
+    def kinematics(self) -> Kinematics:
+        """The arm's kinematics the controller moves with: the nominal arm, or the calibrated
+        one given to `set_absolute_accuracy`."""
+        return self._kinematics
+
+    @property
+    def nominal_kinematics(self) -> Kinematics:
+        """The arm's nominal kinematics (its data sheet's)."""
+        return self._nominal
+
+    def set_absolute_accuracy(self, kinematics: Kinematics | None) -> None:
+        """The controller's absolute-accuracy option: move with the calibrated arm
+        `kinematics` (IK, linear moves, the TCP from the encoders); None: the nominal arm, as
+        a controller without the option does."""
+        self._kinematics = self._nominal if kinematics is None else kinematics
+
     @property
     def robot(self) -> Robot:
         """The arm's model as its data sheet gives it (cell.robots): the nominal kinematics,
@@ -176,10 +198,13 @@ class Controller:
         speed_m_s: float = 0.2,
         angular_speed_rad_s: float = 1.0,
         settle_s: float = SETTLE_S,
+        T_flange_tcp: np.ndarray | None = None,
     ) -> None:
         """Straight TCP move to `T_base_tcp` at `speed_m_s` (slowed if a joint would exceed its
-        speed limit). Raises UnreachableTargetError if a point of the line has no IK solution."""
-        setpoints = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s)
+        speed limit), the TCP the nominal one of the tool in hand or `T_flange_tcp` (4, 4) (a
+        program's tooldata). Raises UnreachableTargetError if a point of the line has no IK
+        solution."""
+        setpoints = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
         sim = self._sim
         sim.run(sim.arm_act, setpoints)
         sim.settle(settle_s)
@@ -205,7 +230,11 @@ class Controller:
         return readings
 
     def _linear_setpoints(
-        self, T_base_tcp: np.ndarray, speed_m_s: float, angular_speed_rad_s: float
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float,
+        angular_speed_rad_s: float,
+        T_flange_tcp: np.ndarray | None = None,
     ) -> np.ndarray:
         """Servo set-points (K, 6) of a straight TCP line from the current set-point."""
         if not (speed_m_s > 0 and angular_speed_rad_s > 0):
@@ -213,7 +242,8 @@ class Controller:
                 f"speeds must be > 0, got {speed_m_s!r} m/s, {angular_speed_rad_s!r} rad/s"
             )
         T_base_tcp = np.asarray(T_base_tcp, dtype=float)
-        sim, kin, T_tcp = self._sim, self.kinematics, self.T_flange_tcp()
+        T_tcp = self.T_flange_tcp() if T_flange_tcp is None else np.asarray(T_flange_tcp, float)
+        sim, kin = self._sim, self.kinematics
         q0 = sim.arm_setpoint()
         T0 = kin.fk(q0) @ T_tcp
         dist = float(np.linalg.norm(T_base_tcp[:3, 3] - T0[:3, 3]))

@@ -40,11 +40,14 @@ def laser_cell() -> tuple[Controller, CellTruth]:
 
 def test_controller_exposes_no_truth() -> None:
     controller, _ = make_cell(CellConfig(seed=1))
-    hidden = (Simulation, CellTruth, RealParameters, mujoco.MjModel, mujoco.MjData)
+    hidden = (Simulation, CellTruth, RealParameters, LaserConfig, mujoco.MjModel, mujoco.MjData)
     public = [name for name in dir(controller) if not name.startswith("_")]
     for name in public:
         value = getattr(controller, name)
         assert not isinstance(value, hidden), name
+    # The arm it moves with is set through its absolute-accuracy option, not by assignment.
+    with pytest.raises(AttributeError):
+        controller.kinematics = controller.nominal_kinematics  # type: ignore[misc]
 
 
 def test_real_arm_deviates_by_an_industrial_arms_accuracy() -> None:
@@ -95,7 +98,7 @@ def test_laser_noise_and_plane(laser_cell) -> None:
     z = []
     for _ in range(5):
         points, index = controller.laser_points_base(controller.read_laser())
-        assert len(index) == controller.laser_config.n_rays  # all rays hit the table top
+        assert len(index) == len(controller.laser_directions_tcp)  # all rays hit the table top
         z.append(points[:, 2])
     z = np.concatenate(z) - truth.T_base_table()[2, 3]
     # Range noise 20 um plus the arm's 0.3 mm kinematic error (a bias and a tilt).
@@ -114,9 +117,9 @@ def test_laser_drops_grazing_rays(laser_cell) -> None:
     T_base_laser = controller.T_base_tcp()
     directions = controller.laser_directions_tcp @ T_base_laser[:3, :3].T
     incidence = np.arccos(np.clip(-directions[:, 2], -1, 1))  # table normal is +z
-    max_incidence = controller.laser_config.max_incidence_rad
+    max_incidence = controller.laser_max_incidence_rad
     height = T_base_laser[2, 3] - truth.T_base_table()[2, 3]
-    in_range = height / np.cos(np.minimum(incidence, 1.5)) < controller.laser_config.range_max_m
+    in_range = height / np.cos(np.minimum(incidence, 1.5)) < controller.laser_range_m[1]
     steep = (incidence < max_incidence - 0.01) & in_range
     grazing = incidence > max_incidence + 0.01
     assert steep.any() and grazing.any()

@@ -342,7 +342,7 @@ def run_cell_job(
     timings["setup"] = time.perf_counter() - t0
 
     # Calibrate: every later stage uses the calibrated arm.
-    nominal = controller.kinematics
+    nominal = controller.nominal_kinematics
     calibration: CalibrationResult | None = None
     if config.calibration.enabled:
         t0 = time.perf_counter()

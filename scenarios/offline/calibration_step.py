@@ -68,7 +68,7 @@ def calibrate_arm(
         section.max_residual_rms_m,
         on_view=on_view,
     )
-    controller.kinematics = calibration.kinematics
+    controller.set_absolute_accuracy(calibration.kinematics)
     say(
         f"calibration: {calibration.points} points in {calibration.views} views, residual "
         f"rms {calibration.residual_rms_before_m * 1e3:.3f} mm (nominal arm) -> "
