@@ -7,6 +7,7 @@ only an evaluator reads).
 from cell.config import (
     ArmErrors,
     CellConfig,
+    DriveErrors,
     EncoderNoise,
     FixedMesh,
     FixedPrimitive,
@@ -15,6 +16,7 @@ from cell.config import (
     LooseMesh,
     LoosePart,
     TableErrors,
+    ToolErrors,
 )
 from cell.controller import Controller, nominal_T_base_slot, nominal_T_base_table
 from cell.errors import (
@@ -39,6 +41,7 @@ __all__ = [
     "CellError",
     "CellTruth",
     "Controller",
+    "DriveErrors",
     "EncoderNoise",
     "FixedMesh",
     "FixedPrimitive",
@@ -52,6 +55,7 @@ __all__ = [
     "LoosePart",
     "TableErrors",
     "ToolChangerError",
+    "ToolErrors",
     "UnknownNameError",
     "UnreachableTargetError",
     "laser_points_base",

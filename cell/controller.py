@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from cell.devices import Encoders, TableAxis
+from cell.drives import Drives
 from cell.errors import (
     CellConfigError,
     JointLimitError,
@@ -78,6 +79,8 @@ class Controller:
         table: TableAxis,
         laser: LaserScanner,
         ir: IRSensor,
+        drives: Drives,
+        changer: ToolChanger,
         robot: Robot | None = None,
         rack_xyz: tuple[float, float, float] = RACK_POS,
     ) -> None:
@@ -88,7 +91,8 @@ class Controller:
         self._table = table
         self._laser = laser
         self._ir = ir
-        self._changer = ToolChanger(sim)
+        self._drives = drives
+        self._changer = changer
         self._nominal = kinematics
         self._kinematics = kinematics
         self.laser_directions_tcp = laser.dirs_tcp.copy()
@@ -171,18 +175,18 @@ class Controller:
             raise CellConfigError(f"speed must be a fraction in (0, 1], got {speed!r}")
         q1 = self.kinematics.check_limits(q_target)
         sim = self._sim
-        q, qd = joint_trajectory(sim.arm_setpoint(), q1, self._robot.joint_speed, sim.dt, speed)
-        sim.run(sim.arm_act, q + sim.arm_ff * qd)
+        q, qd = joint_trajectory(self._drives.motor, q1, self._robot.joint_speed, sim.dt, speed)
+        self._drives.run(q, qd)
         sim.settle(settle_s)
 
     def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
         """Joints that put the current TCP at `T_base_tcp`, seeded from the current joints."""
-        seed = self._sim.arm_setpoint() if q_seed is None else q_seed
+        seed = self._drives.motor if q_seed is None else q_seed
         return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
 
     def reachable(self, T_base_tcp: np.ndarray) -> bool:
         """Whether the current TCP can reach `T_base_tcp` within the joint limits."""
-        return self.kinematics.reachable(T_base_tcp, self._sim.arm_setpoint(), self.T_flange_tcp())
+        return self.kinematics.reachable(T_base_tcp, self._drives.motor, self.T_flange_tcp())
 
     def move_tcp(
         self, T_base_tcp: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
@@ -204,10 +208,9 @@ class Controller:
         speed limit), the TCP the nominal one of the tool in hand or `T_flange_tcp` (4, 4) (a
         program's tooldata). Raises UnreachableTargetError if a point of the line has no IK
         solution."""
-        setpoints = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
-        sim = self._sim
-        sim.run(sim.arm_act, setpoints)
-        sim.settle(settle_s)
+        q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
+        self._drives.run(q, qd)
+        self._sim.settle(settle_s)
 
     def scan_linear(
         self,
@@ -221,10 +224,11 @@ class Controller:
         self._require("laser")
         sim = self._sim
         every = max(1, round(period_s / sim.dt))
-        setpoints = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
+        q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
         readings = []
-        for start in range(0, len(setpoints), every):
-            sim.run(sim.arm_act, setpoints[start : start + every])
+        for start in range(0, len(q), every):
+            chunk = slice(start, start + every)
+            self._drives.run(q[chunk], qd[chunk], new_move=start == 0)
             readings.append(self.read_laser())
         sim.settle(settle_s)
         return readings
@@ -235,8 +239,9 @@ class Controller:
         speed_m_s: float,
         angular_speed_rad_s: float,
         T_flange_tcp: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """Servo set-points (K, 6) of a straight TCP line from the current set-point."""
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Motor set-points (K, 6) [rad] and velocities (K, 6) [rad/s] of a straight TCP
+        line from the current set-point."""
         if not (speed_m_s > 0 and angular_speed_rad_s > 0):
             raise CellConfigError(
                 f"speeds must be > 0, got {speed_m_s!r} m/s, {angular_speed_rad_s!r} rad/s"
@@ -244,7 +249,7 @@ class Controller:
         T_base_tcp = np.asarray(T_base_tcp, dtype=float)
         T_tcp = self.T_flange_tcp() if T_flange_tcp is None else np.asarray(T_flange_tcp, float)
         sim, kin = self._sim, self.kinematics
-        q0 = sim.arm_setpoint()
+        q0 = self._drives.motor.copy()
         T0 = kin.fk(q0) @ T_tcp
         dist = float(np.linalg.norm(T_base_tcp[:3, 3] - T0[:3, 3]))
         R_rel = T0[:3, :3].T @ T_base_tcp[:3, :3]
@@ -276,16 +281,20 @@ class Controller:
         q = np.stack([np.interp(t, t_samples, qs[:, j]) for j in range(6)], axis=1)
         qd = np.gradient(q, t, axis=0) if n_steps > 1 else np.zeros_like(q)
         qd[-1] = 0.0
-        return q + sim.arm_ff * qd
+        return q, qd
 
     # -- tool changer -------------------------------------------------------------------------
     def lock(self) -> str:
         """Lock the tool seated against the flange; returns its name."""
-        return self._changer.lock()
+        name = self._changer.lock()
+        self._drives.hold()  # the arm now carries the tool
+        return name
 
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
-        return self._changer.unlock()
+        name = self._changer.unlock()
+        self._drives.hold()
+        return name
 
     def return_tool(self) -> None:
         """Put the tool in hand back into its rack slot (approach, place, unlock, leave)."""
@@ -320,7 +329,7 @@ class Controller:
     def _approach(self, T_slot: np.ndarray) -> None:
         """Joint move to above a slot, flange seated pose shifted up (no TCP offset)."""
         T_flange_above = self._above(T_slot)
-        q = self.kinematics.solve(T_flange_above, self._sim.arm_setpoint())
+        q = self.kinematics.solve(T_flange_above, self._drives.motor)
         self.move_joints(q)
 
     # -- tools' actuators ---------------------------------------------------------------------

@@ -9,9 +9,11 @@ from cell.build import build_model, draw_real_parameters
 from cell.config import CellConfig
 from cell.controller import Controller
 from cell.devices import Encoders, TableAxis
+from cell.drives import Drives
 from cell.kinematics import Kinematics
 from cell.sensors import IRSensor, LaserScanner
 from cell.simulation import Simulation
+from cell.toolchanger import ToolChanger
 from cell.truth import CellTruth
 from models.robot import IR, LASER, ROBOT_PATH
 
@@ -39,15 +41,37 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     """
     config = config or CellConfig()
     params = draw_real_parameters(config)
-    sim = Simulation(build_model(config, params.deviations), config.robot.q_home)
+    sim = Simulation(build_model(config, params), config.robot.q_home)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 2]))
-    encoders = Encoders(sim, config.encoder.sigma_rad, rng)
-    table = TableAxis(sim, params.table_bias_m, config.table.repeat_sigma_m, rng)
+    table = TableAxis(
+        sim, params.table_bias_m, config.table.repeat_sigma_m, rng, params.table_profile
+    )
     _carry_loose_parts(sim, config)
-    laser = LaserScanner(sim.model, sim.tcp_site[LASER.name], config.laser, rng)
+    laser = LaserScanner(sim.model, sim.tcp_site[LASER.name], config.laser, rng, params.laser_scale)
     ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
+    moves = np.random.default_rng(np.random.SeedSequence([config.seed, 3]))
+    t = config.tools
+    changer = ToolChanger(sim, t.changer_sigma_m, t.changer_sigma_rad, moves)
+    drives = Drives(
+        sim,
+        config.robot.kinematics(params.deviations),
+        config.drives,
+        params.stiffness_nm_rad,
+        lambda: changer.held,
+        moves,
+    )
+    encoders = Encoders(drives.read_motors, config.encoder.sigma_rad, rng)
     sim.settle(0.2)
     controller = Controller(
-        sim, config.robot.kinematics(), encoders, table, laser, ir, config.robot, config.rack_xyz
+        sim,
+        config.robot.kinematics(),
+        encoders,
+        table,
+        laser,
+        ir,
+        drives,
+        changer,
+        config.robot,
+        config.rack_xyz,
     )
     return controller, CellTruth(config, params, sim, table)

@@ -37,15 +37,22 @@ class LaserReading:
 
 
 class LaserScanner:
-    """A fan of rays from one origin (the laser TCP); range limits, noise, grazing dropout."""
+    """A fan of rays from one origin (the laser's optical frame, its TCP site); range limits,
+    a range scale error, noise, grazing dropout."""
 
     def __init__(
-        self, model: mujoco.MjModel, site: int, config: LaserConfig, rng: np.random.Generator
+        self,
+        model: mujoco.MjModel,
+        site: int,
+        config: LaserConfig,
+        rng: np.random.Generator,
+        scale: float = 0.0,
     ) -> None:
         self.model = model
         self.site = site
         self.config = config
         self.rng = rng
+        self.scale = scale  # relative range scale error (truth)
         self.dirs_tcp = config.directions_tcp()
         n = config.n_rays
         self._geomid = np.zeros(n, dtype=np.int32)
@@ -73,7 +80,7 @@ class LaserScanner:
             c.n_rays,
             c.range_max_m,
         )
-        d = self._dist.copy()
+        d = self._dist * (1.0 + self.scale)
         cos_incidence = -np.einsum("ij,ij->i", self._normal.reshape(-1, 3), vec)
         ok = (self._geomid >= 0) & (d >= c.range_min_m) & (d <= c.range_max_m)
         ok &= cos_incidence >= self._cos_max

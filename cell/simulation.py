@@ -9,7 +9,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from models.robot import FLANGE_SITE, JOINT_NAMES, Q_HOME, TOOLS
+from models.robot import FLANGE_SITE, JOINT_NAMES, Q_HOME, TABLE_GUIDE_JOINTS, TOOLS
 
 
 class Simulation:
@@ -28,6 +28,8 @@ class Simulation:
         self.arm_ff = -m.actuator_biasprm[self.arm_act, 2] / m.actuator_gainprm[self.arm_act, 0]
         self.table_qadr = int(m.joint("table_slide").qposadr[0])
         self.table_act = int(m.actuator("table_slide").id)
+        self.guide_act = np.array([m.actuator(n).id for n in TABLE_GUIDE_JOINTS])
+        self.guide_qadr = np.array([m.joint(n).qposadr[0] for n in TABLE_GUIDE_JOINTS])
         self.table_ff = float(
             -m.actuator_biasprm[self.table_act, 2] / m.actuator_gainprm[self.table_act, 0]
         )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from cell.errors import ToolChangerError
 from cell.simulation import Simulation
@@ -22,15 +23,40 @@ ACTUATION_TIME_S = 0.1
 
 
 class ToolChanger:
-    """Locks and releases tools in the physics of `sim`; `held` is the locked tool or None."""
+    """Locks and releases tools in the physics of `sim`; `held` is the locked tool or None.
+    A tool seats where the flange meets it, off by the changer's repeatability (`sigma_m`
+    [m], `sigma_rad` [rad], Gaussian per axis, redrawn at every lock)."""
 
-    def __init__(self, sim: Simulation) -> None:
+    def __init__(
+        self,
+        sim: Simulation,
+        sigma_m: float = 0.0,
+        sigma_rad: float = 0.0,
+        rng: np.random.Generator | None = None,
+    ) -> None:
         self.sim = sim
         self.held: str | None = None
+        self.sigma_m = sigma_m
+        self.sigma_rad = sigma_rad
+        self.rng = rng or np.random.default_rng(0)
 
-    def _set_weld(self, eq: int, body1: int, body2: int) -> None:
-        """Write body2's pose in body1's frame as the weld's relative pose, then activate it."""
+    def _seat(self) -> np.ndarray:
+        """(4, 4) how far a tool seats from where it met the flange (in the tool's frame)."""
+        T = np.eye(4)
+        if self.sigma_rad > 0.0:
+            T[:3, :3] = Rotation.from_rotvec(self.rng.normal(0.0, self.sigma_rad, 3)).as_matrix()
+        if self.sigma_m > 0.0:
+            T[:3, 3] = self.rng.normal(0.0, self.sigma_m, 3)
+        return T
+
+    def _set_weld(
+        self, eq: int, body1: int, body2: int, T_body1_shift: np.ndarray | None = None
+    ) -> None:
+        """Write body2's pose in body1's frame (moved by `T_body1_shift` in body1's frame) as
+        the weld's relative pose, then activate it."""
         T_1_2 = invert(self.sim.body_T(body1)) @ self.sim.body_T(body2)
+        if T_body1_shift is not None:
+            T_1_2 = invert(T_body1_shift) @ T_1_2
         self.sim.model.eq_data[eq, 3:6] = T_1_2[:3, 3]
         self.sim.model.eq_data[eq, 6:10] = R_to_quat_wxyz(T_1_2[:3, :3])
         self.sim.data.eq_active[eq] = 1
@@ -58,7 +84,7 @@ class ToolChanger:
                 f"{CAPTURE_DISTANCE_M * 1e3:g} mm and {CAPTURE_ANGLE_RAD:g} rad)"
             )
         sim = self.sim
-        self._set_weld(sim.flange_eq[name], sim.tool_body[name], sim.link6)
+        self._set_weld(sim.flange_eq[name], sim.tool_body[name], sim.link6, self._seat())
         sim.data.eq_active[sim.rack_eq[name]] = 0
         self.held = name
         sim.settle(ACTUATION_TIME_S)

@@ -12,6 +12,7 @@ from cell import (
     CellConfigError,
     CellTruth,
     Controller,
+    DriveErrors,
     EncoderNoise,
     FixedMesh,
     JointLimitError,
@@ -76,7 +77,8 @@ def test_ideal_config_zeroes_every_error() -> None:
 
 
 def test_encoder_noise_has_the_configured_sigma() -> None:
-    controller, truth = make_cell(CellConfig(seed=2, encoder=EncoderNoise(1e-4)))
+    config = CellConfig(seed=2, encoder=EncoderNoise(1e-4), drives=DriveErrors.off())
+    controller, truth = make_cell(config)
     noise = np.array([controller.read_joints() - truth.q() for _ in range(500)])
     assert abs(noise.std() / 1e-4 - 1.0) < 0.1  # 3000 samples: sigma within 10 %
     assert abs(noise.mean()) < 1.5e-5

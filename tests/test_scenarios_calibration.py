@@ -13,8 +13,11 @@ from cell import (
     CellConfig,
     CellTruth,
     Controller,
+    DriveErrors,
     Kinematics,
     LaserConfig,
+    TableErrors,
+    ToolErrors,
     make_cell,
     nominal_T_base_slot,
 )
@@ -36,7 +39,14 @@ SHIFT_M = np.array([[1.5e-3, -1.0e-3, 0.5e-3], [-2.0e-3, 0.5e-3, 1.0e-3], [0.0, 
 
 
 def _cell(seed: int, fixtures: tuple = ()) -> tuple[Controller, CellTruth]:
-    config = CellConfig(seed=seed, laser=LaserConfig(sigma_m=1e-4), fixtures=fixtures)
+    config = CellConfig(
+        seed=seed,
+        laser=LaserConfig(sigma_m=1e-4),
+        drives=DriveErrors.off(),
+        tools=ToolErrors.off(),
+        table=TableErrors(straightness_sigma_m=0.0, pitch_sigma_rad=0.0, yaw_sigma_rad=0.0),
+        fixtures=fixtures,
+    )
     return make_cell(config)
 
 

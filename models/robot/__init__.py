@@ -18,7 +18,13 @@ from models.robot.arm import (
 )
 from models.robot.paths import MODEL_DIR, ROBOT_PATH, SCENE_PATH
 from models.robot.scene import ROBOT_FILE, TIMESTEP, scene_xml
-from models.robot.table import TABLE_HALF, TABLE_SPEED, TABLE_TOP_POS, TABLE_TRAVEL
+from models.robot.table import (
+    TABLE_GUIDE_JOINTS,
+    TABLE_HALF,
+    TABLE_SPEED,
+    TABLE_TOP_POS,
+    TABLE_TRAVEL,
+)
 from models.robot.tools import (
     FINGER_TRAVEL,
     GRIPPER,
@@ -53,6 +59,7 @@ __all__ = [
     "SCENE_PATH",
     "SCREWER",
     "SLOT_QUAT",
+    "TABLE_GUIDE_JOINTS",
     "TABLE_HALF",
     "TABLE_SPEED",
     "TABLE_TOP_POS",

@@ -59,6 +59,31 @@ class Placement(_Section):
     range_tilt_deg: float = Field(5.0, ge=0.0, le=30.0)
 
 
+class DriveNoise(_Section):
+    """The arm's drives beyond its kinematics (cell.config.DriveErrors: joint 2 and 3
+    stiffness [N m/rad] (0: rigid) and its spread, lost motion per joint [rad], pose
+    repeatability [rad], thermal zero drift of joints 2 and 3 [rad/s])."""
+
+    stiffness_nm_rad: tuple[float, float] = (0.0, 0.0)
+    stiffness_spread: float = Field(0.0, ge=0.0, le=1.0)
+    hysteresis_rad: tuple[float, float, float, float, float, float] = (0.0,) * 6
+    repeat_sigma_rad: float = Field(0.0, ge=0.0, le=0.01)
+    drift_rad_per_s: tuple[float, float] = (0.0, 0.0)
+
+
+class ToolNoise(_Section):
+    """The tools' true TCPs, their seating, the laser's mounting and range scale
+    (cell.config.ToolErrors) [m, rad, relative]."""
+
+    tcp_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
+    tcp_sigma_rad: float = Field(0.0, ge=0.0, le=0.1)
+    changer_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
+    changer_sigma_rad: float = Field(0.0, ge=0.0, le=0.1)
+    laser_mount_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
+    laser_mount_sigma_rad: float = Field(0.0, ge=0.0, le=0.1)
+    laser_scale_sigma: float = Field(0.0, ge=0.0, le=0.1)
+
+
 class Noise(_Section):
     """Error sources of the real cell and of the model."""
 
@@ -68,6 +93,11 @@ class Noise(_Section):
     encoder_sigma_rad: float = Field(1.0e-5, ge=0.0, le=0.01)
     table_bias_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     table_repeat_sigma_m: float = Field(1.0e-5, ge=0.0, le=0.01)
+    table_straightness_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
+    table_pitch_sigma_rad: float = Field(0.0, ge=0.0, le=0.01)
+    table_yaw_sigma_rad: float = Field(0.0, ge=0.0, le=0.01)
+    drives: DriveNoise = DriveNoise()
+    tools: ToolNoise = ToolNoise()
     model_deformation_rms_m: float = Field(0.24e-3, ge=0.0, le=0.01)
     model_noise_rms_m: float = Field(0.18e-3, ge=0.0, le=0.01)
 

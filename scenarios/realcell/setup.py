@@ -15,12 +15,14 @@ from cell import (
     ArmErrors,
     CellConfig,
     Controller,
+    DriveErrors,
     EncoderNoise,
     FixedMesh,
     FixedPrimitive,
     LaserConfig,
     LooseMesh,
     TableErrors,
+    ToolErrors,
     make_cell,
 )
 from cell.robots import Robot, irb2400
@@ -70,8 +72,16 @@ def cell_config(
         robot=robot or irb2400(),
         rack_xyz=rack_xyz,
         arm=ArmErrors(noise.arm_length_sigma_m, noise.arm_offset_sigma_rad),
+        drives=DriveErrors(**noise.drives.model_dump()),
+        tools=ToolErrors(**noise.tools.model_dump()),
         encoder=EncoderNoise(noise.encoder_sigma_rad),
-        table=TableErrors(noise.table_bias_sigma_m, noise.table_repeat_sigma_m),
+        table=TableErrors(
+            noise.table_bias_sigma_m,
+            noise.table_repeat_sigma_m,
+            noise.table_straightness_sigma_m,
+            noise.table_pitch_sigma_rad,
+            noise.table_yaw_sigma_rad,
+        ),
         laser=LaserConfig(sigma_m=noise.laser_sigma_m),
         fixtures=fixtures,
     )
