@@ -84,7 +84,8 @@ _NO_EFFECT = frozenset(name.casefold() for name in NO_EFFECT)
 #: Optional arguments of a move the executor honours (\WObj, \V, \Inpos) or may ignore
 #: (\Conc: the next instructions run while the arm moves; \Z: the zone's size; \ID;
 #: \NoEOffs: no external-axis offsets are active).
-MOVE_OPTIONS = frozenset(("wobj", "v", "inpos", "conc", "z", "id", "noeoffs"))
+MOVE_OPTIONS = ("WObj", "V", "Inpos", "Conc", "Z", "ID", "NoEOffs")
+_MOVE_OPTIONS = frozenset(name.casefold() for name in MOVE_OPTIONS)
 #: A tooldata matches a cell tool by name (the tool's name or the writer's tName) or, failing
 #: that, as the only tool whose nominal TCP is within these of the tooldata's.
 TOOL_MATCH_M = 5e-3
@@ -526,18 +527,18 @@ def _plan_move(
             "MoveAbsJ (no circular moves, no I/O or synchronisation along a move)",
         )
     instruction = {"movej": "MoveJ", "movel": "MoveL", "moveabsj": "MoveAbsJ"}[kind]
-    options = dict(_option(o) for o in step.options)
-    options = {k.casefold(): v for k, v in options.items()}
-    unknown = sorted(set(options) - MOVE_OPTIONS)
+    written = [_option(o) for o in step.options]
+    unknown = [name for name, _value in written if name.casefold() not in _MOVE_OPTIONS]
     if unknown:
         given = ", ".join(f"\\{u}" for u in unknown)
-        taken = ", ".join(f"\\{o}" for o in sorted(MOVE_OPTIONS))
+        taken = ", ".join(f"\\{o}" for o in MOVE_OPTIONS)
         raise program_error(
             module,
             line,
             f"{instruction} {move.target}: the optional argument(s) {given} are not executed "
             f"(the executor takes {taken})",
         )
+    options = {name.casefold(): value for name, value in written}
     tool = _tooldata(module, move.tool, line)
     T_tcp = np.eye(4) if tool is None else tool.T_flange_tcp
     if tool is not None:
