@@ -22,6 +22,9 @@ from cell import CellConfig, make_cell
 from cell.robots import irb2400
 from models.robot import TOOLS
 from scenarios.cli.app import main
+from scenarios.jobs.config import load_config
+from scenarios.jobs.execute import execute_in_cell, job_program, job_targets, rebuild_job_cell
+from scenarios.jobs.pipeline import job_robot, object_models
 from scenarios.offline.rapid import configuration
 from scenarios.offline.rapid_exec import ExecutionError, execute_plan, plan_execution
 from scenarios.offline.rapid_module import RapidError, read_module
@@ -131,6 +134,28 @@ def test_the_nominal_arm_misses_its_commanded_points_by_its_absolute_error(folde
     nominal_rms, calibrated_rms = np.sqrt(np.mean(np.square([nominal, calibrated]), axis=1))
     assert max(nominal) < 1.5e-3
     assert nominal_rms > 3 * calibrated_rms
+
+
+def test_a_job_cell_runs_the_program_on_its_nominal_arm_whatever_its_option(folder: Path) -> None:
+    """What a job can call at its end with the cell it built: its controller has the
+    absolute-accuracy option set (here an arm 1 mm and 1 mrad off in every parameter), yet
+    the program runs on the nominal arm, exactly as `twincell execute` ran it in a cell
+    rebuilt from the same seed (the same figures to 1 nm), and the option is set back."""
+    config = load_config(folder / "config.yaml")
+    robot = job_robot(config.cell.robot)
+    user = job_program(config, folder)
+    virtual, real = object_models(config, user)
+    cell = rebuild_job_cell(config, virtual, real, robot)
+    other_arm = robot.kinematics(np.full(len(robot.parameters), 1e-3))
+    cell.controller.set_absolute_accuracy(other_arm)
+    result = execute_in_cell(
+        cell, read_module(folder / "program.mod"), job_targets(config, virtual, user)
+    )
+    assert cell.controller.kinematics is other_arm
+    cli = {t["name"]: t for t in _json(folder / "execution.json")["targets"]}
+    assert [t.evaluation.name for t in result.targets] == list(cli)
+    for t in result.targets:
+        assert t.evaluation.error_m == pytest.approx(cli[t.evaluation.name]["error_m"], abs=1e-9)
 
 
 # -- the IK branch of a robtarget's confdata -------------------------------------------------------

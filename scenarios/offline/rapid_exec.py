@@ -658,7 +658,8 @@ def _solve(
             step.line,
             f"{what}: the nominal arm has no solution in configuration "
             f"{_conf_text(target_conf)} within its joint limits; its solutions for this pose "
-            f"are in {found}",
+            f"are in {found} (ConfJ\\On: a controller stops here; correct the robtarget's "
+            "confdata, or run with ConfJ\\Off to take the nearest solution)",
         )
     return solution.q
 
