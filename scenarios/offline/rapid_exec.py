@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -209,21 +209,24 @@ def cell_tools(controller: Controller) -> dict[str, np.ndarray]:
     return {name: controller.T_flange_tcp(name) for name in controller.tools}
 
 
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+
+
 def _numbers(text: str) -> list[float]:
-    return [float(x) for x in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", text)]
+    return [float(x) for x in re.findall(_NUMBER, text)]
 
 
-def _declared(module: RapidModule, name: str, datatype: str) -> object | None:
+def _declared(module: RapidModule, name: str, datatype: str, line: int) -> object | None:
     """The literal value of module-level data `name` of `datatype`, None if not declared as
-    one; raises if declared without a literal value."""
+    one; raises (naming `line`, where it is used) if declared without a literal value."""
     for declared, d in module.data.items():
         if declared.casefold() == name.casefold() and d.datatype.casefold() == datatype:
             if d.value is None:
                 raise program_error(
                     module,
-                    d.line,
-                    f"{datatype} {d.name} has no literal value; the executor needs its value "
-                    "before the program runs",
+                    line,
+                    f"{datatype} {d.name} (line {d.line}) has no literal value; the executor "
+                    "needs its value before the program runs",
                 )
             return d.value
     return None
@@ -237,11 +240,9 @@ def _option(text: str) -> tuple[str, str | None]:
 
 def _number(module: RapidModule, text: str, line: int, what: str) -> float:
     """A num argument: a literal or a num declared with a literal value."""
-    try:
+    if re.fullmatch(_NUMBER, text.strip()):
         return float(text)
-    except ValueError:
-        pass
-    value = _declared(module, text.strip(), "num")
+    value = _declared(module, text.strip(), "num", line)
     if isinstance(value, float):
         return value
     raise program_error(module, line, f"{what} {text!r} is neither a number nor a declared num")
@@ -314,7 +315,7 @@ def _tooldata(module: RapidModule, name: str, line: int) -> ToolData | None:
                     f"{tool.line}); the cell's tools are held by the robot",
                 )
             return tool
-    _declared(module, name, "tooldata")  # declared without a literal value: named there
+    _declared(module, name, "tooldata", line)  # declared without a literal value
     raise program_error(module, line, f"tooldata {name} is not declared in the module")
 
 
@@ -341,7 +342,7 @@ def _object_frame(module: RapidModule, name: str | None, line: int) -> tuple[str
                     'ufmec "")',
                 )
             return w.name, w.T_base_uframe @ w.T_uframe_oframe
-    _declared(module, name, "wobjdata")
+    _declared(module, name, "wobjdata", line)
     raise program_error(module, line, f"work object {name} is not declared in the module")
 
 
@@ -353,7 +354,7 @@ def _speed(
     if key.casefold() in SPEEDS:
         v_tcp, v_ori = SPEEDS[key.casefold()]
     else:
-        value = _numbers(key) if key.startswith("[") else _declared(module, key, "speeddata")
+        value = _numbers(key) if key.startswith("[") else _declared(module, key, "speeddata", line)
         if not (isinstance(value, tuple | list) and len(value) == 4):
             raise program_error(
                 module,
@@ -377,7 +378,7 @@ def _stop_point(module: RapidModule, text: str, options: dict[str, str | None], 
         return True
     if key.casefold() in ZONES:
         return False
-    value = _declared(module, key, "zonedata")
+    value = _declared(module, key, "zonedata", line)
     if isinstance(value, tuple) and len(value) == 7 and isinstance(value[0], bool):
         return value[0]
     raise program_error(
@@ -410,13 +411,13 @@ def _target_data(module: RapidModule, step: Step) -> tuple[Conf, float]:
     text = step.move.target.strip()
     if text.startswith("["):
         values = _numbers(text)
-        if len(values) == 17:
-            return tuple(int(v) for v in values[7:11]), values[11]  # type: ignore[return-value]
+        if len(values) == 17:  # [[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[eax_a..eax_f]]
+            return _conf(values[7:11]), values[11]
     base = re.match(r"(?:(?:Offs|RelTool)\s*\(\s*)*([A-Za-z_]\w*)", text, re.I)
     if base is not None:
         for name, target in module.targets.items():
             if name.casefold() == base.group(1).casefold():
-                return tuple(int(c) for c in target.conf), float(target.eax[0])  # type: ignore[return-value]
+                return _conf(target.conf), float(target.eax[0])
     raise program_error(
         module,
         step.line,
@@ -431,7 +432,7 @@ def _jointtarget(module: RapidModule, step: Step, kin: Kinematics) -> tuple[np.n
     text = step.move.target.strip()
     values: list[float] | None = _numbers(text) if text.startswith("[") else None
     if values is None:
-        value = _declared(module, text, "jointtarget")
+        value = _declared(module, text, "jointtarget", step.line)
         if isinstance(value, tuple) and len(value) == 2:
             values = [float(v) for part in value for v in part]  # type: ignore[union-attr]
     if values is None or len(values) != 12:
@@ -451,6 +452,10 @@ def _jointtarget(module: RapidModule, step: Step, kin: Kinematics) -> tuple[np.n
         )
         raise program_error(module, step.line, f"MoveAbsJ {text}: {detail}")
     return q, values[6]
+
+
+def _conf(values: Sequence[float] | np.ndarray) -> Conf:
+    return (int(values[0]), int(values[1]), int(values[2]), int(values[3]))
 
 
 def _conf_text(conf: Conf) -> str:
