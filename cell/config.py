@@ -111,8 +111,8 @@ class ToolErrors:
     """The tools' true TCPs and how they seat on the flange.
 
     - `tcp_sigma_m`, `tcp_sigma_rad`: each tool's TCP off its nominal tooldata (drawn once:
-      manufacturing). Default 0.1 mm and 1 mrad: ISO 2768-m general tolerances (+-0.3 mm
-      over 30-120 mm) as 3 sigma.
+      manufacturing). Default 0.05 mm and 0.25 mrad: ISO 2768-f (fine) general tolerances,
+      +-0.15 mm over 30-120 mm as 3 sigma, and that much across the 0.2 m of the pointer.
     - `changer_sigma_m`, `changer_sigma_rad`: where a tool seats at each lock (redrawn at
       every tool change). Default 5 um and 20 urad: tool changers' repeatability of
       +-0.015 mm (3 sigma; ATI QC and SCHUNK SWS data sheets give +-0.01 to +-0.015 mm).
@@ -122,8 +122,8 @@ class ToolErrors:
       3e-4: a line scanner's linearity of 0.01-0.1 % of its measuring range.
     """
 
-    tcp_sigma_m: float = 1.0e-4
-    tcp_sigma_rad: float = 1.0e-3
+    tcp_sigma_m: float = 5.0e-5
+    tcp_sigma_rad: float = 2.5e-4
     changer_sigma_m: float = 5.0e-6
     changer_sigma_rad: float = 2.0e-5
     laser_mount_sigma_m: float = 2.0e-4

@@ -105,14 +105,19 @@ class Controller:
     # -- state --------------------------------------------------------------------------------
     @property
     def kinematics(self) -> Kinematics:
-        """The arm's kinematics the controller moves with: the nominal arm, or the calibrated
-        one given to `set_absolute_accuracy`."""
-        return self._kinematics
+        """The arm's kinematics the controller moves with, for the tool in hand: the nominal
+        arm, or the calibrated one given to `set_absolute_accuracy`."""
+        return self._kinematics.for_tool(self.tool_in_hand)
 
     @property
     def nominal_kinematics(self) -> Kinematics:
         """The arm's nominal kinematics (its data sheet's)."""
         return self._nominal
+
+    @property
+    def absolute_accuracy(self) -> Kinematics | None:
+        """The calibrated arm given to `set_absolute_accuracy`, or None (the nominal arm)."""
+        return None if self._kinematics is self._nominal else self._kinematics
 
     def set_absolute_accuracy(self, kinematics: Kinematics | None) -> None:
         """The controller's absolute-accuracy option: move with the calibrated arm

@@ -19,30 +19,13 @@ import numpy as np
 import pinocchio as pin
 
 from cell.config import DriveErrors
-from cell.kinematics import Kinematics
+from cell.kinematics import Kinematics, payload_model
 from cell.simulation import Simulation
-from models.robot import TOOLS
 
 #: The gravity torques are computed every this many set-points of a move and interpolated.
 _EVERY = 10
 #: A joint "moved" (its lost motion switches side) when it travelled at least this [rad].
 _MOVED_RAD = 1e-7
-_GRAVITY = np.array([0.0, 0.0, -9.81])
-
-
-def payload_model(kinematics: Kinematics, tool: str | None) -> pin.Model:
-    """A copy of the arm's model carrying `tool` (its mass at half way to its TCP, on the
-    flange's z axis) in its last link; the bare arm for None."""
-    model = pin.Model(kinematics.model)
-    model.gravity.linear = _GRAVITY
-    if tool is None:
-        return model
-    spec = {t.name: t for t in TOOLS}[tool]
-    frame = model.frames[model.getFrameId(kinematics.tip_frame)]
-    com_flange = np.array([0.0, 0.0, spec.p_tool_tcp[2] / 2.0])
-    com_joint = frame.placement.act(com_flange)
-    model.inertias[frame.parentJoint] += pin.Inertia(spec.mass, com_joint, np.eye(3) * 1e-4)
-    return model
 
 
 class Drives:

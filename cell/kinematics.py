@@ -48,10 +48,29 @@ class Kinematics:
         self.upper = np.array(model.upperPositionLimit, dtype=float)
         self.tip_frame = tip_frame
         self._tip_id = self.frame_id(tip_frame)
+        #: Joint ranges (lower, upper) the cell allows with a tool in hand, by tool name.
+        self.tool_limits: dict[str | None, tuple[np.ndarray, np.ndarray]] = {}
+        self._with_tool: dict[str | None, Kinematics] = {}
         self._q_names = [""] * model.nq
         for j in range(1, model.njoints):
             for k in range(model.joints[j].nq):
                 self._q_names[model.joints[j].idx_q + k] = model.names[j]
+
+    def for_tool(self, tool: str | None) -> Kinematics:
+        """The arm as it moves with `tool` in hand: the same rigid arm, within the joint
+        ranges the cell allows with that tool (`tool_limits`: a bulky tool must not fold into
+        the arm; a compliant model, scenarios.offline.cell_model, also carries the tool's
+        payload)."""
+        base = getattr(self, "_base", self)
+        limits = base.tool_limits.get(tool)
+        if limits is None:
+            return base
+        if tool not in base._with_tool:
+            other = Kinematics(base.model, base.tip_frame)
+            other.lower, other.upper = (np.array(v, dtype=float) for v in limits)
+            other._base = base
+            base._with_tool[tool] = other
+        return base._with_tool[tool]
 
     # -- construction -------------------------------------------------------------------------
     @classmethod
@@ -255,3 +274,24 @@ class Kinematics:
     ) -> bool:
         """Whether an IK solution within the joint limits exists for the TCP at the target."""
         return self.ik(T_base_target, q_seed, T_tip_tcp).success
+
+
+#: Gravity [m/s^2] in the base frame (z up).
+GRAVITY = np.array([0.0, 0.0, -9.81])
+
+
+def payload_model(kinematics: Kinematics, tool: str | None) -> pin.Model:
+    """A copy of the arm's model (its links' inertias) carrying `tool` in its last link: the
+    tool's nominal mass at half way to its TCP on the flange's z axis (the tooldata's load);
+    the bare arm for None."""
+    from models.robot import TOOLS
+
+    model = pin.Model(kinematics.model)
+    model.gravity.linear = GRAVITY
+    if tool is None:
+        return model
+    spec = {t.name: t for t in TOOLS}[tool]
+    frame = model.frames[model.getFrameId(kinematics.tip_frame)]
+    com_joint = frame.placement.act(np.array([0.0, 0.0, spec.p_tool_tcp[2] / 2.0]))
+    model.inertias[frame.parentJoint] += pin.Inertia(spec.mass, com_joint, np.eye(3) * 1e-4)
+    return model

@@ -116,8 +116,23 @@ class Robot:
 
 
 # -- the built-in arm -------------------------------------------------------------------------
+#: The built-in arm's joint 5 range in the cell with the laser in hand [rad]: beyond 100 deg
+#: the laser's 12 cm body folds into the forearm (link 4); the arm's own stop is 120 deg.
+IRB_LASER_WRIST_BEND_RAD = float(np.deg2rad(100.0))
+
+
+def _irb_kinematics(geometry: ArmGeometry) -> Kinematics:
+    kin = Kinematics.from_geometry(geometry)
+    lower, upper = kin.lower.copy(), kin.upper.copy()
+    lower[4], upper[4] = -IRB_LASER_WRIST_BEND_RAD, IRB_LASER_WRIST_BEND_RAD
+    kin.tool_limits["laser"] = (lower, upper)
+    return kin
+
+
 def irb2400() -> Robot:
-    """The cell's IRB 2400-class arm (models.robot.arm), at the world's origin."""
+    """The cell's IRB 2400-class arm (models.robot.arm), at the world's origin; with the
+    laser in hand its joint 5 is kept where the laser does not fold into the forearm
+    (IRB_LASER_WRIST_BEND_RAD)."""
 
     def geometry(d: np.ndarray) -> ArmGeometry:
         return ArmGeometry().perturbed(d[:6], d[6:])
@@ -130,7 +145,7 @@ def irb2400() -> Robot:
         joint_effort=np.array(JOINT_TORQUE, dtype=float),
         parameters=IRB_PARAMETERS,
         lengths=np.array([True] * 6 + [False] * 6),
-        _kinematics=lambda d: Kinematics.from_geometry(geometry(d)),
+        _kinematics=lambda d: _irb_kinematics(geometry(d)),
         _mjcf=lambda d: arm_xml(geometry(d)),
     )
 

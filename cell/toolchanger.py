@@ -2,7 +2,8 @@
 
 On lock, the flange weld of the tool seated against the flange is activated at the CURRENT
 relative pose (written into `eq_data` first) and its rack weld released; on unlock at the rack,
-the reverse. A tool is never left floating: unlocking away from the tool's slot is refused.
+the reverse, the rack's seat centring the tool in its slot. A tool is never left floating:
+unlocking away from the tool's slot is refused.
 """
 
 from __future__ import annotations
@@ -102,7 +103,13 @@ class ToolChanger:
                 f"cannot unlock the {name!r} tool here: it is {dp * 1e3:.3g} mm and {dr:.3g} rad "
                 "from its rack slot and would fall; move it into the slot first"
             )
-        self._set_weld(sim.rack_eq[name], sim.tool_body[name], sim.rack_body)
+        # The rack's seat (locating cones) centres the tool in its slot, wherever within the
+        # capture range the arm let it go.
+        T_seat = sim.site_T(sim.slot_site[name])
+        T_tool = sim.body_T(sim.tool_body[name])
+        self._set_weld(
+            sim.rack_eq[name], sim.tool_body[name], sim.rack_body, invert(T_tool) @ T_seat
+        )
         sim.data.eq_active[sim.flange_eq[name]] = 0
         self.held = None
         sim.settle(ACTUATION_TIME_S)

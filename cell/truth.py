@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from cell.build import RealParameters
 from cell.config import CellConfig
 from cell.devices import TableAxis
 from cell.errors import UnknownNameError
-from cell.kinematics import Kinematics
+from cell.kinematics import Kinematics, payload_model
 from cell.simulation import Simulation
 from cell.toolchanger import flange_offset
+from models.robot import TOOLS
 
 
 class CellTruth:
@@ -27,6 +29,8 @@ class CellTruth:
         self.params = params
         self._sim = sim
         self._table = table
+        self._gravity: dict[str | None, tuple[pin.Model, pin.Data]] = {}
+        self._kinematics: Kinematics | None = None
 
     @property
     def deviations(self) -> np.ndarray:
@@ -70,9 +74,33 @@ class CellTruth:
         """(4, 4) true pose of `tool`'s TCP site (wherever the tool is)."""
         return self._sim.site_T(self._sim.tcp_site[tool])
 
+    def link_angles(self, q_motor: np.ndarray, tool: str | None) -> np.ndarray:
+        """(6,) where the real links are for motor angles `q_motor` (6,) [rad] at rest with
+        `tool` in hand: the joints' sag under gravity (the drives' lost motion and
+        repeatability, which depend on the motion, aside)."""
+        q = np.asarray(q_motor, dtype=float)
+        k = self.params.stiffness_nm_rad
+        if not np.any(k > 0.0):
+            return q.copy()
+        if tool not in self._gravity:
+            model = payload_model(self.kinematics(), tool)
+            self._gravity[tool] = (model, model.createData())
+        model, data = self._gravity[tool]
+        c6 = np.zeros(6)
+        c6[1:3] = np.where(k > 0.0, 1.0 / np.where(k > 0.0, k, 1.0), 0.0)
+        return q - c6 * np.asarray(pin.computeGeneralizedGravity(model, data, q))
+
+    def T_tool_tcp(self, tool: str) -> np.ndarray:
+        """(4, 4) `tool`'s true TCP in its frame (the laser's: its optical frame)."""
+        if tool in self.params.T_tool_tcp:
+            return self.params.T_tool_tcp[tool].copy()
+        return {t.name: t for t in TOOLS}[tool].T_tool_tcp
+
     def kinematics(self) -> Kinematics:
         """Pinocchio kinematics of the REAL arm (the robot with the drawn deviations)."""
-        return self.config.robot.kinematics(self.params.deviations)
+        if self._kinematics is None:
+            self._kinematics = self.config.robot.kinematics(self.params.deviations)
+        return self._kinematics
 
     def T_flange_tool(self, tool: str) -> np.ndarray:
         """(4, 4) true pose of `tool`'s frame in the true flange frame."""

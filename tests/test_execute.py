@@ -32,6 +32,7 @@ from scenarios.offline.rapid_module import RapidError, read_module
 SHORT = """seed: 0
 localization:
   scan: {speed_m_s: 0.25, period_s: 0.02}
+export: {compensation: nominal, execute: false}
 output: {rrd: false, plots: false}
 """
 UNUSED = "[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]"
@@ -39,7 +40,8 @@ UNUSED = "[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]"
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A short skull run (seed 0), then its program.mod executed by the command line."""
+    """A short skull run (seed 0) exporting the program as programmed (compensation
+    nominal), then its program.mod executed by the command line."""
     root = tmp_path_factory.mktemp("execute")
     config = root / "short.yaml"
     config.write_text(SHORT)
@@ -75,7 +77,7 @@ def test_execution_json_is_complete_and_consistent(folder: Path) -> None:
     results = _json(folder / "results.json")
     assert not list(folder.glob(".*"))  # written atomically: no temporary file left
     assert execution["status"] == "complete" and execution["program"] == "program.mod"
-    assert execution["compensation"] == "nominal"  # the writer states none yet
+    assert execution["compensation"] == "nominal"  # as the module states it
     assert execution["controller"] == {"absolute_accuracy": False, "kinematics": "nominal"}
     assert execution["job"] == "short" and execution["seed"] == 0
     assert execution["tool"] == "screwer" and execution["table_position_m"] == 0.0
@@ -120,9 +122,9 @@ def test_the_nominal_arm_misses_its_commanded_points_by_its_absolute_error(folde
     """The controller believes it put the TCP on each commanded point (its nominal FK of the
     encoders, within 0.1 mm: encoder noise of 1e-5 rad on a 1.3 m arm, and the servos), while
     the truth has it off by the real arm's deviation from its data sheet: at most 1.5 mm for
-    this arm class, and several times what the run's own execution with the arm it
-    calibrated missed the same points by (results.json: the calibrated arm's TCP error is a
-    twentieth of the nominal's)."""
+    this arm class, and clearly more than the run's own execution with the arm it calibrated
+    missed the same points by (that one keeps what the calibration cannot see: the tool's
+    own TCP error, the drives' lost motion; seed 0: 0.40 mm against 0.22 mm)."""
     execution = _json(folder / "execution.json")
     job = {t["name"]: t for t in _json(folder / "results.json")["targets"]}
     nominal, calibrated = [], []
@@ -133,7 +135,7 @@ def test_the_nominal_arm_misses_its_commanded_points_by_its_absolute_error(folde
         calibrated.append(np.linalg.norm(np.subtract(job[t["name"]]["p_achieved_base_m"], p)))
     nominal_rms, calibrated_rms = np.sqrt(np.mean(np.square([nominal, calibrated]), axis=1))
     assert max(nominal) < 1.5e-3
-    assert nominal_rms > 3 * calibrated_rms
+    assert nominal_rms > 1.4 * calibrated_rms
 
 
 def test_a_job_cell_runs_the_program_on_its_nominal_arm_whatever_its_option(folder: Path) -> None:

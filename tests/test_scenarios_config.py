@@ -21,6 +21,7 @@ from scenarios.jobs.config import (
     shipped_names,
 )
 from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.offline.calibration_step import calibration_plan, calibration_priors
 
 
 def test_shipped_configs_load_and_round_trip() -> None:
@@ -30,6 +31,30 @@ def test_shipped_configs_load_and_round_trip() -> None:
         assert config.name == name
         again = parse_config(yaml.safe_load(config_yaml(config)))
         assert again == config
+
+
+def test_a_sweep_of_the_truth_moves_no_prior() -> None:
+    """The cell's errors (cell.noise: the simulated truth) scaled up and down: what the
+    planning, the calibration and the matching are told (their data-sheet priors, the crop
+    margin, the matcher's pass sigma) stays as configured."""
+    base = load_config("skull")
+    noise = base.cell.noise.model_dump()
+    for factor in (0.0, 0.5, 3.0):
+        scaled = {
+            f"cell.noise.{k}": v * factor
+            for k, v in noise.items()
+            if isinstance(v, float) and not k.startswith("model_")
+        }
+        scaled["cell.noise.drives.repeat_sigma_rad"] = noise["drives"]["repeat_sigma_rad"] * factor
+        scaled["cell.noise.tools.laser_mount_sigma_m"] = (
+            noise["tools"]["laser_mount_sigma_m"] * factor
+        )
+        swept = load_config("skull", scaled)
+        assert swept.cell.noise != base.cell.noise
+        for section in ("calibration", "localization", "operations", "checks", "export"):
+            assert getattr(swept, section) == getattr(base, section), section
+        assert calibration_priors(swept.calibration) == calibration_priors(base.calibration)
+        assert calibration_plan(swept.calibration, 3) == calibration_plan(base.calibration, 3)
 
 
 def test_unknown_key_is_named(tmp_path: Path) -> None:

@@ -112,7 +112,7 @@ def test_the_calibrated_arm_and_the_targets_are_exported(folder: Path) -> None:
     assert len(rows) == 8  # 4 operations, approach and touch
     gaps = []
     for row in rows:
-        q = np.array([float(row[f"q{k}_rad"]) for k in range(1, 7)])
+        q = np.array([float(row[f"q{k}_link_rad"]) for k in range(1, 7)])
         poses = []
         for model in (calibrated, nominal):
             data = model.createData()

@@ -54,7 +54,7 @@ def run() -> dict:
     offset = config.operations.touch_offset_m
     ops = burr_hole_operations(virtual.burr_holes, config.operations.approach_m, offset)
     program = plan_program(
-        controller.kinematics,
+        controller.kinematics.for_tool("screwer"),
         controller.T_flange_tcp("screwer"),
         "screwer",
         ops,

@@ -71,7 +71,7 @@ def test_the_exports_are_in_the_arms_own_base_frame(folder: Path) -> None:
     rows = list(csv.DictReader((folder / "targets.csv").read_text().splitlines()))
     assert len(rows) == 8
     for row in rows:
-        q = np.array([float(row[f"q{k}_rad"]) for k in range(1, 7)])
+        q = np.array([float(row[f"q{k}_link_rad"]) for k in range(1, 7)])
         pin.framesForwardKinematics(model, data, q)
         T = data.oMf[frame].homogeneous @ T_flange_tcp
         p = np.array([float(row[k]) for k in ("x_m", "y_m", "z_m")])

@@ -5,6 +5,9 @@ into a temporary run folder; its results become one flat row.
 Target errors: `err_t<k>_m` is the registration's share of target k's error (the virtual
 target moved by the estimated pose against the true one), comparable with the predicted TRE;
 `exec_err_t<k>_m` is the achieved tool tip against the true target (arm included).
+`job_rms_m`, `job_max_m`: the job's own execution's target errors; `exported_rms_m`,
+`exported_max_m`: those of the exported program run by a controller without absolute
+accuracy at the end of the job (`exported_status`, `exported_compensation`).
 """
 
 from __future__ import annotations
@@ -62,6 +65,8 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         "good": int(within),
         "false_accept": int(accepted and not within),
         "n_targets": len(targets),
+        "job_rms_m": results.get("target_error_rms_m"),
+        "job_max_m": results.get("target_error_max_m"),
         "targets": ";".join(str(t.get("name")) for t in targets),
     }
     for k, target in enumerate(targets):
@@ -70,6 +75,11 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         row[f"exec_err_t{k}_m"] = exec_errors[k]
         row[f"tre_t{k}_m"] = predicted
         row[f"ratio_t{k}"] = reg_errors[k] / predicted if predicted > 0 else float("nan")
+    exported = results.get("exported_program") or {}
+    row["exported_status"] = exported.get("status", "none")
+    row["exported_compensation"] = exported.get("compensation", "")
+    row["exported_rms_m"] = exported.get("target_error_rms_m")
+    row["exported_max_m"] = exported.get("target_error_max_m")
     for stage, seconds in (results.get("timings_s") or {}).items():
         row[f"{stage}_seconds"] = seconds
     row["trial_seconds"] = time.perf_counter() - t0

@@ -70,6 +70,9 @@ class GroupSummary:
     target_error: dict[str, float]
     tre_ratio: dict[str, float]
     trial_seconds: dict[str, float]
+    exported_rms: dict[str, float]
+    exported_met: int
+    job_rms: dict[str, float]
 
 
 def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
@@ -94,6 +97,15 @@ def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
         target_error=_quantiles(per_target(accepted, "err_t", "_m")),
         tre_ratio=_quantiles(per_target(right_accepted, "ratio_t", "")),
         trial_seconds=_quantiles(_floats(rows, "trial_seconds")),
+        exported_rms=_quantiles(_floats(ok, "exported_rms_m")),
+        exported_met=sum(
+            float(r["exported_rms_m"]) <= PROGRAM_GOALS[0]
+            and float(r["exported_max_m"]) <= PROGRAM_GOALS[1]
+            for r in ok
+            if r.get("exported_rms_m", "") not in ("", None)
+            and r.get("exported_max_m", "") not in ("", None)
+        ),
+        job_rms=_quantiles(_floats(ok, "job_rms_m")),
     )
 
 
@@ -127,6 +139,9 @@ def markdown(summaries: list[GroupSummary], stage: str) -> str:
         "| trial time median / q95 [s] |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    exported = _exported_lines(summaries)
+    if exported:
+        lines[8:8] = exported
     for s in summaries:
         lines.append(
             f"| {s.label} | {s.trials} | {s.errors} | {s.accepted} | {s.ambiguous} | "
@@ -137,6 +152,27 @@ def markdown(summaries: list[GroupSummary], stage: str) -> str:
             f"{_num(s.trial_seconds['median'])} / {_num(s.trial_seconds['q95'])} |"
         )
     return "\n".join(lines) + "\n"
+
+
+#: The skull job's goals for a program's target errors: RMS and max [m].
+PROGRAM_GOALS = (0.5e-3, 1.0e-3)
+
+
+def _exported_lines(summaries: list[GroupSummary]) -> list[str]:
+    """Lines on the exported program run by a controller without absolute accuracy (full
+    stage): in how many trials it met the goals, and its target error RMS."""
+    total = summaries[-1]
+    if not total.exported_rms.get("n"):
+        return []
+    rms_goal, max_goal = PROGRAM_GOALS
+    q = total.exported_rms
+    return [
+        f"- exported program on a controller without absolute accuracy: goals (RMS <= "
+        f"{rms_goal * 1e3:g} mm, max <= {max_goal * 1e3:g} mm) met in {total.exported_met}/"
+        f"{q['n']} trials; target RMS median {_mm(q['median'])}, q95 {_mm(q['q95'])}, max "
+        f"{_mm(q['max'])} mm; the job's own execution: RMS median "
+        f"{_mm(total.job_rms['median'])}, max {_mm(total.job_rms['max'])} mm",
+    ]
 
 
 def campaign_summaries(csv_path: str | Path, keys: list[str]) -> list[GroupSummary]:

@@ -60,28 +60,30 @@ class Placement(_Section):
 
 
 class DriveNoise(_Section):
-    """The arm's drives beyond its kinematics (cell.config.DriveErrors: joint 2 and 3
-    stiffness [N m/rad] (0: rigid) and its spread, lost motion per joint [rad], pose
-    repeatability [rad], thermal zero drift of joints 2 and 3 [rad/s])."""
+    """The arm's drives beyond its kinematics (cell.config.DriveErrors, where the defaults'
+    sources are): joint 2 and 3 stiffness [N m/rad] (0: rigid) and its spread, lost motion
+    per joint [rad], pose repeatability [rad], thermal zero drift of joints 2 and 3 [rad/s]."""
 
-    stiffness_nm_rad: tuple[float, float] = (0.0, 0.0)
-    stiffness_spread: float = Field(0.0, ge=0.0, le=1.0)
-    hysteresis_rad: tuple[float, float, float, float, float, float] = (0.0,) * 6
-    repeat_sigma_rad: float = Field(0.0, ge=0.0, le=0.01)
+    stiffness_nm_rad: tuple[float, float] = (1.5e6, 1.0e6)
+    stiffness_spread: float = Field(0.1, ge=0.0, le=1.0)
+    hysteresis_rad: tuple[float, float, float, float, float, float] = (
+        2e-5, 2e-5, 2e-5, 4e-5, 4e-5, 4e-5
+    )  # fmt: skip
+    repeat_sigma_rad: float = Field(1.0e-5, ge=0.0, le=0.01)
     drift_rad_per_s: tuple[float, float] = (0.0, 0.0)
 
 
 class ToolNoise(_Section):
     """The tools' true TCPs, their seating, the laser's mounting and range scale
-    (cell.config.ToolErrors) [m, rad, relative]."""
+    (cell.config.ToolErrors, where the defaults' sources are) [m, rad, relative]."""
 
-    tcp_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
-    tcp_sigma_rad: float = Field(0.0, ge=0.0, le=0.1)
-    changer_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
-    changer_sigma_rad: float = Field(0.0, ge=0.0, le=0.1)
-    laser_mount_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
-    laser_mount_sigma_rad: float = Field(0.0, ge=0.0, le=0.1)
-    laser_scale_sigma: float = Field(0.0, ge=0.0, le=0.1)
+    tcp_sigma_m: float = Field(5.0e-5, ge=0.0, le=0.01)
+    tcp_sigma_rad: float = Field(2.5e-4, ge=0.0, le=0.1)
+    changer_sigma_m: float = Field(5.0e-6, ge=0.0, le=0.01)
+    changer_sigma_rad: float = Field(2.0e-5, ge=0.0, le=0.1)
+    laser_mount_sigma_m: float = Field(2.0e-4, ge=0.0, le=0.01)
+    laser_mount_sigma_rad: float = Field(2.0e-3, ge=0.0, le=0.1)
+    laser_scale_sigma: float = Field(3.0e-4, ge=0.0, le=0.1)
 
 
 class Noise(_Section):
@@ -93,9 +95,9 @@ class Noise(_Section):
     encoder_sigma_rad: float = Field(1.0e-5, ge=0.0, le=0.01)
     table_bias_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     table_repeat_sigma_m: float = Field(1.0e-5, ge=0.0, le=0.01)
-    table_straightness_sigma_m: float = Field(0.0, ge=0.0, le=0.01)
-    table_pitch_sigma_rad: float = Field(0.0, ge=0.0, le=0.01)
-    table_yaw_sigma_rad: float = Field(0.0, ge=0.0, le=0.01)
+    table_straightness_sigma_m: float = Field(2.0e-5, ge=0.0, le=0.01)
+    table_pitch_sigma_rad: float = Field(2.5e-5, ge=0.0, le=0.01)
+    table_yaw_sigma_rad: float = Field(2.5e-5, ge=0.0, le=0.01)
     drives: DriveNoise = DriveNoise()
     tools: ToolNoise = ToolNoise()
     model_deformation_rms_m: float = Field(0.24e-3, ge=0.0, le=0.01)
@@ -159,31 +161,78 @@ class Registration(_Section):
     min_inlier_fraction: float = Field(0.5, gt=0.0, le=1.0)
 
 
+class CalibrationPriorsSection(_Section):
+    """What the data sheets say before the calibration (scenarios.offline.calibration.
+    CalibrationPriors): the arm's kinematic parameters [m, rad], its joint 2 and 3
+    stiffness [N m/rad] and its relative spread, the laser's mounting [m, rad] and range
+    linearity, where the table stops beyond its readout [m] and its guideway's angles
+    [rad], the laser's range noise [m]. Never the simulated cell's own figures."""
+
+    length_sigma_m: float = Field(1.0e-3, gt=0.0, le=0.1)
+    offset_sigma_rad: float = Field(1.0e-3, gt=0.0, le=0.1)
+    stiffness_nm_rad: tuple[float, float] = (1.5e6, 1.0e6)
+    stiffness_spread: float = Field(0.3, gt=0.0, le=10.0)
+    laser_mount_sigma_m: float = Field(1.0e-3, gt=0.0, le=0.1)
+    laser_mount_sigma_rad: float = Field(1.0e-2, gt=0.0, le=1.0)
+    laser_scale_sigma: float = Field(1.0e-3, gt=0.0, le=0.1)
+    table_station_sigma_m: float = Field(5.0e-5, gt=0.0, le=0.01)
+    table_angle_sigma_rad: float = Field(1.0e-4, gt=0.0, le=0.01)
+    point_sigma_m: float = Field(1.0e-4, gt=0.0, le=0.01)
+
+
 class Calibration(_Section):
-    """In-cell kinematic calibration before the scan (scenarios.offline.calibration): with the table
-    at `table_position_m` [m], the laser views each reference sphere from `views_per_sphere`
-    arm configurations, `lines_per_view` static lines each (averaged), from `standoff_m`
-    (near, far) [m] with views tilted up to `max_tilt_deg` from the vertical. The run stops
-    if the fit's residual RMS exceeds `max_residual_rms_m` [m]. `enabled: false` keeps the
-    nominal kinematics."""
+    """In-cell calibration before the scan (scenarios.offline.calibration): at each of
+    `table_positions_m` [m] the laser views each reference sphere from about
+    `views_per_sphere` / (number of positions) arm configurations, `lines_per_view` static
+    lines each (averaged), from `standoff_m` (near, far) [m] with views tilted up to
+    `max_tilt_deg` from the vertical. `identify` names what is fitted (`arm`, always; the
+    joints' `stiffness`; the `laser`'s mounting and scale; the `table` axis), each held by its
+    data-sheet prior (`priors`). The run stops if the fit's residual RMS exceeds
+    `max_residual_rms_m` [m]. `enabled: false` keeps the data sheet's cell."""
 
     enabled: bool = True
-    table_position_m: float = Field(-0.25, ge=-0.5, le=0.5)
-    views_per_sphere: int = Field(20, ge=4, le=100)
+    table_positions_m: tuple[float, ...] = Field((-0.45, -0.25, -0.05), min_length=1)
+    views_per_sphere: int = Field(48, ge=4, le=200)
     lines_per_view: int = Field(10, ge=1, le=100)
     standoff_m: tuple[float, float] = (0.18, 0.32)
     max_tilt_deg: float = Field(55.0, ge=0.0, le=75.0)
     max_residual_rms_m: float = Field(1.0e-4, gt=0.0, le=0.01)
+    identify: tuple[Literal["arm", "stiffness", "laser", "table"], ...] = (
+        "arm",
+        "stiffness",
+        "laser",
+        "table",
+    )
+    priors: CalibrationPriorsSection = CalibrationPriorsSection()
 
     @model_validator(mode="after")
-    def _standoff_order(self) -> Calibration:
+    def _check(self) -> Calibration:
         near, far = self.standoff_m
         if not 0.06 <= near <= far <= 0.55:
             raise ValueError(
                 f"standoff_m must be (near, far) with 0.06 <= near <= far <= 0.55 m (the "
                 f"laser's range), got {self.standoff_m}"
             )
+        if not all(-0.5 <= s <= 0.5 for s in self.table_positions_m):
+            raise ValueError(
+                f"table_positions_m must be within the table's travel [-0.5, 0.5] m, got "
+                f"{list(self.table_positions_m)}"
+            )
+        if "arm" not in self.identify:
+            raise ValueError(f"identify must include 'arm', got {list(self.identify)}")
         return self
+
+
+class ExportSection(_Section):
+    """What the run hands the controller: `compensation` `filtered` (the robtargets and the
+    tooldata written so that a controller without absolute accuracy, computing with its
+    nominal arm, reaches the corrected targets with the calibrated arm's joints; needs the
+    calibration) or `nominal` (the poses as programmed: such a controller misses them by
+    its arm's own error). `execute`: run the exported program at the end of the job on the
+    real cell as that controller would (results.json's `exported_program`)."""
+
+    compensation: Literal["filtered", "nominal"] = "filtered"
+    execute: bool = True
 
 
 class Output(_Section):
@@ -381,6 +430,7 @@ class JobConfig(_Section):
     localization: LocalizationSection = LocalizationSection()
     operations: OperationsSection = OperationsSection()
     checks: Checks = Checks()
+    export: ExportSection = ExportSection()
     output: Output = Output()
 
 
@@ -499,7 +549,7 @@ def _flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
     """A cell (`--cell`): a shipped one by name or a YAML file by path, holding the keys of
     a job configuration that make the cell (the `cell` section's robot and rack, and what
-    follows from the layout, e.g. `calibration.table_position_m`); returned as dotted
+    follows from the layout, e.g. `calibration.table_positions_m`); returned as dotted
     overrides of the job's configuration, validated with it. A robot file it names
     (`cell.robot.model`) is relative to the cell file's folder."""
     text = str(name_or_path)

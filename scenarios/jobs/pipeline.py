@@ -11,6 +11,7 @@ passes to the stages.
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -19,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from cell import Controller, nominal_T_base_table
+from cell import Controller, Kinematics, nominal_T_base_table
 from cell.errors import CellConfigError
 from cell.robots import Robot, make_robot
 from models import ObjectModel, real_model
@@ -27,9 +28,11 @@ from models.atomic import write_text
 from registration import Acceptance, MeshModel
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, RobotSection
+from scenarios.jobs.exported import EXECUTION_FILE, execute_in_cell, job_targets, read_program
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
+from scenarios.offline.cell_model import CellModel
 from scenarios.offline.localization import Localization, localize
 from scenarios.offline.operations import (
     UserProgram,
@@ -45,14 +48,15 @@ from scenarios.offline.pick import execute_pick
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
-from scenarios.offline.rapid_module import with_oframe
+from scenarios.offline.rapid import Filter
+from scenarios.offline.rapid_module import RapidError, with_oframe
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox, ScanData, crop_to_object, execute_scan, plan_scan
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator, calibration_report
-from scenarios.realcell.setup import build_job_cell, model_error
+from scenarios.realcell.setup import JobCell, build_job_cell, model_error
 
 Progress = Callable[[str], None]
 
@@ -120,14 +124,21 @@ def _acceptance(config: JobConfig) -> Acceptance:
 
 # -- the stages ---------------------------------------------------------------------------------
 def scan_stage(
-    controller: Controller, box: Any, config: JobConfig, say: Progress, hooks: RunHooks
+    controller: Controller,
+    box: Any,
+    config: JobConfig,
+    say: Progress,
+    hooks: RunHooks,
+    model: CellModel,
 ) -> ScanStage:
-    """Plan the laser passes in the virtual cell, run them on the real one, keep the points
-    within the object's nominal footprint."""
+    """Plan the laser passes in the virtual cell, run them on the real one (the points
+    rebuilt with the cell's `model`), keep the points within the object's nominal
+    footprint."""
     section = config.localization.scan
-    plan = plan_scan(controller.kinematics, box, section, controller.read_joints())
+    kin = controller.kinematics.for_tool("laser")
+    plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table)
     say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
-    scan = execute_scan(controller, plan, section, say)
+    scan = execute_scan(controller, plan, section, say, model)
     keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
     say(f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object")
     return ScanStage(scan, keep, scan.points_table[keep])
@@ -176,6 +187,7 @@ def program_stage(
     config: JobConfig,
     poses: tuple[LocatedPose, ...],
     user: UserProgram | None,
+    model: CellModel,
 ) -> ProgramStage:
     """Correct and solve the operations with the first method's pose (and, with
     `per_method`, once with each accepted method's pose), and the pick before them. A
@@ -185,13 +197,14 @@ def program_stage(
     pick = None
     if section.pick is not None:
         pick = plan_program(
-            kin,
+            kin.for_tool("gripper"),
             controller.T_flange_tcp("gripper"),
             "gripper",
             (grasp_operation(virtual, section.pick),),
             poses[0].T_table_object,  # type: ignore[arg-type]
             controller.read_joints(),
             spins=2,
+            table=model.T_base_table,
         )
     if user is None:
         operations = target_operations(virtual, section)
@@ -204,7 +217,7 @@ def program_stage(
             continue
         prefix = f"{pose.method}:" if section.per_method else ""
         programs[pose.method] = plan_program(
-            kin,
+            kin.for_tool(section.tool),
             controller.T_flange_tcp(section.tool),
             section.tool,
             tuple(replace(op, name=prefix + op.name) for op in operations),
@@ -212,6 +225,7 @@ def program_stage(
             controller.read_joints(),
             spins,
             **({} if table is None else {"table_positions": table}),
+            table=model.T_base_table,
         )
     return ProgramStage(pick, programs)
 
@@ -277,6 +291,36 @@ def job_robot(section: RobotSection) -> Robot:
         raise ScenarioError(f"cell.robot: {exc}") from None
 
 
+def job_cell(
+    config: JobConfig,
+    virtual: ObjectModel,
+    real: ObjectModel,
+    robot: Robot,
+    recording: Any | None = None,
+) -> JobCell:
+    """The job's real cell (scenarios.realcell.setup): the real entity at the true pose drawn
+    from the job's seed (its own random stream: fixed or loose), the calibration spheres if
+    the job calibrates, the job's arm and rack, the recording's hooks."""
+    obj = config.cell.object
+    loose = obj.fixing == "loose"
+    return build_job_cell(
+        virtual,
+        real,
+        obj.placement,
+        config.cell.noise,
+        config.calibration,
+        config.seed,
+        stream=6 if loose else 5,  # the true placement's random stream
+        crop_margin_m=config.localization.scan.crop_margin_m,
+        recording=recording,
+        name="part" if loose else "object",
+        loose=loose,
+        rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
+        robot=robot,
+        rack_xyz=config.cell.rack_xyz,
+    )
+
+
 def run_cell_job(
     config: JobConfig,
     folder: Path,
@@ -320,23 +364,7 @@ def run_cell_job(
         f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
         "the operations in the virtual cell"
     )
-    loose = obj.fixing == "loose"
-    cell = build_job_cell(
-        virtual,
-        real,
-        obj.placement,
-        config.cell.noise,
-        config.calibration,
-        config.seed,
-        stream=6 if loose else 5,  # the true placement's random stream
-        crop_margin_m=config.localization.scan.crop_margin_m,
-        recording=recording,
-        name="part" if loose else "object",
-        loose=loose,
-        rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
-        robot=robot,
-        rack_xyz=config.cell.rack_xyz,
-    )
+    cell = job_cell(config, virtual, real, robot, recording)
     controller, evaluator = cell.controller, cell.evaluator
     hooks = RunHooks(evaluator, cell.log)
     timings["setup"] = time.perf_counter() - t0
@@ -351,6 +379,8 @@ def run_cell_job(
         )
         timings["calibrate"] = time.perf_counter() - t0
         hooks.moved("view")
+    # What the stages believe of the cell: the calibrated model, else the data sheet's.
+    model = CellModel.nominal(nominal) if calibration is None else calibration.model
 
     # Localize: probing first (quick, and the prior of a surface match in mode "refine"),
     # then the scan and the surface match.
@@ -371,7 +401,7 @@ def run_cell_job(
     scanned = None
     if "surface" in methods:
         t0 = time.perf_counter()
-        scanned = scan_stage(controller, cell.box, config, say, hooks)
+        scanned = scan_stage(controller, cell.box, config, say, hooks, model)
         timings["scan"] = time.perf_counter() - t0
         if recording is not None:
             recording.log_scan(scanned.scan, scanned.keep, controller.kinematics)
@@ -388,7 +418,7 @@ def run_cell_job(
     # Each method's pose against the truth, now (a pick may move the part later).
     s0 = controller.table_position()
     pose_errors = {
-        p.method: evaluator.pose_error(nominal_T_base_table(s0) @ p.T_table_object)
+        p.method: evaluator.pose_error(model.T_base_table(s0) @ p.T_table_object)
         for p in ordered
         if p.T_table_object is not None
     }
@@ -399,7 +429,7 @@ def run_cell_job(
     t0 = time.perf_counter()
     programs = ProgramStage(None, {})
     if primary.accepted:
-        programs = program_stage(controller, virtual, config, ordered, user)
+        programs = program_stage(controller, virtual, config, ordered, user, model)
         execute_stage(controller, programs, config, hooks, say)
     else:
         say(f"refused: {primary.reason}; no motion towards the object")
@@ -447,14 +477,63 @@ def run_cell_job(
         )
     primary_program = programs.operations.get(primary.method)
     program_file = None
+    exported: dict[str, Any] | None = None
     if primary_program is not None:
+        filtered = None
+        compensation = config.export.compensation
+        if compensation == "filtered" and (calibration is None or user is not None):
+            say(
+                "program: compensation nominal: "
+                + (
+                    "filtering needs the calibrated arm"
+                    if calibration is None
+                    else "your own module keeps its robtargets (its oframe is corrected)"
+                )
+            )
+        elif compensation == "filtered" and calibration is not None:
+            filtered = Filter(
+                calibration.kinematics,
+                nominal,
+                controller.T_base_slot(primary_program.tool),
+                controller.q_home,
+            )
         program_file = export_program(
-            folder, primary_program, cell.T_table_nominal, user, controller.robot, say
+            folder,
+            primary_program,
+            cell.T_table_nominal,
+            user,
+            controller.robot,
+            say,
+            nominal,
+            filtered,
+            None if calibration is None else calibration.kinematics,
         )
         if recording is not None:
             recording.log_targets(primary_program, reports[0].targets)
+        if program_file is not None and config.export.execute:
+            t0 = time.perf_counter()
+            try:
+                executed = execute_in_cell(
+                    cell,
+                    read_program(folder / program_file),
+                    job_targets(config, virtual, user),
+                    say,
+                    refetch=True,
+                )
+            except RapidError as exc:  # a controller would stop the program there
+                exported = {"status": "refused", "reason": str(exc)}
+                say(f"{program_file} on the nominal controller: refused: {exc}")
+            else:
+                exported = executed.summary()
+                write_text(folder / EXECUTION_FILE, json.dumps(executed.to_json(), indent=2) + "\n")
+                say(
+                    f"{program_file} ({executed.compensation}) on the nominal controller: "
+                    f"target error rms {(executed.rms_m or 0) * 1e3:.3f} mm, max "
+                    f"{(executed.max_m or 0) * 1e3:.3f} mm"
+                )
+            timings["export_execute"] = time.perf_counter() - t0
     exports.write_robot_urdf(
-        folder, controller.robot, nominal, None if calibration is None else calibration.kinematics
+        folder, controller.robot, nominal, None if calibration is None else calibration.links
     )
     # The arm's accuracy, from the truth, where the job used it: scan lines and targets.
     q_job = np.empty((0, 6))
@@ -497,6 +576,7 @@ def run_cell_job(
         table_position_m=None if primary_program is None else primary_program.table_position_m,
         robot=controller.robot.name,
         program_file=program_file,
+        exported_program=exported,
     )
     if config.output.plots:
         outputs.write_figures(folder, result, poses.get("surface"), virtual)
@@ -510,12 +590,17 @@ def export_program(
     user: UserProgram | None,
     robot: Robot,
     say: Progress,
+    nominal: Kinematics | None = None,
+    filtered: Filter | None = None,
+    calibrated: Kinematics | None = None,
 ) -> str | None:
     """The corrected program for the user's controller: the corrected targets as CSV and
     JSON (in the arm's own base frame) and the tool's data, and for an ABB arm program.mod
     (RAPID: the user's own module with its work object's oframe corrected, or one written
-    here). Returns the program's file name, or None for an arm that does not run RAPID."""
-    exports.write_targets(folder, program, robot.T_world_base)
+    here, filtered for the calibrated arm if `filtered`, its configuration data from the
+    `nominal` arm; the targets' link angles from the `calibrated` arm). Returns the
+    program's file name, or None for an arm that does not run RAPID."""
+    exports.write_targets(folder, program, robot.T_world_base, calibrated)
     exports.write_tooldata(folder, program.tool)
     if not robot.rapid:
         say(
@@ -525,7 +610,7 @@ def export_program(
         )
         return None
     if user is None:
-        outputs.write_program(folder / "program.mod", program, T_table_nominal)
+        outputs.write_program(folder / "program.mod", program, T_table_nominal, nominal, filtered)
     else:
         T_base_object = program.T_base_object
         T_uframe_oframe = np.linalg.inv(user.wobj.T_base_uframe) @ T_base_object

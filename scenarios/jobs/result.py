@@ -77,6 +77,9 @@ class RunResult:
         table_position_m: the table position of the program, if one ran.
         robot: the cell's arm; program_file: the robot program written for its controller
             (program.mod for an ABB arm), or None (the targets are in targets.csv/json).
+        exported_program: that program run on the real cell by a controller without
+            absolute accuracy (compensation, target error rms and max, each target's error),
+            or None.
     """
 
     status: str
@@ -97,6 +100,7 @@ class RunResult:
     table_position_m: float | None
     robot: str = "irb2400"
     program_file: str | None = None
+    exported_program: dict[str, Any] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -167,6 +171,7 @@ class RunResult:
             "table_position_m": self.table_position_m,
             "robot": self.robot,
             "program_file": self.program_file,
+            "exported_program": self.exported_program,
             **self.extra,
         }
 

@@ -16,6 +16,7 @@ from scenarios.offline.calibration import (
     DEFAULT_ARTIFACT,
     CalibrationError,
     CalibrationPlan,
+    CalibrationPriors,
     CalibrationResult,
     calibrate,
 )
@@ -24,10 +25,15 @@ from scenarios.offline.scan import ObjectBox
 Progress = Callable[[str], None]
 
 
+def calibration_priors(section: Calibration) -> CalibrationPriors:
+    """The calibration's data-sheet priors and groups from the run's calibration section."""
+    return CalibrationPriors(**section.priors.model_dump(), groups=tuple(section.identify))
+
+
 def calibration_plan(section: Calibration, seed: int) -> CalibrationPlan:
     """The calibration's view plan from the run's calibration section."""
     return CalibrationPlan(
-        table_position_m=section.table_position_m,
+        table_positions_m=tuple(section.table_positions_m),
         views_per_sphere=section.views_per_sphere,
         lines_per_view=section.lines_per_view,
         standoff_m=section.standoff_m,
@@ -67,6 +73,7 @@ def calibrate_arm(
         calibration_plan(section, seed),
         section.max_residual_rms_m,
         on_view=on_view,
+        priors=calibration_priors(section),
     )
     controller.set_absolute_accuracy(calibration.kinematics)
     say(

@@ -65,11 +65,16 @@ class OfflineProgram:
     table_position_m: float
     T_table_object: np.ndarray
     operations: tuple[PlannedOperation, ...]
+    T_base_table: np.ndarray | None = None
 
     @property
     def T_base_object(self) -> np.ndarray:
-        """(4, 4) the corrected object pose in the base frame at the program's table position."""
-        return nominal_T_base_table(self.table_position_m) @ self.T_table_object
+        """(4, 4) the corrected object pose in the base frame at the program's table position
+        (the table frame as the cell's model has it there; default the nominal)."""
+        T = self.T_base_table
+        return (nominal_T_base_table(self.table_position_m) if T is None else T) @ (
+            self.T_table_object
+        )
 
 
 def _frame_from_z(p: np.ndarray, z_axis: np.ndarray) -> np.ndarray:
@@ -160,18 +165,21 @@ def plan_program(
     q_seed: np.ndarray,
     spins: int = 12,
     table_positions: tuple[float, ...] = TABLE_CANDIDATES_M,
+    table: Callable[[float], np.ndarray] = nominal_T_base_table,
 ) -> OfflineProgram:
     """Correct every operation by the measured `T_table_object` and solve it, at the first
-    of `table_positions` [m] where the arm reaches them all (spin about the tool axis chosen
+    of `table_positions` [m] where the arm reaches them all, the table frame there from
+    `table` (the cell model's; default the nominal) (spin about the tool axis chosen
     for the least joint motion; `spins=1` keeps the operations' own orientation)."""
     lo, hi = TABLE_TRAVEL
     for s in table_positions:
         if not lo <= s <= hi:
             continue
-        T_base_object = nominal_T_base_table(s) @ T_table_object
+        T_base_table = table(s)
+        T_base_object = T_base_table @ T_table_object
         planned = _plan_at(kin, tool_T_flange_tcp, operations, T_base_object, q_seed, spins)
         if planned is not None:
-            return OfflineProgram(tool, s, T_table_object.copy(), planned)
+            return OfflineProgram(tool, s, T_table_object.copy(), planned, T_base_table)
     raise UnreachablePlanError(
         f"the {len(operations)} operations ({', '.join(o.name for o in operations)}) are not "
         f"all reachable at any table position of {table_positions} m"

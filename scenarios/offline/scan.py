@@ -1,9 +1,10 @@
 """The scan: a plan of straight laser passes made in the virtual cell, executed on the real one.
 
 The plan knows only the virtual model and its NOMINAL place on the table. Points are
-reconstructed as a real system does: measured joints, nominal kinematics, laser distances,
-and the table readout, and kept in the (nominal) table frame so that passes made at different
-table positions share one frame.
+reconstructed as a real system does: measured joints, the cell's model (the calibrated arm,
+the laser's mounting and scale; the data sheet's without a calibration), laser distances and
+the table readout, and kept in the table frame so that passes made at different table
+positions share one frame.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
 from scenarios.jobs.config import Scan
+from scenarios.offline.cell_model import CellModel
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
 
 Progress = Callable[[str], None]
@@ -55,11 +57,13 @@ class PlannedPass:
     T_table_end: np.ndarray
     table_position_m: float
     q_start: np.ndarray
+    T_base_table: np.ndarray | None = None
 
     def T_base(self, T_table: np.ndarray) -> np.ndarray:
         """(4, 4) the pose T_table (in the table frame) in the base frame at this pass' table
-        position (nominal)."""
-        return nominal_T_base_table(self.table_position_m) @ T_table
+        position (the table frame as planned; default the nominal)."""
+        T = self.T_base_table
+        return (nominal_T_base_table(self.table_position_m) if T is None else T) @ T_table
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,6 +135,7 @@ def choose_table_position(
     T_table_end: np.ndarray,
     q_seed: np.ndarray,
     what: str,
+    table: Callable[[float], np.ndarray] = nominal_T_base_table,
 ) -> tuple[float, np.ndarray]:
     """The first table position of TABLE_CANDIDATES_M at which the nominal arm follows the
     straight line between two poses (4, 4) of the table frame with the TCP `T_tcp`, and
@@ -139,7 +144,7 @@ def choose_table_position(
     for s in TABLE_CANDIDATES_M:
         if not lo <= s <= hi:
             continue
-        T_base_table = nominal_T_base_table(s)
+        T_base_table = table(s)
         q = line_solution(
             kin, T_tcp, T_base_table @ T_table_start, T_base_table @ T_table_end, q_seed
         )
@@ -151,7 +156,11 @@ def choose_table_position(
 
 
 def plan_scan(
-    kin: Kinematics, box: ObjectBox, config: Scan, q_seed: np.ndarray
+    kin: Kinematics,
+    box: ObjectBox,
+    config: Scan,
+    q_seed: np.ndarray,
+    table: Callable[[float], np.ndarray] = nominal_T_base_table,
 ) -> tuple[PlannedPass, ...]:
     """Passes over the object's nominal box (see `ScanPass`), alternating sweep direction so
     that consecutive passes join without crossing over the object."""
@@ -172,10 +181,10 @@ def plan_scan(
         p_end = p_mid + sign * width * sweep
         T_start, T_end = _pose(R, p_start), _pose(R, p_end)
         s_table, q_start = choose_table_position(
-            kin, T_tcp, T_start, T_end, q_seed, f"scan pass {i + 1}"
+            kin, T_tcp, T_start, T_end, q_seed, f"scan pass {i + 1}", table
         )
         name = f"pass {i + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
-        passes.append(PlannedPass(name, T_start, T_end, s_table, q_start))
+        passes.append(PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table)))
         q_seed = q_start
     return tuple(passes)
 
@@ -185,13 +194,17 @@ def execute_scan(
     plan: tuple[PlannedPass, ...],
     config: Scan,
     progress: Progress | None = None,
+    model: CellModel | None = None,
 ) -> ScanData:
-    """Run the passes on the (real) cell with the laser in hand; every line's points go into
-    the table frame with the table readout of that line."""
+    """Run the passes on the (real) cell with the laser in hand; every line's points are
+    rebuilt with the cell's `model` (the arm the controller moves with, the laser's mounting
+    and range scale, the table frame at the line's table readout; default the data
+    sheet's) and go into the table frame."""
     say = progress or (lambda _msg: None)
     change_tool_safely(controller, "laser")
+    model = model or CellModel.nominal(controller.kinematics)
+    dirs = controller.laser_directions_tcp
     points, index, origins, times, which, joints = [], [], [], [], [], []
-    T_laser = controller.T_flange_tcp("laser")
     for k, planned in enumerate(plan):
         if abs(controller.table_position() - planned.table_position_m) > 1e-6:
             controller.move_table(planned.table_position_m)
@@ -205,11 +218,15 @@ def execute_scan(
         except CellError as exc:
             raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
         n_before = sum(len(p) for p in points)
+        kin = controller.kinematics
         for reading in readings:
-            p_base, _ = controller.laser_points_base(reading)
-            T_base_table = nominal_T_base_table(reading.table_position_m)
-            T_base_laser = controller.kinematics.fk(reading.q_measured) @ T_laser
-            origins.append(points_in_table_frame(T_base_laser[None, :3, 3], T_base_table)[0])
+            valid = reading.valid
+            T_base_tool = kin.fk(reading.q_measured)  # the tool sits where the flange met it
+            p_tool = model.laser_points(reading.distances[valid], dirs[valid])
+            p_base = p_tool @ T_base_tool[:3, :3].T + T_base_tool[:3, 3]
+            T_base_table = model.T_base_table(reading.table_position_m)
+            origin = (T_base_tool @ model.T_tool_laser)[None, :3, 3]
+            origins.append(points_in_table_frame(origin, T_base_table)[0])
             index.append(np.full(len(p_base), len(origins) - 1))
             points.append(points_in_table_frame(p_base, T_base_table))
             times.append(reading.time_s)

@@ -73,14 +73,25 @@ def write_tooldata(folder: Path, tool: str) -> Path:
 
 
 def write_targets(
-    folder: Path, program: OfflineProgram, T_world_base: np.ndarray | None = None
+    folder: Path,
+    program: OfflineProgram,
+    T_world_base: np.ndarray | None = None,
+    kinematics: Kinematics | None = None,
 ) -> list[Path]:
     """targets.csv and targets.json: every corrected target of the program in the arm's own
     base frame (approach and touch poses of the TCP, position [m] and scalar-first
     quaternion, joints [rad]) at the program's table position [m]: what any controller needs
     to run it. `T_world_base` (4, 4) is where the arm's base stands in the cell (its mount;
-    default: at the cell's origin)."""
+    default: at the cell's origin). The joints q*_rad are the ones to command (the motors'
+    angles); q*_link_rad are where the links then are, with the calibrated `kinematics`'
+    joint sag (the angles at which robot_calibrated.urdf has the TCP on the target)."""
     T_base_world = np.linalg.inv(np.eye(4) if T_world_base is None else T_world_base)
+    arm = None if kinematics is None else kinematics.for_tool(program.tool)
+
+    def links(q: np.ndarray) -> np.ndarray:
+        link_angles = getattr(arm, "link_angles", None)
+        return np.asarray(q) if link_angles is None else link_angles(q)
+
     rows = []
     for planned in program.operations:
         for kind, T, q in (
@@ -94,6 +105,7 @@ def write_targets(
                 | {"x_m": float(T[0, 3]), "y_m": float(T[1, 3]), "z_m": float(T[2, 3])}
                 | {"qw": w, "qx": x, "qy": y, "qz": z}
                 | {f"q{k + 1}_rad": float(v) for k, v in enumerate(q)}
+                | {f"q{k + 1}_link_rad": float(v) for k, v in enumerate(links(q))}
             )
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=list(rows[0]) if rows else ["operation"])

@@ -8,11 +8,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cell import nominal_kinematics
+from cell import Kinematics, nominal_kinematics
 from models import ObjectModel
 from models.atomic import write_atomic
 from scenarios.offline.program import OfflineProgram
-from scenarios.offline.rapid import program_module
+from scenarios.offline.rapid import Filter, program_module
 
 if TYPE_CHECKING:
     from scenarios.jobs.result import RunResult
@@ -40,9 +40,18 @@ def read_ply(path: Path) -> np.ndarray:
     return np.frombuffer(data[end:], dtype="<f8").reshape(-1, 3)
 
 
-def write_program(path: Path, program: OfflineProgram, T_table_nominal: np.ndarray) -> Path:
-    """The RAPID module of `program` (see scenarios.offline.rapid)."""
-    text = program_module(program, nominal_kinematics(), T_table_nominal)
+def write_program(
+    path: Path,
+    program: OfflineProgram,
+    T_table_nominal: np.ndarray,
+    kinematics: Kinematics | None = None,
+    filtered: Filter | None = None,
+) -> Path:
+    """The RAPID module of `program` for a controller computing with the arm `kinematics`
+    (default: the built-in arm's nominal), filtered for the calibrated arm if `filtered`
+    (see scenarios.offline.rapid)."""
+    kin = nominal_kinematics() if kinematics is None else kinematics
+    text = program_module(program, kin, T_table_nominal, filtered=filtered)
     return write_atomic(path, lambda tmp: tmp.write_text(text))
 
 
@@ -50,8 +59,9 @@ def write_figures(
     folder: Path, result: RunResult, surface: Any | None, virtual: ObjectModel
 ) -> list[Path]:
     """The run's figures: registration.png (the final ICP's RMS per iteration, the scan points
-    used seen from above) when a surface match ran; targets.png (each target's achieved error
-    against its predicted TRE, with the goals); methods.png when several localization methods
+    used seen from above) when a surface match ran; targets.png (each target's achieved error,
+    the exported program's on a controller without absolute accuracy, and the predicted
+    TRE, with the goals); methods.png when several localization methods
     ran side by side (each one's pose error and target errors)."""
     import matplotlib
 
@@ -81,9 +91,18 @@ def write_figures(
         names = [t.name for t in primary.targets]
         fig, ax = plt.subplots(figsize=(7, 4))
         x = np.arange(len(names))
-        ax.bar(x - 0.2, [t.error_m * 1e3 for t in primary.targets], 0.4, label="achieved error")
+        exported = result.exported_program or {}
+        by_name = {t["name"]: t["error_m"] for t in exported.get("targets", ())}
+        bars = [("the job's touches (calibrated model)", [t.error_m for t in primary.targets])]
+        if exported.get("status") == "complete" and all(n in by_name for n in names):
+            label = f"program.mod ({exported.get('compensation')}), controller w/o abs. acc."
+            bars.append((label, [by_name[n] for n in names]))
         if primary.predicted_tre_m:
-            ax.bar(x + 0.2, np.array(primary.predicted_tre_m) * 1e3, 0.4, label="predicted TRE")
+            bars.append(("predicted TRE", list(primary.predicted_tre_m)))
+        width = 0.8 / len(bars)
+        for k, (label, values) in enumerate(bars):
+            offset = (k - (len(bars) - 1) / 2) * width
+            ax.bar(x + offset, np.array(values) * 1e3, width, label=label)
         goals = (
             ("target_error_max_m", "r", "--", "max"),
             ("target_error_rms_m", "orange", ":", "rms"),

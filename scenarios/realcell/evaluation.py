@@ -234,16 +234,20 @@ class Evaluator:
         self, kinematics: Kinematics, q_samples: np.ndarray, tool: str
     ) -> KinematicsEvaluation:
         """TCP error of `kinematics` (a planner's model of the arm) against the real arm at
-        the configurations `q_samples` (K, 6) [rad], with `tool` fetched from its slot with
-        that model (see KinematicsEvaluation)."""
+        the motor angles `q_samples` (K, 6) [rad], with `tool` fetched from its slot with
+        that model: the real links where the real joints' compliance puts them, the tool's
+        real TCP (see KinematicsEvaluation)."""
         spec = {t.name: t for t in TOOLS}[tool]
-        real = self._truth.kinematics()
-        T_base_slot = nominal_T_base_slot(tool, self._truth.config.rack_xyz)
-        q_slot = kinematics.solve(T_base_slot, self._truth.config.robot.q_home)
-        T_flange_tool = np.linalg.solve(real.fk(q_slot), T_base_slot)
+        truth = self._truth
+        real = truth.kinematics()
+        T_base_slot = nominal_T_base_slot(tool, truth.config.rack_xyz)
+        q_slot = kinematics.for_tool(None).solve(T_base_slot, truth.config.robot.q_home)
+        T_flange_tool = np.linalg.solve(real.fk(truth.link_angles(q_slot, None)), T_base_slot)
+        T_tcp_real = T_flange_tool @ truth.T_tool_tcp(tool)
+        model = kinematics.for_tool(tool)
         q = np.asarray(q_samples, dtype=float).reshape(-1, 6)
-        p_model = np.array([(kinematics.fk(qi) @ spec.T_tool_tcp)[:3, 3] for qi in q])
-        p_real = np.array([(real.fk(qi) @ T_flange_tool @ spec.T_tool_tcp)[:3, 3] for qi in q])
+        p_model = np.array([(model.fk(qi) @ spec.T_tool_tcp)[:3, 3] for qi in q])
+        p_real = np.array([(real.fk(truth.link_angles(qi, tool)) @ T_tcp_real)[:3, 3] for qi in q])
         a, b = p_model - p_model.mean(axis=0), p_real - p_real.mean(axis=0)
         U, _, Vt = np.linalg.svd(a.T @ b)
         D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T)))])
