@@ -237,6 +237,15 @@ def results_table(results: dict[str, Any]) -> Table:
             f"{label} [mm] (goal <= {check['limit_m'] * 1e3:g})",
             f"{_mm(results.get(name))} ({'met' if check['met'] else 'missed'})",
         )
+    exported = results.get("exported_program") or {}
+    if exported.get("status") == "complete":
+        add(
+            f"program.mod ({exported.get('compensation')}), nominal controller: RMS / max [mm]",
+            f"{_mm(exported.get('target_error_rms_m'))} / "
+            f"{_mm(exported.get('target_error_max_m'))}",
+        )
+    elif exported.get("status") == "refused":
+        add("program.mod refused by the controller", str(exported.get("reason")))
     for method, row in results.get("methods", {}).items():
         rot = row.get("rotation_error_deg")
         add(
