@@ -30,6 +30,7 @@ import pinocchio as pin
 from cell.errors import CellConfigError
 from cell.kinematics import Kinematics
 from models.robot import JOINT_NAMES, JOINT_SPEED, JOINT_TORQUE, Q_HOME, ArmGeometry, arm_xml
+from models.robot.arm import servo_actuators
 
 #: Deviation names of the built-in arm, in the order of its deviation vectors (12,).
 IRB_PARAMETERS: tuple[str, ...] = (
@@ -306,13 +307,7 @@ def arm_mjcf(
         for i, a in enumerate(names)
         for b in names[i + 1 :]
     )
-    actuators = "\n".join(
-        f'    <general name="{JOINT_NAMES[k]}" joint="{JOINT_NAMES[k]}" '
-        f'ctrlrange="{lower[k] - 0.2:.12g} {upper[k] + 0.2:.12g}" '
-        f'forcerange="{-effort[k]:g} {effort[k]:g}" gainprm="{servo.kp[k]:g}" '
-        f'biastype="affine" biasprm="0 {-servo.kp[k]:g} {-servo.kv[k]:g}"/>'
-        for k in range(6)
-    )
+    actuators = servo_actuators(lower, upper, effort, servo.kp, servo.kv)
     height = max(float(mount[2]), 0.01)
     return f"""<mujoco model="{name}">
   <compiler angle="radian" autolimits="true"/>

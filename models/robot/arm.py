@@ -11,6 +11,7 @@ flange (ABB's tool0).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -100,6 +101,25 @@ def _box_inertia(mass: float, size: tuple[float, float, float]) -> str:
             mass * (x * x + z * z) / 12.0,
             mass * (x * x + y * y) / 12.0,
         )
+    )
+
+
+def servo_actuators(
+    lower: Sequence[float],
+    upper: Sequence[float],
+    effort: Sequence[float],
+    kp: Sequence[float],
+    kv: Sequence[float],
+) -> str:
+    """The six joints' position servos as MJCF `<general>` actuators: gains `kp` [N m/rad]
+    and `kv` [N m s/rad], torque within +-`effort` [N m], set-points within the joint range
+    (`lower`, `upper` [rad]) widened by 0.2 rad."""
+    return "\n".join(
+        f'    <general name="{JOINT_NAMES[i]}" joint="{JOINT_NAMES[i]}" '
+        f'ctrlrange="{lower[i] - 0.2:.12g} {upper[i] + 0.2:.12g}" '
+        f'forcerange="{-effort[i]:g} {effort[i]:g}" gainprm="{kp[i]:g}" '
+        f'biastype="affine" biasprm="0 {-kp[i]:g} {-kv[i]:g}"/>'
+        for i in range(6)
     )
 
 
@@ -201,13 +221,7 @@ def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") ->
         lines.append(f"{indent}</body>")
         return "\n".join(lines)
 
-    actuators = "\n".join(
-        f'    <general name="{JOINT_NAMES[i]}" joint="{JOINT_NAMES[i]}" '
-        f'ctrlrange="{JOINT_LOWER[i] - 0.2:.12g} {JOINT_UPPER[i] + 0.2:.12g}" '
-        f'forcerange="{-JOINT_TORQUE[i]:g} {JOINT_TORQUE[i]:g}" gainprm="{_KP[i]:g}" '
-        f'biastype="affine" biasprm="0 {-_KP[i]:g} {-_KV[i]:g}"/>'
-        for i in range(6)
-    )
+    actuators = servo_actuators(JOINT_LOWER, JOINT_UPPER, JOINT_TORQUE, _KP, _KV)
     return f"""<mujoco model="{model_name}">
   <compiler angle="radian" autolimits="true"/>
 
