@@ -8,6 +8,7 @@ A ray that hits nothing, or lands outside the range limits, or too grazing, is "
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -59,6 +60,10 @@ class LaserScanner:
         self._dist = np.zeros(n)
         self._normal = np.zeros(3 * n)
         self._cos_max = float(np.cos(config.max_incidence_rad))
+        #: A witness of every line: (data, origin (3,), directions (n, 3), ranges (n,) as
+        #: measured, NaN = no return), all in the world frame. For a recording; None: none.
+        self.witness: Callable[[mujoco.MjData, np.ndarray, np.ndarray, np.ndarray], None] | None
+        self.witness = None
 
     def cast(self, data: mujoco.MjData) -> np.ndarray:
         """(n_rays,) measured ranges [m] at the current state, NaN for no return."""
@@ -89,6 +94,8 @@ class LaserScanner:
         if c.sigma_m > 0.0:
             d += self.rng.normal(0.0, c.sigma_m, c.n_rays)
         d[~ok] = np.nan
+        if self.witness is not None:
+            self.witness(data, data.site_xpos[self.site].copy(), vec, d.copy())
         return d
 
 

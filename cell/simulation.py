@@ -6,6 +6,8 @@ tests look inside. Python work per physics step is one set-point write and one `
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import mujoco
 import numpy as np
 
@@ -47,7 +49,17 @@ class Simulation:
         self.rack_eq = {t.name: int(m.equality(f"rack_{t.name}").id) for t in TOOLS}
         self.flange_eq = {t.name: int(m.equality(f"flange_{t.name}").id) for t in TOOLS}
         self.home_key = int(m.key("home").id)
+        self._watcher: Callable[[mujoco.MjData], None] | None = None
+        self._watch_every = 1
+        self._since = 0
         self.reset()
+
+    def watch(self, watcher: Callable[[mujoco.MjData], None] | None, period_s: float) -> None:
+        """Call `watcher(data)` every `period_s` [s] of simulated time while the cell moves
+        (None: stop). A witness of the real cell (a recording), never a controller's sense."""
+        self._watcher = watcher
+        self._watch_every = max(1, round(period_s / self.dt))
+        self._since = 0
 
     def reset(self) -> None:
         """Home keyframe, servos holding home, table at 0, gripper open, spindle still."""
@@ -62,8 +74,16 @@ class Simulation:
     # -- stepping -----------------------------------------------------------------------------
     def step(self, n: int = 1) -> None:
         """Advance `n` physics steps with the current set-points."""
-        if n > 0:
-            mujoco.mj_step(self.model, self.data, nstep=int(n))
+        n = int(n)
+        if self._watcher is None:
+            if n > 0:
+                mujoco.mj_step(self.model, self.data, nstep=n)
+            return
+        while n > 0:
+            k = min(n, self._watch_every - self._since)
+            mujoco.mj_step(self.model, self.data, nstep=k)
+            n -= k
+            self._tick(k)
 
     def settle(self, seconds: float) -> None:
         """Hold the current set-points for `seconds` [s]."""
@@ -72,9 +92,18 @@ class Simulation:
     def run(self, actuators: np.ndarray, setpoints: np.ndarray) -> None:
         """Step once per row of `setpoints` (K, len(actuators)), writing it as the set-point."""
         m, d, ctrl = self.model, self.data, self.data.ctrl
+        watched = self._watcher is not None
         for row in setpoints:
             ctrl[actuators] = row
             mujoco.mj_step(m, d)
+            if watched:
+                self._tick(1)
+
+    def _tick(self, steps: int) -> None:
+        self._since += steps
+        if self._since >= self._watch_every and self._watcher is not None:
+            self._since = 0
+            self._watcher(self.data)
 
     # -- state (truth: only the controller's sensor models and evaluators read these) ----------
     @property

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+import mujoco
 import numpy as np
 import pinocchio as pin
 
@@ -10,6 +13,7 @@ from cell.config import CellConfig
 from cell.devices import TableAxis
 from cell.errors import UnknownNameError
 from cell.kinematics import Kinematics, payload_model
+from cell.sensors import LaserScanner
 from cell.simulation import Simulation
 from cell.toolchanger import flange_offset
 from models.robot import TOOLS
@@ -24,11 +28,13 @@ class CellTruth:
         params: RealParameters,
         sim: Simulation,
         table: TableAxis,
+        laser: LaserScanner | None = None,
     ) -> None:
         self.config = config
         self.params = params
         self._sim = sim
         self._table = table
+        self._laser = laser
         self._gravity: dict[str | None, tuple[pin.Model, pin.Data]] = {}
         self._kinematics: Kinematics | None = None
 
@@ -36,6 +42,19 @@ class CellTruth:
     def deviations(self) -> np.ndarray:
         """The real arm's kinematic deviations from its nominal (see cell.robots)."""
         return self.params.deviations
+
+    def watch(
+        self,
+        bodies: Callable[[mujoco.MjData], None] | None,
+        laser: Callable[[mujoco.MjData, np.ndarray, np.ndarray, np.ndarray], None] | None,
+        period_s: float = 1.0 / 30.0,
+    ) -> None:
+        """Witness the real cell: `bodies(data)` every `period_s` [s] of simulated time, and
+        `laser(data, origin, directions, ranges)` at every laser line (world frame, ranges as
+        measured). For the recording of a run; None stops either."""
+        self._sim.watch(bodies, period_s)
+        if self._laser is not None:
+            self._laser.witness = laser
 
     @property
     def simulation(self) -> Simulation:

@@ -20,7 +20,7 @@ from registration.io import load_model, load_points
 from registration.kernels import L2, Kernel, Trimmed, Tukey
 from registration.matcher import MODES, match
 from registration.quality import ScanPasses
-from registration.result import MatchResult, Minimum
+from registration.result import MatchResult, Minimum, SearchTrace
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
 from registration.search import SearchSettings
 from registration.shapes import (
@@ -48,6 +48,7 @@ __all__ = [
     "RegistrationError",
     "ScanPasses",
     "SearchSettings",
+    "SearchTrace",
     "SegmentModel",
     "Shape",
     "Symmetry",

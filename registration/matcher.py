@@ -39,9 +39,10 @@ from registration.judge import (
 )
 from registration.kernels import Kernel, Tukey
 from registration.quality import ScanPasses, pose_covariance, predicted_tre, residual_correlation
-from registration.result import MatchResult, Minimum
+from registration.result import MatchResult, Minimum, SearchTrace
 from registration.rigid import Array, invert, transform_points
 from registration.search import (
+    Found,
     SearchSettings,
     batched_icp,
     closest_pairs,
@@ -257,11 +258,14 @@ def _match(
     def exact(p: Array) -> Closest:
         return shape.closest_within(p, reach)
 
+    traces: list[Found] = []
     if mode == "refine":
         assert T_init is not None
         candidates, n_starts = [T_init], 1
     else:
-        candidates, n_starts = search(fit, mid, shape, mode, settings, rng, kernel, stage, say)
+        found = search(fit, mid, shape, mode, settings, rng, kernel, stage, say)
+        candidates, n_starts = found.candidates, found.starts
+        traces.append(found)
         if T_init is not None:
             candidates.append(T_init)
 
@@ -304,7 +308,9 @@ def _match(
             f"the best candidate fits {best_fit:.0%} of the scan ({surface:.0%} of it on a "
             f"surface), the closest to a scale of {best_scale:.3g}: searching again, denser"
         )
-        more, n_more = search(fit, mid, shape, mode, settings.denser(), rng, kernel, stage, say)
+        again = search(fit, mid, shape, mode, settings.denser(), rng, kernel, stage, say)
+        more, n_more = again.candidates, again.starts
+        traces.append(again)
         runs += rank(more)
         n_starts += n_more
     stage["rank"] = time.perf_counter() - t0
@@ -344,7 +350,7 @@ def _match(
     # it moves, if it fits almost as well (on a small patch of a smooth surface, poses
     # millimetres apart along a valley do; a wrong object fits in many places, each partly).
     coarse, trajectory = converge(runs[ranking.best].T_model_data)
-    best_cost = ranking.cost
+    best_cost, best_index = ranking.cost, ranking.best
     judge = Judge(fit, exact, settings, floor, np.random.default_rng(seed + 1))
     judged: list[tuple[Array, float, float]] = []  # rival pose, its cost, ambiguity
     for index in ranking.rivals:
@@ -365,7 +371,7 @@ def _match(
             # The rival, refined, fits better: it becomes the best (and the best a rival);
             # the rivals judged so far are judged against it as they stand.
             judged = [(coarse.T_model_data, verdict.best_cost, verdict.ambiguity), *judged]
-            best_cost = verdict.rival_cost
+            best_cost, best_index = verdict.rival_cost, index
             coarse, trajectory = other, other_trajectory
             continue
         # Only where the ranking left it does a rival fit better: a tie at best.
@@ -466,6 +472,7 @@ def _match(
         fit_rejection=fit_reason,
         seconds=time.perf_counter() - t_start,
         stage_seconds=stage,
+        search=_trace(traces, candidates, runs[best_index].T_model_data),
     )
 
 
@@ -478,3 +485,17 @@ def _worst_target(verdicts: tuple[str, ...], reasons: tuple[str, ...]) -> tuple:
                 f" ({len(bad)} of {len(verdicts)} targets {level})" if len(bad) > 1 else ""
             )
     return "accepted", f"all {len(verdicts)} targets located: good fit, well-constrained pose"
+
+
+def _trace(traces: list[Found], candidates: list[Array], T_best: Array) -> SearchTrace:
+    """The search's trace (one or two searches, or a refinement's single start)."""
+    if not traces:
+        start = np.asarray(candidates)
+        return SearchTrace(start, np.zeros(len(start)), start, np.zeros(len(start)), T_best)
+    return SearchTrace(
+        np.concatenate([f.start_poses for f in traces]),
+        np.concatenate([f.start_costs for f in traces]),
+        np.concatenate([f.minima for f in traces]),
+        np.concatenate([f.minima_costs for f in traces]),
+        T_best,
+    )

@@ -191,17 +191,23 @@ def pose_covariance(
     return covariance
 
 
-def predicted_tre(covariance: Array, targets: Array) -> Array:
-    """Predicted target registration error (K,) at targets (K, 3) in the model frame [length].
-
-    The displacement of x under a pose error (dt, dtheta) is dt + dtheta x x; its RMS
-    (square root of the trace of its covariance) is the predicted TRE.
-    """
+def target_covariance(covariance: Array, targets: Array) -> Array:
+    """Covariance (K, 3, 3) of the displacement of targets (K, 3) in the model frame under a
+    pose error of covariance (6, 6) (dt, dtheta): J C J^T with J = [I, -[x]x]."""
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     if targets.shape[1] != 3 or not np.isfinite(targets).all():
         raise InputError(f"targets must be a finite (K, 3) array; got shape {targets.shape}")
     J = np.concatenate(
         [np.broadcast_to(np.eye(3), (len(targets), 3, 3)), -skew(targets)], axis=2
     )  # (K, 3, 6)
-    cov_x = J @ covariance @ J.transpose(0, 2, 1)
+    return J @ covariance @ J.transpose(0, 2, 1)
+
+
+def predicted_tre(covariance: Array, targets: Array) -> Array:
+    """Predicted target registration error (K,) at targets (K, 3) in the model frame [length].
+
+    The displacement of x under a pose error (dt, dtheta) is dt + dtheta x x; its RMS
+    (square root of the trace of its covariance) is the predicted TRE.
+    """
+    cov_x = target_covariance(covariance, targets)
     return np.sqrt(np.trace(cov_x, axis1=1, axis2=2))

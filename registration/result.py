@@ -27,6 +27,25 @@ class Minimum:
     cost: float
 
 
+@dataclass(frozen=True, eq=False)
+class SearchTrace:
+    """How the search went, for a picture of it.
+
+    Attributes:
+        starts: (K, 4, 4) every initial state T_model_data; start_costs: (K,) its score
+            (trimmed RMS distance of a coarse subsample) [length units].
+        minima: (M, 4, 4) the starts that survived the screening, after the coarse ICP;
+            minima_costs: (M,) their trimmed RMS [length units].
+        best: (4, 4) the minimum that became the best pose, before its refinement.
+    """
+
+    starts: Array
+    start_costs: Array
+    minima: Array
+    minima_costs: Array
+    best: Array
+
+
 @dataclass(frozen=True)
 class MatchResult:
     """Result of `match`.
@@ -67,6 +86,7 @@ class MatchResult:
         acceptance: the thresholds the verdict used.
         extent: the model's extent (bounding box diagonal) [length units].
         seconds: wall time of the search; stage_seconds: per stage.
+        search: the initial states and the minima they were refined to (SearchTrace).
     """
 
     T_model_data: Array
@@ -99,6 +119,7 @@ class MatchResult:
     fit_rejection: str | None
     seconds: float
     stage_seconds: dict[str, float] = field(default_factory=dict)
+    search: SearchTrace | None = None
 
     @property
     def rotation(self) -> Array:

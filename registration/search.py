@@ -315,6 +315,20 @@ def initial_states(
     return R, t
 
 
+@dataclass(frozen=True, eq=False)
+class Found:
+    """What `search` found: distinct `candidates` (4, 4) from `starts` initial states, and
+    for a picture of it, the initial states (K, 4, 4) with their scores (K,) and the
+    survivors after the coarse ICP (M, 4, 4) with their costs (M,)."""
+
+    candidates: list[Array]
+    starts: int
+    start_poses: Array
+    start_costs: Array
+    minima: Array
+    minima_costs: Array
+
+
 def search(
     data: Array,
     mid: Array,
@@ -325,14 +339,14 @@ def search(
     kernel: Kernel,
     stage: dict[str, float],
     say: Progress,
-) -> tuple[list[Array], int]:
+) -> Found:
     """Initial states, scored at once, the best refined together: distinct candidates.
 
     Args:
         data: the data points the initial states are built from (N, 3).
         mid: the subsample of the vectorised ICP stage (n, 3).
 
-    Returns the candidate poses (4, 4) and the number of initial states tried.
+    Returns the candidate poses (4, 4), the number of initial states tried and the trace.
     """
     extent = shape.extent
     t0 = time.perf_counter()
@@ -373,4 +387,4 @@ def search(
     )  # fmt: skip
     stage["coarse_icp"] = stage.get("coarse_icp", 0.0) + time.perf_counter() - t0
     say(f"coarse ICP on {len(keep)} starts, refining {len(chosen)} distinct candidates")
-    return [T_list[i] for i in chosen], n_starts
+    return Found([T_list[i] for i in chosen], n_starts, make_T_batch(R, t), cost, T_mid, cost_mid)

@@ -106,10 +106,7 @@ class RunHooks:
         self.evaluator.record_touch(name, tool)
 
     def moved(self, what: str) -> None:
-        if what == "view":
-            self.log.bodies()
-        else:
-            self.log.moved(what)
+        self.log.moved(what)
 
 
 def _acceptance(config: JobConfig) -> Acceptance:
@@ -120,6 +117,15 @@ def _acceptance(config: JobConfig) -> Acceptance:
         max_ambiguity=r.max_ambiguity,
         max_predicted_tre=r.max_predicted_tre_m,
     )
+
+
+def target_points(virtual: ObjectModel, targets: tuple[Any, ...]) -> np.ndarray | None:
+    """The virtual targets (K, 3) [m] (model frame) of evaluated `targets`, by name, or None
+    if a target is not one of the model's burr holes (a user's program)."""
+    holes = {h.name: h.p_entry for h in virtual.burr_holes}
+    if not targets or any(t.name not in holes for t in targets):
+        return None
+    return np.array([holes[t.name] for t in targets])
 
 
 # -- the stages ---------------------------------------------------------------------------------
@@ -367,6 +373,14 @@ def run_cell_job(
     cell = job_cell(config, virtual, real, robot, recording)
     controller, evaluator = cell.controller, cell.evaluator
     hooks = RunHooks(evaluator, cell.log)
+    log = cell.log
+    if recording is not None:  # every line of progress also in the recording's log
+        tell = say
+
+        def say(message: str) -> None:
+            tell(message)
+            log.say(message)
+
     timings["setup"] = time.perf_counter() - t0
 
     # Calibrate: every later stage uses the calibrated arm.
@@ -374,6 +388,7 @@ def run_cell_job(
     calibration: CalibrationResult | None = None
     if config.calibration.enabled:
         t0 = time.perf_counter()
+        log.phase("calibrate", "the arm, the laser and the table, on the spheres")
         calibration = calibrate_arm(
             controller, config.calibration, config.seed, say, lambda: hooks.moved("view")
         )
@@ -388,6 +403,7 @@ def run_cell_job(
     poses: dict[str, LocatedPose] = {}
     if "probe" in methods:
         t0 = time.perf_counter()
+        log.phase("probe", "the part's edges with the IR sensor")
         probed = probe_part(
             controller,
             virtual.probe_lines,
@@ -401,19 +417,27 @@ def run_cell_job(
     scanned = None
     if "surface" in methods:
         t0 = time.perf_counter()
+        log.phase("scan", "the laser's passes over the object")
         scanned = scan_stage(controller, cell.box, config, say, hooks, model)
         timings["scan"] = time.perf_counter() - t0
         if recording is not None:
-            recording.log_scan(scanned.scan, scanned.keep, controller.kinematics)
+            recording.log_scan(scanned.scan, scanned.keep)
         hooks.moved("view")
         outputs.write_ply(folder / "scan.ply", scanned.points_table)
         t0 = time.perf_counter()
         prior = poses["probe"].T_table_object if "probe" in poses else None
+        log.phase("register", "the scan to the virtual model (its steps on the timeline icp)")
         poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
         timings["register"] = time.perf_counter() - t0
         located = poses["surface"].localization
         if recording is not None and located is not None:
-            recording.log_icp(located.result, virtual)
+            recording.log_registration(
+                controller.time_s,
+                located.result,
+                virtual,
+                scanned.points_table,
+                located.points_used,
+            )
     ordered = tuple(poses[m] for m in methods)
     # Each method's pose against the truth, now (a pick may move the part later).
     s0 = controller.table_position()
@@ -429,6 +453,7 @@ def run_cell_job(
     t0 = time.perf_counter()
     programs = ProgramStage(None, {})
     if primary.accepted:
+        log.phase("execute", f"the program corrected by the {primary.method} pose")
         programs = program_stage(controller, virtual, config, ordered, user, model)
         execute_stage(controller, programs, config, hooks, say)
     else:
@@ -509,9 +534,16 @@ def run_cell_job(
             None if calibration is None else calibration.kinematics,
         )
         if recording is not None:
-            recording.log_targets(primary_program, reports[0].targets)
+            recording.log_targets(
+                controller.time_s,
+                primary_program,
+                reports[0].targets,
+                None if primary.localization is None else primary.localization.result,
+                target_points(virtual, reports[0].targets),
+            )
         if program_file is not None and config.export.execute:
             t0 = time.perf_counter()
+            log.phase("exported program", f"{program_file} on the nominal controller")
             try:
                 executed = execute_in_cell(
                     cell,
@@ -556,6 +588,13 @@ def run_cell_job(
         ):
             if limit is not None:
                 checks[name] = (limit, bool(value <= limit))
+    verdict = "complete" if primary.accepted else f"refused: {primary.reason}"
+    if len(errors):
+        verdict += (
+            f"; target error rms {np.sqrt(np.mean(errors**2)) * 1e3:.3f} mm, max "
+            f"{errors.max() * 1e3:.3f} mm"
+        )
+    log.phase("end", verdict)
     timings["total"] = time.perf_counter() - t_total
     result = RunResult(
         status="complete" if primary.accepted else "refused",
@@ -579,7 +618,13 @@ def run_cell_job(
         exported_program=exported,
     )
     if config.output.plots:
-        outputs.write_figures(folder, result, poses.get("surface"), virtual)
+        outputs.write_figures(
+            folder,
+            result,
+            poses.get("surface"),
+            virtual,
+            None if scanned is None else scanned.points_table,
+        )
     return result
 
 
@@ -634,4 +679,5 @@ def _match_report(pose: LocatedPose | None) -> MatchReport | None:
         len(located.points_used),
         m.inlier_fraction,
         located.T_table_object,
+        m.starts,
     )

@@ -35,6 +35,7 @@ class MatchReport:
     points_used: int
     inlier_fraction: float
     T_table_object: np.ndarray
+    starts: int = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,6 +125,7 @@ class RunResult:
                 points_used=m.points_used,
                 inlier_fraction=m.inlier_fraction,
                 T_table_object=m.T_table_object,
+                starts=m.starts,
             )
         surface = next((r for r in self.methods if r.method == "surface"), None)
         if surface is not None and surface.pose is not None:

@@ -63,7 +63,8 @@ def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
         return None
     from scenarios.outputs.recording import Recording
 
-    return Recording(folder.file("run.rrd"), spawn=options.spawn)
+    name = f"{folder.path.name} (seed {config.seed})"
+    return Recording(folder.file("run.rrd"), spawn=options.spawn, name=name)
 
 
 def _cell(

@@ -13,6 +13,7 @@ from models import ObjectModel
 from models.atomic import write_atomic
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import Filter, program_module
+from scenarios.outputs.registration_figure import TargetMark, write_registration_figure
 
 if TYPE_CHECKING:
     from scenarios.jobs.result import RunResult
@@ -56,10 +57,15 @@ def write_program(
 
 
 def write_figures(
-    folder: Path, result: RunResult, surface: Any | None, virtual: ObjectModel
+    folder: Path,
+    result: RunResult,
+    surface: Any | None,
+    virtual: ObjectModel,
+    scan_points: np.ndarray | None = None,
 ) -> list[Path]:
-    """The run's figures: registration.png (the final ICP's RMS per iteration, the scan points
-    used seen from above) when a surface match ran; targets.png (each target's achieved error,
+    """The run's figures: registration.png (scenarios.outputs.registration_figure) when a
+    surface match ran (the scan's object points `scan_points` (N, 3) in the table frame, else
+    the points the match used); targets.png (each target's achieved error,
     the exported program's on a controller without absolute accuracy, and the predicted
     TRE, with the goals); methods.png when several localization methods
     ran side by side (each one's pose error and target errors)."""
@@ -70,23 +76,27 @@ def write_figures(
 
     written = []
     located = None if surface is None else surface.localization
-    if located is not None:
-        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
-        history = np.asarray(located.result.history) * 1e3
-        a.semilogy(np.arange(1, len(history) + 1), history, "o-")
-        a.set_xlabel("ICP iteration")
-        a.set_ylabel("inlier rms [mm]")
-        a.set_title(f"final ICP ({located.result.verdict})")
-        p = located.points_used * 1e3
-        b.scatter(p[:, 0], p[:, 1], s=0.5, c=p[:, 2], cmap="viridis")
-        b.set_aspect("equal")
-        b.set_xlabel("x table [mm]")
-        b.set_ylabel("y table [mm]")
-        b.set_title(f"{len(p)} scan points used (height colour)")
-        fig.tight_layout()
-        written.append(_save(fig, folder / "registration.png"))
-        plt.close(fig)
     primary = result.primary
+    if located is not None:
+        holes = {h.name: h.p_entry for h in virtual.burr_holes}
+        tre = dict(zip((t.name for t in primary.targets), primary.predicted_tre_m, strict=False))
+        marks = tuple(
+            TargetMark(t.name, holes[t.name], t.error_m, tre.get(t.name, float("nan")))
+            for t in primary.targets
+            if t.name in holes
+        )
+        written.append(
+            write_atomic(
+                folder / "registration.png",
+                lambda tmp: write_registration_figure(
+                    tmp,
+                    located.result,
+                    virtual,
+                    located.points_used if scan_points is None else scan_points,
+                    marks,
+                ),
+            )
+        )
     if primary.targets:
         names = [t.name for t in primary.targets]
         fig, ax = plt.subplots(figsize=(7, 4))

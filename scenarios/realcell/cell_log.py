@@ -1,6 +1,7 @@
-"""The jobs' hooks into the rerun recording while the cell moves: the true bodies now, the arm
-followed through a move. Each is a no-op when the run has no recording, so the jobs call them
-unconditionally (and rerun is not imported for a run without one).
+"""The jobs' hooks into the rerun recording: the recording witnesses the real cell (every
+body's true pose while it moves, every laser line), and hears the run's phases and
+decisions at the controller's time. Each is a no-op when the run has no recording, so the
+jobs call them unconditionally (and rerun is not imported for a run without one).
 """
 
 from __future__ import annotations
@@ -12,29 +13,45 @@ from scenarios.realcell.evaluation import Evaluator
 
 
 class CellLog:
-    """Logs the real cell of one run into `recording` (a scenarios.recording.Recording, or
-    None): the body poses come from the evaluator, the arm from the controller."""
+    """Connects `recording` (a scenarios.outputs.recording.Recording, or None) to the real
+    cell of one run: the evaluator lets it witness the physics, the controller tells time.
+    `object_name` is the real object's name in the cell, shown as `object_entity`."""
 
-    def __init__(self, recording: Any | None, controller: Controller, evaluator: Evaluator):
+    def __init__(
+        self,
+        recording: Any | None,
+        controller: Controller,
+        evaluator: Evaluator,
+        object_name: str = "object",
+        object_entity: str = "object",
+    ) -> None:
         self._recording = recording
         self._controller = controller
-        self._evaluator = evaluator
+        if recording is not None:
+            recording.start_cell(
+                evaluator.mujoco_model, evaluator.mujoco_data, object_name, object_entity
+            )
+            evaluator.watch(recording.bodies, recording.laser)
+
+    @property
+    def recording(self) -> Any | None:
+        return self._recording
+
+    def phase(self, name: str, detail: str = "") -> None:
+        """A phase of the run begins now."""
+        if self._recording is not None:
+            self._recording.phase(self._controller.time_s, name, detail)
+
+    def say(self, message: str) -> None:
+        """A line of the run's progress, now."""
+        if self._recording is not None:
+            self._recording.text(self._controller.time_s, message)
 
     def bodies(self) -> None:
-        """The true pose of every body of the cell, at the controller's time."""
-        if self._recording is not None:
-            self._recording.log_bodies(self._controller.time_s, self._evaluator.body_poses())
+        """The cell is witnessed while it moves: nothing to add between moves."""
 
     def moved(self, what: str) -> None:
-        """After a move (`what`, e.g. "tool change"): the arm's path since the last log,
-        interpolated in joint space except through a tool change, then the bodies."""
-        if self._recording is not None:
-            c = self._controller
-            self._recording.follow(
-                c.time_s,
-                c.read_joints(),
-                c.kinematics,
-                c.tool_in_hand,
-                interpolate=what != "tool change",
-            )
-            self.bodies()
+        """After a move (`what`): a tool change is a decision worth a line of the log."""
+        if self._recording is not None and what == "tool change":
+            tool = self._controller.tool_in_hand
+            self._recording.text(self._controller.time_s, f"tool change: {tool} in hand")

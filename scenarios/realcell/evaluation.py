@@ -224,6 +224,16 @@ class Evaluator:
             poses[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)] = T
         return poses
 
+    def watch(self, bodies: Any, laser: Any) -> None:
+        """Let a recording witness the real cell: `bodies(data)` while it moves, `laser(data,
+        origin, directions, ranges)` at every laser line (see cell.CellTruth.watch)."""
+        self._truth.watch(bodies, laser)
+
+    @property
+    def mujoco_data(self) -> mujoco.MjData:
+        """The real cell's MuJoCo state now (read only: for the recording)."""
+        return self._truth.simulation.data
+
     @property
     def mujoco_model(self) -> mujoco.MjModel:
         """The real cell's MuJoCo model (geometry for the recording)."""

@@ -138,9 +138,7 @@ def build_job_cell(
         config = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz)
     controller, truth = make_cell(config)
     evaluator = Evaluator(truth, real, name)
-    log = CellLog(recording, controller, evaluator)
+    log = CellLog(recording, controller, evaluator, name, virtual.name)
     if recording is not None:
-        recording.log_cell_geometry(evaluator.mujoco_model)
         recording.log_model(virtual, T_table_nominal)
-    log.bodies()
     return JobCell(controller, evaluator, log, T_table_nominal, box)

@@ -1,0 +1,177 @@
+"""The rerun recording of a run (run.rrd, or a live viewer with --spawn): the run's story as
+it happened, checked to look right in the real viewer.
+
+Entities (base frame = world; timelines `sim_time`, the cell's clock, and `icp`):
+- `world/cell/...`: the real cell, named (`arm/link3`, `table`, `tools/laser`, the object
+  under its model's name, `fixtures/calibration_sphere1`); static bodies once, moving ones
+  whenever they moved (scene.py);
+- `world/laser/rays`: the laser's rays as they went, while it reads (scan.py);
+- `world/cell/table/frame`: the table frame the cell model believes; under it `model` (the
+  virtual model: nominal, then registered; its targets with it), `scan/line`,
+  `scan/passes/pNN`, `scan/registered` (coloured by residual) and `icp/...` (match.py);
+- `world/targets/...`: corrected, achieved, true, magnified error lines, predicted-TRE
+  ellipsoids (targets.py); `plots/...`, `legend/residual`, `log` (one entry per phase and
+  per decision).
+Every result appears at the time it was computed, never before. The default layout is
+layout.py's.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import rerun as rr
+from scipy.spatial.transform import Rotation
+
+from models import ObjectModel
+from registration import MatchResult
+from registration.quality import target_covariance
+from scenarios.offline.program import OfflineProgram
+from scenarios.offline.scan import ScanData
+from scenarios.outputs.recording.layout import blueprint
+from scenarios.outputs.recording.match import log_icp, log_registered, pose
+from scenarios.outputs.recording.scan import LaserRays, log_scan
+from scenarios.outputs.recording.scene import CellScene, mesh_archetype
+from scenarios.outputs.recording.stream import ICP, Stream
+from scenarios.outputs.recording.targets import log_targets
+from scenarios.realcell.evaluation import TargetEvaluation
+
+#: The table frame the cell model believes: the table's top, where the object stands.
+TABLE = "world/cell/table/frame"
+
+
+class Recording:
+    """A run's recording written to `path` (and sent to a spawned viewer if `spawn`),
+    listed in the viewer as `name`."""
+
+    def __init__(self, path: Path, spawn: bool = False, name: str = "twincell run") -> None:
+        self.stream = Stream(Path(path), name, blueprint(), spawn)
+        self.stream.static("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP)
+        self._scene: CellScene | None = None
+        self._rays = LaserRays()
+        self._object: str | None = None
+        self._T_world_top0 = np.eye(4)
+
+    @property
+    def path(self) -> Path:
+        return self.stream.path
+
+    # -- the cell ---------------------------------------------------------------------------
+    def start_cell(self, model: mujoco.MjModel, data: mujoco.MjData, object_name: str,
+                   object_entity: str) -> None:  # fmt: skip
+        """The cell's geometry and static bodies, and the table frame under the table;
+        `object_name` is the real object's geom or body, shown as `object_entity`."""
+        self._object = f"world/cell/{object_entity}"
+        self._scene = CellScene(model, {object_name: object_entity, "table_top": "table_top"})
+        self._scene.log_geometry(self.stream, data)
+        site = model.site("table_top")
+        T = np.eye(4)
+        w, x, y, z = model.site_quat[site.id]
+        T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
+        T[:3, 3] = model.site_pos[site.id]
+        self.stream.static(TABLE, pose(T))
+        self._T_world_top0 = np.eye(4)
+        self._T_world_top0[:3, :3] = data.site_xmat[site.id].reshape(3, 3)
+        self._T_world_top0[:3, 3] = data.site_xpos[site.id]
+        self._scene.sample(data)
+
+    def bodies(self, data: mujoco.MjData) -> None:
+        """Witness: the physics at a sample time."""
+        if self._scene is not None:
+            self._scene.sample(data)
+
+    def laser(
+        self, data: mujoco.MjData, origin: np.ndarray, directions: np.ndarray, ranges: np.ndarray
+    ) -> None:
+        """Witness: one laser line (world frame, measured ranges)."""
+        self.bodies(data)
+        self._rays.sample(float(data.time), origin, directions, ranges)
+
+    # -- the story --------------------------------------------------------------------------
+    def phase(self, time_s: float, name: str, detail: str = "") -> None:
+        """A phase of the run begins at `time_s` [s]."""
+        self.stream.at(sim_time=time_s)
+        text = f"== {name} ==" + (f" {detail}" if detail else "")
+        self.stream.log("log", rr.TextLog(text, level="INFO", color=[90, 170, 255]))
+
+    def text(self, time_s: float, message: str) -> None:
+        """A line of the run's progress: a decision, a refusal, a measurement."""
+        self.stream.at(sim_time=time_s)
+        level = "WARN" if message.startswith(("refused", "warning")) else "INFO"
+        self.stream.log("log", rr.TextLog(message, level=level))
+
+    # -- the object -------------------------------------------------------------------------
+    def log_model(self, virtual: ObjectModel, T_table_nominal: np.ndarray) -> None:
+        """The virtual model (once, with its targets) at its nominal place from t = 0, and
+        the layout's cameras on it."""
+        self.stream.static(
+            f"{TABLE}/model/mesh",
+            mesh_archetype(virtual.mesh.vertices, virtual.mesh.faces, [110, 200, 130, 255]),
+        )
+        if virtual.burr_holes:
+            self.stream.static(
+                f"{TABLE}/model/targets",
+                rr.Points3D(
+                    [h.p_entry for h in virtual.burr_holes], radii=0.0008, colors=[[60, 90, 255]]
+                ),
+            )
+        centre_model = virtual.mesh.vertices.mean(axis=0)
+        self.stream.static(  # what the close-up's camera follows
+            f"{TABLE}/model/centre",
+            rr.Transform3D(translation=centre_model),
+            rr.Points3D([[0.0, 0.0, 0.0]], radii=1e-5, colors=[[0, 0, 0, 0]]),
+        )
+        self.stream.at(sim_time=0.0)
+        self.stream.log(f"{TABLE}/model", pose(T_table_nominal))
+        T = self._T_world_top0 @ T_table_nominal
+        centre = T[:3, :3] @ centre_model + T[:3, 3]
+        size = float(np.ptp(virtual.mesh.vertices, axis=0).max())
+        eye_object = (centre + size * np.array([1.6, -1.6, 1.4]), centre)
+        eye_cell = (centre + np.array([1.4, -2.6, 1.6]), 0.5 * centre)
+        self.stream.send_blueprint(
+            blueprint(self._object, f"{TABLE}/model/centre", eye_object, eye_cell)
+        )
+
+    def log_scan(self, scan: ScanData, on_object: np.ndarray) -> None:
+        """The measured scan building up (see scan.py)."""
+        log_scan(self.stream, scan, on_object, f"{TABLE}/scan")
+
+    def log_registration(
+        self, time_s: float, result: MatchResult, virtual: ObjectModel,
+        points_table: np.ndarray, points_used: np.ndarray,
+    ) -> np.ndarray:  # fmt: skip
+        """The match at `time_s`: the model registered, the scan coloured by residual; the
+        search and the ICP on the `icp` timeline with the cell held. Returns the residuals
+        [m] of `points_table` (inf: off the model)."""
+        residuals = log_registered(self.stream, time_s, result, virtual, points_table, TABLE)
+        if self._scene is not None:
+            self._scene.hold(self.stream, ICP)
+        log_icp(self.stream, result, virtual, points_used, TABLE)
+        return residuals
+
+    def log_targets(
+        self,
+        time_s: float,
+        program: OfflineProgram,
+        evaluated: tuple[TargetEvaluation, ...],
+        result: MatchResult | None,
+        targets_model: np.ndarray | None,
+    ) -> None:
+        """The targets evaluated at `time_s`, with the predicted TRE of `result` at
+        `targets_model` (K, 3) (model frame) if the pose came from a surface match."""
+        corrected = np.array([op.T_base_touch[:3, 3] for op in program.operations])
+        covariances = None
+        if result is not None and targets_model is not None and len(targets_model):
+            R = program.T_base_object[:3, :3]
+            covariances = R @ target_covariance(result.covariance, targets_model) @ R.T
+        log_targets(self.stream, time_s, corrected, evaluated, covariances)
+
+    def close(self, keep: bool = True) -> None:
+        """Send what was buffered and close; keep the file only if the run completed."""
+        if keep:
+            if self._scene is not None:
+                self._scene.flush(self.stream)
+            self._rays.flush(self.stream)
+        self.stream.close(keep)

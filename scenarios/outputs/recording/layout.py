@@ -1,0 +1,64 @@
+"""The recording's default layout: what a user sees on opening run.rrd.
+
+Left, the object close up (the scan, the virtual model moving to its registered pose, the
+targets; the real object and the arm left out, they would hide the fit) above the whole
+cell (the real cell, the laser's rays). Right, the plots (target errors and predicted TRE
+per target, the ICP's RMS on the `icp` timeline), the colour scale and the run's log.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import rerun.blueprint as rrb
+
+from scenarios.outputs.recording.stream import SIM_TIME
+
+
+def blueprint(
+    object_entity: str | None = None,
+    track: str | None = None,
+    eye_object: tuple[np.ndarray, np.ndarray] | None = None,
+    eye_cell: tuple[np.ndarray, np.ndarray] | None = None,
+) -> rrb.Blueprint:
+    """The layout; `eye_*` (position, look target) [m] in the base frame place the cameras,
+    `object_entity` is the real object's entity, left out of the close-up, which follows
+    the entity `track` (the virtual model, as the table carries it)."""
+
+    def eye(
+        spot: tuple[np.ndarray, np.ndarray] | None, follow: str | None = None
+    ) -> rrb.EyeControls3D | None:
+        if spot is None:
+            return None
+        return rrb.EyeControls3D(
+            position=spot[0], look_target=spot[1], eye_up=(0.0, 0.0, 1.0), tracking_entity=follow
+        )
+
+    hidden = ["- /world/cell/arm/**", "- /world/cell/rack/**", "- /world/cell/table_rail/**"]
+    if object_entity is not None:
+        hidden.append(f"- /{object_entity}/**")
+    close_up = rrb.Spatial3DView(
+        origin="/world",
+        contents=["+ /world/**", *hidden],
+        name="object: scan, registered model, targets",
+        eye_controls=eye(eye_object, track),
+        line_grid=rrb.archetypes.LineGrid3D(visible=False),
+    )
+    cell = rrb.Spatial3DView(origin="/world", name="cell", eye_controls=eye(eye_cell))
+    plots = rrb.Vertical(
+        rrb.Tabs(
+            rrb.BarChartView(origin="/plots/targets/error_mm", name="target error [mm]"),
+            rrb.BarChartView(origin="/plots/targets/predicted_tre_mm", name="predicted TRE [mm]"),
+            rrb.TimeSeriesView(origin="/plots/icp", name="ICP rms [mm] (timeline icp)"),
+        ),
+        rrb.Spatial2DView(origin="/legend", name="colour scale"),
+        rrb.TextLogView(origin="/log", name="log"),
+        row_shares=[3, 1, 4],
+    )
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(close_up, cell, row_shares=[3, 2]), plots, column_shares=[3, 2]
+        ),
+        rrb.TimePanel(timeline=SIM_TIME, state="expanded"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.BlueprintPanel(state="collapsed"),
+    )
