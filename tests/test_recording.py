@@ -105,7 +105,10 @@ def test_no_result_before_its_stage(run: tuple[Path, dict[str, Entity]]) -> None
         "/world/cell/table/frame/scan/passes": scan,
         "/world/cell/table/frame/scan/line": scan,
         "/world/cell/table/frame/scan/registered": register,
-        "/legend/residual": register,
+        "/legend/residual": _phase(e, "calibrate"),
+        "/world/cell/table/frame/calibration": _phase(e, "calibrate"),
+        "/plots/calibration": _phase(e, "calibrate"),
+        "/plots/icp/rms_per_iteration_mm": register,
         "/world/targets": execute,
         "/plots/targets": execute,
     }
@@ -119,6 +122,8 @@ def test_no_result_before_its_stage(run: tuple[Path, dict[str, Entity]]) -> None
             assert first is not None and first >= start, (path, first, start)
             # Rows on sim_time carry no stale step of the icp timeline.
             assert all(i is None for t, i, _ in e[path].rows if t is not None), path
+    # The calibration's fit appears when the calibration ends, before the scan begins.
+    assert e["/world/cell/table/frame/calibration/points"].first_time() <= scan
     # The model stands at its nominal pose until the match, then at the registered one.
     model = e["/world/cell/table/frame/model"].timed("Transform3D:translation")
     assert [t for t, _ in model] == [0.0, pytest.approx(register, abs=1e-6)]

@@ -394,6 +394,8 @@ def run_cell_job(
         )
         timings["calibrate"] = time.perf_counter() - t0
         hooks.moved("view")
+        if recording is not None:
+            recording.log_calibration(controller.time_s, calibration)
     # What the stages believe of the cell: the calibrated model, else the data sheet's.
     model = CellModel.nominal(nominal) if calibration is None else calibration.model
 

@@ -255,6 +255,7 @@ class CalibrationResult:
             fitted) [m]; residual_rms_after_m: with the identified model: what it leaves out.
         points, views, table_positions: inlier points, arm configurations, table positions
             used; iterations of the fit; groups identified; seconds: wall time [s].
+        fitted: every point as the identified model places it (for a picture of the fit).
     """
 
     model: CellModel
@@ -274,6 +275,7 @@ class CalibrationResult:
     iterations: int
     groups: tuple[str, ...]
     seconds: float
+    fitted: FittedPoints | None = None
 
     @property
     def kinematics(self) -> Kinematics:
@@ -652,6 +654,22 @@ class Identification:
     residual_rms_after_m: float
     points: int
     iterations: int
+    fitted: FittedPoints | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class FittedPoints:
+    """Every measured point as the identified model places it, for a picture of the fit:
+    its position (N, 3) in the table frame [m], its residual (N,) from its sphere with the
+    identified model and with the data sheet's [m], whether the fit used it (N,), its
+    sphere (N,) and its view (N,)."""
+
+    points_table: np.ndarray
+    residuals_m: np.ndarray
+    residuals_before_m: np.ndarray
+    used: np.ndarray
+    sphere: np.ndarray
+    view: np.ndarray
 
 
 def identify(
@@ -692,10 +710,16 @@ def identify(
             f"needs at least {min_points_per_sphere}"
         )
     theta, c, its = _fit(model, use, theta, c, layout.free, sigma_p, iterations)
-    after = _residuals(model.points(theta), model.tables(theta), c, m)[0][use]
+    p_base, tables = model.points(theta), model.tables(theta)
+    all_after = _residuals(p_base, tables, c, m)[0]
+    after = all_after[use]
     nominal = np.zeros_like(theta)
     _, c0, _ = _fit(model, use, nominal, c, np.zeros_like(layout.free), sigma_p, iterations)
-    before = _residuals(model.points(nominal), model.tables(nominal), c0, m)[0][use]
+    all_before = _residuals(model.points(nominal), model.tables(nominal), c0, m)[0]
+    before = all_before[use]
+    T = tables[m.line]
+    in_table = np.einsum("nji,nj->ni", T[:, :3, :3], p_base - T[:, :3, 3])
+    fitted = FittedPoints(in_table, all_after, all_before, use, m.sphere, m.line)
     rms_before = float(np.sqrt(np.mean(before**2)))
     rms_after = float(np.sqrt(np.mean(after**2)))
     if not rms_after <= max_residual_rms_m:
@@ -704,7 +728,7 @@ def identify(
             f"({rms_before * 1e3:.3f} mm before), above the limit of "
             f"{max_residual_rms_m * 1e3:.3f} mm: the spheres or the views are not as planned"
         )
-    return Identification(theta, c, rms_before, rms_after, int(use.sum()), its_first + its)
+    return Identification(theta, c, rms_before, rms_after, int(use.sum()), its_first + its, fitted)
 
 
 def cell_model(robot: Robot, fit: Identification, priors: CalibrationPriors) -> CellModel:
@@ -757,4 +781,5 @@ def calibrate(
         fit.iterations,
         tuple(priors.groups),
         time.perf_counter() - t0,
+        fit.fitted,
     )

@@ -5,29 +5,30 @@ from __future__ import annotations
 
 import matplotlib
 import numpy as np
-import trimesh
-from scipy.spatial import cKDTree
 
 from models import ObjectModel
+from registration import MeshModel
 
 #: The colour scale's steps [m]; the smallest that holds 2 sigma of the fit is used.
-SCALES_M = (0.1e-3, 0.2e-3, 0.3e-3, 0.5e-3, 1e-3, 2e-3, 5e-3)
+SCALES_M = (0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3, 0.3e-3, 0.5e-3, 1e-3, 2e-3, 5e-3)
 #: Farther than this from the model a point is off it (grey) [m].
 OFF_MODEL_M = 5e-3
 OFF_MODEL_RGBA = (140, 140, 140, 255)
 
 
 def signed_residuals(virtual: ObjectModel, p_model: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Signed distance (N,) [m] of points (N, 3) in the model frame from the model's surface,
-    along the normal of the nearest vertex (outside > 0; the vertices are far denser than
-    the residuals matter), inf beyond OFF_MODEL_M of every vertex; and that normal (N, 3)."""
-    mesh = trimesh.Trimesh(virtual.mesh.vertices, virtual.mesh.faces, process=False)
-    distance, nearest = cKDTree(mesh.vertices).query(p_model, distance_upper_bound=OFF_MODEL_M)
-    out = np.full(len(p_model), np.inf)
+    """Signed distance (N,) [m] of points (N, 3) in the model frame from the model's surface
+    (its exact closest point; outside > 0), inf beyond OFF_MODEL_M of it; and the surface's
+    normal (N, 3) there (zero where off)."""
+    shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
+    closest = shape.closest_within(np.asarray(p_model, dtype=float), OFF_MODEL_M)
+    found = np.ones(len(p_model), dtype=bool) if closest.found is None else closest.found
     normals = np.zeros((len(p_model), 3))
-    ok = np.isfinite(distance)
-    normals[ok] = mesh.vertex_normals[nearest[ok]]
-    out[ok] = np.einsum("ij,ij->i", p_model[ok] - mesh.vertices[nearest[ok]], normals[ok])
+    out = np.full(len(p_model), np.inf)
+    if closest.normals is not None:
+        normals[found] = closest.normals[found]
+    side = np.sign(np.einsum("ij,ij->i", p_model - closest.points, normals))
+    out[found] = np.where(side[found] < 0, -1.0, 1.0) * closest.distances[found]
     return out, normals
 
 

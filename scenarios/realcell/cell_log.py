@@ -28,8 +28,11 @@ class CellLog:
         self._recording = recording
         self._controller = controller
         if recording is not None:
+            from models.robot.visuals import irb2400_visuals
+
+            looks = irb2400_visuals() if controller.robot.name == "irb2400" else ()
             recording.start_cell(
-                evaluator.mujoco_model, evaluator.mujoco_data, object_name, object_entity
+                evaluator.mujoco_model, evaluator.mujoco_data, object_name, object_entity, looks
             )
             evaluator.watch(recording.bodies, recording.laser)
 

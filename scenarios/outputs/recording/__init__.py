@@ -26,16 +26,19 @@ import rerun as rr
 from scipy.spatial.transform import Rotation
 
 from models import ObjectModel
+from models.robot.visuals import LinkVisual
 from registration import MatchResult
 from registration.quality import target_covariance
+from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.scan import ScanData
 from scenarios.outputs.recording.layout import blueprint
-from scenarios.outputs.recording.match import log_icp, log_registered, pose
+from scenarios.outputs.recording.match import colour_bar, log_icp, log_registered, pose
 from scenarios.outputs.recording.scan import LaserRays, log_scan
 from scenarios.outputs.recording.scene import CellScene, mesh_archetype
 from scenarios.outputs.recording.stream import ICP, Stream
 from scenarios.outputs.recording.targets import log_targets
+from scenarios.outputs.residuals import colour_scale, residual_colours
 from scenarios.realcell.evaluation import TargetEvaluation
 
 #: The table frame the cell model believes: the table's top, where the object stands.
@@ -53,6 +56,7 @@ class Recording:
         self._rays = LaserRays()
         self._object: str | None = None
         self._T_world_top0 = np.eye(4)
+        self._centre_model = np.zeros(3)
 
     @property
     def path(self) -> Path:
@@ -60,11 +64,13 @@ class Recording:
 
     # -- the cell ---------------------------------------------------------------------------
     def start_cell(self, model: mujoco.MjModel, data: mujoco.MjData, object_name: str,
-                   object_entity: str) -> None:  # fmt: skip
+                   object_entity: str, visuals: tuple[LinkVisual, ...] = ()) -> None:  # fmt: skip
         """The cell's geometry and static bodies, and the table frame under the table;
-        `object_name` is the real object's geom or body, shown as `object_entity`."""
+        `object_name` is the real object's geom or body, shown as `object_entity`; the arm
+        drawn with the link meshes `visuals` if any (models.robot.visuals)."""
         self._object = f"world/cell/{object_entity}"
-        self._scene = CellScene(model, {object_name: object_entity, "table_top": "table_top"})
+        aliases = {object_name: object_entity, "table_top": "table_top"}
+        self._scene = CellScene(model, aliases, visuals)
         self._scene.log_geometry(self.stream, data)
         site = model.site("table_top")
         T = np.eye(4)
@@ -117,7 +123,7 @@ class Recording:
                     [h.p_entry for h in virtual.burr_holes], radii=0.0008, colors=[[60, 90, 255]]
                 ),
             )
-        centre_model = virtual.mesh.vertices.mean(axis=0)
+        centre_model = self._centre_model = virtual.mesh.vertices.mean(axis=0)
         self.stream.static(  # what the close-up's camera follows
             f"{TABLE}/model/centre",
             rr.Transform3D(translation=centre_model),
@@ -128,11 +134,44 @@ class Recording:
         T = self._T_world_top0 @ T_table_nominal
         centre = T[:3, :3] @ centre_model + T[:3, 3]
         size = float(np.ptp(virtual.mesh.vertices, axis=0).max())
-        eye_object = (centre + size * np.array([1.6, -1.6, 1.4]), centre)
-        eye_cell = (centre + np.array([1.4, -2.6, 1.6]), 0.5 * centre)
+        eye_object = (centre + size * np.array([0.7, -0.9, 0.8]), centre)
+        eye_cell = (centre + np.array([1.0, -1.9, 1.2]), 0.5 * centre)
         self.stream.send_blueprint(
             blueprint(self._object, f"{TABLE}/model/centre", eye_object, eye_cell)
         )
+
+    def log_calibration(self, time_s: float, calibration: CalibrationResult) -> None:
+        """The calibration's fit at `time_s`: every sphere point where the identified model
+        puts it (table frame), coloured by its residual from its sphere; the identified
+        centres; the residual RMS per view."""
+        fitted = calibration.fitted
+        if fitted is None:
+            return
+        used = fitted.used
+        rms = float(np.sqrt(np.mean(fitted.residuals_m[used] ** 2)))
+        scale = colour_scale(rms)
+        residuals = np.where(used, fitted.residuals_m, np.inf)
+        self.stream.at(sim_time=time_s)
+        self.stream.log(
+            f"{TABLE}/calibration/points",
+            rr.Points3D(
+                fitted.points_table, colors=residual_colours(residuals, scale), radii=0.0004
+            ),
+        )
+        self.stream.log(
+            f"{TABLE}/calibration/centres",
+            rr.Points3D(calibration.centres_table, colors=[[255, 255, 255]], radii=0.0015),
+        )
+        views = int(fitted.view.max()) + 1
+        n = np.bincount(fitted.view[used], minlength=views)
+        sq = np.bincount(fitted.view[used], fitted.residuals_m[used] ** 2, minlength=views)
+        per_view = np.sqrt(sq / np.maximum(n, 1))
+        self.stream.log(
+            "plots/calibration/residual_per_view_mm",
+            rr.BarChart(per_view * 1e3, color=[255, 170, 60]),
+        )
+        label = "sphere point to its sphere, identified model [mm] (inside < 0 < outside)"
+        self.stream.log("legend/residual", rr.Image(colour_bar(scale, label)))
 
     def log_scan(self, scan: ScanData, on_object: np.ndarray) -> None:
         """The measured scan building up (see scan.py)."""
@@ -166,7 +205,9 @@ class Recording:
         if result is not None and targets_model is not None and len(targets_model):
             R = program.T_base_object[:3, :3]
             covariances = R @ target_covariance(result.covariance, targets_model) @ R.T
-        log_targets(self.stream, time_s, corrected, evaluated, covariances)
+        T = program.T_base_object
+        centre = T[:3, :3] @ self._centre_model + T[:3, 3]
+        log_targets(self.stream, time_s, corrected, evaluated, covariances, centre)
 
     def close(self, keep: bool = True) -> None:
         """Send what was buffered and close; keep the file only if the run completed."""

@@ -48,11 +48,20 @@ def blueprint(
         rrb.Tabs(
             rrb.BarChartView(origin="/plots/targets/error_mm", name="target error [mm]"),
             rrb.BarChartView(origin="/plots/targets/predicted_tre_mm", name="predicted TRE [mm]"),
-            rrb.TimeSeriesView(origin="/plots/icp", name="ICP rms [mm] (timeline icp)"),
+        ),
+        rrb.Tabs(
+            rrb.BarChartView(
+                origin="/plots/icp/rms_per_iteration_mm", name="ICP rms [mm] per iteration"
+            ),
+            rrb.TimeSeriesView(origin="/plots/icp/rms_mm", name="ICP rms [mm] (timeline icp)"),
+            rrb.BarChartView(
+                origin="/plots/calibration/residual_per_view_mm",
+                name="calibration rms [mm] per view",
+            ),
         ),
         rrb.Spatial2DView(origin="/legend", name="colour scale"),
         rrb.TextLogView(origin="/log", name="log"),
-        row_shares=[3, 1, 4],
+        row_shares=[2, 2, 1, 3],
     )
     return rrb.Blueprint(
         rrb.Horizontal(

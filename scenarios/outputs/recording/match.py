@@ -38,7 +38,9 @@ def pose(T: np.ndarray) -> rr.Transform3D:
     )
 
 
-def colour_bar(scale_m: float) -> np.ndarray:
+def colour_bar(
+    scale_m: float, label: str = "scan point to registered model [mm] (inside < 0 < outside)"
+) -> np.ndarray:
     """An image (H, W, 3) of the colour scale, labelled in mm."""
     fig = Figure(figsize=(5.0, 0.8), dpi=100)
     ax = fig.subplots()
@@ -46,7 +48,7 @@ def colour_bar(scale_m: float) -> np.ndarray:
     s = scale_m * 1e3
     ax.imshow(gradient, aspect="auto", cmap=COLOUR_MAP, extent=(-s, s, 0, 1))
     ax.set_yticks([])
-    ax.set_xlabel("scan point to registered model [mm] (inside < 0 < outside)", fontsize=9)
+    ax.set_xlabel(label, fontsize=9)
     fig.tight_layout()
     buffer = io.BytesIO()
     fig.savefig(buffer, format="raw", dpi=100)
@@ -70,6 +72,10 @@ def log_registered(
     residuals, _ = signed_residuals(virtual, p_model)
     scale = colour_scale(result.sigma)
     stream.at(sim_time=time_s)
+    stream.log(
+        "plots/icp/rms_per_iteration_mm",
+        rr.BarChart(np.asarray(result.history) * 1e3, color=[80, 160, 255]),
+    )
     stream.log(f"{table}/model", pose(T_table_object))
     stream.log(f"{table}/scan/passes", rr.Clear(recursive=True))
     stream.log(
@@ -146,6 +152,9 @@ def log_icp(
             ),
         )
     first = 2
+    history = np.asarray(result.history) * 1e3
+    stream.at(icp=first)
+    stream.log("plots/icp/rms_per_iteration_mm", rr.BarChart(history, color=[80, 160, 255]))
     for k, (T_model_data, rms) in enumerate(zip(result.trajectory, result.history, strict=False)):
         stream.at(icp=first + k)
         stream.log(f"{table}/model", pose(invert(T_model_data)))

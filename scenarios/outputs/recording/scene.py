@@ -19,6 +19,7 @@ import rerun as rr
 import trimesh
 from scipy.spatial.transform import Rotation
 
+from models.robot.visuals import LinkVisual
 from scenarios.outputs.recording.stream import Stream
 
 #: Geom groups shown: environment, objects, arm visuals, tools (not collision-only ones).
@@ -58,6 +59,27 @@ def _pose(T: np.ndarray) -> rr.Transform3D:
 
 def _rgba(rgba: np.ndarray) -> list[int]:
     return [round(255 * float(c)) for c in rgba]
+
+
+def _body_names(model: mujoco.MjModel) -> set[str]:
+    return {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(model.nbody)}
+
+
+def _zero_pose(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, np.ndarray]:
+    """(4, 4) world pose of every body with the arm's joints at zero (the rest as now)."""
+    scratch = mujoco.MjData(model)
+    scratch.qpos[:] = data.qpos
+    for name in ("base", "link1", "link2", "link3", "link4", "link5", "link6"):
+        b = model.body(name).id
+        for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+            scratch.qpos[model.jnt_qposadr[j]] = 0.0
+    mujoco.mj_kinematics(model, scratch)
+    out = {}
+    for b in range(model.nbody):
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = scratch.xmat[b].reshape(3, 3), scratch.xpos[b]
+        out[b] = T
+    return out
 
 
 def _local(model: mujoco.MjModel, g: int) -> np.ndarray:
@@ -110,10 +132,17 @@ class CellScene:
     """The cell's entities, its static geometry and the witnessed poses of what moves.
 
     `aliases` names bodies and fixture geoms for the user (e.g. {"object": "skull"}); a
-    fixture geom not in it goes under `world/cell/fixtures/`."""
+    fixture geom not in it goes under `world/cell/fixtures/`. The arm's bodies that have a
+    mesh in `visuals` are drawn with it instead of their simple shapes."""
 
-    def __init__(self, model: mujoco.MjModel, aliases: dict[str, str]) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        aliases: dict[str, str],
+        visuals: tuple[LinkVisual, ...] = (),
+    ) -> None:
         self.model = model
+        self.visuals = {v.body: v for v in visuals if v.body in _body_names(model)}
         moves = model.body_weldid != 0
         things: list[Thing] = []
         for b in range(1, model.nbody):
@@ -163,6 +192,9 @@ class CellScene:
                 stream.static(own[g].path, archetype)
                 continue
             thing = by_body[int(model.geom_bodyid[g])]
+            body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, thing.body)
+            if body in self.visuals and model.geom_group[g] == 2:
+                continue  # drawn with its mesh
             kind = int(model.geom_type[g])
             k = counts.get((thing.body, kind), 0)
             counts[(thing.body, kind)] = k + 1
@@ -171,6 +203,18 @@ class CellScene:
         for t in self.things:
             if t.static:
                 stream.static(t.path, _pose(self._world(data, t)))
+        if self.visuals:
+            zero = _zero_pose(model, data)
+            for body, v in self.visuals.items():
+                b = model.body(body).id
+                T_link = np.eye(4)
+                T_link[:3, 3] = v.origin_zero
+                T_body_mesh = np.linalg.solve(zero[b], T_link)
+                stream.static(
+                    f"{by_body[b].path}/visual",
+                    _pose(T_body_mesh),
+                    mesh_archetype(v.vertices, v.faces, list(v.rgba)),
+                )
 
     def _world(self, data: mujoco.MjData, t: Thing) -> np.ndarray:
         T = np.eye(4)

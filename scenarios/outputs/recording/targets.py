@@ -18,6 +18,8 @@ from scipy.spatial.transform import Rotation
 from scenarios.outputs.recording.stream import Stream
 from scenarios.realcell.evaluation import TargetEvaluation
 
+#: A target's label stands this far out from it, away from the object's centre [m].
+LABEL_OUT_M = 0.03
 #: Magnifications offered; the largest that keeps the longest line within LINE_M is used.
 FACTORS = (1, 2, 5, 10, 20, 50, 100, 200)
 LINE_M = 0.015
@@ -44,10 +46,12 @@ def log_targets(
     corrected_base: np.ndarray,
     evaluated: tuple[TargetEvaluation, ...],
     covariances_base: np.ndarray | None,
+    centre_base: np.ndarray,
 ) -> int:
     """The targets at `time_s`: corrected (K, 3) [m] in the base frame, their evaluation,
     the predicted TRE covariances (K, 3, 3) [m^2] in the base frame (None: no surface
-    match). Returns the magnification of the error lines."""
+    match); labels stand out from the object's centre `centre_base` (3,). Returns the
+    magnification of the error lines."""
     stream.at(sim_time=time_s)
     stream.log(
         "world/targets/corrected", rr.Points3D(corrected_base, radii=0.0006, colors=[[40, 200, 60]])
@@ -63,14 +67,23 @@ def log_targets(
     )
     stream.log("world/targets/true", rr.Points3D(true, radii=0.0005, colors=[[20, 20, 20]]))
     stream.log(
-        "world/targets/errors",
+        f"world/targets/errors_x{factor}",
         rr.Arrows3D(
-            origins=true,
-            vectors=factor * (achieved - true),
+            origins=true, vectors=factor * (achieved - true), colors=[[230, 0, 230]], radii=0.0003
+        ),
+    )
+    out = true - centre_base
+    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-9)
+    anchors = true + LABEL_OUT_M * out
+    stream.log(
+        "world/targets/labels",
+        rr.Points3D(
+            anchors,
+            radii=0.0002,
             colors=[[230, 0, 230]],
-            radii=0.0003,
             labels=[f"{t.name} {t.error_m * 1e3:.2f} mm" for t in evaluated],
         ),
+        rr.LineStrips3D(np.stack([true, anchors], axis=1), colors=[[200, 200, 200]], radii=0.0001),
     )
     text = ", ".join(f"{t.name} {t.error_m * 1e3:.3f}" for t in evaluated)
     stream.log(
