@@ -1,17 +1,19 @@
-"""The recording as a user sees it: run.rrd opened in the real rerun viewer, headless,
-screenshots at the scan, at the end of the run and on the ICP's timeline, and their pixels
-checked.
+"""The recording as a user sees it: run.rrd opened in the real rerun viewer on a virtual
+display, screenshots of its views at the scan, at the end of the run and on the ICP's
+timeline, and their pixels checked.
 
     python bench/viewer_check.py RUN_FOLDER [--shots DIR]
 
-Needs the system packages the viewer needs without a display: Xvfb, Mesa's software Vulkan
-driver, xdotool and ImageMagick (Debian: xvfb mesa-vulkan-drivers libvulkan1 libegl1 libgl1
-libxkbcommon-x11-0 xdotool imagemagick). Not part of the test command for that reason.
+Needs what the viewer needs without a display: Xvfb and Mesa's software Vulkan driver
+(Debian: xvfb mesa-vulkan-drivers libvulkan1 libegl1 libgl1 libxkbcommon-x11-0). Not part
+of the test command for that reason.
 
-The screen is 1600 x 1000; the default layout puts the object's close-up at the top left.
-Each check counts pixels of a colour the run must show there (the scan's yellow, the rays'
-red, the targets' magenta, the residual scale's colours, the search's starts) and fails
-with the counts if one is missing. Exit status 0: every check passed.
+The viewer is driven through rerun's ViewerClient (open the file, set the time, take a
+screenshot of one view), so no click depends on where the panels are. Each check counts
+pixels of a colour the run must show in a view: the scan's yellow and the rays' red during
+the scan; the residual scale's colours and the targets' magenta at the end, and the error
+bars; the worst-scored starts' purple at the first step of the `icp` timeline. Exit status
+0: every check passed.
 """
 
 from __future__ import annotations
@@ -30,17 +32,13 @@ import rerun.chunk as rc
 from PIL import Image
 
 DISPLAY = ":99"
-SIZE = (1600, 1000)
-#: The close-up view's pixels (x0, y0, x1, y1) in the default layout.
-CLOSE_UP = (0, 60, 958, 462)
-#: The time ruler: x of the first and the last time, y of a click on it.
-RULER = (204, 1581, 985)
-TIMELINE_MENU = (180, 764)
-ICP_ITEM = (175, 791)
+CLOSE_UP = "object: scan, registered model, targets"
+CELL = "cell"
+BARS = "target error [mm]"
 
 
-def phases(rrd: Path) -> tuple[dict[str, float], float]:
-    """The phases' start times and the recording's last time on sim_time [s]."""
+def phases(rrd: Path) -> dict[str, float]:
+    """The phases' start times on sim_time [s], from the recording's log, and its end."""
     starts: dict[str, float] = {}
     end = 0.0
     for chunk in rc.RrdReader(rrd).stream().to_chunks():
@@ -53,62 +51,22 @@ def phases(rrd: Path) -> tuple[dict[str, float], float]:
             for t, text in zip(times, batch.column("TextLog:text").to_pylist(), strict=True):
                 if text[0].startswith("== "):
                     starts.setdefault(text[0].split("==")[1].strip(), float(t))
-    return starts, end
+    return {**starts, "last": end}
 
 
-def count(image: np.ndarray, box: tuple[int, int, int, int], test: str) -> int:
-    """Pixels in `box` of a colour class: yellow, red, magenta, rainbow, viridis."""
-    x0, y0, x1, y1 = box
-    px = image[y0:y1, x0:x1, :3].astype(int)
+def count(path: Path, colour: str) -> int:
+    """Pixels of a colour class in a screenshot."""
+    px = np.asarray(Image.open(path).convert("RGB")).astype(int)
     r, g, b = px[..., 0], px[..., 1], px[..., 2]
+    spread = np.max(px, axis=-1) - np.min(px, axis=-1)
     masks = {
         "yellow": (r > 200) & (g > 150) & (b < 110),
         "red": (r > 200) & (g < 110) & (b < 90),
         "magenta": (r > 180) & (g < 80) & (b > 180),
-        "rainbow": (np.max(px, axis=-1) - np.min(px, axis=-1) > 120) & ~((r > 200) & (g > 150)),
-        "viridis": (g > 90) & (b > 90) & (r < 90),
+        "rainbow": (spread > 120) & ~((r > 200) & (g > 150) & (b < 110)),
+        "purple": (r > 40) & (r < 110) & (g < 60) & (b > 70),
     }
-    return int(masks[test].sum())
-
-
-class Viewer:
-    """rerun's viewer on a virtual display."""
-
-    def __init__(self, rrd: Path) -> None:
-        self.env = {**os.environ, "DISPLAY": DISPLAY, "WGPU_BACKEND": "vulkan"}
-        self.xvfb = subprocess.Popen(
-            ["Xvfb", DISPLAY, "-screen", "0", f"{SIZE[0]}x{SIZE[1]}x24", "-nolisten", "tcp",
-             "-extension", "Composite"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-        time.sleep(1.0)
-        rerun = Path(sys.executable).with_name("rerun")
-        self.viewer = subprocess.Popen(
-            [str(rerun), str(rrd)], env=self.env, stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-        time.sleep(35.0)  # the software renderer takes its time to come up
-        self.click(28, 763)  # pause the playback
-
-    def click(self, x: int, y: int) -> None:
-        subprocess.run(["xdotool", "mousemove", str(x), str(y), "mousedown", "1"], env=self.env,
-                       check=True)  # fmt: skip
-        time.sleep(0.3)
-        subprocess.run(["xdotool", "mouseup", "1"], env=self.env, check=True)
-        time.sleep(1.0)
-
-    def at(self, fraction: float) -> None:
-        x0, x1, y = RULER
-        self.click(round(x0 + fraction * (x1 - x0)), y)
-
-    def shot(self, path: Path) -> np.ndarray:
-        time.sleep(5.0)
-        subprocess.run(["import", "-window", "root", str(path)], env=self.env, check=True)
-        return np.asarray(Image.open(path).convert("RGB"))
-
-    def close(self) -> None:
-        self.viewer.terminate()
-        self.xvfb.terminate()
+    return int(masks[colour].sum())
 
 
 def main() -> int:
@@ -116,40 +74,69 @@ def main() -> int:
     parser.add_argument("run_folder", type=Path)
     parser.add_argument("--shots", type=Path, default=None, help="keep the screenshots here")
     args = parser.parse_args()
-    rrd = args.run_folder / "run.rrd"
-    missing = [t for t in ("Xvfb", "xdotool", "import") if shutil.which(t) is None]
-    if missing or not rrd.is_file():
-        print(f"cannot check: missing {missing or [str(rrd)]}")
+    rrd = (args.run_folder / "run.rrd").resolve()
+    if shutil.which("Xvfb") is None or not rrd.is_file():
+        print(f"cannot check: {'no Xvfb' if rrd.is_file() else f'no {rrd}'}")
         return 2
-    starts, end = phases(rrd)
-    scan = starts["scan"] + 0.6 * (starts["register"] - starts["scan"])
+    from rerun.experimental import ViewerClient
+
+    times = phases(rrd)
     shots = args.shots or Path(tempfile.mkdtemp(prefix="viewer-"))
     shots.mkdir(parents=True, exist_ok=True)
-    checks: list[tuple[str, str, int, int]] = []
-    viewer = Viewer(rrd)
+    state = tempfile.TemporaryDirectory(prefix="rerun-state-")  # a fresh viewer each time
+    os.environ.update(
+        DISPLAY=DISPLAY,
+        WGPU_BACKEND="vulkan",
+        XDG_DATA_HOME=f"{state.name}/data",
+        XDG_CONFIG_HOME=f"{state.name}/config",
+        XDG_CACHE_HOME=f"{state.name}/cache",
+    )
+    xvfb = subprocess.Popen(
+        ["Xvfb", DISPLAY, "-screen", "0", "1600x1000x24", "-nolisten", "tcp",
+         "-extension", "Composite"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    time.sleep(1.0)
+    checks: list[tuple[str, str, str, int, int]] = []
+    viewer = ViewerClient.spawn(port=9879, hide_welcome_screen=True)
     try:
-        viewer.at(scan / end)
-        image = viewer.shot(shots / "scan.png")
-        checks += [("scan", "yellow", count(image, CLOSE_UP, "yellow"), 2000),
-                   ("scan", "red", count(image, CLOSE_UP, "red"), 200)]  # fmt: skip
-        viewer.at(1.0)
-        image = viewer.shot(shots / "end.png")
-        bars = (960, 60, 1600, 230)
-        checks += [("end", "rainbow", count(image, CLOSE_UP, "rainbow"), 5000),
-                   ("end", "magenta", count(image, CLOSE_UP, "magenta"), 100),
-                   ("end", "bars", count(image, bars, "magenta"), 2000)]  # fmt: skip
-        viewer.click(*TIMELINE_MENU)
-        viewer.click(*ICP_ITEM)
-        viewer.at(0.0)
-        image = viewer.shot(shots / "icp_start.png")
-        checks.append(("icp start", "viridis", count(image, CLOSE_UP, "viridis"), 500))
+        viewer.open(str(rrd))
+        while viewer.get_state().loading:
+            time.sleep(1.0)
+        views = {v.name: v.view_id for v in viewer.get_state().views}
+
+        def shot(name: str, view: str) -> Path:
+            time.sleep(4.0)  # the software renderer's frame
+            path = shots / f"{name}_{view.split(':')[0].replace(' ', '_')}.png"
+            viewer.save_screenshot(str(path), views[view])
+            return path
+
+        scan = times["scan"] + 0.6 * (times["register"] - times["scan"])
+        viewer.set_time("sim_time", duration=scan, play_state="paused")
+        close = shot("scan", CLOSE_UP)
+        shot("scan", CELL)
+        checks += [("scan", CLOSE_UP, "yellow", count(close, "yellow"), 2000),
+                   ("scan", CLOSE_UP, "red", count(close, "red"), 200)]  # fmt: skip
+        viewer.set_time("sim_time", duration=times["last"], play_state="paused")
+        close, bars = shot("end", CLOSE_UP), shot("end", BARS)
+        shot("end", CELL)
+        viewer.save_screenshot(str(shots / "end_window.png"))
+        checks += [("end", CLOSE_UP, "rainbow", count(close, "rainbow"), 5000),
+                   ("end", CLOSE_UP, "magenta", count(close, "magenta"), 100),
+                   ("end", BARS, "magenta", count(bars, "magenta"), 2000)]  # fmt: skip
+        viewer.set_time("icp", sequence=0, play_state="paused")
+        close = shot("icp_start", CLOSE_UP)
+        checks.append(("icp 0", CLOSE_UP, "purple", count(close, "purple"), 200))
     finally:
-        viewer.close()
+        viewer.quit()
+        xvfb.terminate()
+        state.cleanup()
     failed = 0
-    for shot, what, n, least in checks:
+    for moment, view, colour, n, least in checks:
         ok = n >= least
         failed += not ok
-        print(f"{shot:10s} {what:8s} {n:8d} px (at least {least}) {'ok' if ok else 'MISSING'}")
+        print(f"{moment:6s} {view[:24]:24s} {colour:8s} {n:7d} px (>= {least}) "
+              f"{'ok' if ok else 'MISSING'}")  # fmt: skip
     print(f"screenshots in {shots}")
     return 1 if failed else 0
 

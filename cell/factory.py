@@ -74,4 +74,4 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
         config.robot,
         config.rack_xyz,
     )
-    return controller, CellTruth(config, params, sim, table, laser)
+    return controller, CellTruth(config, params, sim, table, laser, ir)

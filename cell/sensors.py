@@ -110,9 +110,24 @@ class IRSensor:
         self.config = config
         self.rng = rng
         self._geomid = np.zeros(1, dtype=np.int32)
+        #: A witness of every reading, as the laser's (one ray; NaN = no return).
+        self.witness: Callable[[mujoco.MjData, np.ndarray, np.ndarray, np.ndarray], None] | None
+        self.witness = None
 
     def cast(self, data: mujoco.MjData) -> float | None:
         """Measured distance [m], or None when nothing is within range."""
+        dist = self._cast(data)
+        if self.witness is not None:
+            site = self.site
+            self.witness(
+                data,
+                data.site_xpos[site].copy(),
+                data.site_xmat[site].reshape(3, 3)[:, 2][None, :].copy(),
+                np.array([np.nan if dist is None else dist]),
+            )
+        return dist
+
+    def _cast(self, data: mujoco.MjData) -> float | None:
         c = self.config
         mujoco.mj_kinematics(self.model, data)
         direction = data.site_xmat[self.site].reshape(3, 3)[:, 2].copy()

@@ -13,7 +13,7 @@ from cell.config import CellConfig
 from cell.devices import TableAxis
 from cell.errors import UnknownNameError
 from cell.kinematics import Kinematics, payload_model
-from cell.sensors import LaserScanner
+from cell.sensors import IRSensor, LaserScanner
 from cell.simulation import Simulation
 from cell.toolchanger import flange_offset
 from models.robot import TOOLS
@@ -29,12 +29,14 @@ class CellTruth:
         sim: Simulation,
         table: TableAxis,
         laser: LaserScanner | None = None,
+        ir: IRSensor | None = None,
     ) -> None:
         self.config = config
         self.params = params
         self._sim = sim
         self._table = table
         self._laser = laser
+        self._ir = ir
         self._gravity: dict[str | None, tuple[pin.Model, pin.Data]] = {}
         self._kinematics: Kinematics | None = None
 
@@ -48,13 +50,17 @@ class CellTruth:
         bodies: Callable[[mujoco.MjData], None] | None,
         laser: Callable[[mujoco.MjData, np.ndarray, np.ndarray, np.ndarray], None] | None,
         period_s: float = 1.0 / 30.0,
+        ir: Callable[[mujoco.MjData, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
     ) -> None:
         """Witness the real cell: `bodies(data)` every `period_s` [s] of simulated time, and
         `laser(data, origin, directions, ranges)` at every laser line (world frame, ranges as
-        measured). For the recording of a run; None stops either."""
+        measured), `ir` alike at every IR reading. For the recording of a run; None stops
+        any of them."""
         self._sim.watch(bodies, period_s)
         if self._laser is not None:
             self._laser.witness = laser
+        if self._ir is not None:
+            self._ir.witness = ir
 
     @property
     def simulation(self) -> Simulation:

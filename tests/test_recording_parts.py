@@ -47,9 +47,7 @@ def test_ellipsoids_are_their_covariances() -> None:
     assert np.allclose(np.linalg.det(R), 1.0)
 
 
-@pytest.mark.parametrize(
-    ("worst_m", "factor"), [(0.3e-3, 50), (0.0, 200), (20e-3, 1), (1e-3, 10)]
-)
+@pytest.mark.parametrize(("worst_m", "factor"), [(0.3e-3, 50), (0.0, 200), (20e-3, 1), (1e-3, 10)])
 def test_magnification_keeps_the_longest_line_short(worst_m: float, factor: int) -> None:
     assert magnification(np.array([worst_m / 2, worst_m])) == factor
 

@@ -27,8 +27,9 @@ from scenarios.outputs.residuals import (
     signed_residuals,
 )
 
-#: Scan points drawn at most (a random subsample, seeded).
-MAX_POINTS = 30_000
+#: Scan points and model vertices drawn at most (random subsamples, seeded).
+MAX_POINTS = 20_000
+MAX_VERTICES = 25_000
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,7 @@ def _render(
     v = vertices[front]
     shade = 0.35 + 0.6 * np.clip(normals[front] @ light, 0.0, 1.0)
     order = np.argsort(-(v @ d))
-    ax.scatter(v[order] @ right, v[order] @ up, s=3.0, c=np.repeat(shade[order, None], 3, 1),
+    ax.scatter(v[order] @ right, v[order] @ up, s=5.0, c=np.repeat(shade[order, None], 3, 1),
                marker="o", linewidths=0, rasterized=True)  # fmt: skip
     seen = point_normals @ d < 0.0
     p = points[seen]
@@ -106,8 +107,11 @@ def write_registration_figure(
     colours = residual_colours(residuals, scale)
     mesh = trimesh.Trimesh(virtual.mesh.vertices, virtual.mesh.faces, process=False)
     R, t = T_table_object[:3, :3], T_table_object[:3, 3]
-    vertices = mesh.vertices @ R.T + t
-    normals = mesh.vertex_normals @ R.T
+    shown = np.arange(len(mesh.vertices))
+    if len(shown) > MAX_VERTICES:
+        shown = np.sort(rng.choice(len(shown), MAX_VERTICES, replace=False))
+    vertices = mesh.vertices[shown] @ R.T + t
+    normals = mesh.vertex_normals[shown] @ R.T
     point_normals = n_model @ R.T
     point_normals[~np.isfinite(residuals)] = (0.0, 0.0, -1.0)  # off the model: not drawn
     marks = [

@@ -34,7 +34,7 @@ class CellLog:
             recording.start_cell(
                 evaluator.mujoco_model, evaluator.mujoco_data, object_name, object_entity, looks
             )
-            evaluator.watch(recording.bodies, recording.laser)
+            evaluator.watch(recording.bodies, recording.laser, recording.ir)
 
     @property
     def recording(self) -> Any | None:

@@ -224,10 +224,11 @@ class Evaluator:
             poses[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)] = T
         return poses
 
-    def watch(self, bodies: Any, laser: Any) -> None:
+    def watch(self, bodies: Any, laser: Any, ir: Any = None) -> None:
         """Let a recording witness the real cell: `bodies(data)` while it moves, `laser(data,
-        origin, directions, ranges)` at every laser line (see cell.CellTruth.watch)."""
-        self._truth.watch(bodies, laser)
+        origin, directions, ranges)` at every laser line, `ir` at every IR reading (see
+        cell.CellTruth.watch)."""
+        self._truth.watch(bodies, laser, ir=ir)
 
     @property
     def mujoco_data(self) -> mujoco.MjData:

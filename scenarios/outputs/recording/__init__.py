@@ -5,7 +5,8 @@ Entities (base frame = world; timelines `sim_time`, the cell's clock, and `icp`)
 - `world/cell/...`: the real cell, named (`arm/link3`, `table`, `tools/laser`, the object
   under its model's name, `fixtures/calibration_sphere1`); static bodies once, moving ones
   whenever they moved (scene.py);
-- `world/laser/rays`: the laser's rays as they went, while it reads (scan.py);
+- `world/laser/rays`, `world/ir/ray`: the laser's rays and the IR sensor's ray as they went,
+  while they read (scan.py);
 - `world/cell/table/frame`: the table frame the cell model believes; under it `model` (the
   virtual model: nominal, then registered; its targets with it), `scan/line`,
   `scan/passes/pNN`, `scan/registered` (coloured by residual) and `icp/...` (match.py);
@@ -54,6 +55,7 @@ class Recording:
         self.stream.static("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         self._scene: CellScene | None = None
         self._rays = LaserRays()
+        self._ir = LaserRays("world/ir/ray", (60, 230, 120))
         self._object: str | None = None
         self._T_world_top0 = np.eye(4)
         self._centre_model = np.zeros(3)
@@ -95,6 +97,13 @@ class Recording:
         self.bodies(data)
         self._rays.sample(float(data.time), origin, directions, ranges)
 
+    def ir(
+        self, data: mujoco.MjData, origin: np.ndarray, directions: np.ndarray, ranges: np.ndarray
+    ) -> None:
+        """Witness: one IR reading (world frame, measured range)."""
+        self.bodies(data)
+        self._ir.sample(float(data.time), origin, directions, ranges)
+
     # -- the story --------------------------------------------------------------------------
     def phase(self, time_s: float, name: str, detail: str = "") -> None:
         """A phase of the run begins at `time_s` [s]."""
@@ -124,11 +133,6 @@ class Recording:
                 ),
             )
         centre_model = self._centre_model = virtual.mesh.vertices.mean(axis=0)
-        self.stream.static(  # what the close-up's camera follows
-            f"{TABLE}/model/centre",
-            rr.Transform3D(translation=centre_model),
-            rr.Points3D([[0.0, 0.0, 0.0]], radii=1e-5, colors=[[0, 0, 0, 0]]),
-        )
         self.stream.at(sim_time=0.0)
         self.stream.log(f"{TABLE}/model", pose(T_table_nominal))
         T = self._T_world_top0 @ T_table_nominal
@@ -136,9 +140,7 @@ class Recording:
         size = float(np.ptp(virtual.mesh.vertices, axis=0).max())
         eye_object = (centre + size * np.array([0.7, -0.9, 0.8]), centre)
         eye_cell = (centre + np.array([1.0, -1.9, 1.2]), 0.5 * centre)
-        self.stream.send_blueprint(
-            blueprint(self._object, f"{TABLE}/model/centre", eye_object, eye_cell)
-        )
+        self.stream.send_blueprint(blueprint(self._object, eye_object, eye_cell))
 
     def log_calibration(self, time_s: float, calibration: CalibrationResult) -> None:
         """The calibration's fit at `time_s`: every sphere point where the identified model
@@ -215,4 +217,5 @@ class Recording:
             if self._scene is not None:
                 self._scene.flush(self.stream)
             self._rays.flush(self.stream)
+            self._ir.flush(self.stream)
         self.stream.close(keep)

@@ -16,22 +16,16 @@ from scenarios.outputs.recording.stream import SIM_TIME
 
 def blueprint(
     object_entity: str | None = None,
-    track: str | None = None,
     eye_object: tuple[np.ndarray, np.ndarray] | None = None,
     eye_cell: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> rrb.Blueprint:
-    """The layout; `eye_*` (position, look target) [m] in the base frame place the cameras,
-    `object_entity` is the real object's entity, left out of the close-up, which follows
-    the entity `track` (the virtual model, as the table carries it)."""
+    """The layout; `eye_*` (position, look target) [m] in the base frame place the cameras;
+    `object_entity` is the real object's entity, left out of the close-up."""
 
-    def eye(
-        spot: tuple[np.ndarray, np.ndarray] | None, follow: str | None = None
-    ) -> rrb.EyeControls3D | None:
+    def eye(spot: tuple[np.ndarray, np.ndarray] | None) -> rrb.EyeControls3D | None:
         if spot is None:
             return None
-        return rrb.EyeControls3D(
-            position=spot[0], look_target=spot[1], eye_up=(0.0, 0.0, 1.0), tracking_entity=follow
-        )
+        return rrb.EyeControls3D(position=spot[0], look_target=spot[1], eye_up=(0.0, 0.0, 1.0))
 
     hidden = ["- /world/cell/arm/**", "- /world/cell/rack/**", "- /world/cell/table_rail/**"]
     if object_entity is not None:
@@ -40,7 +34,7 @@ def blueprint(
         origin="/world",
         contents=["+ /world/**", *hidden],
         name="object: scan, registered model, targets",
-        eye_controls=eye(eye_object, track),
+        eye_controls=eye(eye_object),
         line_grid=rrb.archetypes.LineGrid3D(visible=False),
     )
     cell = rrb.Spatial3DView(origin="/world", name="cell", eye_controls=eye(eye_cell))

@@ -27,8 +27,11 @@ CLUTTER = (140, 140, 140, 255)
 class LaserRays:
     """A witness of the laser: its rays per line, buffered, sent in one column."""
 
-    def __init__(self, path: str = "world/laser/rays") -> None:
+    def __init__(
+        self, path: str = "world/laser/rays", colour: tuple[int, int, int] = (255, 70, 40)
+    ) -> None:
         self.path = path
+        self.colour = colour
         self._times: list[float] = []
         self._strips: list[np.ndarray] = []
 
@@ -63,7 +66,7 @@ class LaserRays:
             np.asarray(times),
             rr.LineStrips3D.columns(strips=flat).partition(lengths),
         )
-        stream.static(self.path, rr.LineStrips3D.from_fields(colors=[[255, 70, 40]], radii=0.0004))
+        stream.static(self.path, rr.LineStrips3D.from_fields(colors=[self.colour], radii=0.0004))
         self._times.clear()
         self._strips.clear()
 
