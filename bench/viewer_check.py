@@ -1,6 +1,6 @@
 """The recording as a user sees it: run.rrd opened in the real rerun viewer on a virtual
-display, screenshots of its views at the scan, at the end of the run and on the ICP's
-timeline, and their pixels checked.
+display, screenshots of its views during the scan's last pass, at the end of the run and on
+the ICP's timeline, and their pixels checked.
 
     python bench/viewer_check.py RUN_FOLDER [--shots DIR]
 
@@ -38,8 +38,11 @@ BARS = "target error [mm]"
 
 
 def phases(rrd: Path) -> dict[str, float]:
-    """The phases' start times on sim_time [s], from the recording's log, and its end."""
+    """The phases' start times on sim_time [s], from the recording's log, its end, and the
+    middle of the scan's last pass (where the close-up looks: the object where the table
+    holds it at the scan's end)."""
     starts: dict[str, float] = {}
+    passes: list[float] = []
     end = 0.0
     for chunk in rc.RrdReader(rrd).stream().to_chunks():
         batch = chunk.to_record_batch()
@@ -51,7 +54,10 @@ def phases(rrd: Path) -> dict[str, float]:
             for t, text in zip(times, batch.column("TextLog:text").to_pylist(), strict=True):
                 if text[0].startswith("== "):
                     starts.setdefault(text[0].split("==")[1].strip(), float(t))
-    return {**starts, "last": end}
+                if text[0].startswith("scan pass "):
+                    passes.append(float(t))
+    passes = sorted([starts.get("scan", 0.0), *passes])
+    return {**starts, "last": end, "last pass": 0.5 * (passes[-2] + passes[-1])}
 
 
 def count(path: Path, colour: str) -> int:
@@ -111,8 +117,7 @@ def main() -> int:
             viewer.save_screenshot(str(path), views[view])
             return path
 
-        scan = times["scan"] + 0.6 * (times["register"] - times["scan"])
-        viewer.set_time("sim_time", duration=scan, play_state="paused")
+        viewer.set_time("sim_time", duration=times["last pass"], play_state="paused")
         close = shot("scan", CLOSE_UP)
         shot("scan", CELL)
         checks += [("scan", CLOSE_UP, "yellow", count(close, "yellow"), 2000),

@@ -57,7 +57,10 @@ class Recording:
         self._rays = LaserRays()
         self._ir = LaserRays("world/ir/ray", (60, 230, 120))
         self._object: str | None = None
-        self._T_world_top0 = np.eye(4)
+        self._T_world_top = np.eye(4)
+        self._T_body_top = np.eye(4)
+        self._T_table_nominal = np.eye(4)
+        self._size = 0.0
         self._centre_model = np.zeros(3)
 
     @property
@@ -80,9 +83,10 @@ class Recording:
         T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
         T[:3, 3] = model.site_pos[site.id]
         self.stream.static(TABLE, pose(T))
-        self._T_world_top0 = np.eye(4)
-        self._T_world_top0[:3, :3] = data.site_xmat[site.id].reshape(3, 3)
-        self._T_world_top0[:3, 3] = data.site_xpos[site.id]
+        self._T_body_top = T
+        self._T_world_top = np.eye(4)
+        self._T_world_top[:3, :3] = data.site_xmat[site.id].reshape(3, 3)
+        self._T_world_top[:3, 3] = data.site_xpos[site.id]
         self._scene.sample(data)
 
     def bodies(self, data: mujoco.MjData) -> None:
@@ -132,13 +136,18 @@ class Recording:
                     [h.p_entry for h in virtual.burr_holes], radii=0.0008, colors=[[60, 90, 255]]
                 ),
             )
-        centre_model = self._centre_model = virtual.mesh.vertices.mean(axis=0)
+        self._centre_model = virtual.mesh.vertices.mean(axis=0)
         self.stream.at(sim_time=0.0)
         self.stream.log(f"{TABLE}/model", pose(T_table_nominal))
-        T = self._T_world_top0 @ T_table_nominal
-        centre = T[:3, :3] @ centre_model + T[:3, 3]
-        size = float(np.ptp(virtual.mesh.vertices, axis=0).max())
-        eye_object = (centre + size * np.array([0.7, -0.9, 0.8]), centre)
+        self._T_table_nominal = T_table_nominal
+        self._size = float(np.ptp(virtual.mesh.vertices, axis=0).max())
+        self._aim()
+
+    def _aim(self) -> None:
+        """The layout, its close-up's camera on the object where the table now holds it."""
+        T = self._T_world_top @ self._T_table_nominal
+        centre = T[:3, :3] @ self._centre_model + T[:3, 3]
+        eye_object = (centre + self._size * np.array([0.7, -0.9, 0.8]), centre)
         eye_cell = (centre + np.array([1.0, -1.9, 1.2]), 0.5 * centre)
         self.stream.send_blueprint(blueprint(self._object, eye_object, eye_cell))
 
@@ -176,8 +185,14 @@ class Recording:
         self.stream.log("legend/residual", rr.Image(colour_bar(scale, label)))
 
     def log_scan(self, scan: ScanData, on_object: np.ndarray) -> None:
-        """The measured scan building up (see scan.py)."""
+        """The measured scan building up (see scan.py); the close-up's camera on the object
+        where the table held it at the scan's end."""
         log_scan(self.stream, scan, on_object, f"{TABLE}/scan")
+        if self._scene is not None:
+            table = self._scene.latest().get(self._scene.path_of_body("table"))
+            if table is not None:
+                self._T_world_top = table @ self._T_body_top
+                self._aim()
 
     def log_registration(
         self, time_s: float, result: MatchResult, virtual: ObjectModel,
