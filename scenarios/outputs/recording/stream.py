@@ -40,6 +40,7 @@ class Stream:
             self._streams.append(viewer)
         for s in self._streams:
             s.send_recording_name(name)
+            s.set_log_time_enabled(False)  # the run's own clocks only: sim_time and icp
 
     def at(self, **times: float | int) -> None:
         """The times of the next rows: `sim_time=` seconds, `icp=` a step; nothing else."""
