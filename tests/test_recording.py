@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
 from rrd_reader import Entity, pose, read_rrd
 
+from registration import MeshModel
 from scenarios.cli.app import main
 
 SHORT = """seed: 5
@@ -67,10 +67,9 @@ def test_rays_end_on_the_logged_table_or_object(run: tuple[Path, dict[str, Entit
     during = [(t, s) for t, s in rays if scan < t < register]
     assert len(during) > 100
     skull = e["/world/cell/skull"]
-    mesh = trimesh.Trimesh(
-        np.asarray(skull.static["Mesh3D:vertex_positions"]),
+    mesh = MeshModel(
+        np.asarray(skull.static["Mesh3D:vertex_positions"], dtype=float),
         np.asarray(skull.static["Mesh3D:triangle_indices"]),
-        process=False,
     )
     boxes = {p: v for p, v in e.items() if "Boxes3D:half_sizes" in v.static and v.rows}
     balls = {p: v for p, v in e.items() if "Ellipsoids3D:half_sizes" in v.static and v.rows}
@@ -89,7 +88,7 @@ def test_rays_end_on_the_logged_table_or_object(run: tuple[Path, dict[str, Entit
             distances[path] = np.abs(np.linalg.norm(ends - T[:3, 3], axis=1) - radius)
         T = _world(skull, t)
         local = (ends - T[:3, 3]) @ T[:3, :3]
-        distances["/world/cell/skull"] = np.abs(trimesh.proximity.signed_distance(mesh, local))
+        distances["/world/cell/skull"] = mesh.closest(local).distances
         nearest = np.min(np.array(list(distances.values())), axis=0)
         assert nearest.max() < RAY_TOL_M, (t, nearest.max())
         for path in hits:
