@@ -53,13 +53,47 @@ def check(
         raise typer.Exit(1)
 
 
+def _volume_model(path: str, iso: float, units: str, out: str | None) -> None:
+    """`twincell model` on a CT volume: its bone surface, checked, exported."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from models import write_mesh
+    from models.ct import bone_model, read_volume
+
+    volume = read_volume(path)
+    bone = bone_model(volume, iso_hu=iso)
+    c = bone.check
+    table = Table(title=f"bone model: {path}", show_header=False)
+    table.add_column("item", style="bold")
+    table.add_column("value")
+    rows = (
+        ("modality / frame", f"{volume.modality or 'not stated'} / {volume.native_frame}"),
+        ("voxels (i, j, k)", " x ".join(str(n) for n in volume.data.shape)),
+        ("voxel size (i, j, k) \\[mm]", ", ".join(f"{v:.3f}" for v in c.voxel_mm)),
+        ("threshold \\[HU]", f"{c.iso_hu:g}"),
+        ("faces", str(c.faces)),
+        ("watertight", "yes" if c.watertight else "no"),
+        ("volume \\[cm^3]", "-" if c.volume_m3 is None else f"{c.volume_m3 * 1e6:.2f}"),
+        ("from the isosurface, mean / max \\[mm]",
+         f"{c.deviation_mean_m * 1e3:.3f} / {c.deviation_max_m * 1e3:.3f}"),
+    )  # fmt: skip
+    for label, value in rows:
+        table.add_row(label, value)
+    Console().print(table)
+    if out is not None:
+        written = write_mesh(bone.mesh, out, units)
+        typer.echo(f"wrote {written} ({len(bone.mesh.faces)} triangles, {units})")
+
+
 @app.command("model")
 def model(
     name: Annotated[
         str,
         typer.Argument(
-            help="A built-in model (skull, bracket, housing, lid, ellipsoid) or a mesh file "
-            "(.stl, .obj, .ply)."
+            help="A built-in model (skull, bracket, housing, lid, ellipsoid), a mesh file "
+            "(.stl, .obj, .ply), or a CT volume (a DICOM series folder, .nii/.nii.gz, "
+            ".nrrd/.nhdr) whose bone surface is segmented and meshed."
         ),
     ],
     real: Annotated[
@@ -74,6 +108,9 @@ def model(
     out: Annotated[
         str | None, typer.Option("--out", help="Write the mesh to this .stl/.obj/.ply file.")
     ] = None,
+    iso: Annotated[
+        float, typer.Option("--iso", help="Bone threshold of a CT volume [HU].")
+    ] = 300.0,
 ) -> None:
     """Check a model (vertices, faces, watertight, size, volume, convex pieces); export it."""
     from rich.console import Console
@@ -81,6 +118,11 @@ def model(
     from rich.text import Text
 
     from models import check_model, load_model, write_mesh
+    from models.ct.readers import is_volume
+
+    if is_volume(name):
+        _volume_model(name, iso, units, out)
+        return
 
     loaded, warnings = load_model(name, real=real, seed=seed, units=units)
     report = check_model(loaded, warnings)
