@@ -3,6 +3,7 @@ named, with the valid keys near it).
 
 A cell job is one configuration of the one pipeline (scenarios.jobs.pipeline):
 - `cell`: the robot, the object and how it is placed, the cell's error sources;
+- `model`: where the virtual model comes from (the object's design, or its simulated CT);
 - `calibration`: the in-cell kinematic calibration before anything else;
 - `localization`: 3D surface matching (`surface`), 2D IR edge probing (`probe`), or both
   side by side (the first one's pose drives the program);
@@ -418,6 +419,43 @@ class Checks(_Section):
     target_error_max_m: float | None = Field(1.0e-3, gt=0.0)
 
 
+class CTSection(_Section):
+    """The simulated CT of the real object (`model.source: ct`; models.ct.scanner): voxel size
+    (i, j, k) [mm] (a clinical head protocol's 0.5 mm in-plane, 1 mm slices), the
+    point-spread function's FWHM [mm], the voxel noise [HU]; `iso_hu` is the segmentation's
+    bone threshold. `voxel_mm` also takes one size or "AxBxC" (`--vary
+    model.ct.voxel_mm=0.5x0.5x1,1x1x2`)."""
+
+    voxel_mm: tuple[float, float, float] = (0.5, 0.5, 1.0)
+    blur_mm: float = Field(0.7, ge=0.0, le=5.0)
+    noise_hu: float = Field(20.0, ge=0.0, le=500.0)
+    iso_hu: float = 300.0
+
+    @field_validator("voxel_mm", mode="before")
+    @classmethod
+    def _voxel(cls, value: Any) -> Any:
+        """One size (isotropic) or "AxBxC" (a sweep's value) as well as three sizes."""
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return (value, value, value)
+        if isinstance(value, str) and "x" in value:
+            try:
+                return tuple(float(v) for v in value.split("x"))
+            except ValueError:
+                raise ValueError(f"voxel_mm {value!r}: expected AxBxC in mm") from None
+        return value
+
+
+class ModelSection(_Section):
+    """Where the virtual model comes from. `phantom`: the object's design (built-in or mesh
+    file) is the virtual model, and the real object differs from it by the seeded model
+    error of `cell.noise`. `ct`: the design is the real object, and the virtual model is
+    segmented and meshed from its simulated CT (`ct`), so the model error is the one a
+    CT-derived model has (threshold bias, slice staircase, rounded edges)."""
+
+    source: Literal["phantom", "ct"] = "phantom"
+    ct: CTSection = CTSection()
+
+
 class JobConfig(_Section):
     """A cell job: calibrate, scan, localize, program, execute, evaluate, export (see the
     module's docstring for the sections)."""
@@ -426,6 +464,7 @@ class JobConfig(_Section):
     name: str = "job"
     seed: int = Field(0, ge=0)
     cell: CellSection = CellSection()
+    model: ModelSection = ModelSection()
     calibration: Calibration = Calibration()
     localization: LocalizationSection = LocalizationSection()
     operations: OperationsSection = OperationsSection()

@@ -55,6 +55,7 @@ from scenarios.offline.scan import ObjectBox, ScanData, crop_to_object, execute_
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.realcell.cell_log import CellLog
+from scenarios.realcell.ct import ct_virtual_model
 from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell, build_job_cell, model_error
 
@@ -267,10 +268,13 @@ def object_models(
 ) -> tuple[ObjectModel, ObjectModel]:
     """The job's object: its virtual model with the operations' targets (from the model, or
     the touches of the user's program; what the planner knows) and its real entity (the
-    model error drawn from the seed: the truth)."""
+    model error drawn from the seed, or with `model.source: ct` the design itself, the
+    virtual model being meshed from its simulated CT: the truth)."""
     virtual = virtual_model(config.cell.object, config.operations.kind, config.seed)
     if user is not None:
         virtual = replace(virtual, burr_holes=program_targets(user))
+    if config.model.source == "ct":  # the design is the real object; the model is its CT's
+        return ct_virtual_model(virtual, config.model.ct, config.seed), virtual
     real, _ = real_model(virtual, model_error(config.cell.noise), seed=config.seed)
     return virtual, real
 
@@ -342,6 +346,13 @@ def run_cell_job(
     t0 = time.perf_counter()
     obj = config.cell.object
     say(f"model {obj.model!r}: virtual and real entity")
+    if config.model.source == "ct":
+        ct = config.model.ct
+        say(
+            f"model: CT-scanning the real {obj.model} in simulation ("
+            + " x ".join(f"{v:g}" for v in ct.voxel_mm)
+            + f" mm voxels), meshing its bone at {ct.iso_hu:g} HU"
+        )
     robot = job_robot(config.cell.robot)
     if config.operations.program is not None and not robot.rapid:
         raise ScenarioError(
