@@ -53,3 +53,40 @@ def test_skull_job_with_a_ct_model_meets_its_goals(tmp_path: Path) -> None:
     errors = np.array([t["error_m"] for t in results["targets"]])
     assert len(errors) == 4
     assert np.sqrt(np.mean(errors**2)) <= 0.5e-3 and errors.max() <= 1.0e-3
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")
+def test_skull_job_on_a_users_ct_volume_and_plan(tmp_path: Path) -> None:
+    """A CT volume (NIfTI, RAS) and a plan made on it (RAS, mm) as the job's object and
+    targets: the bone is meshed, the plan lands on it, the job runs within its goals."""
+    import nibabel as nib
+
+    from models import builtin_model
+    from models.ct import CTSettings, ct_scan
+    from models.ct.volume import RAS_FROM_LPS
+
+    skull = builtin_model("skull")
+    volume = ct_scan(skull.mesh, CTSettings(voxel_mm=(1.0, 1.0, 1.0)), np.random.default_rng(1))
+    nib.save(
+        nib.Nifti1Image(volume.data, RAS_FROM_LPS @ volume.affine_lps), str(tmp_path / "ct.nii")
+    )
+    to_ras = np.diag([-1.0, -1.0, 1.0])
+    plan = {"frame": "RAS", "targets": [
+        {"name": h.name, "entry": (to_ras @ h.p_entry * 1e3).tolist(),
+         "target": (to_ras @ (h.p_entry + h.depth * h.direction) * 1e3).tolist()}
+        for h in skull.burr_holes
+    ]}  # fmt: skip
+    (tmp_path / "plan.json").write_text(json.dumps(plan))
+    config = tmp_path / "job.yaml"
+    config.write_text(
+        SHORT_CT.replace("model: {source: ct}\n", "")
+        + f"cell:\n  object: {{model: {tmp_path / 'ct.nii'}, "
+        f"targets_file: {tmp_path / 'plan.json'}}}\n"
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(config), "--out", str(out), "--quiet", "--no-rrd"]) == 0
+    results = json.loads((out / "latest" / "results.json").read_text())
+    names = [t["name"] for t in results["targets"]]
+    assert results["status"] == "complete" and names == [h.name for h in skull.burr_holes]
+    errors = np.array([t["error_m"] for t in results["targets"]])
+    assert np.sqrt(np.mean(errors**2)) <= 0.5e-3 and errors.max() <= 1.0e-3

@@ -59,12 +59,18 @@ class CTSettings:
 def _signed_distance(points: np.ndarray, V: np.ndarray, F: np.ndarray, bound: float) -> tuple[
     np.ndarray, np.ndarray
 ]:  # fmt: skip
-    """Signed distance (N,) [mm] (inside < 0, clamped at +-bound) and unit normals (N, 3)."""
+    """Signed distance (N,) [mm] (inside < 0) and unit normals (N, 3) of points within
+    `bound` of the surface; beyond it, +-bound by the winding number's side and no normal."""
     S, _I, _C, N = igl.signed_distance(
         points, V, F, sign_type=igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL,
         lower_bound=-bound, upper_bound=bound,
     )  # fmt: skip
-    return np.asarray(S), np.asarray(N)
+    S, N = np.asarray(S, dtype=float), np.nan_to_num(np.asarray(N, dtype=float))
+    far = ~np.isfinite(S)
+    if far.any():
+        inside = igl.fast_winding_number(V, F, np.ascontiguousarray(points[far])) > 0.5
+        S[far] = np.where(inside, -bound, bound)
+    return S, N
 
 
 def _upsample(a: np.ndarray, m: int, axis: int) -> np.ndarray:
@@ -109,6 +115,7 @@ def ct_scan(mesh: TriangleMesh, settings: CTSettings, rng: np.random.Generator) 
     # The fraction of a voxel box inside a locally flat surface at signed distance s from
     # its centre: a ramp over the box's extent along the normal.
     width = 0.5 * np.abs(n_near) @ voxel
+    width = np.where(width > 1e-6, width, 0.5 * float(voxel.mean()))  # no normal: the mean
     fraction[near] = np.clip(0.5 - s_near / (2.0 * np.maximum(width, 1e-6)), 0.0, 1.0)
     hu = settings.background_hu + fraction.reshape(shape) * (
         settings.object_hu - settings.background_hu

@@ -46,6 +46,9 @@ class Volume:
             raise VolumeError(
                 f"{self.source}: a volume needs 3 axes of 2+ voxels, got {data.shape}"
             )
+        if not np.isfinite(data).all():
+            bad = int(np.size(data) - np.isfinite(data).sum())
+            raise VolumeError(f"{self.source}: {bad} voxel values are NaN or infinite")
         if affine.shape != (4, 4) or not np.isfinite(affine).all():
             raise VolumeError(f"{self.source}: the voxel-to-patient affine is not a finite 4x4")
         if abs(np.linalg.det(affine[:3, :3])) < 1e-12:

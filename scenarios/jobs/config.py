@@ -245,10 +245,12 @@ class Output(_Section):
 
 class ObjectSection(_Section):
     """The object of the job: a built-in model (`skull`, `bracket`, `housing`, `lid`,
-    `ellipsoid`) or a mesh file in `units`, `fixed` on the table or lying `loose` on it (a
+    `ellipsoid`), a mesh file in `units`, or a CT volume (a DICOM series folder, NIfTI or
+    NRRD: its bone at `model.ct.iso_hu`), `fixed` on the table or lying `loose` on it (a
     part the gripper picks), at a pose drawn around the nominal one. Its operation targets
-    come from the model (burr holes, screw frames), from `targets_file`, from a
-    `<mesh>.targets.yaml` beside a mesh file, or are generated on its upper surface."""
+    come from the model (burr holes, screw frames), from `targets_file` (for a CT volume, a
+    JSON plan made on it: models.ct.plan), from a `<mesh>.targets.yaml` beside a mesh file,
+    or are generated on its upper surface."""
 
     model: str = "skull"
     units: Literal["m", "mm"] = "mm"

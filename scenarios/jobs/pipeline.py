@@ -270,7 +270,9 @@ def object_models(
     the touches of the user's program; what the planner knows) and its real entity (the
     model error drawn from the seed, or with `model.source: ct` the design itself, the
     virtual model being meshed from its simulated CT: the truth)."""
-    virtual = virtual_model(config.cell.object, config.operations.kind, config.seed)
+    virtual = virtual_model(
+        config.cell.object, config.operations.kind, config.seed, config.model.ct.iso_hu
+    )
     if user is not None:
         virtual = replace(virtual, burr_holes=program_targets(user))
     if config.model.source == "ct":  # the design is the real object; the model is its CT's

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from models import BurrHole, ObjectModel, load_model
+from models.ct.object import volume_object
+from models.ct.readers import is_volume
 from registration.rigid import pose_error
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import ObjectSection, OperationsSection, Pick
@@ -44,12 +46,22 @@ def screw_targets(model: ObjectModel) -> tuple[BurrHole, ...]:
     return tuple(holes)
 
 
-def virtual_model(section: ObjectSection, kind: str, seed: int) -> ObjectModel:
+def virtual_model(
+    section: ObjectSection, kind: str, seed: int, iso_hu: float = 300.0
+) -> ObjectModel:
     """The virtual model of the job's object with its targets for operations of `kind`:
     burr holes for touches (the model's own, `targets_file`, a `<mesh>.targets.yaml` beside
     a mesh file, or generated on its upper surface), screw frames driven from above for
-    screws."""
-    model, _warnings = load_model(section.model, seed=seed, units=section.units)
+    screws. A CT volume's model is its bone at `iso_hu` [HU], and a JSON `targets_file` is
+    the plan made on it (models.ct.plan)."""
+    if is_volume(section.model):  # a CT: its bone, and the plan made on it
+        plan = section.targets_file
+        json_plan = plan is not None and plan.lower().endswith(".json")
+        model = volume_object(section.model, iso_hu, plan if json_plan else None, seed)
+        if json_plan:
+            return model
+    else:
+        model, _warnings = load_model(section.model, seed=seed, units=section.units)
     if kind == "screw":
         holes = screw_targets(model)
         if not holes:

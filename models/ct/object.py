@@ -1,0 +1,31 @@
+"""A CT volume as the object of a job: its bone model with contact pieces, and the plan made
+on it as the operations' targets."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from models.convex import convex_pieces
+from models.ct.bone import ISO_HU, bone_model
+from models.ct.plan import read_plan
+from models.ct.readers import read_volume
+from models.model import ObjectModel
+
+
+def volume_object(
+    path: str | Path, iso_hu: float = ISO_HU, plan: str | Path | None = None, seed: int = 0
+) -> ObjectModel:
+    """The bone of the volume at `path` (threshold `iso_hu` [HU]) as an object model in the
+    volume's frame [m], with the plan at `plan` (a JSON in the volume's frame, read_plan) as
+    its burr holes, none if no plan."""
+    volume = read_volume(path)
+    bone = bone_model(volume, iso_hu=iso_hu)
+    holes = () if plan is None else read_plan(plan, volume)
+    name = Path(path).name.split(".")[0] or "ct"
+    return ObjectModel(
+        name=name,
+        mesh=bone.mesh,
+        convex_pieces=convex_pieces(bone.mesh, seed=seed),
+        burr_holes=holes,
+        source=f"CT {path} (bone at {iso_hu:g} HU)",
+    )
