@@ -78,13 +78,11 @@ def test_skull_job_on_a_users_ct_volume_and_plan(tmp_path: Path) -> None:
     ]}  # fmt: skip
     (tmp_path / "plan.json").write_text(json.dumps(plan))
     config = tmp_path / "job.yaml"
-    config.write_text(
-        SHORT_CT.replace("model: {source: ct}\n", "")
-        + f"cell:\n  object: {{model: {tmp_path / 'ct.nii'}, "
-        f"targets_file: {tmp_path / 'plan.json'}}}\n"
-    )
+    config.write_text(SHORT_CT.replace("model: {source: ct}\n", ""))
     out = tmp_path / "out"
-    assert main(["run", str(config), "--out", str(out), "--quiet", "--no-rrd"]) == 0
+    command = ["run", str(config), "--model", str(tmp_path / "ct.nii"), "--targets"]
+    command += [str(tmp_path / "plan.json"), "--out", str(out), "--quiet", "--no-rrd"]
+    assert main(command) == 0
     results = json.loads((out / "latest" / "results.json").read_text())
     names = [t["name"] for t in results["targets"]]
     assert results["status"] == "complete" and names == [h.name for h in skull.burr_holes]

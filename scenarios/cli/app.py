@@ -219,9 +219,21 @@ def run(
     out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
     model: Annotated[
         str | None,
-        typer.Option("--model", help="Replace the job's object by this mesh (.stl, .obj, .ply)."),
+        typer.Option(
+            "--model",
+            help="Replace the job's object by this mesh (.stl, .obj, .ply) or CT volume (a "
+            "DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr: its bone).",
+        ),
     ] = None,
     units: Annotated[str, typer.Option("--units", help="Units of --model: mm or m.")] = "mm",
+    targets: Annotated[
+        str | None,
+        typer.Option(
+            "--targets",
+            help="The object's targets: a targets YAML, or for a CT volume the plan made on "
+            "it (plan.json: entry and target points in the volume's frame, mm).",
+        ),
+    ] = None,
     program: Annotated[
         str | None,
         typer.Option(
@@ -264,6 +276,8 @@ def run(
     overrides: dict[str, object] = {}
     if model is not None:
         overrides |= {"cell.object.model": model, "cell.object.units": units}
+    if targets is not None:
+        overrides["cell.object.targets_file"] = targets
     if program is not None:
         overrides["operations.program"] = program
     overrides |= dict(parse_assignment(text) for text in assign or [])
