@@ -244,3 +244,14 @@ def test_box_with_a_through_hole() -> None:
     top = (np.abs(p[:, 0]) < 15.0) & (np.abs(p[:, 1]) < 10.0) & (r > 8.0) & (p[:, 2] > 5.0)
     assert np.abs(p[top, 2] - 10.0).max() < 0.3
     assert bone.check.watertight
+
+
+def test_a_folder_of_two_series(tmp_path: Path) -> None:
+    """A folder holding a CT series and a one-slice scout: the folder is refused naming
+    both; one file of the CT series picks it."""
+    _write_dicom(tmp_path / "s", np.zeros((6, 6, 3)), [0.0, 1.0, 2.0])
+    _write_dicom(tmp_path / "scout", np.zeros((6, 6, 1)), [0.0])
+    (tmp_path / "scout" / "slice000.dcm").rename(tmp_path / "s" / "scout.dcm")
+    with pytest.raises(VolumeError, match=r"2 series .* give one file of the series wanted"):
+        read_volume(tmp_path / "s")
+    assert read_volume(tmp_path / "s" / "slice001.dcm").data.shape == (6, 6, 3)

@@ -80,24 +80,45 @@ def read_nrrd(path: Path) -> Volume:
 
 
 def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
-    """The CT/MR series in `folder` (every readable DICOM image in it; `only` a file of it
-    that must be one): slices sorted along their normal, evenly spaced, one orientation."""
+    """A CT/MR series from `folder`: the series of the file `only`, or the folder's one
+    series (a folder holding several must be given one file of the series wanted): slices
+    sorted along their normal, evenly spaced, one orientation."""
+    import warnings
+
     import pydicom
 
-    files = sorted(p for p in folder.iterdir() if p.is_file())
-    slices = []
-    for f in files:
-        try:
-            ds = pydicom.dcmread(f)
-        except Exception:
-            if only is not None and f == only:
-                raise VolumeError(f"{only}: not a volume (NIfTI, NRRD or DICOM)") from None
-            continue
-        if "PixelData" in ds:
-            slices.append((f, ds))
+    headers: dict[str, list[tuple[Path, object]]] = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pydicom warns on the VR quirks it reads through
+        for f in sorted(p for p in folder.iterdir() if p.is_file()):
+            try:
+                ds = pydicom.dcmread(f, stop_before_pixels=True)
+            except Exception:
+                if only is not None and f == only:
+                    raise VolumeError(f"{only}: not a volume (NIfTI, NRRD or DICOM)") from None
+                continue
+            if "Rows" in ds and "Columns" in ds:
+                headers.setdefault(str(ds.get("SeriesInstanceUID", "?")), []).append((f, ds))
     where = only or folder
-    if not slices:
+    if not headers:
         raise VolumeError(f"{where}: no DICOM image in {folder}")
+    if only is not None:
+        series = next((k for k, v in headers.items() if any(f == only for f, _ in v)), None)
+        if series is None:
+            raise VolumeError(f"{only}: a DICOM file without an image")
+    elif len(headers) == 1:
+        series = next(iter(headers))
+    else:
+        listed = "; ".join(
+            f"{v[0][1].get('Modality', '?')} {len(v)} slice(s) ({v[0][0].name})"  # type: ignore[attr-defined]
+            for v in headers.values()
+        )
+        raise VolumeError(
+            f"{folder}: {len(headers)} series ({listed}): give one file of the series wanted"
+        )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        slices = [(f, pydicom.dcmread(f)) for f, _ in headers[series]]
     for f, ds in slices:
         for tag in ("ImagePositionPatient", "ImageOrientationPatient", "PixelSpacing"):
             if tag not in ds:
