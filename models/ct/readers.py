@@ -163,7 +163,8 @@ def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
     affine = np.eye(4)
     affine[:3, 0] = row * pixel[1]
     affine[:3, 1] = col * pixel[0]
-    affine[:3, 2] = normal * spacing
+    # The slices' own step, which a tilted gantry shears off the normal.
+    affine[:3, 2] = (positions[-1] - positions[0]) / (len(slices) - 1)
     affine[:3, 3] = positions[0]
     modality = str(getattr(slices[0][1], "Modality", "")) or None
     return Volume(data, affine, modality, "LPS", str(where))
