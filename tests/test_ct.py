@@ -255,3 +255,50 @@ def test_a_folder_of_two_series(tmp_path: Path) -> None:
     with pytest.raises(VolumeError, match=r"2 series .* give one file of the series wanted"):
         read_volume(tmp_path / "s")
     assert read_volume(tmp_path / "s" / "slice001.dcm").data.shape == (6, 6, 3)
+
+
+def test_enhanced_multiframe_ct_frame_by_hand(tmp_path: Path) -> None:
+    """An enhanced (multi-frame) CT in one file: frames stored out of order, positions per
+    frame, orientation and spacing shared, rescale per frame. Voxel (2, 3, 1) -> LPS (-99,
+    -118.2, 11.25) as for the classic series, its value rescaled."""
+    from pydicom.sequence import Sequence
+    from pydicom.uid import EnhancedCTImageStorage
+
+    data = np.zeros((8, 6, 4))
+    data[2, 3, 1] = 700.0
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = EnhancedCTImageStorage
+    meta.MediaStorageSOPInstanceUID = generate_uid()
+    meta.TransferSyntaxUID = ExplicitVRLittleEndian
+    ds = pydicom.Dataset()
+    ds.file_meta = meta
+    ds.SOPClassUID, ds.SOPInstanceUID = EnhancedCTImageStorage, meta.MediaStorageSOPInstanceUID
+    ds.SeriesInstanceUID, ds.Modality = generate_uid(), "CT"
+    ds.Rows, ds.Columns, ds.NumberOfFrames = 6, 8, 4
+    ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
+    shared = pydicom.Dataset()
+    orientation, measures = pydicom.Dataset(), pydicom.Dataset()
+    orientation.ImageOrientationPatient = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+    measures.PixelSpacing, measures.SliceThickness = [0.6, 0.5], 1.25
+    shared.PlaneOrientationSequence = Sequence([orientation])
+    shared.PixelMeasuresSequence = Sequence([measures])
+    ds.SharedFunctionalGroupsSequence = Sequence([shared])
+    order = [2, 0, 3, 1]  # frames out of order
+    frames = []
+    for k in order:
+        group, plane, rescale = pydicom.Dataset(), pydicom.Dataset(), pydicom.Dataset()
+        plane.ImagePositionPatient = [-100.0, -120.0, 10.0 + 1.25 * k]
+        rescale.RescaleSlope, rescale.RescaleIntercept = 2.0, -1024.0
+        group.PlanePositionSequence = Sequence([plane])
+        group.PixelValueTransformationSequence = Sequence([rescale])
+        frames.append(group)
+    ds.PerFrameFunctionalGroupsSequence = Sequence(frames)
+    stored = np.stack([(data[:, :, k].T + 1024.0) / 2.0 for k in order]).astype(np.int16)
+    ds.PixelData = stored.tobytes()
+    (tmp_path / "mf").mkdir()
+    ds.save_as(tmp_path / "mf" / "enhanced.dcm", enforce_file_format=True)
+    volume = read_volume(tmp_path / "mf" / "enhanced.dcm")
+    assert volume.data.shape == (8, 6, 4) and volume.modality == "CT"
+    assert volume.data[2, 3, 1] == pytest.approx(700.0)
+    np.testing.assert_allclose(volume.index_to_lps([[2, 3, 1]]), [[-99.0, -118.2, 11.25]])

@@ -4,7 +4,9 @@ frames). Anything that is not a usable volume is refused with one line naming th
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -116,29 +118,101 @@ def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
         raise VolumeError(
             f"{folder}: {len(headers)} series ({listed}): give one file of the series wanted"
         )
+    images: list[_Image] = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        slices = [(f, pydicom.dcmread(f)) for f, _ in headers[series]]
-    for f, ds in slices:
-        for tag in ("ImagePositionPatient", "ImageOrientationPatient", "PixelSpacing"):
-            if tag not in ds:
-                raise VolumeError(f"{f}: DICOM slice without {tag}: no patient frame")
-    orientation = np.array([float(v) for v in slices[0][1].ImageOrientationPatient])
-    for f, ds in slices[1:]:
-        if (
-            np.abs(np.array([float(v) for v in ds.ImageOrientationPatient]) - orientation).max()
-            > 1e-4
-        ):
-            raise VolumeError(f"{where}: mixed slice orientations ({slices[0][0].name}, {f.name})")
+        for f, _ in headers[series]:
+            ds = pydicom.dcmread(f)
+            if int(ds.get("NumberOfFrames", 1) or 1) > 1:
+                images += _frames(f, ds)
+            else:
+                images.append(_image(f, ds))
+        modality = str(getattr(headers[series][0][1], "Modality", "")) or None
+    return _stack(where, images, modality)
+
+
+@dataclass(frozen=True, eq=False)
+class _Image:
+    """One slice: where it came from, its orientation (6,), position (3,) [mm], pixel
+    spacing (between rows, between columns) [mm] and values (rows, columns)."""
+
+    name: str
+    orientation: np.ndarray
+    position: np.ndarray
+    pixel: np.ndarray
+    values: np.ndarray
+
+
+def _floats(value: object) -> np.ndarray:
+    return np.array([float(v) for v in value], dtype=float)  # type: ignore[attr-defined]
+
+
+def _image(f: Path, ds: Any) -> _Image:
+    """A classic single-frame slice."""
+    for tag in ("ImagePositionPatient", "ImageOrientationPatient", "PixelSpacing"):
+        if tag not in ds:
+            raise VolumeError(f"{f}: DICOM slice without {tag}: no patient frame")
+    values = ds.pixel_array.astype(np.float32) * float(ds.get("RescaleSlope", 1.0)) + float(
+        ds.get("RescaleIntercept", 0.0)
+    )
+    return _Image(
+        f.name,
+        _floats(ds.ImageOrientationPatient),
+        _floats(ds.ImagePositionPatient),
+        _floats(ds.PixelSpacing),
+        values,
+    )
+
+
+def _frames(f: Path, ds: Any) -> list[_Image]:
+    """The frames of an enhanced (multi-frame) image: each frame's functional groups, else
+    the shared ones."""
+    shared = (
+        ds.SharedFunctionalGroupsSequence[0] if "SharedFunctionalGroupsSequence" in ds else None
+    )
+    if "PerFrameFunctionalGroupsSequence" not in ds:
+        raise VolumeError(f"{f}: a multi-frame image without per-frame positions")
+
+    def find(group: Any, sequence: str, tag: str) -> Any:
+        for g in (group, shared):
+            if g is not None and sequence in g and tag in g[sequence][0]:
+                return g[sequence][0][tag].value
+        return None
+
+    pixels = ds.pixel_array
+    out = []
+    for k, group in enumerate(ds.PerFrameFunctionalGroupsSequence):
+        position = find(group, "PlanePositionSequence", "ImagePositionPatient")
+        orientation = find(group, "PlaneOrientationSequence", "ImageOrientationPatient")
+        pixel = find(group, "PixelMeasuresSequence", "PixelSpacing")
+        if position is None or orientation is None or pixel is None:
+            raise VolumeError(f"{f}: frame {k} without its position, orientation or spacing")
+        slope = find(group, "PixelValueTransformationSequence", "RescaleSlope")
+        intercept = find(group, "PixelValueTransformationSequence", "RescaleIntercept")
+        slope = float(ds.get("RescaleSlope", 1.0) if slope is None else slope)
+        intercept = float(ds.get("RescaleIntercept", 0.0) if intercept is None else intercept)
+        values = pixels[k].astype(np.float32) * slope + intercept
+        out.append(_Image(f"{f.name}[{k}]", _floats(orientation), _floats(position),
+                          _floats(pixel), values))  # fmt: skip
+    return out
+
+
+def _stack(where: Path, images: list[_Image], modality: str | None) -> Volume:
+    """Slices sorted along their normal into a volume: one orientation, one size, even
+    spacing, no gap."""
+    orientation = images[0].orientation
+    for image in images[1:]:
+        if np.abs(image.orientation - orientation).max() > 1e-4:
+            raise VolumeError(f"{where}: mixed slice orientations ({images[0].name}, {image.name})")
     row, col = orientation[:3], orientation[3:]
     normal = np.cross(row, col)
-    positions = np.array([[float(v) for v in ds.ImagePositionPatient] for _, ds in slices])
+    positions = np.array([image.position for image in images])
     order = np.argsort(positions @ normal)
-    slices = [slices[k] for k in order]
+    images = [images[k] for k in order]
     positions = positions[order]
-    steps = np.diff(positions @ normal)
-    if len(slices) < 2:
+    if len(images) < 2:
         raise VolumeError(f"{where}: one slice is no volume")
+    steps = np.diff(positions @ normal)
     spacing = float(np.median(steps))
     if spacing <= 0 or np.abs(steps - spacing).max() > SPACING_TOLERANCE * spacing:
         gaps = np.flatnonzero(np.abs(steps - spacing) > SPACING_TOLERANCE * spacing)
@@ -147,24 +221,16 @@ def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
             f"{where}: slice {kind}: steps {np.round(steps[gaps][:3], 3).tolist()} mm against "
             f"{spacing:.3f} mm (at slices {gaps[:3].tolist()})"
         )
-    shapes = {(int(ds.Rows), int(ds.Columns)) for _, ds in slices}
+    shapes = {image.values.shape for image in images}
     if len(shapes) != 1:
         raise VolumeError(f"{where}: slices of different sizes {sorted(shapes)}")
-    pixel = [float(v) for v in slices[0][1].PixelSpacing]  # between rows, between columns
-    data = np.stack(
-        [
-            ds.pixel_array.astype(np.float32) * float(getattr(ds, "RescaleSlope", 1.0))
-            + float(getattr(ds, "RescaleIntercept", 0.0))
-            for _, ds in slices
-        ],
-        axis=-1,
-    )  # (rows j, columns i, k)
+    pixel = images[0].pixel  # between rows, between columns
+    data = np.stack([image.values for image in images], axis=-1)  # (rows j, columns i, k)
     data = np.transpose(data, (1, 0, 2))  # (i, j, k)
     affine = np.eye(4)
     affine[:3, 0] = row * pixel[1]
     affine[:3, 1] = col * pixel[0]
     # The slices' own step, which a tilted gantry shears off the normal.
-    affine[:3, 2] = (positions[-1] - positions[0]) / (len(slices) - 1)
+    affine[:3, 2] = (positions[-1] - positions[0]) / (len(images) - 1)
     affine[:3, 3] = positions[0]
-    modality = str(getattr(slices[0][1], "Modality", "")) or None
     return Volume(data, affine, modality, "LPS", str(where))
