@@ -64,7 +64,8 @@ def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
     from scenarios.outputs.recording import Recording
 
     name = f"{folder.path.name} (seed {config.seed})"
-    return Recording(folder.file("run.rrd"), spawn=options.spawn, name=name)
+    to_file = options.rrd and config.output.rrd
+    return Recording(folder.file("run.rrd"), spawn=options.spawn, name=name, to_file=to_file)
 
 
 def _cell(

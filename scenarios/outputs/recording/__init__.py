@@ -47,11 +47,13 @@ TABLE = "world/cell/table/frame"
 
 
 class Recording:
-    """A run's recording written to `path` (and sent to a spawned viewer if `spawn`),
-    listed in the viewer as `name`."""
+    """A run's recording written to `path` (unless not `to_file`) and sent to a spawned
+    viewer if `spawn`, listed in the viewer as `name`."""
 
-    def __init__(self, path: Path, spawn: bool = False, name: str = "twincell run") -> None:
-        self.stream = Stream(Path(path), name, blueprint(), spawn)
+    def __init__(
+        self, path: Path, spawn: bool = False, name: str = "twincell run", to_file: bool = True
+    ) -> None:
+        self.stream = Stream(Path(path), name, blueprint(), spawn, to_file)
         self.stream.static("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         self._scene: CellScene | None = None
         self._rays = LaserRays()

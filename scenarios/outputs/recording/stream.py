@@ -23,19 +23,29 @@ ICP = "icp"
 
 
 class Stream:
-    """Rows to `path` (written as `.<name>.partial`, moved into place by `close(True)`) and,
-    if `spawn`, to a live viewer that the file never waits for."""
+    """Rows to `path` (written as `.<name>.partial`, moved into place by `close(True)`;
+    no file if `to_file` is False) and, if `spawn`, to a live viewer that the file never
+    waits for."""
 
     def __init__(
-        self, path: Path, name: str, blueprint: rrb.Blueprint, spawn: bool = False
+        self,
+        path: Path,
+        name: str,
+        blueprint: rrb.Blueprint,
+        spawn: bool = False,
+        to_file: bool = True,
     ) -> None:
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.name}.partial")
-        to_file = rr.RecordingStream("twincell")
-        to_file.save(str(self._tmp), default_blueprint=blueprint)
-        self._streams = [to_file]
+        first = rr.RecordingStream("twincell")
+        self._file: rr.RecordingStream | None = None
+        self._streams: list[rr.RecordingStream] = []
+        if to_file:
+            first.save(str(self._tmp), default_blueprint=blueprint)
+            self._file = first
+            self._streams.append(first)
         if spawn:
-            viewer = rr.RecordingStream("twincell", recording_id=to_file.get_recording_id())
+            viewer = rr.RecordingStream("twincell", recording_id=first.get_recording_id())
             viewer.spawn(default_blueprint=blueprint)
             self._streams.append(viewer)
         for s in self._streams:
@@ -87,13 +97,15 @@ class Stream:
     def close(self, keep: bool) -> None:
         """Flush and close; move the file into place if `keep`, else delete it. A live viewer
         gets 5 s to take the rest, then the run goes on without it."""
-        to_file, *viewer = self._streams
-        to_file.flush()
-        to_file.disconnect()
-        for s in viewer:
-            with contextlib.suppress(RuntimeError):  # no viewer came up (no display)
-                s.flush(timeout_sec=5.0)
+        for s in self._streams:
+            if s is self._file:
+                s.flush()
+            else:
+                with contextlib.suppress(RuntimeError):  # no viewer came up (no display)
+                    s.flush(timeout_sec=5.0)
             s.disconnect()
+        if self._file is None:
+            return
         if keep:
             os.replace(self._tmp, self.path)
         else:
