@@ -302,3 +302,28 @@ def test_enhanced_multiframe_ct_frame_by_hand(tmp_path: Path) -> None:
     assert volume.data.shape == (8, 6, 4) and volume.modality == "CT"
     assert volume.data[2, 3, 1] == pytest.approx(700.0)
     np.testing.assert_allclose(volume.index_to_lps([[2, 3, 1]]), [[-99.0, -118.2, 11.25]])
+
+
+@pytest.mark.parametrize(
+    "compressed",
+    ["MR_small_jp2klossless.dcm", "MR_small_jpeg_ls_lossless.dcm", "MR_small_RLE.dcm"],
+)
+def test_compressed_series_decode_like_the_uncompressed(tmp_path: Path, compressed: str) -> None:
+    """pydicom's shipped MR image in JPEG 2000, JPEG-LS and RLE, made into 3-slice series
+    (positions 2 mm apart): the volume's voxels are the uncompressed twin's pixels."""
+    from pydicom.data import get_testdata_file
+
+    reference = pydicom.dcmread(get_testdata_file("MR_small.dcm")).pixel_array
+    source = pydicom.dcmread(get_testdata_file(compressed))
+    slope = float(source.get("RescaleSlope", 1.0))
+    intercept = float(source.get("RescaleIntercept", 0.0))
+    (tmp_path / "s").mkdir()
+    for k in range(3):
+        source.ImagePositionPatient = [0.0, 0.0, 2.0 * k]
+        source.ImageOrientationPatient = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        source.SOPInstanceUID = generate_uid()
+        source.save_as(tmp_path / "s" / f"{k}.dcm")
+    volume = read_volume(tmp_path / "s")
+    assert volume.data.shape == (64, 64, 3) and volume.modality == "MR"
+    np.testing.assert_allclose(volume.data[:, :, 1], reference.T * slope + intercept)
+    np.testing.assert_allclose(volume.spacing_mm[2], 2.0)

@@ -66,7 +66,8 @@ def read_nrrd(path: Path) -> Volume:
     if data.ndim != 3:
         raise VolumeError(f"{path}: a 3D volume is needed, this one has shape {data.shape}")
     space = str(header.get("space", "")).lower()
-    frames = {"left-posterior-superior": "LPS", "right-anterior-superior": "RAS"}
+    frames = {"left-posterior-superior": "LPS", "right-anterior-superior": "RAS", "lps": "LPS",
+              "ras": "RAS"}  # fmt: skip
     if space not in frames or "space directions" not in header:
         raise VolumeError(
             f"{path}: NRRD space {space or 'missing'!r}: needs 'space directions' in one of "
@@ -147,12 +148,22 @@ def _floats(value: object) -> np.ndarray:
     return np.array([float(v) for v in value], dtype=float)  # type: ignore[attr-defined]
 
 
+def _pixels(f: Path, ds: Any) -> np.ndarray:
+    """The decoded pixel data (compressed ones through pydicom's plugins); one line if not."""
+    try:
+        return np.asarray(ds.pixel_array)
+    except Exception as exc:  # a codec missing or the data broken: pydicom raises many kinds
+        syntax = getattr(getattr(ds, "file_meta", None), "TransferSyntaxUID", None)
+        name = getattr(syntax, "name", syntax)
+        raise VolumeError(f"{f}: its pixel data ({name}) cannot be decoded: {exc}") from None
+
+
 def _image(f: Path, ds: Any) -> _Image:
     """A classic single-frame slice."""
     for tag in ("ImagePositionPatient", "ImageOrientationPatient", "PixelSpacing"):
         if tag not in ds:
             raise VolumeError(f"{f}: DICOM slice without {tag}: no patient frame")
-    values = ds.pixel_array.astype(np.float32) * float(ds.get("RescaleSlope", 1.0)) + float(
+    values = _pixels(f, ds).astype(np.float32) * float(ds.get("RescaleSlope", 1.0)) + float(
         ds.get("RescaleIntercept", 0.0)
     )
     return _Image(
@@ -179,7 +190,7 @@ def _frames(f: Path, ds: Any) -> list[_Image]:
                 return g[sequence][0][tag].value
         return None
 
-    pixels = ds.pixel_array
+    pixels = _pixels(f, ds)
     out = []
     for k, group in enumerate(ds.PerFrameFunctionalGroupsSequence):
         position = find(group, "PlanePositionSequence", "ImagePositionPatient")
