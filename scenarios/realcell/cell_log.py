@@ -36,10 +36,6 @@ class CellLog:
             )
             evaluator.watch(recording.bodies, recording.laser, recording.ir)
 
-    @property
-    def recording(self) -> Any | None:
-        return self._recording
-
     def phase(self, name: str, detail: str = "") -> None:
         """A phase of the run begins now."""
         if self._recording is not None:
@@ -49,9 +45,6 @@ class CellLog:
         """A line of the run's progress, now."""
         if self._recording is not None:
             self._recording.text(self._controller.time_s, message)
-
-    def bodies(self) -> None:
-        """The cell is witnessed while it moves: nothing to add between moves."""
 
     def moved(self, what: str) -> None:
         """After a move (`what`): a tool change is a decision worth a line of the log."""

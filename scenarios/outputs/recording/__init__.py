@@ -8,8 +8,9 @@ Entities (base frame = world; timelines `sim_time`, the cell's clock, and `icp`)
 - `world/laser/rays`, `world/ir/ray`: the laser's rays and the IR sensor's ray as they went,
   while they read (scan.py);
 - `world/cell/table/frame`: the table frame the cell model believes; under it `model` (the
-  virtual model: nominal, then registered; its targets with it), `scan/line`,
-  `scan/passes/pNN`, `scan/registered` (coloured by residual) and `icp/...` (match.py);
+  virtual model: nominal, then registered; its targets with it), `calibration/points` and
+  `calibration/centres` (the calibration's fit), `scan/line`, `scan/passes/pNN`,
+  `scan/registered` (coloured by residual) and `icp/...` (match.py);
 - `world/targets/...`: corrected, achieved, true, magnified error lines, predicted-TRE
   ellipsoids (targets.py); `plots/...`, `legend/residual`, `log` (one entry per phase and
   per decision).
