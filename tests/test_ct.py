@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import nibabel as nib
 import nrrd
@@ -22,27 +23,33 @@ from registration import MeshModel
 from scenarios.cli.app import main
 
 
+def _dataset(sop_class: str, series: str, modality: str, rows: int, columns: int) -> Any:
+    """A DICOM image dataset of `sop_class` with 16-bit signed monochrome pixels."""
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = sop_class
+    meta.MediaStorageSOPInstanceUID = generate_uid()
+    meta.TransferSyntaxUID = ExplicitVRLittleEndian
+    ds = pydicom.Dataset()
+    ds.file_meta = meta
+    ds.SOPClassUID, ds.SOPInstanceUID = sop_class, meta.MediaStorageSOPInstanceUID
+    ds.SeriesInstanceUID, ds.Modality = series, modality
+    ds.Rows, ds.Columns = rows, columns
+    ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
+    return ds
+
+
 def _write_dicom(folder: Path, data: np.ndarray, z_mm: list[float], pixel=(0.6, 0.5),
                  modality="CT", orientations=None) -> None:  # fmt: skip
     """One file per slice k of data (I, J, K) HU: rows = j, columns = i."""
     folder.mkdir(parents=True, exist_ok=True)
     series = generate_uid()
     for k, z in enumerate(z_mm):
-        meta = FileMetaDataset()
-        meta.MediaStorageSOPClassUID = CTImageStorage
-        meta.MediaStorageSOPInstanceUID = generate_uid()
-        meta.TransferSyntaxUID = ExplicitVRLittleEndian
-        ds = pydicom.Dataset()
-        ds.file_meta = meta
-        ds.SOPClassUID, ds.SOPInstanceUID = CTImageStorage, meta.MediaStorageSOPInstanceUID
-        ds.SeriesInstanceUID, ds.Modality = series, modality
+        ds = _dataset(CTImageStorage, series, modality, data.shape[1], data.shape[0])
         ds.ImagePositionPatient = [-100.0, -120.0, float(z)]
         iop = [1, 0, 0, 0, 1, 0] if orientations is None else orientations[k]
         ds.ImageOrientationPatient = [float(v) for v in iop]
         ds.PixelSpacing = [pixel[0], pixel[1]]
-        ds.Rows, ds.Columns = data.shape[1], data.shape[0]
-        ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
         ds.RescaleSlope, ds.RescaleIntercept = 1.0, -1024.0
         ds.PixelData = (data[:, :, k].T + 1024).astype(np.int16).tobytes()
         ds.save_as(folder / f"slice{k:03d}.dcm", enforce_file_format=True)
@@ -266,17 +273,8 @@ def test_enhanced_multiframe_ct_frame_by_hand(tmp_path: Path) -> None:
 
     data = np.zeros((8, 6, 4))
     data[2, 3, 1] = 700.0
-    meta = FileMetaDataset()
-    meta.MediaStorageSOPClassUID = EnhancedCTImageStorage
-    meta.MediaStorageSOPInstanceUID = generate_uid()
-    meta.TransferSyntaxUID = ExplicitVRLittleEndian
-    ds = pydicom.Dataset()
-    ds.file_meta = meta
-    ds.SOPClassUID, ds.SOPInstanceUID = EnhancedCTImageStorage, meta.MediaStorageSOPInstanceUID
-    ds.SeriesInstanceUID, ds.Modality = generate_uid(), "CT"
-    ds.Rows, ds.Columns, ds.NumberOfFrames = 6, 8, 4
-    ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
+    ds = _dataset(EnhancedCTImageStorage, generate_uid(), "CT", 6, 8)
+    ds.NumberOfFrames = 4
     shared = pydicom.Dataset()
     orientation, measures = pydicom.Dataset(), pydicom.Dataset()
     orientation.ImageOrientationPatient = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0]

@@ -138,8 +138,7 @@ def bone_model(
     # voxel frame keeps that in patient space, so they are turned outwards there.
     if np.linalg.det(volume.affine_lps[:3, :3]) > 0:
         faces = faces[:, ::-1]
-    iso = trimesh.Trimesh(raw, faces, process=False)
-    mesh = iso.copy()
+    mesh = trimesh.Trimesh(raw, faces, process=False)
     if smoothing_iterations > 0:
         trimesh.smoothing.filter_taubin(mesh, lamb=0.5, nu=0.53, iterations=smoothing_iterations)
     if len(mesh.faces) > target_faces:

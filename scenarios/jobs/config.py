@@ -587,20 +587,28 @@ def _flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     return out
 
 
+def _shipped_or_file(
+    name_or_path: str | Path, kind: str, shipped: tuple[str, ...], folder: Path
+) -> Path:
+    """The YAML of a shipped `kind` by name (in `folder`) or a user's .yaml file by path."""
+    text = str(name_or_path)
+    if text in shipped:
+        return folder / f"{text}.yaml"
+    path = Path(text)
+    if path.suffix not in (".yaml", ".yml"):
+        raise ConfigError(
+            f"unknown {kind} {text!r}; shipped: {', '.join(shipped)}, or give a .yaml file"
+        )
+    return path
+
+
 def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
     """A cell (`--cell`): a shipped one by name or a YAML file by path, holding the keys of
     a job configuration that make the cell (the `cell` section's robot and rack, and what
     follows from the layout, e.g. `calibration.table_positions_m`); returned as dotted
     overrides of the job's configuration, validated with it. A robot file it names
     (`cell.robot.model`) is relative to the cell file's folder."""
-    text = str(name_or_path)
-    path = Path(text)
-    if text in shipped_cells():
-        path = CELL_DIR / f"{text}.yaml"
-    elif path.suffix not in (".yaml", ".yml"):
-        raise ConfigError(
-            f"unknown cell {text!r}; shipped: {', '.join(shipped_cells())}, or give a .yaml file"
-        )
+    path = _shipped_or_file(name_or_path, "cell", shipped_cells(), CELL_DIR)
     overrides = _flatten(read_yaml_mapping(path))
     model = overrides.get("cell.robot.model")
     if isinstance(model, str) and model.lower().endswith((".urdf", ".xml", ".mjcf")):
@@ -618,14 +626,7 @@ def load_config(
     e.g. {"seed": 3, "cell.object.model": "part.stl"}) applied and validated, after the
     `cell` (see `cell_overrides`) if one is given. A configuration without a `name` is named
     after its file."""
-    text = str(name_or_path)
-    path = Path(text)
-    if text in shipped_names():
-        path = CONFIG_DIR / f"{text}.yaml"
-    elif path.suffix not in (".yaml", ".yml"):
-        raise ConfigError(
-            f"unknown job {text!r}; shipped: {', '.join(shipped_names())}, or give a .yaml file"
-        )
+    path = _shipped_or_file(name_or_path, "job", shipped_names(), CONFIG_DIR)
     data = read_yaml_mapping(path)
     data.setdefault("name", path.stem)
     config = parse_config(data, str(path))

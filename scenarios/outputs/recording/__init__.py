@@ -35,10 +35,10 @@ from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.scan import ScanData
 from scenarios.outputs.recording.layout import blueprint
-from scenarios.outputs.recording.match import colour_bar, log_icp, log_registered, pose
+from scenarios.outputs.recording.match import colour_bar, log_icp, log_registered
 from scenarios.outputs.recording.scan import LaserRays, log_scan
 from scenarios.outputs.recording.scene import CellScene, mesh_archetype
-from scenarios.outputs.recording.stream import ICP, Stream
+from scenarios.outputs.recording.stream import ICP, Stream, pose
 from scenarios.outputs.recording.targets import log_targets
 from scenarios.outputs.residuals import colour_scale, residual_colours
 from scenarios.realcell.evaluation import TargetEvaluation

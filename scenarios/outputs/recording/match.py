@@ -19,23 +19,16 @@ import matplotlib
 import numpy as np
 import rerun as rr
 from matplotlib.figure import Figure
-from scipy.spatial.transform import Rotation
 
 from models import ObjectModel
 from registration import MatchResult, invert
-from scenarios.outputs.recording.stream import Stream
+from scenarios.outputs.recording.stream import Stream, pose
 from scenarios.outputs.residuals import (
     COLOUR_MAP,
     colour_scale,
     residual_colours,
     signed_residuals,
 )
-
-
-def pose(T: np.ndarray) -> rr.Transform3D:
-    return rr.Transform3D(
-        translation=T[:3, 3], quaternion=Rotation.from_matrix(T[:3, :3]).as_quat()
-    )
 
 
 def colour_bar(

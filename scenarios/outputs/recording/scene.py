@@ -20,7 +20,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from models.robot.visuals import LinkVisual
-from scenarios.outputs.recording.stream import Stream
+from scenarios.outputs.recording.stream import Stream, pose
 
 #: Geom groups shown: environment, objects, arm visuals, tools (not collision-only ones).
 SHOWN_GROUPS = (0, 1, 2, 4)
@@ -51,12 +51,6 @@ def body_path(name: str, aliases: dict[str, str]) -> str:
     return f"world/cell/{name}"
 
 
-def _pose(T: np.ndarray) -> rr.Transform3D:
-    return rr.Transform3D(
-        translation=T[:3, 3], quaternion=Rotation.from_matrix(T[:3, :3]).as_quat()
-    )
-
-
 def _rgba(rgba: np.ndarray) -> list[int]:
     return [round(255 * float(c)) for c in rgba]
 
@@ -65,11 +59,14 @@ def _body_names(model: mujoco.MjModel) -> set[str]:
     return {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(model.nbody)}
 
 
-def _zero_pose(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, np.ndarray]:
-    """(4, 4) world pose of every body with the arm's joints at zero (the rest as now)."""
+def _zero_pose(
+    model: mujoco.MjModel, data: mujoco.MjData, bodies: list[str]
+) -> dict[int, np.ndarray]:
+    """(4, 4) world pose of every body with the joints of `bodies` at zero (the rest as
+    now)."""
     scratch = mujoco.MjData(model)
     scratch.qpos[:] = data.qpos
-    for name in ("base", "link1", "link2", "link3", "link4", "link5", "link6"):
+    for name in bodies:
         b = model.body(name).id
         for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
             scratch.qpos[model.jnt_qposadr[j]] = 0.0
@@ -199,12 +196,12 @@ class CellScene:
             k = counts.get((thing.body, kind), 0)
             counts[(thing.body, kind)] = k + 1
             label = mujoco.mjtGeom(kind).name.removeprefix("mjGEOM_").lower()
-            stream.static(f"{thing.path}/{label}_{k}", _pose(_local(model, g) @ T), archetype)
+            stream.static(f"{thing.path}/{label}_{k}", pose(_local(model, g) @ T), archetype)
         for t in self.things:
             if t.static:
-                stream.static(t.path, _pose(self._world(data, t)))
+                stream.static(t.path, pose(self._world(data, t)))
         if self.visuals:
-            zero = _zero_pose(model, data)
+            zero = _zero_pose(model, data, list(self.visuals))
             for body, v in self.visuals.items():
                 b = model.body(body).id
                 T_link = np.eye(4)
@@ -212,7 +209,7 @@ class CellScene:
                 T_body_mesh = np.linalg.solve(zero[b], T_link)
                 stream.static(
                     f"{by_body[b].path}/visual",
-                    _pose(T_body_mesh),
+                    pose(T_body_mesh),
                     mesh_archetype(v.vertices, v.faces, list(v.rgba)),
                 )
 
@@ -257,7 +254,7 @@ class CellScene:
         while something else, like the ICP, runs on that timeline)."""
         stream.at(**{timeline: 0})
         for path, T in self.latest().items():
-            stream.log(path, _pose(T))
+            stream.log(path, pose(T))
 
     def flush(self, stream: Stream) -> None:
         """Send the witnessed poses: one column per moving entity, changes only."""

@@ -17,9 +17,18 @@ from typing import Any
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
+from scipy.spatial.transform import Rotation
 
 SIM_TIME = "sim_time"
 ICP = "icp"
+
+
+def pose(T: np.ndarray) -> rr.Transform3D:
+    """A (4, 4) transform as rerun's (its quaternion xyzw): the one conversion of the
+    recording."""
+    return rr.Transform3D(
+        translation=T[:3, 3], quaternion=Rotation.from_matrix(T[:3, :3]).as_quat()
+    )
 
 
 class Stream:
