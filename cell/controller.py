@@ -9,6 +9,9 @@ true poses, noise): that lives in `cell.truth.CellTruth`, for evaluators only.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -17,6 +20,7 @@ from cell.drives import Drives
 from cell.errors import (
     CellConfigError,
     JointLimitError,
+    SupervisionStop,
     ToolChangerError,
     UnknownNameError,
     UnreachableTargetError,
@@ -24,7 +28,8 @@ from cell.errors import (
 from cell.kinematics import Kinematics
 from cell.robots import Robot, irb2400
 from cell.sensors import IRSensor, LaserReading, LaserScanner
-from cell.simulation import Simulation
+from cell.simulation import Simulation, Stopped
+from cell.supervision import ContactSensing, SupervisionLimits
 from cell.toolchanger import ToolChanger
 from cell.trajectory import joint_trajectory, quintic, straight_path
 from models.robot import (
@@ -46,6 +51,20 @@ SETTLE_S = 0.3
 RACK_APPROACH_M = 0.12
 #: Control period of linear moves: the IK is solved at this period [s].
 LINEAR_PERIOD_S = 0.01
+#: How much of its path the arm backs off after a supervision stop [s].
+BACK_OFF_S = 0.3
+
+
+@dataclass(frozen=True)
+class ControllerEvent:
+    """An entry of the controller's event log: the time [s], the supervision that spoke
+    (`code`: collision, lock_sensor, table_in_position, joint_plausibility, load), what it
+    saw, and what the controller did (`action`: retried, re-read, stopped)."""
+
+    time_s: float
+    code: str
+    message: str
+    action: str
 
 
 def nominal_T_base_slot(tool: str, rack_xyz: tuple[float, float, float] = RACK_POS) -> np.ndarray:
@@ -83,8 +102,14 @@ class Controller:
         changer: ToolChanger,
         robot: Robot | None = None,
         rack_xyz: tuple[float, float, float] = RACK_POS,
+        limits: SupervisionLimits | None = None,
     ) -> None:
         self._sim = sim
+        self.limits = limits or SupervisionLimits()
+        #: The controller's event log: every supervision that spoke, in order.
+        self.events: list[ControllerEvent] = []
+        self._contacts = ContactSensing(sim)
+        sim.guard = self._guard
         self._robot = robot or irb2400()
         self._rack_xyz = rack_xyz
         self._encoders = encoders
@@ -164,8 +189,19 @@ class Controller:
         return _TOOL_SPECS[name].T_tool_tcp
 
     def read_joints(self) -> np.ndarray:
-        """(6,) encoder readings [rad]."""
-        return self._encoders.read()
+        """(6,) encoder readings [rad], each checked against the motors' set-point: an
+        implausible one is read again (and logged); twice implausible stops the cell."""
+        for attempt in range(2):
+            q = self._encoders.read()
+            off = np.abs(q - self._drives.motor)
+            joint = int(np.argmax(off))
+            if off[joint] <= self.limits.max_following_error_rad:
+                return q
+            message = (
+                f"joint {joint + 1} reads {off[joint]:.4f} rad from its set-point"
+            )
+            self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")
+        raise SupervisionStop("joint_plausibility", f"{message}, twice")
 
     def T_base_tcp(self) -> np.ndarray:
         """(4, 4) TCP pose computed from the encoders with the nominal kinematics."""
@@ -181,7 +217,7 @@ class Controller:
         q1 = self.kinematics.check_limits(q_target)
         sim = self._sim
         q, qd = joint_trajectory(self._drives.motor, q1, self._robot.joint_speed, sim.dt, speed)
-        self._drives.run(q, qd)
+        self._run(q, qd)
         sim.settle(settle_s)
 
     def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
@@ -214,7 +250,7 @@ class Controller:
         program's tooldata). Raises UnreachableTargetError if a point of the line has no IK
         solution."""
         q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
-        self._drives.run(q, qd)
+        self._run(q, qd)
         self._sim.settle(settle_s)
 
     def scan_linear(
@@ -233,10 +269,63 @@ class Controller:
         readings = []
         for start in range(0, len(q), every):
             chunk = slice(start, start + every)
-            self._drives.run(q[chunk], qd[chunk], new_move=start == 0)
+            self._run(q[chunk], qd[chunk], new_move=start == 0, before=q[:start])
             readings.append(self.read_laser())
         sim.settle(settle_s)
         return readings
+
+    # -- supervision --------------------------------------------------------------------------
+    def _guard(self) -> str | None:
+        """The motion supervision, every few physics steps of a move."""
+        if not self._supervising:
+            return None
+        force, body = self._contacts.external()
+        if force > self.limits.max_contact_force_n:
+            return f"collision: {force:.0f} N on {body}"
+        return None
+
+    _supervising = True
+
+    @contextmanager
+    def supervision_off(self) -> Iterator[None]:
+        """Motion supervision off for what is meant to push (a grasp), as a program
+        switches ABB's collision detection off around a gripping move."""
+        self._supervising = False
+        try:
+            yield
+        finally:
+            self._supervising = True
+
+    def _log(self, code: str, message: str, action: str) -> None:
+        self.events.append(ControllerEvent(self.time_s, code, message, action))
+
+    def _run(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        new_move: bool = True,
+        before: np.ndarray | None = None,
+    ) -> None:
+        """Run motor set-points (K, 6) under motion supervision, `before` (J, 6) the
+        set-points of the same move already run: a stop holds the arm, backs it off along
+        the path it came and raises SupervisionStop."""
+        try:
+            self._drives.run(q, qd, new_move=new_move)
+        except Stopped as stop:
+            done = q[: stop.steps] if before is None else np.vstack([before, q[: stop.steps]])
+            back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
+            self._supervising = False
+            try:
+                self._drives.run(back, np.zeros_like(back))
+                self._sim.settle(SETTLE_S)
+            finally:
+                self._supervising = True
+            self._log("collision", str(stop), "stopped")
+            raise SupervisionStop(
+                "collision",
+                f"motion supervision stopped the arm at t = {self.time_s:.2f} s ({stop}); it "
+                f"backed off {len(back) * self._sim.dt:.2f} s along its path",
+            ) from None
 
     def _linear_setpoints(
         self,
@@ -290,14 +379,42 @@ class Controller:
 
     # -- tool changer -------------------------------------------------------------------------
     def lock(self) -> str:
-        """Lock the tool seated against the flange; returns its name."""
-        name = self._changer.lock()
+        """Lock the tool seated against the flange; returns its name. The lock sensor must
+        say locked (one retry), and the motors' holding torques must match the tool's
+        tooldata; otherwise SupervisionStop."""
+        for attempt in range(2):
+            name = self._changer.lock()
+            if self._changer.held is not None:
+                break
+            message = f"lock sensor: the {name} tool is not locked"
+            if attempt == 0:
+                self._log("lock_sensor", message, "retried")
+                continue
+            self._log("lock_sensor", message, "stopped")
+            raise SupervisionStop("lock_sensor", f"{message} after a retry")
+        self._contacts.held = self._changer.held
         self._drives.hold()  # the arm now carries the tool
+        self._check_load(name)
         return name
+
+    def _check_load(self, tool: str) -> None:
+        """The static load check: holding still, the motors' torques beyond what the payload
+        model compensates [N m]."""
+        self._sim.settle(0.2)
+        torque = np.abs(self._sim.data.actuator_force[self._sim.arm_act])
+        axis = int(np.argmax(torque))
+        if torque[axis] > self.limits.max_load_torque_nm:
+            message = (
+                f"load: axis {axis + 1} holds {torque[axis]:.1f} N m that the {tool} tool's "
+                "tooldata does not explain (the tool is heavier than its tooldata)"
+            )
+            self._log("load", message, "stopped")
+            raise SupervisionStop("load", message)
 
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
         name = self._changer.unlock()
+        self._contacts.held = None
         self._drives.hold()
         return name
 
@@ -370,7 +487,22 @@ class Controller:
             raise CellConfigError(
                 f"table speed must be in (0, {TABLE_SPEED}] m/s, got {speed_m_s!r}"
             )
-        self._table.move(position_m, speed_m_s, settle_s)
+        for attempt in range(2):
+            try:
+                self._table.move(position_m, speed_m_s, settle_s)
+            except Stopped as stop:
+                self._log("collision", str(stop), "stopped")
+                raise SupervisionStop(
+                    "collision", f"motion supervision stopped the table ({stop})"
+                ) from None
+            off = self._table.read() - position_m
+            if abs(off) <= self.limits.table_in_position_m:
+                return
+            message = (
+                f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
+            )
+            self._log("table_in_position", message, "retried" if attempt == 0 else "stopped")
+        raise SupervisionStop("table_in_position", f"{message} after a retry")
 
     def table_position(self) -> float:
         """The table axis readout [m]."""
@@ -388,7 +520,7 @@ class Controller:
         sim = self._sim
         return LaserReading(
             distances=self._laser.cast(sim.data),
-            q_measured=self._encoders.read(),
+            q_measured=self.read_joints(),
             table_position_m=self._table.read(),
             time_s=sim.time,
         )

@@ -32,3 +32,13 @@ class UnknownNameError(CellError, LookupError):
 
 class ToolChangerError(CellError, RuntimeError):
     """A tool-changer command that cannot be done in the current state (already holding...)."""
+
+
+class SupervisionStop(CellError, RuntimeError):
+    """The controller's supervision stopped the cell (a collision, a tool not locked, the
+    table not in position, an implausible reading, a load that does not match its
+    tooldata); the arm stands backed off and still. `code` names the supervision."""
+
+    def __init__(self, code: str, message: str) -> None:
+        super().__init__(message)
+        self.code = code
