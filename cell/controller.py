@@ -20,7 +20,7 @@ from cell.drives import Drives
 from cell.errors import (
     CellConfigError,
     JointLimitError,
-    SupervisionStop,
+    SupervisionError,
     ToolChangerError,
     UnknownNameError,
     UnreachableTargetError,
@@ -28,7 +28,7 @@ from cell.errors import (
 from cell.kinematics import Kinematics
 from cell.robots import Robot, irb2400
 from cell.sensors import IRSensor, LaserReading, LaserScanner
-from cell.simulation import Simulation, Stopped
+from cell.simulation import MotionStoppedError, Simulation
 from cell.supervision import ContactSensing, SupervisionLimits
 from cell.toolchanger import ToolChanger
 from cell.trajectory import joint_trajectory, quintic, straight_path
@@ -197,11 +197,9 @@ class Controller:
             joint = int(np.argmax(off))
             if off[joint] <= self.limits.max_following_error_rad:
                 return q
-            message = (
-                f"joint {joint + 1} reads {off[joint]:.4f} rad from its set-point"
-            )
+            message = f"joint {joint + 1} reads {off[joint]:.4f} rad from its set-point"
             self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")
-        raise SupervisionStop("joint_plausibility", f"{message}, twice")
+        raise SupervisionError("joint_plausibility", f"{message}, twice")
 
     def T_base_tcp(self) -> np.ndarray:
         """(4, 4) TCP pose computed from the encoders with the nominal kinematics."""
@@ -308,10 +306,10 @@ class Controller:
     ) -> None:
         """Run motor set-points (K, 6) under motion supervision, `before` (J, 6) the
         set-points of the same move already run: a stop holds the arm, backs it off along
-        the path it came and raises SupervisionStop."""
+        the path it came and raises SupervisionError."""
         try:
             self._drives.run(q, qd, new_move=new_move)
-        except Stopped as stop:
+        except MotionStoppedError as stop:
             done = q[: stop.steps] if before is None else np.vstack([before, q[: stop.steps]])
             back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
             self._supervising = False
@@ -321,7 +319,7 @@ class Controller:
             finally:
                 self._supervising = True
             self._log("collision", str(stop), "stopped")
-            raise SupervisionStop(
+            raise SupervisionError(
                 "collision",
                 f"motion supervision stopped the arm at t = {self.time_s:.2f} s ({stop}); it "
                 f"backed off {len(back) * self._sim.dt:.2f} s along its path",
@@ -381,7 +379,7 @@ class Controller:
     def lock(self) -> str:
         """Lock the tool seated against the flange; returns its name. The lock sensor must
         say locked (one retry), and the motors' holding torques must match the tool's
-        tooldata; otherwise SupervisionStop."""
+        tooldata; otherwise SupervisionError."""
         for attempt in range(2):
             name = self._changer.lock()
             if self._changer.held is not None:
@@ -391,7 +389,7 @@ class Controller:
                 self._log("lock_sensor", message, "retried")
                 continue
             self._log("lock_sensor", message, "stopped")
-            raise SupervisionStop("lock_sensor", f"{message} after a retry")
+            raise SupervisionError("lock_sensor", f"{message} after a retry")
         self._contacts.held = self._changer.held
         self._drives.hold()  # the arm now carries the tool
         self._check_load(name)
@@ -409,7 +407,7 @@ class Controller:
                 "tooldata does not explain (the tool is heavier than its tooldata)"
             )
             self._log("load", message, "stopped")
-            raise SupervisionStop("load", message)
+            raise SupervisionError("load", message)
 
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
@@ -490,19 +488,17 @@ class Controller:
         for attempt in range(2):
             try:
                 self._table.move(position_m, speed_m_s, settle_s)
-            except Stopped as stop:
+            except MotionStoppedError as stop:
                 self._log("collision", str(stop), "stopped")
-                raise SupervisionStop(
+                raise SupervisionError(
                     "collision", f"motion supervision stopped the table ({stop})"
                 ) from None
             off = self._table.read() - position_m
             if abs(off) <= self.limits.table_in_position_m:
                 return
-            message = (
-                f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
-            )
+            message = f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
             self._log("table_in_position", message, "retried" if attempt == 0 else "stopped")
-        raise SupervisionStop("table_in_position", f"{message} after a retry")
+        raise SupervisionError("table_in_position", f"{message} after a retry")
 
     def table_position(self) -> float:
         """The table axis readout [m]."""

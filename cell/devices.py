@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from cell.faults import FaultInjector
-from cell.simulation import Simulation, Stopped
+from cell.simulation import MotionStoppedError, Simulation
 from cell.trajectory import joint_trajectory
 from models.robot import TABLE_TRAVEL
 
@@ -116,14 +116,12 @@ class TableAxis:
                 f"stalled {abs(short) * 1e3:.1f} mm short of {position_m:g} m, readout "
                 + ("lying" if fault.option == "lying" else "honest"),
             )
-        q, qd = joint_trajectory(
-            np.array([start]), np.array([goal]), np.array([speed_m_s]), sim.dt
-        )
+        q, qd = joint_trajectory(np.array([start]), np.array([goal]), np.array([speed_m_s]), sim.dt)
         guide = np.array([self.guide(float(s)) for s in q[:, 0]])
         actuators = np.r_[sim.table_act, sim.guide_act]
         try:
             sim.run(actuators, np.hstack([q + sim.table_ff * qd, guide]))
-        except Stopped:  # the axis holds where it stopped
+        except MotionStoppedError:  # the axis holds where it stopped
             sim.data.ctrl[sim.table_act] = sim.table_q()
             raise
         sim.settle(settle_s)

@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from cell.config import DriveErrors
 from cell.kinematics import Kinematics, payload_model
-from cell.simulation import Simulation, Stopped
+from cell.simulation import MotionStoppedError, Simulation
 
 #: The gravity torques are computed every this many set-points of a move and interpolated.
 _EVERY = 10
@@ -100,7 +100,7 @@ class Drives:
         sim = self.sim
         try:
             sim.run(sim.arm_act, q - self.offsets(q) + sim.arm_ff * qd)
-        except Stopped as stop:  # the motors stand at the last set-point they were given
+        except MotionStoppedError as stop:  # the motors stand at the last set-point they were given
             self.motor = q[stop.steps - 1].copy()
             raise
         self.motor = q[-1].copy()

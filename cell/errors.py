@@ -34,7 +34,7 @@ class ToolChangerError(CellError, RuntimeError):
     """A tool-changer command that cannot be done in the current state (already holding...)."""
 
 
-class SupervisionStop(CellError, RuntimeError):
+class SupervisionError(CellError, RuntimeError):
     """The controller's supervision stopped the cell (a collision, a tool not locked, the
     table not in position, an implausible reading, a load that does not match its
     tooldata); the arm stands backed off and still. `code` names the supervision."""

@@ -17,7 +17,7 @@ from models.robot import FLANGE_SITE, JOINT_NAMES, Q_HOME, TABLE_GUIDE_JOINTS, T
 GUARD_EVERY = 2
 
 
-class Stopped(Exception):
+class MotionStoppedError(Exception):
     """A move stopped by the motion supervision after `steps` of its set-points; the
     message says why."""
 
@@ -63,7 +63,7 @@ class Simulation:
         self.home_key = int(m.key("home").id)
         self._watcher: Callable[[mujoco.MjData], None] | None = None
         #: The controller's motion supervision: called every `GUARD_EVERY` steps of a move;
-        #: a message stops the move (`Stopped` is raised after that step).
+        #: a message stops the move (`MotionStoppedError` is raised after that step).
         self.guard: Callable[[], str | None] | None = None
         self._watch_every = 1
         self._since = 0
@@ -117,7 +117,7 @@ class Simulation:
             if guard is not None and k % GUARD_EVERY == 0:
                 reason = guard()
                 if reason is not None:
-                    raise Stopped(reason, k + 1)
+                    raise MotionStoppedError(reason, k + 1)
 
     def _tick(self, steps: int) -> None:
         self._since += steps

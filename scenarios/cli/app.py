@@ -318,9 +318,7 @@ def run(
     typer.echo(f"run folder: {folder}")
     if results.get("status") in ("refused", "aborted"):
         stage = results.get("stage")
-        typer.echo(
-            f"twincell: {results['status']} in {stage}: {results.get('reason')}", err=True
-        )
+        typer.echo(f"twincell: {results['status']} in {stage}: {results.get('reason')}", err=True)
         raise typer.Exit(3 if results["status"] == "refused" else 4)
 
 

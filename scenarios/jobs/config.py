@@ -662,8 +662,7 @@ def fault_assignment(text: str) -> tuple[str, Any]:
     name = name.strip()
     if name not in FAULT_KINDS:
         raise ConfigError(
-            f"--fault {text!r}: unknown fault {name!r}; the faults are: "
-            + ", ".join(FAULT_KINDS)
+            f"--fault {text!r}: unknown fault {name!r}; the faults are: " + ", ".join(FAULT_KINDS)
         )
     if not sep:
         return f"faults.{name}", True

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, Kinematics, LaserReading, nominal_T_base_table, points_in_table_frame
-from cell.errors import CellError, SupervisionStop
+from cell.errors import CellError, SupervisionError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
@@ -151,9 +151,7 @@ def choose_table_position(
         )
         if q is not None:
             return s, q
-    raise UnreachablePlanError(
-        f"{what}: no table position in {positions} m lets the arm follow it"
-    )
+    raise UnreachablePlanError(f"{what}: no table position in {positions} m lets the arm follow it")
 
 
 def plan_scan(
@@ -271,7 +269,7 @@ def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> lis
             speed_m_s=config.speed_m_s,
             period_s=config.period_s,
         )
-    except SupervisionStop:
+    except SupervisionError:
         raise
     except CellError as exc:
         raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc

@@ -2,12 +2,14 @@
 is touched, as a neuronavigation system verifies its registration on landmarks.
 
 After the match, the laser re-scans small patches of the object at verification points
-away from the targets (where the match is not tuned to them), at the table position the
-program will run at. The patch points are compared with the registered model: their median
-signed distance from its surface should be within what the match allows there (three
-standard deviations of the predicted TRE at the point combined with the fit's residual,
-which holds the model's own error). A larger offset means the object moved since the scan,
-or the match (or the scan it came from) is wrong.
+away from the targets, at the table position the program will run at. Each patch is
+compared with the registered model (the median signed distance of its points from the
+surface) and with how the scan the match was made on lay on the model at the same place:
+the model's own error there and the match's error cancel in the difference, so what is left
+is how far the object moved since the scan, plus the two scans' arm errors. A difference
+beyond three standard deviations of those errors means the object moved, or the scan the
+match came from was wrong (a table that did not go where its readout says, a tool seated
+off). Two patches whose normals point 90 degrees apart see a move in any direction.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 from cell import Controller
 from models import ObjectModel
 from models.robot import LASER
-from registration import MatchResult, MeshModel, invert, transform_points
+from registration import MeshModel, invert, transform_points
 from scenarios.jobs.config import Scan
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
@@ -33,8 +35,10 @@ PATCH_HALF_M = 0.02
 AWAY_FROM_TARGETS_M = 0.04
 #: Patch points farther than this from the model are not on it [m].
 ON_MODEL_M = 0.01
-#: Least allowed offset [m]: below it, the comparison is within the laser's own noise.
+#: Least allowed difference [m]: below it, the comparison is within the laser's own noise.
 FLOOR_M = 3.0e-4
+#: A patch (and the scan at its place) needs this many points on the model.
+MIN_POINTS = 20
 
 
 @dataclass(frozen=True)
@@ -51,16 +55,23 @@ class VerifyPoint:
 @dataclass(frozen=True)
 class PatchCheck:
     """One patch against the registered model: its points on the model, their median signed
-    distance from it [m] (outside > 0), the offset the match allows there [m]."""
+    distance from it [m] (outside > 0), the same of the scan the match was made on there
+    (`scanned_m`), the difference allowed [m]."""
 
     name: str
     points: int
     offset_m: float
+    scanned_m: float
     allowed_m: float
 
     @property
+    def moved_m(self) -> float:
+        """How far the surface there moved along its normal since the scan [m]."""
+        return self.offset_m - self.scanned_m
+
+    @property
     def agrees(self) -> bool:
-        return self.points >= 20 and abs(self.offset_m) <= self.allowed_m
+        return self.points >= MIN_POINTS and abs(self.moved_m) <= self.allowed_m
 
 
 @dataclass(frozen=True)
@@ -75,7 +86,7 @@ class Verification:
 
     def summary(self) -> str:
         return ", ".join(
-            f"{c.name}: {c.offset_m * 1e3:+.2f} mm (allowed {c.allowed_m * 1e3:.2f}, "
+            f"{c.name}: moved {c.moved_m * 1e3:+.2f} mm (allowed {c.allowed_m * 1e3:.2f}, "
             f"{c.points} points)"
             for c in self.checks
         )
@@ -173,37 +184,56 @@ def plan_patches(
     return tuple(passes)
 
 
+def _offset(
+    shape: MeshModel, T_object_table: np.ndarray, points_table: np.ndarray
+) -> tuple[float, int]:
+    """Median signed distance [m] of points (N, 3, table frame) from the model at the
+    registered pose (outside > 0), over those within ON_MODEL_M of it, and their count."""
+    if len(points_table) == 0:
+        return float("nan"), 0
+    p_model = transform_points(T_object_table, points_table)
+    closest = shape.closest(p_model)
+    on = closest.distances <= ON_MODEL_M
+    normals = closest.normals if closest.normals is not None else np.zeros_like(p_model)
+    signed = np.einsum("ij,ij->i", p_model - closest.points, normals)[on]
+    return (float(np.median(signed)) if len(signed) else float("nan")), len(signed)
+
+
 def verify_registration(
     controller: Controller,
     virtual: ObjectModel,
     T_table_object: np.ndarray,
-    match: MatchResult,
+    scanned_table: np.ndarray,
     targets_model: np.ndarray,
     section: Scan,
     table_position_m: float,
     model: CellModel,
+    pass_sigma_m: float,
     say: Progress,
     count: int = 2,
 ) -> Verification:
     """Re-scan a patch at each of `count` verification points (see the module) and compare
-    it with the registered model at `T_table_object` (4, 4)."""
+    it with the registered model at `T_table_object` (4, 4), against how the scan the match
+    was made on (`scanned_table`, (N, 3) table frame) lay there: the model's own error and
+    the match's cancel, what is left is the object's move and the two scans' arm errors
+    (`pass_sigma_m` per axis [m], the data sheet's): three sigma of their difference is
+    allowed."""
     places = verification_points(virtual, T_table_object, targets_model, count)
     planned = plan_patches(controller, places, section.standoff_m, table_position_m, model)
     points = [point for _, point in planned]
     scan = execute_scan(controller, tuple(p for p, _ in planned), section, say, model)
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     T_object_table = invert(T_table_object)
-    tre = match.predicted_tre(np.array([p.p_model for p in points])).tre
+    allowed = max(FLOOR_M, 3.0 * np.sqrt(2.0) * pass_sigma_m)
     checks = []
     for k, point in enumerate(points):
         mine = scan.line_pass[scan.line_index] == k
-        near = np.linalg.norm(scan.points_table - point.p_table, axis=1) <= 2 * PATCH_HALF_M
-        p_model = transform_points(T_object_table, scan.points_table[mine & near])
-        closest = shape.closest(p_model)
-        on = closest.distances <= ON_MODEL_M
-        normals = closest.normals if closest.normals is not None else np.zeros_like(p_model)
-        signed = np.einsum("ij,ij->i", p_model - closest.points, normals)[on]
-        offset = float(np.median(signed)) if len(signed) else float("inf")
-        allowed = max(FLOOR_M, 3.0 * float(np.hypot(tre[k], match.rms)))
-        checks.append(PatchCheck(point.name, len(signed), offset, allowed))
+        patch = scan.points_table[mine]
+        near = np.linalg.norm(patch - point.p_table, axis=1) <= PATCH_HALF_M
+        before = np.linalg.norm(scanned_table - point.p_table, axis=1) <= PATCH_HALF_M
+        offset, n = _offset(shape, T_object_table, patch[near])
+        scanned, n0 = _offset(shape, T_object_table, scanned_table[before])
+        if n0 < MIN_POINTS:  # the scan did not see this place: the model is the reference
+            scanned = 0.0
+        checks.append(PatchCheck(point.name, n, offset, scanned, allowed))
     return Verification(tuple(checks))

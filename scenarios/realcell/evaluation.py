@@ -269,7 +269,11 @@ class Evaluator:
             out.append(
                 entry
                 | {
-                    "injected": {"stage": fired.stage, "time_s": fired.time_s, "what": fired.detail},
+                    "injected": {
+                        "stage": fired.stage,
+                        "time_s": fired.time_s,
+                        "what": fired.detail,
+                    },
                     "detected_by": "missed" if seen is None else seen["stage"],
                     "symptom": None if seen is None else seen["code"],
                 }

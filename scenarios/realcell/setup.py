@@ -134,9 +134,7 @@ def build_job_cell(
         part = LooseMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = replace(
-            cell_config(noise, seed, spheres, robot, rack_xyz, faults), parts=(part,)
-        )
+        config = replace(cell_config(noise, seed, spheres, robot, rack_xyz, faults), parts=(part,))
     else:
         fixed = FixedMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
