@@ -49,6 +49,8 @@ _TOOL_SPECS = {t.name: t for t in TOOLS}
 SETTLE_S = 0.3
 #: Approach height above a rack slot for tool changes [m].
 RACK_APPROACH_M = 0.12
+#: How far towards the arm's base from above a slot a tool change starts and ends [m].
+RACK_FRONT_M = 0.2
 #: Control period of linear moves: the IK is solved at this period [s].
 LINEAR_PERIOD_S = 0.01
 #: How much of its path the arm backs off after a supervision stop [s].
@@ -417,7 +419,8 @@ class Controller:
         return name
 
     def return_tool(self) -> None:
-        """Put the tool in hand back into its rack slot (approach, place, unlock, leave)."""
+        """Put the tool in hand back into its rack slot (approach from the rack's front,
+        place, unlock, leave)."""
         name = self.tool_in_hand
         if name is None:
             return
@@ -429,7 +432,8 @@ class Controller:
         self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
 
     def change_tool(self, tool: str) -> None:
-        """Return the tool in hand (if any), then pick `tool` from its rack slot."""
+        """Return the tool in hand (if any), then pick `tool` from its rack slot and leave
+        the rack by its front."""
         _index(tool)
         if self.tool_in_hand == tool:
             return
@@ -438,7 +442,9 @@ class Controller:
         self._approach(T_slot)
         self.move_linear(T_slot, speed_m_s=0.1)
         self.lock()
-        self.move_linear(self._above(T_slot) @ self.T_flange_tcp(), speed_m_s=0.1)
+        T_tcp = self.T_flange_tcp()
+        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
+        self.move_linear(self._front(T_slot) @ T_tcp, speed_m_s=0.2)
 
     @staticmethod
     def _above(T_slot: np.ndarray) -> np.ndarray:
@@ -446,11 +452,23 @@ class Controller:
         T[2, 3] += RACK_APPROACH_M
         return T
 
+    @staticmethod
+    def _front(T_slot: np.ndarray) -> np.ndarray:
+        """Above the slot and RACK_FRONT_M towards the arm's base, clear of the tools
+        hanging in the rack: a joint move to or from the rack starts or ends there, so the
+        tool in hand never sweeps through its neighbours."""
+        T = Controller._above(T_slot)
+        towards = -T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
+        T[:2, 3] += RACK_FRONT_M * towards
+        return T
+
     def _approach(self, T_slot: np.ndarray) -> None:
-        """Joint move to above a slot, flange seated pose shifted up (no TCP offset)."""
-        T_flange_above = self._above(T_slot)
-        q = self.kinematics.solve(T_flange_above, self._drives.motor)
+        """Joint move to the rack's front of a slot, then straight to above it (the flange
+        seated pose shifted up, the tool in hand's TCP carried along)."""
+        T_tcp = self.T_flange_tcp()
+        q = self.kinematics.solve(self._front(T_slot), self._drives.motor)
         self.move_joints(q)
+        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.2)
 
     # -- tools' actuators ---------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:

@@ -30,9 +30,9 @@ from scenarios.offline.premotion import (
 from scenarios.offline.program import OfflineProgram, Operation, PlannedOperation, plan_program
 
 #: The screwer's solids along its axis (models/robot/tools.py): the changer plate every tool
-#: has (radius 45 mm, 16 mm thick at the flange), then its body (radius 30 mm, to 136 mm);
+#: has (radius 32 mm, 16 mm thick at the flange), then its body (radius 30 mm, to 136 mm);
 #: its pointer is a 3 mm ball whose centre is the TCP.
-PLATE = (0.0, 0.016, 0.045)
+PLATE = (0.0, 0.016, 0.032)
 BODY = (0.016, 0.136, 0.03)
 TIP_RADIUS_M = 0.003
 #: The forearm's collision capsule (models/robot/arm.py, link4): radius 70 mm, along x from
@@ -121,11 +121,6 @@ def _check(skull: dict, program: OfflineProgram, **limits: float):
     )
 
 
-def _first_three(skull: dict) -> OfflineProgram:
-    program = skull["program"]
-    return replace(program, operations=program.operations[:3])
-
-
 # -- the virtual cell ---------------------------------------------------------------------------
 def test_virtual_cell_holds_the_tool_on_the_flange_and_measures_as_the_geometry_says(
     skull: dict,
@@ -184,8 +179,8 @@ def test_virtual_cell_sees_the_object_where_the_exact_mesh_is(skull: dict) -> No
 
 
 # -- (a) a program that passes, and not vacuously -----------------------------------------------
-def test_skull_program_passes_where_the_wrist_clears_the_forearm(skull: dict) -> None:
-    program = _first_three(skull)
+def test_skull_program_passes(skull: dict) -> None:
+    program = skull["program"]
     check = _check(skull, program)
     assert check.ok and check.problems == (), check.summary
     assert check.summary.startswith("the corrected program passes the pre-motion check")
@@ -221,24 +216,26 @@ def test_skull_program_passes_where_the_wrist_clears_the_forearm(skull: dict) ->
     assert refused == {m.name for m in check.moves if m.name.endswith("approach -> touch")}
 
 
-def test_skull_program_is_refused_where_the_screwer_folds_into_the_forearm(skull: dict) -> None:
+def test_the_wrist_bend_at_the_back_of_the_skull_is_measured_as_the_geometry_says(
+    skull: dict,
+) -> None:
     """The shipped job's fourth hole (occipital_left, the back of the skull) needs the wrist
-    bent to 110 deg at its approach: there the changer plate is in the forearm by the depth
-    the geometry gives. Everything else passes."""
+    bent to about 110 deg at its approach: there the changer plate comes closest to the
+    forearm, at the distance the geometry gives; a clearance beyond it refuses the program
+    there, naming the tool and the forearm."""
     program = skull["program"]
-    check = _check(skull, program)
-    assert not check.ok
-    assert {p.move.split(":")[0] for p in check.problems} == {"occipital_left"}
-    assert check.kinds() == ("collision",)
-    assert all("tool_screwer touches link4" in p.detail for p in check.problems)
     planned = program.operations[3]
-    depth = -plate_to_forearm_m(planned.q_approach[4])
-    assert depth > 0.0
+    assert planned.operation.name == "occipital_left"
+    gap = plate_to_forearm_m(planned.q_approach[4])
+    check = _check(skull, program)
     approach = next(m for m in check.moves if m.name == "occipital_left: approach")
-    assert -approach.closest.distance_m == pytest.approx(depth, abs=5e-5)
-    assert check.summary.startswith(
-        "the corrected program collides: occipital_left: approach: tool_screwer touches link4"
-    )
+    assert approach.closest.distance_m == pytest.approx(gap, abs=5e-5)
+    assert (approach.closest.body, approach.closest.other) == ("tool_screwer", "link4")
+    stricter = _check(skull, program, clearance_m=gap + 1e-3)
+    assert not stricter.ok
+    assert {p.move.split(":")[0] for p in stricter.problems} == {"occipital_left"}
+    assert all("tool_screwer comes within" in p.detail for p in stricter.problems)
+    assert "link4" in stricter.summary
 
 
 # -- (b) collisions -----------------------------------------------------------------------------
@@ -248,7 +245,7 @@ def test_object_higher_than_believed_collides(skull: dict) -> None:
     T = skull["T_table_object"].copy()
     T[2, 3] += 0.1
     cell = job_virtual_cell(skull["robot"], RACK_POS, skull["virtual"], T)
-    program = _first_three(skull)
+    program = skull["program"]
     check = check_program(program, skull["kin"], cell, skull["robot"].q_home, SCREWER.T_tool_tcp)
     assert not check.ok and "collision" in check.kinds()
     hits = [p for p in check.problems if p.kind == "collision" and "touches object" in p.detail]
@@ -260,7 +257,7 @@ def test_object_higher_than_believed_collides(skull: dict) -> None:
 def test_approach_in_the_table_collides(skull: dict) -> None:
     """The first approach moved beside the object, 1 cm below the table top: the joint move
     puts the tool into the table."""
-    program, kin = _first_three(skull), skull["kin"]
+    program, kin = skull["program"], skull["kin"]
     first = program.operations[0]
     T_app = first.T_base_approach.copy()
     T_app[:2, 3] = [TABLE_TOP_POS[0] - 0.25, program.table_position_m - 0.2]
@@ -277,7 +274,7 @@ def test_approach_in_the_table_collides(skull: dict) -> None:
 
 # -- (c) reach and joint limits -----------------------------------------------------------------
 def test_touch_beyond_reach_is_refused(skull: dict) -> None:
-    program = _first_three(skull)
+    program = skull["program"]
     first = program.operations[0]
     T_far = first.T_base_touch.copy()
     T_far[0, 3] += 1.0  # 2.2 m from the base: the arm reaches 1.55 m
@@ -290,7 +287,7 @@ def test_touch_beyond_reach_is_refused(skull: dict) -> None:
 
 
 def test_joints_beyond_or_at_their_limits_are_refused(skull: dict) -> None:
-    program, kin = _first_three(skull), skull["kin"]
+    program, kin = skull["program"], skull["kin"]
     first = program.operations[0]
     upper5 = float(kin.upper[4])  # 120 deg
     for q5, words in ((upper5 + 0.05, "beyond its limit"), (upper5 - 0.005, "within 1 deg of")):

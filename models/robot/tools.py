@@ -79,7 +79,7 @@ def slot_pos(
 
 
 def _plate() -> str:
-    return '<geom type="cylinder" size="0.045 0.008" pos="0 0 0.008" rgba="0.3 0.3 0.35 1"/>'
+    return '<geom type="cylinder" size="0.032 0.008" pos="0 0 0.008" rgba="0.3 0.3 0.35 1"/>'
 
 
 def _tool_body(
