@@ -38,7 +38,9 @@ class FaultKind:
 
 
 #: The stages of a run, in order (a fault's `stage`).
-STAGES = ("setup", "calibrate", "probe", "scan", "register", "verify", "execute", "export")
+STAGES = (
+    "setup", "calibrate", "probe", "scan", "register", "check", "verify", "execute", "export"
+)  # fmt: skip
 
 #: Every fault kind the real cell can have, by name.
 FAULT_KINDS: dict[str, FaultKind] = {

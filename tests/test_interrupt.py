@@ -216,6 +216,9 @@ CASES = {
     # The verification's verdict, then the touches (0.7 s or more, silent until they end).
     "execute": Case("skull", NO_CALIBRATION, "verify: agrees", "execute", delay_s=0.2),
     "scan-sigint": Case("skull", NO_CALIBRATION, "scan pass 2", "scan", signal_name="SIGINT"),
+    # The corrected program's files: targets.json first, program.mod and its run on the
+    # nominal controller after.
+    "export": Case("skull", NO_CALIBRATION, "targets.json", "export", marker_is_file=True),
 }
 # What a stage finds written before it; each must be complete.
 WRITTEN_BEFORE = {
@@ -225,6 +228,14 @@ WRITTEN_BEFORE = {
     "register": {"scan.ply"},
     "verify": {"scan.ply"},
     "execute": {"scan.ply"},
+    "export": {
+        "scan.ply",
+        "targets.csv",
+        "targets.json",
+        "tooldata.json",
+        "program.mod",
+        "execution.json",
+    },
 }
 # Lines of the stages after those stopped here, and of a run's end: none may follow a signal.
 LATER = ("match:", "scan check", "verify:", "surface:", "probe:", "pick:", "program",
@@ -300,6 +311,12 @@ def _check_complete(path: Path, scan_points: int | None) -> None:
         assert scan_points is not None and len(read_ply(path)) == scan_points
     elif path.suffix == ".yaml":
         assert yaml.safe_load(path.read_text())["name"]
+    elif path.suffix == ".csv":
+        rows = path.read_text().splitlines()
+        # a header, then an approach and a touch row for each of the 4 targets
+        assert len(rows) == 9 and len({len(r.split(",")) for r in rows}) == 1
+    elif path.suffix == ".mod":
+        assert path.read_text().rstrip().endswith("ENDMODULE")
     else:
         raise AssertionError(f"unexpected file {path.name}")
 

@@ -47,6 +47,7 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.placement import nominal_pose
+from scenarios.offline.premotion import PremotionCheck, check_program, job_virtual_cell
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
 from scenarios.offline.rapid import Filter
@@ -264,6 +265,35 @@ def verify_stage(
     )
     say(f"verify: {'agrees' if verdict.agrees else 'DISAGREES'}: {verdict.summary()}")
     return verdict
+
+
+def check_stage(
+    controller: Controller, virtual: ObjectModel, config: JobConfig, programs: ProgramStage
+) -> PremotionCheck | None:
+    """Each corrected program followed in the virtual cell before it moves
+    (scenarios.offline.premotion); the first check that fails, or None. The pick is not
+    checked: its part moves with the gripper."""
+    name = "part" if config.cell.object.fixing == "loose" else "object"
+    for program in programs.operations.values():
+        cell = job_virtual_cell(
+            controller.robot,
+            config.cell.rack_xyz,
+            virtual,
+            program.T_table_object,
+            config.calibration.enabled,
+            name,
+        )
+        check = check_program(
+            program,
+            controller.kinematics,
+            cell,
+            controller.q_home,
+            controller.T_flange_tcp(program.tool),
+            object_name=name,
+        )
+        if not check.ok:
+            return check
+    return None
 
 
 def program_stage(
@@ -553,6 +583,20 @@ def run_cell_job(
 
     refused_by: str | None = None  # the stage that refused, beyond the match's verdict
     time_at_verdict_s = controller.time_s
+
+    def premotion(planned: ProgramStage) -> str | None:
+        """The pre-motion check of the corrected programs: "check" if it refuses them."""
+        enter("check")
+        check = check_stage(controller, virtual, config, planned)
+        if check is None:
+            say("check: the corrected program passes in the virtual cell")
+            return None
+        detect("premotion", check.summary, "refused")
+        poses[primary_method] = replace(poses[primary_method], accepted=False, reason=check.summary)
+        say(f"check: {check.summary}")
+        return "check"
+
+    primary_method = config.localization.methods[0]
     try:
         # Calibrate: every later stage uses the calibrated arm.
         if config.calibration.enabled:
@@ -597,9 +641,17 @@ def run_cell_job(
         t0 = time.perf_counter()
         if primary.accepted:
             programs = program_stage(controller, virtual, config, ordered, user, model)
+            refused_by = premotion(programs)
+            if refused_by is not None:
+                programs = ProgramStage(None, {})
         # Verify the correction on the object before any target is touched; if it
         # disagrees, scan and match once more; if it still disagrees, refuse.
-        if primary.accepted and primary.method == "surface" and config.verify.enabled:
+        if (
+            refused_by is None
+            and primary.accepted
+            and primary.method == "surface"
+            and config.verify.enabled
+        ):
             for attempt in range(2):
                 enter("verify")
                 log.phase("verify", "the match on patches of the object, away from the targets")
@@ -631,6 +683,10 @@ def run_cell_job(
                 if not primary.accepted:
                     break
                 programs = program_stage(controller, virtual, config, ordered, user, model)
+                refused_by = premotion(programs)
+                if refused_by is not None:
+                    programs = ProgramStage(None, {})
+                    break
         ordered = tuple(poses[m] for m in methods)
         primary = ordered[0]
         pose_errors = measure_poses(ordered)
@@ -692,6 +748,8 @@ def run_cell_job(
             f"{pick_eval.lifted_m * 1e3:.1f} mm, slip {pick_eval.slip_m * 1e3:.3f} mm, put "
             f"down {pick_eval.placed_displacement_m * 1e3:.3f} mm from where it was"
         )
+    if aborted is None:
+        enter("export")
     # An aborted run hands out no program: the cell was not as its model says.
     primary_program = None if aborted is not None else programs.operations.get(primary.method)
     program_file = None

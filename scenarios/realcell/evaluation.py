@@ -111,7 +111,7 @@ SYMPTOMS: dict[str, tuple[str, ...]] = {
     "table_stall": ("table_in_position", "verification", "collision"),
     "object_bump": ("verification", "collision"),
     "encoder_glitch": ("joint_plausibility", "verification"),
-    "obstacle": ("collision", "premotion"),
+    "obstacle": ("collision",),
     "payload": ("load", "collision"),
 }
 
