@@ -45,6 +45,7 @@ def _within_goals(results: dict) -> None:
     [
         ("tool_lock_fail", 0.0, "execute", "lock_sensor"),
         ("laser_dropout_burst", 1.0, "scan", "laser_gap"),
+        ("laser_spurious", 0.01, "register", "scan_outliers"),
         ("table_stall", 0.01, "scan", "table_in_position"),
         ("encoder_glitch", 0.02, "scan", "joint_plausibility"),
         ("object_bump", 0.003, "verify", "verification"),

@@ -34,7 +34,7 @@ from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.localization import Localization, localize
+from scenarios.offline.localization import Localization, localize, stray_returns
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -227,6 +227,20 @@ def localize_by_surface(
     poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
     timings["register"] = timings.get("register", 0.0) + time.perf_counter() - t0
     located = poses["surface"].localization
+    if located is not None:
+        stray = stray_returns(
+            scanned.points_table,
+            MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
+            located.T_table_object,
+            located.result.rms,
+        )
+        if stray:
+            message = (
+                f"{stray} scan points ({100 * stray / len(scanned.points_table):.2f} %) lie "
+                "off the matched model: spurious returns or something else on the table"
+            )
+            say(f"register: {message}; the match left them out")
+            detect("scan_outliers", message, "left out by the match")
     if recording is not None and located is not None:
         recording.log_registration(
             controller.time_s, located.result, virtual, scanned.points_table, located.points_used
