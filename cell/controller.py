@@ -9,9 +9,10 @@ true poses, noise): that lives in `cell.truth.CellTruth`, for evaluators only.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -27,7 +28,7 @@ from cell.errors import (
 )
 from cell.kinematics import Kinematics
 from cell.robots import Robot, irb2400
-from cell.sensors import IRSensor, LaserReading, LaserScanner
+from cell.sensors import IRSensor, LaserReading, LaserScanner, LightBeam
 from cell.simulation import MotionStoppedError, Simulation
 from cell.supervision import ContactSensing, SupervisionLimits
 from cell.toolchanger import ToolChanger
@@ -40,11 +41,13 @@ from models.robot import (
     TABLE_TOP_POS,
     TABLE_TRAVEL,
     TOOLS,
+    beam_line,
     slot_pos,
 )
 from registration.rigid import make_T, quat_wxyz_to_R
 
 _TOOL_SPECS = {t.name: t for t in TOOLS}
+Reading = TypeVar("Reading")
 #: Default settle time after a move [s].
 SETTLE_S = 0.3
 #: Approach height above a rack slot for tool changes [m].
@@ -111,6 +114,7 @@ class Controller:
         #: The controller's event log: every supervision that spoke, in order.
         self.events: list[ControllerEvent] = []
         self._contacts = ContactSensing(sim)
+        self._beam = LightBeam(sim.model, *(np.array(p) for p in beam_line(rack_xyz)))
         sim.guard = self._guard
         self._robot = robot or irb2400()
         self._rack_xyz = rack_xyz
@@ -263,6 +267,30 @@ class Controller:
         """Straight TCP move with the laser in hand, reading a laser line every `period_s` [s]
         while moving (each reading stamped with the encoder joints of its instant)."""
         self._require("laser")
+        return self._read_along(T_base_tcp, speed_m_s, period_s, settle_s, self.read_laser)
+
+    def sweep_beam(
+        self, T_base_tcp: np.ndarray, speed_m_s: float = 0.01, settle_s: float = SETTLE_S
+    ) -> list[tuple[np.ndarray, bool]]:
+        """Straight TCP move through the TCP check station's beam, reading it at every
+        control step: (encoder joints (6,) [rad], beam broken) at each."""
+        return self._read_along(
+            T_base_tcp,
+            speed_m_s,
+            self._sim.dt,
+            settle_s,
+            lambda: (self.read_joints(), self._beam.broken(self._sim.data)),
+        )
+
+    def _read_along(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float,
+        period_s: float,
+        settle_s: float,
+        read: Callable[[], Reading],
+    ) -> list[Reading]:
+        """A straight TCP move, `read()` every `period_s` [s] while moving."""
         sim = self._sim
         every = max(1, round(period_s / sim.dt))
         q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
@@ -270,9 +298,16 @@ class Controller:
         for start in range(0, len(q), every):
             chunk = slice(start, start + every)
             self._run(q[chunk], qd[chunk], new_move=start == 0, before=q[:start])
-            readings.append(self.read_laser())
+            readings.append(read())
         sim.settle(settle_s)
         return readings
+
+    @property
+    def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
+        """The TCP check beam's ends (3,), (3,) [m] in the cell's layout."""
+        return self._beam.p_from.copy(), self._beam.p_from + self._beam.length * (
+            self._beam.direction
+        )
 
     # -- supervision --------------------------------------------------------------------------
     def _guard(self) -> str | None:

@@ -191,3 +191,25 @@ class IRSensor:
         if c.sigma_m > 0.0:
             dist += float(self.rng.normal(0.0, c.sigma_m))
         return float(dist)
+
+
+class LightBeam:
+    """A light barrier between two fixed points (world frame [m]): broken when the arm or a
+    tool stands in the beam (the TCP check station's sensor)."""
+
+    GROUPS = np.array([0, 0, 0, 1, 1, 0], dtype=np.uint8)  # the arm's solids, the tools
+
+    def __init__(self, model: mujoco.MjModel, p_from: np.ndarray, p_to: np.ndarray) -> None:
+        self.model = model
+        self.p_from = np.asarray(p_from, dtype=float)
+        v = np.asarray(p_to, dtype=float) - self.p_from
+        self.length = float(np.linalg.norm(v))
+        self.direction = v / self.length
+        self._geomid = np.zeros(1, dtype=np.int32)
+
+    def broken(self, data: mujoco.MjData) -> bool:
+        mujoco.mj_kinematics(self.model, data)
+        d = mujoco.mj_ray(
+            self.model, data, self.p_from, self.direction, self.GROUPS, 1, -1, self._geomid
+        )
+        return bool(self._geomid[0] >= 0 and d <= self.length)

@@ -14,7 +14,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from cell import CellConfig, make_cell
+from cell.faults import Fault
 from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.offline.moves import change_tool_safely
+from scenarios.offline.tcp_check import check_tcp
 
 GOAL_MAX_M = 1.0e-3
 
@@ -44,6 +48,7 @@ def _within_goals(results: dict) -> None:
     ("fault", "value", "stage", "symptom"),
     [
         ("tool_lock_fail", 0.0, "execute", "lock_sensor"),
+        ("tool_lock_fail", 0.003, "execute", "tcp_check"),
         ("laser_dropout_burst", 1.0, "scan", "laser_gap"),
         ("laser_spurious", 0.01, "register", "scan_outliers"),
         ("table_stall", 0.01, "scan", "table_in_position"),
@@ -84,3 +89,18 @@ def test_stopping_faults(tmp_path: Path, fault: str, value: float, code: str):
     assert results["supervision"][-1]["code"] == code
     assert results["supervision"][-1]["action"] == "stopped"
     assert results["targets"] == [] and results["program_file"] is None
+
+
+@pytest.mark.parametrize("seat_m", [0.0, 0.003])
+def test_the_tcp_check_measures_the_seat(seat_m: float):
+    """The pointer's sideways offset measured at the beam against where the simulation
+    welded the tool on the flange (the truth), within 0.1 mm; the arm's own error (this
+    cell is not calibrated) does not enter it."""
+    faults = (Fault("tool_lock_fail", seat_m, None),) if seat_m else ()
+    controller, truth = make_cell(CellConfig(seed=2, faults=faults))
+    change_tool_safely(controller, "screwer")
+    check = check_tcp(controller)
+    assert check is not None
+    true_xy = truth.T_flange_tool("screwer")[:2, 3]
+    assert np.abs(np.array(check.offset_m) - true_xy).max() < 1e-4
+    assert check.ok == (seat_m == 0.0)

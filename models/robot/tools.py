@@ -66,6 +66,21 @@ FINGER_TRAVEL = 0.05
 RACK_POS = (0.0, -0.85, 0.0)
 SLOT_HEIGHT = 0.8
 SLOT_X = (0.0, 0.25, 0.5, 0.75)
+#: The TCP check station's light beam (a light barrier, as ABB's BullsEye): its centre
+#: relative to the rack frame [m] (in front of the slots, towards the arm) and its half
+#: length along x [m].
+BEAM_OFFSET = (0.375, 0.35, 0.95)
+BEAM_HALF_M = 0.05
+
+
+def beam_line(
+    rack_xyz: tuple[float, float, float] = RACK_POS,
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The TCP check beam's two ends [m] (emitter, receiver), for the rack at `rack_xyz`."""
+    c = [r + o for r, o in zip(rack_xyz, BEAM_OFFSET, strict=True)]
+    return (c[0] - BEAM_HALF_M, c[1], c[2]), (c[0] + BEAM_HALF_M, c[1], c[2])
+
+
 #: Slot orientation (wxyz): the tool hangs with its z axis down (rotation of pi about x).
 SLOT_QUAT = (0.0, 1.0, 0.0, 0.0)
 

@@ -54,6 +54,7 @@ from scenarios.offline.rapid import Filter
 from scenarios.offline.rapid_module import RapidError, with_oframe
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox, ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.tcp_check import checked_tool
 from scenarios.offline.verify import Verification, verify_registration
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
@@ -365,13 +366,16 @@ def execute_stage(
     config: JobConfig,
     hooks: RunHooks,
     say: Progress,
+    detect: Callable[[str, str, str], None],
 ) -> None:
-    """Run the pick, then each program: at each target the tool stops at the touch (and the
+    """Run the pick, then each program: the program's tool taken and checked at the beam
+    (scenarios.offline.tcp_check), then at each target the tool stops at the touch (and the
     screwer spins for `screw`)."""
     section = config.operations
     if programs.pick is not None and section.pick is not None:
         execute_pick(controller, programs.pick, section.pick, hooks)
     for method, program in programs.operations.items():
+        checked_tool(controller, program.tool, say, detect)
 
         def at_target(name: str) -> None:
             hooks.moment(name, section.tool)
@@ -708,7 +712,7 @@ def run_cell_job(
         if primary.accepted and programs.operations:
             enter("execute")
             log.phase("execute", f"the program corrected by the {primary.method} pose")
-            execute_stage(controller, programs, config, hooks, say)
+            execute_stage(controller, programs, config, hooks, say, detect)
         elif not primary.accepted:
             say(f"refused: {primary.reason}; no motion towards the object")
         timings["execute"] = time.perf_counter() - t0
