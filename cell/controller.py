@@ -199,9 +199,13 @@ class Controller:
         implausible one is read again (and logged); twice implausible stops the cell."""
         for attempt in range(2):
             q = self._encoders.read()
+            lim = self.limits
+            allowed = lim.max_following_error_rad + lim.following_lag_s * np.abs(
+                self._drives.velocity
+            )
             off = np.abs(q - self._drives.motor)
-            joint = int(np.argmax(off))
-            if off[joint] <= self.limits.max_following_error_rad:
+            joint = int(np.argmax(off - allowed))
+            if off[joint] <= allowed[joint]:
                 return q
             message = f"joint {joint + 1} reads {off[joint]:.4f} rad from its set-point"
             self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")

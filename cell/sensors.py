@@ -94,8 +94,8 @@ class LaserScanner:
         if spurious is None or self.patch_object is None:
             return
         geom, vertices = self.patch_object
-        if self._patch is None:  # a patch on the object's upper half, drawn once
-            top = vertices[vertices[:, 2] >= np.quantile(vertices[:, 2], 0.5)]
+        if self._patch is None:  # a patch on the top fifth of the object, drawn once
+            top = vertices[vertices[:, 2] >= np.quantile(vertices[:, 2], 0.8)]
             self._patch = top[int(faults.rng.integers(len(top)))]
         R = data.geom_xmat[geom].reshape(3, 3)
         centre = data.geom_xpos[geom] + R @ self._patch

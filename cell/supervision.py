@@ -27,13 +27,15 @@ from cell.simulation import Simulation
 @dataclass(frozen=True)
 class SupervisionLimits:
     """The supervision's thresholds: the external force that stops a move [N] (ABB's
-    collision detection trips at a few tens of newtons at this arm's tool), the joint
-    reading's largest distance from the motor's set-point [rad] (a servo lags its
-    set-point by up to a few mrad in a fast wrist move), the table's in-position
-    window [m], the largest unexplained holding torque after a tool change [N m]."""
+    collision detection trips at a few tens of newtons at this arm's tool); how far a joint
+    reading may be from the motor's set-point [rad] at rest, and how much more per rad/s of
+    the set-point's speed [s] (a servo lags its set-point by a few milliseconds); the
+    table's in-position window [m]; the largest unexplained holding torque after a tool
+    change [N m]."""
 
     max_contact_force_n: float = 40.0
-    max_following_error_rad: float = 1.0e-2
+    max_following_error_rad: float = 2.0e-3
+    following_lag_s: float = 5.0e-3
     table_in_position_m: float = 2.0e-4
     max_load_torque_nm: float = 5.0
 

@@ -44,9 +44,10 @@ def _frame(p: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 def skull_module(wobj_offset_mm: float = 0.0) -> str:
     """The skull's burr-hole touches as a RobotStudio user would program them on the virtual
-    cell: the work object on the phantom's nominal pose (table at 0), the pointer's tip 1 mm
-    before each entry, approached 60 mm back along the trajectory, each robtarget's
-    configuration data the nominal arm's solution (as RobotStudio writes them)."""
+    cell: the work object on the phantom's nominal pose (table at 0), the pointer's ball
+    (3 mm radius, its centre the TCP) 1 mm before each entry, approached 60 mm back along
+    the trajectory, each robtarget's configuration data the nominal arm's solution (as
+    RobotStudio writes them)."""
     config = load_config("skull")
     skull = builtin_model("skull", 0)
     T_base_object = nominal_T_base_table(0.0) @ nominal_pose(
@@ -66,7 +67,7 @@ def skull_module(wobj_offset_mm: float = 0.0) -> str:
     T_tcp[2, 3] = 0.2
     q = kin.lower / 2 + kin.upper / 2
     for k, hole in enumerate(skull.burr_holes):
-        T_touch = _frame(hole.p_entry - 0.001 * hole.direction, hole.direction)
+        T_touch = _frame(hole.p_entry - 0.004 * hole.direction, hole.direction)
         T_app = T_touch.copy()
         T_app[:3, 3] -= 0.06 * hole.direction
         for name, T in ((f"pApp{k}", T_app), (f"pTouch{k}", T_touch)):

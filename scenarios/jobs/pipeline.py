@@ -47,7 +47,12 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.placement import nominal_pose
-from scenarios.offline.premotion import PremotionCheck, check_program, job_virtual_cell
+from scenarios.offline.premotion import (
+    PremotionCheck,
+    PremotionLimits,
+    check_program,
+    job_virtual_cell,
+)
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
 from scenarios.offline.rapid import Filter
@@ -356,6 +361,7 @@ def program_stage(
             spins,
             **({} if table is None else {"table_positions": table}),
             table=model.T_base_table,
+            joint_margin_rad=PremotionLimits().joint_margin_rad,
         )
     return ProgramStage(pick, programs)
 
