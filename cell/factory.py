@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import trimesh
 
 from cell.build import T_TABLEBODY_TABLE, build_model, draw_real_parameters
 from cell.config import CellConfig, FixedMesh, LooseMesh
@@ -93,6 +94,14 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     return controller, CellTruth(config, params, sim, table, laser, ir, faults)
 
 
+def _upper_surface(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(K, 3) the object's vertices on its top fifth whose surface faces up (the outside of
+    a shell, not its inside), in its frame: where a reflective patch can lie."""
+    mesh = trimesh.Trimesh(np.asarray(vertices), np.asarray(faces), process=False)
+    v, n = np.asarray(mesh.vertices), np.asarray(mesh.vertex_normals)
+    return v[(v[:, 2] >= np.quantile(v[:, 2], 0.8)) & (n[:, 2] > 0.5)]
+
+
 def _bind_object(
     sim: Simulation, config: CellConfig, faults: FaultInjector, laser: LaserScanner
 ) -> None:
@@ -105,7 +114,7 @@ def _bind_object(
     obj = fixed[0] if fixed else loose[0]
     m = sim.model
     geom = int(m.geom(obj.name).id)
-    laser.patch_object = (geom, np.asarray(obj.vertices, dtype=float))
+    laser.patch_object = (geom, _upper_surface(obj.vertices, obj.faces))
     centre = obj.T_table_object[:3, :3] @ np.asarray(obj.vertices).mean(axis=0)
     centre += obj.T_table_object[:3, 3]
 

@@ -68,7 +68,8 @@ class LaserScanner:
         self.witness: Callable[[mujoco.MjData, np.ndarray, np.ndarray, np.ndarray], None] | None
         self.witness = None
         self.faults: FaultInjector | None = None
-        #: The object a spurious patch lies on: its geom and (N, 3) vertices in its frame.
+        #: The object a spurious patch lies on: its geom and (N, 3) candidate centres in its
+        #: frame.
         self.patch_object: tuple[int, np.ndarray] | None = None
         self._burst: tuple[float, float] | None = None  # (start, end) [s]
         self._patch: np.ndarray | None = None  # centre in the object's geom frame
@@ -94,9 +95,8 @@ class LaserScanner:
         if spurious is None or self.patch_object is None:
             return
         geom, vertices = self.patch_object
-        if self._patch is None:  # a patch on the top fifth of the object, drawn once
-            top = vertices[vertices[:, 2] >= np.quantile(vertices[:, 2], 0.8)]
-            self._patch = top[int(faults.rng.integers(len(top)))]
+        if self._patch is None:  # drawn once among the candidates
+            self._patch = vertices[int(faults.rng.integers(len(vertices)))]
         R = data.geom_xmat[geom].reshape(3, 3)
         centre = data.geom_xpos[geom] + R @ self._patch
         hit = data.site_xpos[self.site] + d[:, None] * vec

@@ -51,10 +51,12 @@ class _Section(BaseModel):
 
 class Placement(_Section):
     """Where the object sits on the table: a nominal pose (what the planner believes) and the
-    random deviation of the real one (drawn from the run's seed)."""
+    random deviation of the real one (drawn from the run's seed). The default heading (120
+    degrees) turns the skull's face 60 degrees from the robot, where the screwer reaches
+    every burr hole without folding into the forearm."""
 
     xy_m: tuple[float, float] = (0.0, 0.0)
-    yaw_deg: float = 180.0
+    yaw_deg: float = 120.0
     lift_m: float = Field(0.004, ge=0.0, le=0.1)
     range_xy_m: float = Field(0.03, ge=0.0, le=0.2)
     range_yaw_deg: float = Field(20.0, ge=0.0, le=180.0)
