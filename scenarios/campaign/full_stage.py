@@ -18,6 +18,7 @@ import time
 from typing import Any
 
 from scenarios.campaign.register_stage import MAX_TARGETS
+from scenarios.campaign.rows import HARM_M
 
 
 def _number(value: Any) -> float:
@@ -86,11 +87,6 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         row[f"{stage}_seconds"] = seconds
     row["trial_seconds"] = time.perf_counter() - t0
     return row
-
-
-#: A complete run whose worst target is off by more than this is harmed [m] (the skull
-#: job's goal).
-HARM_M = 1.0e-3
 
 
 def fault_columns(results: dict[str, Any]) -> dict[str, Any]:

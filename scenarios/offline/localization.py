@@ -91,8 +91,10 @@ def localize(
 #: larger) are not the object's surface [m]: a laser's spurious returns, or something on the
 #: table that is not the object.
 STRAY_M = 2.0e-3
-#: So many such points make a report (a few are a scan's stray returns at edges).
-STRAY_POINTS = 50
+#: So many such points (at least, and at least this fraction of the scan) make a report (a
+#: few are a scan's stray returns at edges).
+STRAY_POINTS = 10
+STRAY_FRACTION = 1.0e-3
 
 
 def stray_returns(
@@ -100,8 +102,8 @@ def stray_returns(
 ) -> int:
     """How many of the object's scan points (N, 3, table frame) lie off the matched model
     (`shape` at T_table_object, 4 x 4) by more than STRAY_M or 8 RMS; 0 if fewer than
-    STRAY_POINTS do. The match's robust estimator leaves such points out; this counts
-    them, so that a run tells what its laser returned wrongly."""
+    STRAY_POINTS or STRAY_FRACTION of them do. The match's robust estimator leaves such
+    points out; this counts them, so that a run tells what its laser returned wrongly."""
     p_model = transform_points(invert(T_table_object), points_table)
     far = int(np.sum(shape.closest(p_model).distances > max(STRAY_M, 8.0 * rms_m)))
-    return far if far >= STRAY_POINTS else 0
+    return far if far >= max(STRAY_POINTS, STRAY_FRACTION * len(points_table)) else 0
