@@ -51,7 +51,9 @@ from scenarios.offline.premotion import (
     PremotionCheck,
     PremotionLimits,
     check_program,
+    clear_of,
     job_virtual_cell,
+    placement_uncertainty_m,
 )
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
@@ -293,7 +295,7 @@ def check_stage(
     """Each corrected program followed in the virtual cell before it moves
     (scenarios.offline.premotion); the first check that fails, or None. The pick is not
     checked: its part moves with the gripper."""
-    name = "part" if config.cell.object.fixing == "loose" else "object"
+    name = object_name(config)
     for program in programs.operations.values():
         cell = job_virtual_cell(
             controller.robot,
@@ -413,6 +415,11 @@ def object_models(
     return virtual, real
 
 
+def object_name(config: JobConfig) -> str:
+    """The job's object's name in the cell: "part" for a loose part, else "object"."""
+    return "part" if config.cell.object.fixing == "loose" else "object"
+
+
 def job_robot(section: RobotSection) -> Robot:
     """The cell's arm as the job's configuration names it (cell.robots)."""
     home = None if section.home_deg is None else np.deg2rad(section.home_deg)
@@ -458,7 +465,7 @@ def job_cell(
         stream=6 if loose else 5,  # the true placement's random stream
         crop_margin_m=config.localization.scan.crop_margin_m,
         recording=recording,
-        name="part" if loose else "object",
+        name=object_name(config),
         loose=loose,
         rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
         robot=robot,
@@ -627,8 +634,22 @@ def run_cell_job(
             enter("calibrate")
             t0 = time.perf_counter()
             log.phase("calibrate", "the arm, the laser and the table, on the spheres")
+            name = object_name(config)
+            views_clear = clear_of(
+                job_virtual_cell(
+                    controller.robot, config.cell.rack_xyz, virtual, T_table_nominal, True, name
+                ),
+                "laser",
+                name,
+                placement_uncertainty_m(config.cell.object.placement, cell.box.radius_xy),
+            )
             calibration = calibrate_arm(
-                controller, config.calibration, config.seed, say, lambda: hooks.moved("view")
+                controller,
+                config.calibration,
+                config.seed,
+                say,
+                lambda: hooks.moved("view"),
+                views_clear,
             )
             timings["calibrate"] = time.perf_counter() - t0
             hooks.moved("view")

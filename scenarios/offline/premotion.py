@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -44,6 +45,7 @@ from cell.trajectory import straight_path
 from cell.virtual import Contact, VirtualCell
 from models import ObjectModel
 from scenarios.errors import ScenarioError
+from scenarios.jobs.config import Placement
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
 from scenarios.offline.program import OfflineProgram
 
@@ -457,3 +459,31 @@ def check_program(
             f"{name}: touch -> approach", q, planned.T_base_approach, planned.q_approach
         )
     return checker.result(time.perf_counter() - t0)
+
+
+def placement_uncertainty_m(placement: Placement, radius_m: float) -> float:
+    """How far [m] a point of an object of `radius_m` (its footprint about its centre) may
+    be from where its nominal pose puts it, given how it is placed (`placement`'s ranges:
+    sideways, about the vertical, tilted, lifted)."""
+    return float(
+        np.hypot(placement.range_xy_m, placement.range_xy_m)
+        + 2.0 * radius_m * np.sin(np.deg2rad(placement.range_yaw_deg) / 2.0)
+        + radius_m * np.sin(np.deg2rad(placement.range_tilt_deg))
+        + placement.lift_m
+    )
+
+
+def clear_of(
+    cell: VirtualCell, tool: str, name: str, margin_m: float
+) -> Callable[[np.ndarray, float], bool]:
+    """Whether the arm with `tool` at joints q (6,), the table at a position [m], keeps
+    `margin_m` [m] from the object `name` in the virtual `cell` (the object at its nominal
+    pose; the margin holds how far the real one may be from it)."""
+
+    def clear(q: np.ndarray, table_position_m: float) -> bool:
+        cell.set_table(table_position_m)
+        cell.set_tool(tool)
+        cell.set_joints(q)
+        return not any(c.other == name for c in cell.contacts(margin_m))
+
+    return clear
