@@ -113,7 +113,8 @@ class Controller:
         self.limits = limits or SupervisionLimits()
         #: The controller's event log: every supervision that spoke, in order.
         self.events: list[ControllerEvent] = []
-        self._contacts = ContactSensing(sim)
+        self._contacts = ContactSensing(sim, lambda: changer.held)
+        self._supervising = True
         self._beam = LightBeam(sim.model, *(np.array(p) for p in beam_line(rack_xyz)))
         sim.guard = self._guard
         self._robot = robot or irb2400()
@@ -309,9 +310,7 @@ class Controller:
     @property
     def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
         """The TCP check beam's ends (3,), (3,) [m] in the cell's layout."""
-        return self._beam.p_from.copy(), self._beam.p_from + self._beam.length * (
-            self._beam.direction
-        )
+        return self._beam.p_from.copy(), self._beam.p_to.copy()
 
     # -- supervision --------------------------------------------------------------------------
     def _guard(self) -> str | None:
@@ -322,8 +321,6 @@ class Controller:
         if force > self.limits.max_contact_force_n:
             return f"collision: {force:.0f} N on {body}"
         return None
-
-    _supervising = True
 
     @contextmanager
     def supervision_off(self) -> Iterator[None]:
@@ -431,7 +428,6 @@ class Controller:
                 continue
             self._log("lock_sensor", message, "stopped")
             raise SupervisionError("lock_sensor", f"{message} after a retry")
-        self._contacts.held = self._changer.held
         self._drives.hold()  # the arm now carries the tool
         self._check_load(name)
         return name
@@ -453,7 +449,6 @@ class Controller:
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
         name = self._changer.unlock()
-        self._contacts.held = None
         self._drives.hold()
         return name
 

@@ -202,7 +202,8 @@ class LightBeam:
     def __init__(self, model: mujoco.MjModel, p_from: np.ndarray, p_to: np.ndarray) -> None:
         self.model = model
         self.p_from = np.asarray(p_from, dtype=float)
-        v = np.asarray(p_to, dtype=float) - self.p_from
+        self.p_to = np.asarray(p_to, dtype=float)
+        v = self.p_to - self.p_from
         self.length = float(np.linalg.norm(v))
         self.direction = v / self.length
         self._geomid = np.zeros(1, dtype=np.int32)

@@ -16,6 +16,7 @@ simulation's own figures.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -41,10 +42,11 @@ class SupervisionLimits:
 
 
 class ContactSensing:
-    """The external force on the arm and the tool in hand, from the contacts of the
-    physics (the controller's estimate of it from the motor torques, without its noise)."""
+    """The external force on the arm and the tool in hand (`held()`: its name, or None),
+    from the contacts of the physics (the controller's estimate of it from the motor
+    torques, without its noise)."""
 
-    def __init__(self, sim: Simulation) -> None:
+    def __init__(self, sim: Simulation, held: Callable[[], str | None]) -> None:
         self.sim = sim
         m = sim.model
         arm = {int(m.body(f"link{i}").id) for i in range(1, 7)}
@@ -52,7 +54,7 @@ class ContactSensing:
         self._arm[list(arm)] = True
         self._tool_bodies = {name: self._subtree(body) for name, body in sim.tool_body.items()}
         self._force = np.zeros(6)
-        self.held: str | None = None
+        self.held = held
 
     def _subtree(self, root: int) -> np.ndarray:
         m = self.sim.model
@@ -66,8 +68,9 @@ class ContactSensing:
 
     def _mask(self) -> np.ndarray:
         mask = self._arm.copy()
-        if self.held is not None:
-            mask |= self._tool_bodies[self.held]
+        tool = self.held()
+        if tool is not None:
+            mask |= self._tool_bodies[tool]
         return mask
 
     def external(self) -> tuple[float, str]:

@@ -31,7 +31,7 @@ def test_a_move_into_a_body_is_stopped_and_backed_off():
     assert stop.value.code == "collision"
     event = controller.events[-1]
     assert event.code == "collision" and event.action == "stopped"
-    force, _ = ContactSensing(truth.simulation).external()
+    force, _ = ContactSensing(truth.simulation, lambda: controller.tool_in_hand).external()
     assert force == 0.0
     z_contact = p_box[2] + 0.03  # the box's top
     z_flange = truth.simulation.site_T(truth.simulation.flange_site)[2, 3]
@@ -61,9 +61,7 @@ def test_a_stalled_table(readout: str):
     assert abs(controller.table_position() - 0.2) <= 2e-4
     true_off = truth.table_position_m() - truth.table_error_m() - 0.2
     if readout == "honest":
-        assert [(e.code, e.action) for e in controller.events] == [
-            ("table_in_position", "retried")
-        ]
+        assert [(e.code, e.action) for e in controller.events] == [("table_in_position", "retried")]
         assert abs(true_off) <= 2e-4
     else:
         assert controller.events == []

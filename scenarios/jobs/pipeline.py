@@ -614,20 +614,27 @@ def run_cell_job(
 
     refused_by: str | None = None  # the stage that refused, beyond the match's verdict
     time_at_verdict_s = controller.time_s
+    methods = config.localization.methods
 
-    def premotion(planned: ProgramStage) -> str | None:
-        """The pre-motion check of the corrected programs: "check" if it refuses them."""
+    def planned() -> ProgramStage:
+        """The corrected programs of the accepted pose, checked in the virtual cell before
+        they move (stage check; a refusal leaves none and says why)."""
+        nonlocal refused_by
+        ordered = tuple(poses[m] for m in methods)
+        if not ordered[0].accepted:
+            return ProgramStage(None, {})
+        programs = program_stage(controller, virtual, config, ordered, user, model)
         enter("check")
-        check = check_stage(controller, virtual, config, planned)
+        check = check_stage(controller, virtual, config, programs)
         if check is None:
             say("check: the corrected program passes in the virtual cell")
-            return None
+            return programs
         detect("premotion", check.summary, "refused")
-        poses[primary_method] = replace(poses[primary_method], accepted=False, reason=check.summary)
+        poses[methods[0]] = replace(poses[methods[0]], accepted=False, reason=check.summary)
         say(f"check: {check.summary}")
-        return "check"
+        refused_by = "check"
+        return ProgramStage(None, {})
 
-    primary_method = config.localization.methods[0]
     try:
         # Calibrate: every later stage uses the calibrated arm.
         if config.calibration.enabled:
@@ -660,7 +667,6 @@ def run_cell_job(
 
         # Localize: probing first (quick, and the prior of a surface match in mode
         # "refine"), then the scan and the surface match.
-        methods = config.localization.methods
         if "probe" in methods:
             enter("probe")
             t0 = time.perf_counter()
@@ -680,23 +686,12 @@ def run_cell_job(
                 "scan", controller, cell, config, virtual, poses, model, say, hooks, detect,
                 enter, recording, timings, folder,
             )  # fmt: skip
-        ordered = tuple(poses[m] for m in methods)
-        primary = ordered[0]
         time_at_verdict_s = controller.time_s
         t0 = time.perf_counter()
-        if primary.accepted:
-            programs = program_stage(controller, virtual, config, ordered, user, model)
-            refused_by = premotion(programs)
-            if refused_by is not None:
-                programs = ProgramStage(None, {})
+        programs = planned()
         # Verify the correction on the object before any target is touched; if it
         # disagrees, scan and match once more; if it still disagrees, refuse.
-        if (
-            refused_by is None
-            and primary.accepted
-            and primary.method == "surface"
-            and config.verify.enabled
-        ):
+        if programs.operations and methods[0] == "surface" and config.verify.enabled:
             for attempt in range(2):
                 enter("verify")
                 log.phase("verify", "the match on patches of the object, away from the targets")
@@ -721,16 +716,9 @@ def run_cell_job(
                     "scan", controller, cell, config, virtual, poses, model, say, hooks,
                     detect, enter, recording, timings, folder,
                 )  # fmt: skip
-                ordered = tuple(poses[m] for m in methods)
-                primary = ordered[0]
                 time_at_verdict_s = controller.time_s
-                programs = ProgramStage(None, {})
-                if not primary.accepted:
-                    break
-                programs = program_stage(controller, virtual, config, ordered, user, model)
-                refused_by = premotion(programs)
-                if refused_by is not None:
-                    programs = ProgramStage(None, {})
+                programs = planned()
+                if not programs.operations:
                     break
         ordered = tuple(poses[m] for m in methods)
         primary = ordered[0]
