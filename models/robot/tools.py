@@ -142,7 +142,8 @@ def tools_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
 
 def rack_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
     """The static rack, its frame at `rack_xyz` [m] (the slots `SLOT_HEIGHT` above it): a
-    beam on two posts standing on the floor, one slot site per tool."""
+    beam on two posts standing on the floor, one slot site per tool, and the TCP check
+    station's emitter and receiver on either end of its light beam (`beam_line`)."""
     x0, y0, z0 = rack_xyz
     length = SLOT_X[-1] - SLOT_X[0] + 0.3
     cx = x0 + (SLOT_X[0] + SLOT_X[-1]) / 2.0
@@ -155,10 +156,18 @@ def rack_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
     h = (z0 + SLOT_HEIGHT - 0.05) / 2
     post_l = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 - length / 2:.6g} -0.12 {h - z0:.6g}"'
     post_r = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 + length / 2:.6g} -0.12 {h - z0:.6g}"'
+    (a, b) = beam_line(rack_xyz)
+    station = "\n".join(  # the TCP check's emitter and receiver: seen, not in the way
+        f'      <geom name="beam_{end}" type="box" size="0.008 0.012 0.015" '
+        f'pos="{p[0] - x0 + side * 0.012:.6g} {p[1] - y0:.6g} {p[2] - z0:.6g}" group="2" '
+        'contype="0" conaffinity="0" rgba="0.85 0.3 0.1 1"/>'
+        for end, p, side in (("emitter", a, -1.0), ("receiver", b, 1.0))
+    )
     return f"""    <body name="rack" pos="{x0} {y0} {z0}">
       <geom type="box" {beam} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_l} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_r} rgba="0.4 0.4 0.45 1"/>
+{station}
 {slots}
     </body>"""
 
