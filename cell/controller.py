@@ -196,19 +196,15 @@ class Controller:
         return _TOOL_SPECS[name].T_tool_tcp
 
     def read_joints(self) -> np.ndarray:
-        """(6,) encoder readings [rad], each checked against the motors' set-point: an
-        implausible one is read again (and logged); twice implausible stops the cell."""
+        """(6,) encoder readings [rad], each checked against the encoder's second channel:
+        channels that disagree are read again (and logged); twice, the cell stops."""
         for attempt in range(2):
-            q = self._encoders.read()
-            lim = self.limits
-            allowed = lim.max_following_error_rad + lim.following_lag_s * np.abs(
-                self._drives.velocity
-            )
-            off = np.abs(q - self._drives.motor)
-            joint = int(np.argmax(off - allowed))
-            if off[joint] <= allowed[joint]:
-                return q
-            message = f"joint {joint + 1} reads {off[joint]:.4f} rad from its set-point"
+            a, b = self._encoders.read_channels()
+            off = np.abs(a - b)
+            joint = int(np.argmax(off))
+            if off[joint] <= self.limits.max_channel_difference_rad:
+                return a
+            message = f"joint {joint + 1}: the encoder's channels differ by {off[joint]:.4f} rad"
             self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")
         raise SupervisionError("joint_plausibility", f"{message}, twice")
 

@@ -14,7 +14,8 @@ from models.robot import TABLE_TRAVEL
 
 class Encoders:
     """Joint readings: the motors' angles (`motors()`, see cell.drives) plus Gaussian noise
-    `sigma_rad`; `faults` may make one reading jump (encoder_glitch)."""
+    `sigma_rad`, from two channels per joint (a safety encoder's redundant channels, each
+    with its own noise); `faults` may make one reading of channel A jump (encoder_glitch)."""
 
     def __init__(
         self,
@@ -30,10 +31,16 @@ class Encoders:
         self._glitch_in: int | None = None  # readings until the glitch
 
     def read(self) -> np.ndarray:
-        """(6,) measured joint positions [rad]."""
+        """(6,) measured joint positions [rad] (channel A)."""
+        return self.read_channels()[0]
+
+    def read_channels(self) -> tuple[np.ndarray, np.ndarray]:
+        """(6,), (6,) the joint positions [rad] as channels A and B measure them now."""
         q = self.motors()
+        a, b = q.copy(), q
         if self.sigma_rad > 0.0:
-            q += self.rng.normal(0.0, self.sigma_rad, q.shape)
+            a += self.rng.normal(0.0, self.sigma_rad, q.shape)
+            b = b + self.rng.normal(0.0, self.sigma_rad, q.shape)
         fault = None if self.faults is None else self.faults.armed("encoder_glitch")
         if fault is not None and self.faults is not None:
             if self._glitch_in is None:
@@ -41,11 +48,11 @@ class Encoders:
             self._glitch_in -= 1
             if self._glitch_in <= 0:
                 joint = int(self.faults.rng.integers(0, 6))
-                q[joint] += fault.amount
+                a[joint] += fault.amount
                 self.faults.fire(
                     "encoder_glitch", f"joint {joint + 1} read {fault.amount:g} rad off once"
                 )
-        return q
+        return a, b
 
 
 def table_profile(

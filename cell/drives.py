@@ -57,7 +57,6 @@ class Drives:
         self.direction = np.zeros(6)  # side each joint last came from (+1, -1; 0: not yet)
         self.jitter = np.zeros(6)
         self.motor = sim.q_home.copy()  # the motors' set-point [rad]
-        self.velocity = np.zeros(6)  # and its velocity [rad/s]
         self.hold()
 
     # -- the links' offsets from the motors ------------------------------------------------
@@ -103,10 +102,8 @@ class Drives:
             sim.run(sim.arm_act, q - self.offsets(q) + sim.arm_ff * qd)
         except MotionStoppedError as stop:  # the motors stand at the last set-point they were given
             self.motor = q[stop.steps - 1].copy()
-            self.velocity = np.zeros(6)
             raise
         self.motor = q[-1].copy()
-        self.velocity = np.asarray(qd[-1], dtype=float).copy()
 
     def hold(self) -> None:
         """Hold the motors at their set-point (after the payload or the time changed)."""

@@ -5,8 +5,8 @@
   beyond the threshold stops the move within milliseconds and backs the arm off along its
   path. Here the external force is the contacts' force on the arm's links and the tool in
   hand.
-- The joint readings' plausibility: a reading that leaves the motor's set-point by more
-  than a servo lag can explain is a glitch; it is read again.
+- The joint readings' plausibility: a joint's two encoder channels (a safety encoder's
+  redundant ones) must agree; a reading where they do not is a glitch, read again.
 - The static load check after a tool is locked: the motor torques holding the arm still
   against what the tool's tooldata (its payload model) needs.
 
@@ -28,15 +28,13 @@ from cell.simulation import Simulation
 @dataclass(frozen=True)
 class SupervisionLimits:
     """The supervision's thresholds: the external force that stops a move [N] (ABB's
-    collision detection trips at a few tens of newtons at this arm's tool); how far a joint
-    reading may be from the motor's set-point [rad] at rest, and how much more per rad/s of
-    the set-point's speed [s] (a servo lags its set-point by a few milliseconds); the
-    table's in-position window [m]; the largest unexplained holding torque after a tool
-    change [N m]."""
+    collision detection trips at a few tens of newtons at this arm's tool); how far a
+    joint's two encoder channels may differ [rad] (their noise is a few hundredths of a
+    milliradian); the table's in-position window [m]; the largest unexplained holding
+    torque after a tool change [N m]."""
 
     max_contact_force_n: float = 40.0
-    max_following_error_rad: float = 2.0e-3
-    following_lag_s: float = 5.0e-3
+    max_channel_difference_rad: float = 1.0e-3
     table_in_position_m: float = 2.0e-4
     max_load_torque_nm: float = 5.0
 

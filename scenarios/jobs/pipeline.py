@@ -839,6 +839,9 @@ def run_cell_job(
             except RapidError as exc:  # a controller would stop the program there
                 exported = {"status": "refused", "reason": str(exc)}
                 say(f"{program_file} on the nominal controller: refused: {exc}")
+            except SupervisionError as exc:  # its supervision stopped the cell
+                exported = {"status": "aborted", "reason": str(exc)}
+                say(f"{program_file} on the nominal controller: aborted: {exc}")
             else:
                 exported = executed.summary()
                 write_text(folder / EXECUTION_FILE, json.dumps(executed.to_json(), indent=2) + "\n")
