@@ -111,8 +111,10 @@ class Controller:
     ) -> None:
         self._sim = sim
         self.limits = limits or SupervisionLimits()
-        #: The controller's event log: every supervision that spoke, in order.
+        #: The controller's event log: every supervision that spoke, in order; `on_event`
+        #: hears each as it is logged (a program's error handler, a run's progress).
         self.events: list[ControllerEvent] = []
+        self.on_event: Callable[[ControllerEvent], None] | None = None
         self._contacts = ContactSensing(sim, lambda: changer.held)
         self._supervising = True
         self._beam = LightBeam(sim.model, *(np.array(p) for p in beam_line(rack_xyz)))
@@ -329,7 +331,10 @@ class Controller:
             self._supervising = True
 
     def _log(self, code: str, message: str, action: str) -> None:
-        self.events.append(ControllerEvent(self.time_s, code, message, action))
+        event = ControllerEvent(self.time_s, code, message, action)
+        self.events.append(event)
+        if self.on_event is not None:
+            self.on_event(event)
 
     def _run(
         self,

@@ -433,12 +433,12 @@ def campaign(
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     """The root exceptions of the project's packages: bad input a user can fix."""
-    from cell.errors import CellError
+    from cell.errors import CellError, SupervisionError
     from models.errors import ModelError
     from registration.errors import RegistrationError
     from scenarios.errors import ScenarioError
 
-    return (RegistrationError, CellError, ModelError, ScenarioError)
+    return (RegistrationError, CellError, ModelError, ScenarioError, SupervisionError)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -247,7 +247,6 @@ def localize_by_surface(
                 f"{stray} scan points ({100 * stray / len(scanned.points_table):.2f} %) lie "
                 "off the matched model: spurious returns or something else on the table"
             )
-            say(f"register: {message}; the match left them out")
             detect("scan_outliers", message, "left out by the match")
     if recording is not None and located is not None:
         recording.log_registration(
@@ -577,7 +576,10 @@ def run_cell_job(
             stages.enter(name)
         evaluator.enter(name)
 
+    controller.on_event = lambda e: say(f"warning: {stage_now[0]}: {e.message}; {e.action}")
+
     def detect(code: str, message: str, action: str) -> None:
+        say(f"warning: {stage_now[0]}: {message}; {action}")
         checks_seen.append(
             {"stage": stage_now[0], "time_s": controller.time_s, "code": code,
              "message": message, "action": action}
@@ -631,7 +633,6 @@ def run_cell_job(
             return programs
         detect("premotion", check.summary, "refused")
         poses[methods[0]] = replace(poses[methods[0]], accepted=False, reason=check.summary)
-        say(f"check: {check.summary}")
         refused_by = "check"
         return ProgramStage(None, {})
 
@@ -711,7 +712,6 @@ def run_cell_job(
                     programs = ProgramStage(None, {})
                     break
                 detect("verification", message, "re-scanned and matched again")
-                say(f"verify: {message}; scanning and matching again")
                 scanned = localize_by_surface(
                     "scan", controller, cell, config, virtual, poses, model, say, hooks,
                     detect, enter, recording, timings, folder,
@@ -888,7 +888,9 @@ def run_cell_job(
     )  # fmt: skip
     fault_report = evaluator.faults(spoke)
     for entry in fault_report:
-        say(f"fault {entry['name']}: detected by {entry['detected_by']}")
+        by = entry["detected_by"]
+        seen = by if by in ("missed", "not injected") else f"detected in {by}"
+        say(f"fault {entry['name']}: {seen}")
     if aborted is not None:
         status, reason, stopped_in = "aborted", str(aborted), stage_now[0]
     elif primary.accepted:

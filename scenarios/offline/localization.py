@@ -94,7 +94,7 @@ STRAY_M = 2.0e-3
 #: So many such points (at least, and at least this fraction of the scan) make a report (a
 #: few are a scan's stray returns at edges).
 STRAY_POINTS = 10
-STRAY_FRACTION = 1.0e-3
+STRAY_FRACTION = 5.0e-4
 
 
 def stray_returns(

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, Kinematics, nominal_T_base_table
-from cell.errors import CellError, SupervisionError
+from cell.errors import CellError
 from models import BurrHole
 from models.robot import TABLE_TRAVEL
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
@@ -243,8 +243,6 @@ def execute_program(
             controller.move_joints(planned.q_approach)
             moved(f"{name}: approach")
             controller.move_linear(planned.T_base_touch, speed_m_s=touch_speed_m_s)
-        except SupervisionError:
-            raise
         except CellError as exc:
             raise UnreachablePlanError(f"operation {name!r} failed on the cell: {exc}") from exc
         touched(name)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, Kinematics, LaserReading, nominal_T_base_table, points_in_table_frame
-from cell.errors import CellError, SupervisionError
+from cell.errors import CellError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
@@ -214,8 +214,9 @@ def execute_scan(
                 break
             message = f"{planned.name}: {gap} laser lines in a row without a return"
             action = "re-scanned the pass" if attempt == 0 else "kept what it returned"
-            say(f"scan plausibility: {message}; {action}")
-            if detect is not None:
+            if detect is None:
+                say(f"warning: scan: {message}; {action}")
+            else:
                 detect("laser_gap", message, action)
         n_before = sum(len(p) for p in points)
         kin = controller.kinematics
@@ -269,8 +270,6 @@ def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> lis
             speed_m_s=config.speed_m_s,
             period_s=config.period_s,
         )
-    except SupervisionError:
-        raise
     except CellError as exc:
         raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
 

@@ -114,8 +114,8 @@ def checked_tool(
         check = check_tcp(controller)
         if check is None:
             return
-        say(f"TCP check: {check.summary()}")
         if check.ok:
+            say(f"TCP check: {check.summary()}")
             return
         if attempt == 0:
             detect("tcp_check", check.summary(), "re-seated the tool")
