@@ -184,24 +184,26 @@ def markdown(summaries: list[GroupSummary], stage: str) -> str:
             f"{_num(s.tre_ratio['median'])} / {_num(s.tre_ratio['q75'])} | "
             f"{_num(s.trial_seconds['median'])} / {_num(s.trial_seconds['q95'])} |"
         )
-    lines.extend(_fault_lines(total))
+    lines.extend(_fault_lines(total, stage))
     return "\n".join(lines) + "\n"
 
 
-def _fault_lines(total: GroupSummary) -> list[str]:
-    """The faults' table (full stage with faults): per kind, how often it was detected
-    (and by which stage), recovered, stopped safely or missed, and how many of its runs
-    completed with a target beyond the goal."""
+def _fault_lines(total: GroupSummary, stage: str) -> list[str]:
+    """The faults' table (trials with faults): per kind, how often it was detected (and by
+    which stage), recovered, stopped safely or missed, and how many of its trials went on
+    (a complete run; in the register stage, an accepted match) with a target beyond the
+    goal."""
     if not total.faults:
         return []
+    went_on = "accepted matches" if stage == "register" else "complete runs"
     lines = [
         "",
         "## Faults",
         "",
-        f"- complete runs with a target error beyond 1 mm: {total.harmed} (goal 0)",
+        f"- {went_on} with a target error beyond 1 mm: {total.harmed} (goal 0)",
         "",
         "| fault | trials | detected (by stage) | recovered | stopped | missed | not injected "
-        "| complete beyond 1 mm |",
+        f"| {went_on} beyond 1 mm |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for name, c in total.faults.items():
