@@ -211,8 +211,11 @@ CASES = {
     "scan": Case("skull", NO_CALIBRATION, "scan plan:", "scan"),
     # scan.ply is written as the scan ends, then the match runs (0.3 s or more).
     "register": Case("skull", NO_CALIBRATION, "scan.ply", "register", marker_is_file=True),
-    # The verification re-scans two patches of the object: the second one is still to come.
-    "verify": Case("skull", NO_CALIBRATION, "scan check 1:", "verify"),
+    # The verification re-scans a strip of the object (a second or more) right after the
+    # pre-motion check.
+    "verify": Case(
+        "skull", NO_CALIBRATION, "check: the corrected program passes", "verify", delay_s=0.3
+    ),
     # The verification's verdict, then the touches (0.7 s or more, silent until they end).
     "execute": Case("skull", NO_CALIBRATION, "verify: agrees", "execute", delay_s=0.2),
     "scan-sigint": Case("skull", NO_CALIBRATION, "scan pass 2", "scan", signal_name="SIGINT"),

@@ -463,11 +463,11 @@ class ModelSection(_Section):
 
 class VerifySection(_Section):
     """The check of the correction before any target is touched (scenarios.offline.verify):
-    the laser re-scans a patch at each of `points` places away from the targets and
-    compares it with the match; a disagreement re-scans and re-matches once, then refuses."""
+    the laser scans a strip of the object again, matched on its own, and the targets it
+    places are compared with the registration's; a disagreement re-scans and re-matches
+    once, then refuses."""
 
     enabled: bool = True
-    points: int = Field(2, ge=1, le=4)
 
 
 class FaultSetting(_Section):

@@ -60,7 +60,14 @@ from scenarios.offline.program import OfflineProgram, execute_program, plan_prog
 from scenarios.offline.rapid import Filter
 from scenarios.offline.rapid_module import RapidError, with_oframe
 from scenarios.offline.reach import check_reach
-from scenarios.offline.scan import ObjectBox, ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.scan import (
+    ObjectBox,
+    PlannedPass,
+    ScanData,
+    crop_to_object,
+    execute_scan,
+    plan_scan,
+)
 from scenarios.offline.tcp_check import checked_tool
 from scenarios.offline.verify import Verification, verify_registration
 from scenarios.outputs import exports
@@ -78,12 +85,13 @@ PASS_SIGMA_M = 3.0e-4 / 3**0.5
 # -- the stages' typed results ------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class ScanStage:
-    """The scan: what the laser measured, which points were kept as the object's (N,), and
-    those points (M, 3) in the nominal table frame."""
+    """The scan: what the laser measured, which points were kept as the object's (N,),
+    those points (M, 3) in the nominal table frame, and the passes it ran."""
 
     scan: ScanData
     keep: np.ndarray
     points_table: np.ndarray
+    plan: tuple[PlannedPass, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,7 +170,7 @@ def scan_stage(
     scan = execute_scan(controller, plan, section, say, model, detect)
     keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
     say(f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object")
-    return ScanStage(scan, keep, scan.points_table[keep])
+    return ScanStage(scan, keep, scan.points_table[keep], plan)
 
 
 def surface_pose(
@@ -235,6 +243,8 @@ def localize_by_surface(
     poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
     timings["register"] = timings.get("register", 0.0) + time.perf_counter() - t0
     located = poses["surface"].localization
+    if not poses["surface"].accepted:
+        detect("match_refused", poses["surface"].reason, "refused")
     if located is not None:
         stray = stray_returns(
             scanned.points_table,
@@ -262,27 +272,32 @@ def verify_stage(
     poses: dict[str, LocatedPose],
     scanned: ScanStage,
     programs: ProgramStage,
+    box: ObjectBox,
     model: CellModel,
     say: Progress,
 ) -> Verification:
-    """Re-scan patches of the object away from the targets at the program's table position
-    and compare them with the surface match (scenarios.offline.verify)."""
+    """Scan a strip of the object again at the program's table position, match it on its
+    own and compare where the two matches put the targets (scenarios.offline.verify)."""
     pose = poses["surface"]
     assert pose.localization is not None and pose.T_table_object is not None
     program = next(iter(programs.operations.values()))
     pass_sigma = config.localization.registration.pass_sigma_m
+    targets = tuple((h.name, h.p_entry) for h in virtual.burr_holes)
     verdict = verify_registration(
         controller,
         virtual,
         pose.T_table_object,
-        scanned.points_table,
-        np.array([h.p_entry for h in virtual.burr_holes]).reshape(-1, 3),
+        pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre,
+        scanned.scan,
+        scanned.keep,
+        scanned.plan,
+        targets,
+        box,
         config.localization.scan,
         program.table_position_m,
         model,
         PASS_SIGMA_M if pass_sigma is None else pass_sigma,
         say,
-        config.verify.points,
     )
     say(f"verify: {'agrees' if verdict.agrees else 'DISAGREES'}: {verdict.summary()}")
     return verdict
@@ -698,7 +713,7 @@ def run_cell_job(
                 log.phase("verify", "the match on patches of the object, away from the targets")
                 assert scanned is not None
                 verdict = verify_stage(
-                    controller, virtual, config, poses, scanned, programs, model, say
+                    controller, virtual, config, poses, scanned, programs, cell.box, model, say
                 )
                 if verdict.agrees:
                     break

@@ -105,12 +105,18 @@ class KinematicsEvaluation:
 #: The symptoms (the codes of the controller's supervision and of the stages' checks) by
 #: which each fault can show. A fault is detected by the first of them seen after it fired.
 SYMPTOMS: dict[str, tuple[str, ...]] = {
-    "tool_lock_fail": ("lock_sensor", "tcp_check", "verification", "collision"),
-    "laser_dropout_burst": ("laser_gap", "verification"),
-    "laser_spurious": ("scan_outliers", "verification"),
-    "table_stall": ("table_in_position", "verification", "collision"),
+    "tool_lock_fail": ("lock_sensor", "tcp_check", "verification", "match_refused", "collision"),
+    "laser_dropout_burst": ("laser_gap", "match_refused", "verification"),
+    "laser_spurious": ("scan_outliers", "match_refused", "verification"),
+    "table_stall": (
+        "table_in_position",
+        "scan_outliers",
+        "match_refused",
+        "verification",
+        "collision",
+    ),
     "object_bump": ("verification", "collision"),
-    "encoder_glitch": ("joint_plausibility", "verification"),
+    "encoder_glitch": ("joint_plausibility", "scan_outliers", "match_refused", "verification"),
     "obstacle": ("collision",),
     "payload": ("load", "collision"),
 }
