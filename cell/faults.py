@@ -170,10 +170,10 @@ class Injection:
 
 
 class FaultInjector:
-    """The real cell's faults and their firing. The devices ask `due(name)` at each
-    occasion (a lock, a table move, a laser line, an encoder reading); a due fault fires
-    once, at the first occasion after its stage began. The runner tells the stage with
-    `enter(stage)`."""
+    """The real cell's faults and their firing. The devices ask `armed(name)` at each
+    occasion (a lock, a table move, a laser line, an encoder reading); an armed fault fires
+    once (`fire`), at the first occasion after its stage began. The runner tells the stage
+    with `enter(stage)`."""
 
     def __init__(self, faults: tuple[Fault, ...], seed: int) -> None:
         names = [f.name for f in faults]
@@ -182,7 +182,7 @@ class FaultInjector:
         self.faults = {f.name: f for f in faults}
         self.rng = np.random.default_rng(np.random.SeedSequence([seed, 11]))
         self.stage = "setup"
-        self._stages_seen = {"setup"}
+        self._reached = 0  # the furthest stage the run reached (its index in STAGES)
         self.fired: dict[str, Injection] = {}
         self.clock: Callable[[], float] = lambda: 0.0
         #: Pushes the object by (4, 4) in the table frame about its centre (the cell's).
@@ -193,7 +193,7 @@ class FaultInjector:
     def enter(self, stage: str) -> None:
         """The run enters `stage` now (an object_bump due then happens now)."""
         self.stage = stage
-        self._stages_seen.add(stage)
+        self._reached = max(self._reached, STAGES.index(stage))
         bump = self.armed("object_bump")
         if bump is not None and self.push is not None:
             direction = self.rng.normal(size=2)
@@ -222,9 +222,7 @@ class FaultInjector:
     def _begun(self, fault: Fault) -> bool:
         """Whether the run reached the fault's stage, or one after it (a job may skip a
         stage: a bump due at the verification happens before the execution anyway)."""
-        if fault.stage is None:
-            return True
-        return any(STAGES.index(s) >= STAGES.index(fault.stage) for s in self._stages_seen)
+        return fault.stage is None or STAGES.index(fault.stage) <= self._reached
 
     def fire(self, name: str, detail: str) -> None:
         """Record that fault `name` happened now."""
