@@ -64,7 +64,8 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         "executed_error_max_m": max(exec_errors) if exec_errors else None,
         "right_object": 1,
         "good": int(within),
-        "false_accept": int(accepted and not within),
+        # A run stopped before its targets (aborted) accepted nothing that moved a tool.
+        "false_accept": int(accepted and bool(reg_errors) and not within),
         "n_targets": len(targets),
         "job_rms_m": results.get("target_error_rms_m"),
         "job_max_m": results.get("target_error_max_m"),
