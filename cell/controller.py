@@ -453,13 +453,16 @@ class Controller:
         self._drives.hold()
         return name
 
-    def return_tool(self) -> None:
+    def return_tool(self, T_flange_tool: np.ndarray | None = None) -> None:
         """Put the tool in hand back into its rack slot (approach from the rack's front,
-        place, unlock, leave)."""
+        place, unlock, leave); a tool known to sit off its seat on the flange by
+        `T_flange_tool` (4, 4) is placed so that it, not its seat, meets the slot."""
         name = self.tool_in_hand
         if name is None:
             return
         T_slot = self.T_base_slot(name)
+        if T_flange_tool is not None:
+            T_slot = T_slot @ np.linalg.inv(T_flange_tool)
         T_tcp = self.T_flange_tcp()
         self._approach(T_slot)
         self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)

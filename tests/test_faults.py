@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cell import CellConfig, make_cell
+from cell import CellConfig, ToolChangerError, make_cell
 from cell.faults import Fault
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.moves import change_tool_safely
@@ -104,3 +104,22 @@ def test_the_tcp_check_measures_the_seat(seat_m: float):
     true_xy = truth.T_flange_tool("screwer")[:2, 3]
     assert np.abs(np.array(check.offset_m) - true_xy).max() < 1e-4
     assert check.ok == (seat_m == 0.0)
+
+
+def test_a_tool_seated_off_goes_back_into_its_slot():
+    """Seated 3.5 mm off (beyond the rack's 3 mm capture), the tool is put back where the
+    TCP check measured it: it meets its slot and the changer lets it go; put back as its
+    tooldata says, it would not (the changer refuses to drop it)."""
+    faults = (Fault("tool_lock_fail", 0.0035, None),)
+    for compensate in (True, False):
+        controller, _ = make_cell(CellConfig(seed=2, faults=faults))
+        change_tool_safely(controller, "screwer")
+        check = check_tcp(controller)
+        assert check is not None and not check.ok
+        controller.move_joints(controller.q_home)
+        if compensate:
+            controller.return_tool(check.T_flange_tool)
+            assert controller.tool_in_hand is None
+        else:
+            with pytest.raises(ToolChangerError, match="from its rack slot"):
+                controller.return_tool()

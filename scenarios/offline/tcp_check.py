@@ -49,6 +49,13 @@ class TcpCheck:
     def ok(self) -> bool:
         return self.off_m <= self.tolerance_m
 
+    @property
+    def T_flange_tool(self) -> np.ndarray:
+        """(4, 4) where the tool sits on the flange, as measured: shifted sideways."""
+        T = np.eye(4)
+        T[:2, 3] = self.offset_m
+        return T
+
     def summary(self) -> str:
         if not np.isfinite(self.off_m):
             return f"the {self.tool}'s pointer missed the beam: more than {SWEEP_M * 1e3:g} mm off"
@@ -120,6 +127,6 @@ def checked_tool(
         if attempt == 0:
             detect("tcp_check", check.summary(), "re-seated the tool")
             controller.move_joints(controller.q_home)
-            controller.return_tool()
+            controller.return_tool(check.T_flange_tool if np.isfinite(check.off_m) else None)
     detect("tcp_check", check.summary(), "stopped")
     raise SupervisionError("tcp_check", f"TCP check: {check.summary()}, after re-seating it")
