@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, Kinematics, LaserReading, nominal_T_base_table, points_in_table_frame
-from cell.errors import CellError
+from cell.errors import CellError, UnreachableTargetError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
@@ -259,19 +259,34 @@ def longest_gap(readings: list[LaserReading]) -> int:
     return longest
 
 
+#: After a pass the laser rises straight up this far [m] (or half of it where the arm does
+#: not reach so high) before the arm moves on: a joint move from the end of a low, tilted
+#: pass can sweep the laser through the object.
+RETREAT_M = 0.15
+
+
 def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> list[LaserReading]:
-    """One pass on the cell: the table to its position, the arm to its start, the sweep."""
+    """One pass on the cell: the table to its position, the arm to its start, the sweep,
+    then the laser up and away from the object."""
     if abs(controller.table_position() - planned.table_position_m) > 1e-6:
         controller.move_table(planned.table_position_m)
     try:
         controller.move_joints(planned.q_start)
-        return controller.scan_linear(
-            planned.T_base(planned.T_table_end),
-            speed_m_s=config.speed_m_s,
-            period_s=config.period_s,
+        T_base_end = planned.T_base(planned.T_table_end)
+        readings = controller.scan_linear(
+            T_base_end, speed_m_s=config.speed_m_s, period_s=config.period_s
         )
     except CellError as exc:
         raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
+    for rise in (RETREAT_M, RETREAT_M / 2):
+        T_up = T_base_end.copy()
+        T_up[2, 3] += rise
+        try:
+            controller.move_linear(T_up)
+            break
+        except UnreachableTargetError:
+            continue
+    return readings
 
 
 def crop_to_object(points_table: np.ndarray, box: ObjectBox, margin_m: float) -> np.ndarray:

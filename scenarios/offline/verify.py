@@ -169,7 +169,12 @@ def verify_registration(
     strip = PlannedPass(
         planned.name, planned.T_table_start, planned.T_table_end, s, q, model.T_base_table(s)
     )
+    table_before = controller.table_position()
     again = execute_scan(controller, (strip,), section, say, model)
+    # The table goes back where the scan left it: the tool change that follows is planned
+    # with it there (at the program's position the object can stand in its way).
+    if abs(controller.table_position() - table_before) > 1e-6:
+        controller.move_table(table_before)
     points = again.points_table[crop_to_object(again.points_table, box, section.crop_margin_m)]
     if len(points) < 100:
         return Verification(planned.name, len(points), ())
