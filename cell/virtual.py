@@ -27,6 +27,7 @@ from cell.build import build_model
 from cell.config import CellConfig, FixedMesh, FixedPrimitive
 from cell.errors import CellConfigError, JointLimitError, UnknownNameError
 from cell.robots import Robot
+from cell.sensors import RAY_GROUPS
 from models.robot import FINGER_TRAVEL, FLANGE_SITE, JOINT_NAMES, TABLE_TRAVEL, TOOLS
 from registration.rigid import R_to_quat_wxyz
 
@@ -166,6 +167,40 @@ class VirtualCell:
         T[:3, :3] = self.data.xmat[b].reshape(3, 3)
         T[:3, 3] = self.data.xpos[b]
         return T
+
+    def T_world_site(self, name: str) -> np.ndarray:
+        """(4, 4) world pose of site `name` in the current pose (e.g. "table_top", the table
+        frame)."""
+        self._place()
+        i = int(self.model.site(name).id)
+        T = np.eye(4)
+        T[:3, :3] = self.data.site_xmat[i].reshape(3, 3)
+        T[:3, 3] = self.data.site_xpos[i]
+        return T
+
+    # -- rays ---------------------------------------------------------------------------------
+    def cast(
+        self, origin: np.ndarray, directions: np.ndarray, range_m: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rays from `origin` (3,) along unit `directions` (n, 3) in the world frame against
+        what a laser sees (the table, the fixtures and objects' exact surfaces; not the arm
+        or the tools), as far as `range_m` [m]: distances (n,) [m] (inf: nothing), surface
+        normals (n, 3), and the name of the fixture or part hit (n,) ("" for none)."""
+        self._place()
+        m, d = self.model, self.data
+        dirs = np.ascontiguousarray(directions, dtype=float).reshape(-1, 3)
+        n = len(dirs)
+        geom = np.zeros(n, dtype=np.int32)
+        dist = np.zeros(n)
+        normal = np.zeros(3 * n)
+        mujoco.mj_multiRay(
+            m, d, np.asarray(origin, dtype=float), dirs.reshape(-1), RAY_GROUPS, 1, -1,
+            geom, dist, normal, n, range_m,
+        )  # fmt: skip
+        hit = geom >= 0
+        dist = np.where(hit, dist, np.inf)
+        names = np.array(["" if g < 0 else self._geom_name[g] for g in geom], dtype=object)
+        return dist, normal.reshape(-1, 3), names
 
     # -- contacts -----------------------------------------------------------------------------
     def contacts(self, margin_m: float = 0.0) -> tuple[Contact, ...]:

@@ -120,6 +120,33 @@ class ScanPass(_Section):
     heading_deg: float = Field(0.0, ge=-180.0, le=180.0)
 
 
+class ScanPlanning(_Section):
+    """How `plan: auto` chooses its passes (scenarios.offline.scan_plan): candidates at the
+    tilts [deg] from above to the sides and the headings [deg] about the vertical; passes
+    are added until every target's predicted TRE is below `goal_tre_m` [m] or the scan's
+    cell time reaches `budget_s` [s]. The predicted errors are data-sheet numbers: the
+    laser's range noise [m], the object's deviation from its model [m] and that deviation's
+    correlation length [m] (a moulded phantom or a machined part: about 0.2 mm over 2 cm)."""
+
+    tilts_deg: tuple[float, ...] = (0.0, 30.0, 50.0, 70.0)
+    headings_deg: tuple[float, ...] = (0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0)
+    goal_tre_m: float = Field(2.5e-4, gt=0.0, le=0.01)
+    budget_s: float = Field(120.0, gt=0.0, le=3600.0)
+    range_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
+    model_error_m: float = Field(2.0e-4, ge=0.0, le=0.01)
+    correlation_m: float = Field(0.02, gt=0.0, le=1.0)
+
+    @field_validator("tilts_deg", "headings_deg")
+    @classmethod
+    def _angles(cls, v: tuple[float, ...], info: Any) -> tuple[float, ...]:
+        limit = 75.0 if info.field_name == "tilts_deg" else 180.0
+        if not v or any(not -limit <= a <= limit for a in v):
+            raise ValueError(
+                f"{info.field_name} must be a non-empty list in [-{limit:g}, {limit:g}]"
+            )
+        return v
+
+
 class Scan(_Section):
     """The scan plan's parameters: the laser's stand-off [m], sweep speed [m/s] and line
     period [s], the sweep's margin beyond the object's nominal footprint [m], the passes; the
@@ -144,6 +171,10 @@ class Scan(_Section):
         ),
         min_length=1,
     )
+    #: "fixed": the passes above; "auto": chosen in the virtual cell for the targets
+    #: (`planning`).
+    plan: Literal["fixed", "auto"] = "fixed"
+    planning: ScanPlanning = ScanPlanning()
 
 
 class Registration(_Section):

@@ -68,6 +68,7 @@ from scenarios.offline.scan import (
     execute_scan,
     plan_scan,
 )
+from scenarios.offline.scan_plan import ScanPlan, error_model, plan_job_scan
 from scenarios.offline.tcp_check import checked_tool
 from scenarios.offline.verify import Verification, verify_registration
 from scenarios.outputs import exports
@@ -93,6 +94,7 @@ class ScanStage:
     keep: np.ndarray
     points_table: np.ndarray
     plan: tuple[PlannedPass, ...] = ()
+    scan_time_s: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,18 +162,55 @@ def scan_stage(
     hooks: RunHooks,
     model: CellModel,
     detect: Callable[[str, str, str], None] | None = None,
+    scan_plan: ScanPlan | None = None,
 ) -> ScanStage:
     """Plan the laser passes in the virtual cell, run them on the real one (the points
     rebuilt with the cell's `model`; a pass that lost a stretch run again, `detect` told),
     keep the points within the object's nominal footprint."""
     section = config.localization.scan
     kin = controller.kinematics.for_tool("laser")
-    plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table)
+    specs = None if scan_plan is None or scan_plan.mode == "fixed" else scan_plan.specs
+    plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table, specs)
     say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
+    t0 = controller.time_s
     scan = execute_scan(controller, plan, section, say, model, detect)
     keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
     say(f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object")
-    return ScanStage(scan, keep, scan.points_table[keep], plan)
+    return ScanStage(scan, keep, scan.points_table[keep], plan, controller.time_s - t0)
+
+
+def job_scan_plan(
+    robot: Robot,
+    config: JobConfig,
+    virtual: ObjectModel,
+    T_table_object: np.ndarray,
+    targets_model: np.ndarray,
+    say: Progress,
+) -> ScanPlan:
+    """The job's scan plan in its virtual cell (scenarios.offline.scan_plan) with the nominal
+    arm and table, for the operation targets (K, 3, model frame)."""
+    section = config.localization.scan
+    registration = config.localization.registration
+    pass_sigma = registration.pass_sigma_m if registration.pass_sigma_m is not None else 0.0
+    name = object_name(config)
+    cell = job_virtual_cell(
+        robot, config.cell.rack_xyz, virtual, T_table_object, config.calibration.enabled, name
+    )
+    laser = cell.config.laser  # the laser's data sheet: rays, range, grazing limit
+    kin = robot.kinematics().for_tool("laser")
+    plan = plan_job_scan(
+        kin, cell, ObjectBox.of(virtual.mesh.vertices, T_table_object), section,
+        error_model(section, registration.voxel_m, registration.max_points, pass_sigma),
+        T_table_object, targets_model, robot.q_home, robot.joint_speed,
+        (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
+         laser.max_incidence_rad),
+        object_name=name, say=say,
+    )  # fmt: skip
+    say(
+        f"scan plan ({plan.mode}): {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"
+        f", worst predicted TRE {plan.predicted_tre_max_m * 1e3:.3f} mm"
+    )
+    return plan
 
 
 def surface_pose(
@@ -226,12 +265,13 @@ def localize_by_surface(
     recording: Any | None,
     timings: dict[str, float],
     folder: Path,
+    scan_plan: ScanPlan | None = None,
 ) -> ScanStage:
     """The scan and its surface match (into `poses["surface"]`), each its own stage."""
     enter(stage)
     t0 = time.perf_counter()
     cell.log.phase("scan", "the laser's passes over the object")
-    scanned = scan_stage(controller, cell.box, config, say, hooks, model, detect)
+    scanned = scan_stage(controller, cell.box, config, say, hooks, model, detect, scan_plan)
     timings["scan"] = timings.get("scan", 0.0) + time.perf_counter() - t0
     if recording is not None:
         recording.log_scan(scanned.scan, scanned.keep)
@@ -555,12 +595,15 @@ def run_cell_job(
         check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
         say(f"program {config.operations.program}: {len(user.operations)} touches")
     # Can this arm do this job here at all? Asked of the virtual cell, before the real one.
+    operations = (
+        target_operations(virtual, config.operations) if user is None else program_operations(user)
+    )
     reach = check_reach(
         robot,
         config,
         ObjectBox.of(virtual.mesh.vertices, T_table_nominal),
         T_table_nominal,
-        target_operations(virtual, config.operations) if user is None else program_operations(user),
+        operations,
         None
         if config.operations.pick is None
         else grasp_operation(virtual, config.operations.pick),
@@ -570,6 +613,14 @@ def run_cell_job(
         f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
         "the operations in the virtual cell"
     )
+    scan_plan = None
+    if "surface" in config.localization.methods:
+        # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
+        # before the real one moves: a target no pass constrains refuses the job here.
+        scan_plan = job_scan_plan(
+            robot, config, virtual, T_table_nominal,
+            np.array([op.T_object_touch[:3, 3] for op in operations]), say,
+        )  # fmt: skip
     faults = job_faults(config, virtual, T_table_nominal)
     cell = job_cell(config, virtual, real, robot, recording, faults)
     controller, evaluator = cell.controller, cell.evaluator
@@ -701,7 +752,7 @@ def run_cell_job(
         if "surface" in methods:
             scanned = localize_by_surface(
                 "scan", controller, cell, config, virtual, poses, model, say, hooks, detect,
-                enter, recording, timings, folder,
+                enter, recording, timings, folder, scan_plan,
             )  # fmt: skip
         time_at_verdict_s = controller.time_s
         t0 = time.perf_counter()
@@ -730,7 +781,7 @@ def run_cell_job(
                 detect("verification", message, "re-scanned and matched again")
                 scanned = localize_by_surface(
                     "scan", controller, cell, config, virtual, poses, model, say, hooks,
-                    detect, enter, recording, timings, folder,
+                    detect, enter, recording, timings, folder, scan_plan,
                 )  # fmt: skip
                 time_at_verdict_s = controller.time_s
                 programs = planned()
@@ -947,6 +998,9 @@ def run_cell_job(
         stage=stopped_in,
         faults=tuple(fault_report),
         supervision=tuple(spoke),
+        scan_plan=None
+        if scan_plan is None
+        else scan_plan.to_json(None if scanned is None else scanned.scan_time_s),
     )
     if config.output.plots:
         outputs.write_figures(

@@ -86,6 +86,8 @@ class RunResult:
         faults: each fault injected into the real cell, and the stage that detected it
             (or "missed"); supervision: what the controller's supervision and the stages'
             checks saw (stage, time, code, message, action), in order.
+        scan_plan: the scan's plan (scenarios.offline.scan_plan.ScanPlan.to_json), None
+            without a scan.
     """
 
     status: str
@@ -110,6 +112,7 @@ class RunResult:
     stage: str | None = None
     faults: tuple[dict[str, Any], ...] = ()
     supervision: tuple[dict[str, Any], ...] = ()
+    scan_plan: dict[str, Any] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -185,6 +188,7 @@ class RunResult:
             "stage": self.stage,
             "faults": list(self.faults),
             "supervision": list(self.supervision),
+            "scan_plan": self.scan_plan,
             **self.extra,
         }
 

@@ -19,7 +19,7 @@ from cell.errors import CellError, UnreachableTargetError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
-from scenarios.jobs.config import Scan
+from scenarios.jobs.config import Scan, ScanPass
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
 
@@ -154,37 +154,52 @@ def choose_table_position(
     raise UnreachablePlanError(f"{what}: no table position in {positions} m lets the arm follow it")
 
 
+def plan_pass(
+    kin: Kinematics,
+    box: ObjectBox,
+    config: Scan,
+    spec: ScanPass,
+    index: int,
+    q_seed: np.ndarray,
+    table: Callable[[float], np.ndarray] = nominal_T_base_table,
+) -> PlannedPass:
+    """One pass over the object's nominal box (see `ScanPass`), the `index`-th of its plan
+    (even: sweeping along +y of its heading, odd: back), at the first table position at
+    which the arm follows it."""
+    heading = np.deg2rad(spec.heading_deg)
+    ch, sh = np.cos(heading), np.sin(heading)
+    Rz = np.array([[ch, -sh, 0.0], [sh, ch, 0.0], [0.0, 0.0, 1.0]])
+    R = Rz @ laser_orientation(np.deg2rad(spec.tilt_deg))
+    view, sweep = R[:, 2], Rz[:, 1]
+    reach = float(np.abs(view) @ box.half)  # the box's half depth along the view
+    width = float(np.abs(sweep) @ box.half) + config.margin_m
+    aim = box.centre + spec.offset_m * Rz[:, 0]
+    p_mid = aim - (reach + config.standoff_m) * view
+    sign = 1.0 if index % 2 == 0 else -1.0
+    T_start = _pose(R, p_mid - sign * width * sweep)
+    T_end = _pose(R, p_mid + sign * width * sweep)
+    name = f"pass {index + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
+    s_table, q_start = choose_table_position(
+        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, name, table
+    )
+    return PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table))
+
+
 def plan_scan(
     kin: Kinematics,
     box: ObjectBox,
     config: Scan,
     q_seed: np.ndarray,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    specs: tuple[ScanPass, ...] | None = None,
 ) -> tuple[PlannedPass, ...]:
-    """Passes over the object's nominal box (see `ScanPass`), alternating sweep direction so
-    that consecutive passes join without crossing over the object."""
+    """The passes `specs` (default the configuration's) over the object's nominal box (see
+    `plan_pass`), alternating sweep direction so that consecutive passes join without
+    crossing over the object."""
     passes = []
-    T_tcp = LASER.T_tool_tcp
-    for i, spec in enumerate(config.passes):
-        heading = np.deg2rad(spec.heading_deg)
-        ch, sh = np.cos(heading), np.sin(heading)
-        Rz = np.array([[ch, -sh, 0.0], [sh, ch, 0.0], [0.0, 0.0, 1.0]])
-        R = Rz @ laser_orientation(np.deg2rad(spec.tilt_deg))
-        view, sweep = R[:, 2], Rz[:, 1]
-        reach = float(np.abs(view) @ box.half)  # the box's half depth along the view
-        width = float(np.abs(sweep) @ box.half) + config.margin_m
-        aim = box.centre + spec.offset_m * Rz[:, 0]
-        p_mid = aim - (reach + config.standoff_m) * view
-        sign = 1.0 if i % 2 == 0 else -1.0
-        p_start = p_mid - sign * width * sweep
-        p_end = p_mid + sign * width * sweep
-        T_start, T_end = _pose(R, p_start), _pose(R, p_end)
-        s_table, q_start = choose_table_position(
-            kin, T_tcp, T_start, T_end, q_seed, f"scan pass {i + 1}", table
-        )
-        name = f"pass {i + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
-        passes.append(PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table)))
-        q_seed = q_start
+    for i, spec in enumerate(config.passes if specs is None else specs):
+        passes.append(plan_pass(kin, box, config, spec, i, q_seed, table))
+        q_seed = passes[-1].q_start
     return tuple(passes)
 
 

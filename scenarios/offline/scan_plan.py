@@ -1,0 +1,459 @@
+"""Scan planning aimed at the targets: candidate passes simulated in the virtual cell, chosen
+for the worst predicted target error per second of scan.
+
+Each candidate is a straight pass (`ScanPass`: tilt, heading, aim offset) around the object's
+upper hemisphere and sides. It is kept if the arm follows it at some table position and the
+laser clears the object and the cell along it; then its lines are ray cast in the virtual
+cell (the nominal model at its believed pose, the laser's data sheet: rays, range, grazing
+limit) for the surface it would see, and its cell time is its sweep plus the arm's moves to
+and from it.
+
+The planner adds passes greedily: at each step the one that lowers the worst predicted TRE
+at the operation targets most per second of its cell time. The predicted TRE is the
+registration's (registration.quality.pose_covariance): the point-to-plane information of the
+points the passes would see, thinned as the match thins them, with correlated model error
+and each pass's rigid offset (the arm's accuracy) from the configuration's data-sheet
+numbers. It stops when every target is below the goal or the time budget is spent. A target
+that no reachable pass set constrains below the goal is said so: the job refuses before any
+motion.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell import Kinematics, nominal_T_base_table
+from cell.virtual import VirtualCell
+from models.robot import LASER
+from registration import transform_points
+from registration.quality import ResidualCorrelation, ScanPasses, pose_covariance, predicted_tre
+from registration.rigid import invert
+from scenarios.jobs.config import Scan, ScanPass
+from scenarios.offline.moves import UnreachablePlanError
+from scenarios.offline.scan import ObjectBox, PlannedPass, plan_pass
+from scenarios.offline.scan import plan_scan as plan_scan_fixed
+
+Progress = Callable[[str], None]
+
+#: Laser lines [m] apart along a candidate's sweep in its prediction (the real pass reads
+#: one every speed x period, about 1 mm: the prediction needs the surface, not the density).
+PREDICT_LINE_SPACING_M = 0.004
+#: Every n-th ray of the fan in the prediction.
+PREDICT_RAY_STRIDE = 4
+#: Samples of a candidate's line checked for collisions in the virtual cell.
+COLLISION_SAMPLES = 5
+
+
+class ScanPlanError(UnreachablePlanError):
+    """No plan reaches the goal: a target that no reachable pass constrains."""
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """One candidate pass: its parameters, its plan (table position, start joints), the
+    points (M, 3) and normals (M, 3) the virtual cell predicts it sees, in the model frame,
+    and its cell time [s] (sweep, and the moves to it from home and back)."""
+
+    spec: ScanPass
+    planned: PlannedPass
+    points_model: np.ndarray
+    normals_model: np.ndarray
+    seconds: float
+
+
+@dataclass(frozen=True)
+class ChosenPass:
+    """A chosen pass: its name, the worst predicted TRE [m] once it is added, its cell time
+    [s] and its share of the plan's information (the trace of the information matrix it
+    adds, over the plan's)."""
+
+    name: str
+    tilt_deg: float
+    heading_deg: float
+    offset_m: float
+    table_position_m: float
+    predicted_tre_max_m: float
+    seconds: float
+    information_share: float
+
+
+@dataclass(frozen=True, eq=False)
+class ScanPlan:
+    """The plan a job scans with: its mode ("auto" or "fixed"), its passes, the predicted
+    cell time of the scan [s], the predicted TRE at each target (K,) [m], the chosen passes
+    in order, and the candidates considered (auto)."""
+
+    mode: str
+    passes: tuple[PlannedPass, ...]
+    predicted_time_s: float
+    predicted_tre_m: np.ndarray
+    chosen: tuple[ChosenPass, ...]
+    candidates: tuple[Candidate, ...] = ()
+
+    @property
+    def specs(self) -> tuple[ScanPass, ...]:
+        """The chosen passes' parameters, in scan order."""
+        return tuple(
+            ScanPass(tilt_deg=c.tilt_deg, heading_deg=c.heading_deg, offset_m=c.offset_m)
+            for c in self.chosen
+        )
+
+    def to_json(self, scan_time_s: float | None) -> dict[str, object]:
+        """results.json's "scan_plan": `scan_time_s` is the cell time the scan took [s]."""
+        return {
+            "mode": self.mode,
+            "passes": len(self.passes),
+            "scan_time_s": scan_time_s,
+            "predicted_scan_time_s": self.predicted_time_s,
+            "predicted_tre_max_m": self.predicted_tre_max_m,
+            "predicted_tre_m": [float(t) for t in self.predicted_tre_m],
+            "candidates": len(self.candidates),
+            "chosen": [
+                {
+                    "name": c.name,
+                    "tilt_deg": c.tilt_deg,
+                    "heading_deg": c.heading_deg,
+                    "offset_m": c.offset_m,
+                    "table_position_m": c.table_position_m,
+                    "predicted_tre_max_m": None
+                    if not np.isfinite(c.predicted_tre_max_m)
+                    else c.predicted_tre_max_m,
+                    "seconds": c.seconds,
+                    "information_share": c.information_share,
+                }
+                for c in self.chosen
+            ],
+        }
+
+    @property
+    def predicted_tre_max_m(self) -> float:
+        return float(np.max(self.predicted_tre_m)) if len(self.predicted_tre_m) else 0.0
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    """What the planner predicts the scan's errors to be (data-sheet numbers): white range
+    noise [m], correlated model error [m] and its correlation length [m], each pass's rigid
+    offset per axis [m]; points thinned to one per `voxel_m` cube, at most `max_points`."""
+
+    sigma_white_m: float
+    sigma_correlated_m: float
+    correlation_m: float
+    pass_sigma_m: float
+    voxel_m: float
+    max_points: int
+
+
+def candidate_specs(box: ObjectBox, section: Scan) -> tuple[ScanPass, ...]:
+    """The candidate passes' parameters: from above at three aims across the object, and
+    tilted at the planner's tilts from every heading, aimed at the object's centre and at its
+    near side."""
+    half = float(max(box.half[0], box.half[1]))
+    plan = section.planning
+    specs = [
+        ScanPass(tilt_deg=0.0, heading_deg=h, offset_m=round(f * half, 4))
+        for h in (0.0, 90.0)
+        for f in (-0.5, 0.0, 0.5)
+    ]
+    for tilt in plan.tilts_deg:
+        if tilt == 0.0:
+            continue
+        for h in plan.headings_deg:
+            for f in (-0.5, 0.0):
+                specs.append(ScanPass(tilt_deg=tilt, heading_deg=h, offset_m=round(f * half, 4)))
+    return tuple(specs)
+
+
+def _transit_s(kin: Kinematics, q_from: np.ndarray, q_to: np.ndarray, speed: np.ndarray) -> float:
+    """Time [s] of a joint move: the slowest joint at its speed limit (with ramps: x 1.5)."""
+    return 1.5 * float(np.max(np.abs(np.asarray(q_to) - np.asarray(q_from)) / speed))
+
+
+def _predict(
+    cell: VirtualCell,
+    planned: PlannedPass,
+    T_table_object: np.ndarray,
+    dirs_tcp: np.ndarray,
+    range_m: tuple[float, float],
+    max_incidence_rad: float,
+    object_name: str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points (M, 3) and normals (M, 3) in the model frame that the pass' laser sees of the
+    object in the virtual cell."""
+    cell.set_table(planned.table_position_m)
+    T_world_table = cell.T_world_site("table_top")
+    p0, p1 = planned.T_table_start[:3, 3], planned.T_table_end[:3, 3]
+    n_lines = max(2, int(np.ceil(np.linalg.norm(p1 - p0) / PREDICT_LINE_SPACING_M)) + 1)
+    R = T_world_table[:3, :3] @ planned.T_table_start[:3, :3]
+    dirs = dirs_tcp[::PREDICT_RAY_STRIDE] @ R.T
+    cos_max = np.cos(max_incidence_rad)
+    points, normals = [], []
+    for s in np.linspace(0.0, 1.0, n_lines):
+        origin = T_world_table[:3, :3] @ (p0 + s * (p1 - p0)) + T_world_table[:3, 3]
+        dist, normal, name = cell.cast(origin, dirs, range_m[1])
+        ok = (name == object_name) & (dist >= range_m[0]) & (dist <= range_m[1])
+        ok &= -np.einsum("ij,ij->i", normal, dirs) >= cos_max
+        points.append(origin + dist[ok, None] * dirs[ok])
+        normals.append(normal[ok])
+    T_object_world = invert(T_world_table @ T_table_object)
+    p = transform_points(T_object_world, np.concatenate(points))
+    n = np.concatenate(normals) @ T_object_world[:3, :3].T
+    return p, n
+
+
+def _clear(
+    cell: VirtualCell,
+    kin: Kinematics,
+    planned: PlannedPass,
+    T_base_table: Callable[[float], np.ndarray],
+    margin_m: float,
+) -> bool:
+    """Whether the arm with the laser follows the pass' line clear of everything by
+    `margin_m` [m] in the virtual cell (checked at COLLISION_SAMPLES points)."""
+    cell.set_tool("laser")
+    cell.set_table(planned.table_position_m)
+    T_base = T_base_table(planned.table_position_m)
+    q = planned.q_start
+    p0, p1 = planned.T_table_start[:3, 3], planned.T_table_end[:3, 3]
+    for s in np.linspace(0.0, 1.0, COLLISION_SAMPLES):
+        T = planned.T_table_start.copy()
+        T[:3, 3] = p0 + s * (p1 - p0)
+        r = kin.ik(T_base @ T, q, LASER.T_tool_tcp, extra_seeds=0)
+        if not r.success:
+            return False
+        q = r.q
+        cell.set_joints(q)
+        if cell.contacts(margin_m):
+            return False
+    return True
+
+
+def candidates(
+    kin: Kinematics,
+    cell: VirtualCell,
+    box: ObjectBox,
+    section: Scan,
+    T_table_object: np.ndarray,
+    q_home: np.ndarray,
+    joint_speed: np.ndarray,
+    laser: tuple[np.ndarray, tuple[float, float], float],
+    T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    object_name: str = "object",
+    margin_m: float = 0.01,
+) -> tuple[tuple[Candidate, ...], int]:
+    """The reachable, collision-free candidates with their predicted points, and how many
+    were tried. `laser`: its ray directions (n, 3) in the TCP frame, range [m] and grazing
+    limit [rad], as its data sheet gives them."""
+    dirs_tcp, range_m, incidence = laser
+    found = []
+    specs = candidate_specs(box, section)
+    for i, spec in enumerate(specs):
+        try:
+            planned = plan_pass(kin, box, section, spec, i, q_home, T_base_table)
+        except UnreachablePlanError:
+            continue
+        if not _clear(cell, kin, planned, T_base_table, margin_m):
+            continue
+        p, n = _predict(cell, planned, T_table_object, dirs_tcp, range_m, incidence, object_name)
+        if len(p) < 50:
+            continue
+        length = float(np.linalg.norm(planned.T_table_end[:3, 3] - planned.T_table_start[:3, 3]))
+        seconds = length / section.speed_m_s + 2.0 * _transit_s(
+            kin, q_home, planned.q_start, joint_speed
+        )
+        found.append(Candidate(spec, planned, p, n, seconds))
+    return tuple(found), len(specs)
+
+
+def _thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
+    """Indices of one point per `voxel_m` cube (the first), as the match thins the scan."""
+    if voxel_m <= 0:
+        return np.arange(len(points))
+    keys = np.floor(points / voxel_m).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return np.sort(first)
+
+
+def predict_tre(
+    chosen: list[Candidate], targets_model: np.ndarray, errors: ErrorModel
+) -> tuple[np.ndarray, np.ndarray]:
+    """The predicted TRE (K,) [m] at `targets_model` (K, 3) from the points the `chosen`
+    passes would see, and the information matrix (6, 6) they give (per unit variance)."""
+    if not chosen:
+        return np.full(len(targets_model), np.inf), np.zeros((6, 6))
+    points = np.concatenate([c.points_model for c in chosen])
+    normals = np.concatenate([c.normals_model for c in chosen])
+    labels = np.concatenate([np.full(len(c.points_model), k) for k, c in enumerate(chosen)])
+    keep = _thin(points, errors.voxel_m)
+    # The match draws at most max_points of the thinned points: so many carry its information.
+    scale = min(1.0, errors.max_points / max(len(keep), 1))
+    p, n, lab = points[keep], normals[keep], labels[keep]
+    J = np.hstack([n, np.cross(p, n)])
+    info = scale * (J.T @ J)
+    if len(p) < 6 or np.linalg.cond(info) > 1e12:
+        return np.full(len(targets_model), np.inf), info
+    weights = np.full(len(p), scale)
+    correlation = ResidualCorrelation(
+        errors.sigma_white_m, errors.sigma_correlated_m, errors.correlation_m
+    )
+    passes = ScanPasses(lab, errors.pass_sigma_m) if errors.pass_sigma_m > 0 else None
+    cov = pose_covariance(p, n, weights, errors.sigma_white_m, correlation, passes)
+    return predicted_tre(cov, targets_model), info
+
+
+def choose_passes(
+    found: tuple[Candidate, ...],
+    targets_model: np.ndarray,
+    errors: ErrorModel,
+    goal_m: float,
+    budget_s: float,
+    say: Progress | None = None,
+) -> tuple[list[Candidate], list[ChosenPass], np.ndarray]:
+    """Greedy choice (see the module's docstring): the passes, their records, and the
+    predicted TRE (K,) [m] of the plan."""
+    chosen: list[Candidate] = []
+    records: list[ChosenPass] = []
+    tre = np.full(len(targets_model), np.inf)
+    spent = 0.0
+    left = list(found)
+    while left and (not chosen or np.max(tre) > goal_m):
+        best, best_gain, best_tre = None, -np.inf, tre
+        worst_now = float(np.max(tre))
+        for c in left:
+            if chosen and spent + c.seconds > budget_s:
+                continue
+            t, _ = predict_tre([*chosen, c], targets_model, errors)
+            worst = float(np.max(t))
+            if not np.isfinite(worst):
+                gain = -np.inf if np.isfinite(worst_now) else len(c.points_model) / c.seconds
+                gain = gain * 1e-12  # constrains nothing yet: coverage first
+            elif not np.isfinite(worst_now):
+                gain = 1.0 / (worst * c.seconds)
+            else:
+                gain = (worst_now - worst) / c.seconds
+            if gain > best_gain:
+                best, best_gain, best_tre = c, gain, t
+        if best is None or (chosen and np.isfinite(worst_now) and best_gain <= 0):
+            break
+        chosen.append(best)
+        left.remove(best)
+        spent += best.seconds
+        tre = best_tre
+        records.append(
+            ChosenPass(
+                best.planned.name,
+                best.spec.tilt_deg,
+                best.spec.heading_deg,
+                best.spec.offset_m,
+                best.planned.table_position_m,
+                float(np.max(tre)),
+                best.seconds,
+                0.0,
+            )
+        )
+        if say is not None:
+            say(
+                f"scan plan: + {best.planned.name}: worst predicted TRE "
+                f"{np.max(tre) * 1e3:.3f} mm, {spent:.0f} s"
+            )
+    # Each pass' share of the plan's information: the trace of what its points add.
+    _, total = predict_tre(chosen, targets_model, errors)
+    shares = []
+    for k in range(len(chosen)):
+        _, without = predict_tre(chosen[:k] + chosen[k + 1 :], targets_model, errors)
+        shares.append(max(float(np.trace(total) - np.trace(without)), 0.0))
+    norm = sum(shares) or 1.0
+    records = [
+        ChosenPass(**{**r.__dict__, "information_share": s / norm})
+        for r, s in zip(records, shares, strict=True)
+    ]
+    return chosen, records, tre
+
+
+def error_model(section: Scan, voxel_m: float, max_points: int, pass_sigma_m: float) -> ErrorModel:
+    """The planner's error model from the configuration's data-sheet numbers."""
+    p = section.planning
+    return ErrorModel(
+        p.range_sigma_m, p.model_error_m, p.correlation_m, pass_sigma_m, voxel_m, max_points
+    )
+
+
+def plan_job_scan(
+    kin: Kinematics,
+    cell: VirtualCell,
+    box: ObjectBox,
+    section: Scan,
+    errors: ErrorModel,
+    T_table_object: np.ndarray,
+    targets_model: np.ndarray,
+    q_home: np.ndarray,
+    joint_speed: np.ndarray,
+    laser: tuple[np.ndarray, tuple[float, float], float],
+    T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    object_name: str = "object",
+    say: Progress | None = None,
+) -> ScanPlan:
+    """The job's scan plan: in mode "auto" chosen among the candidates for `targets_model`
+    (K, 3, model frame); in mode "fixed" the configuration's passes, with the same
+    prediction. Raises ScanPlanError if "auto" leaves a target unconstrained."""
+    tell = say or (lambda _m: None)
+    if section.plan == "fixed":
+        passes = plan_scan_fixed(kin, box, section, q_home, T_base_table)
+        found = []
+        for spec, planned in zip(section.passes, passes, strict=True):
+            p, n = _predict(
+                cell, planned, T_table_object, laser[0], laser[1], laser[2], object_name
+            )
+            length = float(
+                np.linalg.norm(planned.T_table_end[:3, 3] - planned.T_table_start[:3, 3])
+            )
+            seconds = length / section.speed_m_s + 2.0 * _transit_s(
+                kin, q_home, planned.q_start, joint_speed
+            )
+            found.append(Candidate(spec, planned, p, n, seconds))
+        tre, _ = predict_tre(found, targets_model, errors)
+        chosen = tuple(
+            ChosenPass(
+                c.planned.name, c.spec.tilt_deg, c.spec.heading_deg, c.spec.offset_m,
+                c.planned.table_position_m, float("nan"), c.seconds, 0.0,
+            )
+            for c in found
+        )  # fmt: skip
+        return ScanPlan("fixed", passes, sum(c.seconds for c in found), tre, chosen)
+    found_all, tried = candidates(
+        kin, cell, box, section, T_table_object, q_home, joint_speed, laser, T_base_table,
+        object_name,
+    )  # fmt: skip
+    tell(
+        f"scan plan: {len(found_all)} of {tried} candidate passes reachable, clear and "
+        "seeing the object"
+    )
+    goal = section.planning.goal_tre_m
+    chosen, records, tre = choose_passes(
+        found_all, targets_model, errors, goal, section.planning.budget_s, tell
+    )
+    if not np.all(np.isfinite(tre)) or not chosen:
+        raise ScanPlanError(
+            "scan plan: no reachable pass set constrains the targets "
+            f"({len(found_all)} of {tried} candidates usable); the job refuses before any motion"
+        )
+    if np.max(tre) > goal:
+        worst = int(np.argmax(tre))
+        tell(
+            f"scan plan: target {worst + 1} predicted to {tre[worst] * 1e3:.3f} mm, above the "
+            f"goal {goal * 1e3:.3f} mm, within the {section.planning.budget_s:g} s budget"
+        )
+    # Re-plan the chosen passes in scan order (alternating sweeps join without crossing).
+    specs = tuple(c.spec for c in chosen)
+    passes = plan_scan_fixed(kin, box, section, q_home, T_base_table, specs)
+    return ScanPlan(
+        "auto",
+        passes,
+        sum(c.seconds for c in chosen),
+        tre,
+        tuple(records),
+        found_all,
+    )
