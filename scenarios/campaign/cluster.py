@@ -23,7 +23,9 @@ def run_dask(
 ) -> None:
     """Run `trials` on the Dask scheduler at `scheduler` (e.g. "tcp://10.0.0.5:8786"), or on
     a local cluster of `workers` single-threaded processes when no address is given. Rows
-    come back to this process as they finish and go to `on_row`."""
+    come back to this process as they finish and go to `on_row`, once per trial: a worker
+    that dies mid-trial has its trial run again elsewhere by Dask (up to its
+    `allowed-failures`), and a row once collected is released from the cluster."""
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as exc:  # pragma: no cover - a dependency of the package
@@ -47,15 +49,22 @@ def run_dask(
             client = Client(cluster)
         token = uuid.uuid4().hex[:8]
         with client:
-            futures = [
-                client.submit(run_trial, t, key=f"trial-{t.trial_id}-{token}", pure=False)
-                for t in trials
-            ]
+            pending = {
+                future.key: future
+                for future in (
+                    client.submit(run_trial, t, key=f"trial-{t.trial_id}-{token}", pure=False)
+                    for t in trials
+                )
+            }
             try:
-                for future in as_completed(futures):
+                for future in as_completed(list(pending.values())):
                     on_row(future.result())
+                    # Stored here: the cluster may forget the row, so that a worker lost
+                    # later has no finished trial of it to run again.
+                    del pending[future.key]
+                    future.release()
             except BaseException:
-                client.cancel(futures)
+                client.cancel(list(pending.values()))
                 raise
     finally:
         if cluster is not None:
