@@ -1,7 +1,8 @@
 """The cell: MuJoCo build, physics, controller API, sensors, tool changer, kinematics.
 
 `make_cell(config)` returns the controller (what a robot program sees) and the truth (what
-only an evaluator reads).
+only an evaluator reads); `VirtualCell` is the nominal cell, posed without physics, that a
+program is checked for collisions in before it moves.
 """
 
 from cell.config import (
@@ -23,6 +24,7 @@ from cell.errors import (
     CellConfigError,
     CellError,
     JointLimitError,
+    SupervisionError,
     ToolChangerError,
     UnknownNameError,
     UnreachableTargetError,
@@ -33,6 +35,7 @@ from cell.laser import laser_points_base, points_in_table_frame
 from cell.robots import ur5_kinematics
 from cell.sensors import LaserReading
 from cell.truth import CellTruth
+from cell.virtual import Contact, VirtualCell
 
 __all__ = [
     "ArmErrors",
@@ -40,6 +43,7 @@ __all__ = [
     "CellConfigError",
     "CellError",
     "CellTruth",
+    "Contact",
     "Controller",
     "DriveErrors",
     "EncoderNoise",
@@ -53,11 +57,13 @@ __all__ = [
     "LaserReading",
     "LooseMesh",
     "LoosePart",
+    "SupervisionError",
     "TableErrors",
     "ToolChangerError",
     "ToolErrors",
     "UnknownNameError",
     "UnreachableTargetError",
+    "VirtualCell",
     "laser_points_base",
     "make_cell",
     "nominal_T_base_slot",

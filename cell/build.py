@@ -210,6 +210,21 @@ def _add_convex_pieces(
         )
 
 
+def fault_fixtures(config: CellConfig) -> tuple[FixedPrimitive, ...]:
+    """The bodies a fault leaves in the cell: an obstacle's box on the table."""
+    return tuple(
+        FixedPrimitive(
+            "obstacle",
+            "box",
+            (f.amount / 2,) * 3,
+            make_T(np.eye(3), np.asarray(f.where_table, dtype=float)),
+            rgba=(0.85, 0.2, 0.2, 1.0),
+        )
+        for f in config.faults
+        if f.name == "obstacle" and f.where_table is not None and f.amount > 0
+    )
+
+
 def build_model(config: CellConfig, params: RealParameters | None = None) -> mujoco.MjModel:
     """Compile the cell's MuJoCo model: its robot's arm deviated by `params.deviations` and
     its tools' TCP sites at their true places (default: the nominal cell)."""
@@ -223,8 +238,15 @@ def build_model(config: CellConfig, params: RealParameters | None = None) -> muj
             site = spec.site(f"{tool}_tcp")
             site.pos = T[:3, 3]
             site.quat = R_to_quat_wxyz(T[:3, :3])
-    for obj in config.fixtures:
+    for obj in (*config.fixtures, *fault_fixtures(config)):
         _add_fixture(spec, obj)
+    for fault in config.faults:
+        if fault.name == "payload":  # a mass the tool's gravity compensation does not know
+            tool = spec.body(f"tool_{fault.option or 'screwer'}")
+            extra = tool.add_body(name="payload_extra", pos=[0.0, 0.0, 0.08], gravcomp=0.0)
+            extra.mass = fault.amount
+            extra.inertia = [1e-4, 1e-4, 1e-4]
+            extra.explicitinertial = True
     for part in config.parts:
         if isinstance(part, LooseMesh):
             _add_loose_mesh(spec, part)

@@ -12,6 +12,7 @@ from typing import Literal
 import numpy as np
 
 from cell.errors import CellConfigError
+from cell.faults import Fault
 from cell.robots import Robot, irb2400
 from models.robot import RACK_POS
 
@@ -403,8 +404,8 @@ class LoosePart:
 class CellConfig:
     """Everything that defines a simulated cell: its `robot` (cell.robots), where its tool
     rack stands (`rack_xyz` [m], the rack frame; the slots are 0.25 m apart along x and 0.8 m
-    above it), the error sources, the objects on the table. `seed` draws the real cell's
-    errors."""
+    above it), the error sources, the objects on the table, the faults it will have
+    (cell.faults). `seed` draws the real cell's errors."""
 
     seed: int = 0
     robot: Robot = field(default_factory=irb2400)
@@ -418,6 +419,7 @@ class CellConfig:
     ir: IRConfig = field(default_factory=IRConfig)
     fixtures: tuple[FixedMesh | FixedPrimitive, ...] = ()
     parts: tuple[LoosePart | LooseMesh, ...] = ()
+    faults: tuple[Fault, ...] = ()
 
     def __post_init__(self) -> None:
         rack = np.asarray(self.rack_xyz, dtype=float)
@@ -451,4 +453,5 @@ class CellConfig:
             table=TableErrors(0.0, 0.0, 0.0, 0.0, 0.0),
             laser=replace(self.laser, sigma_m=0.0, dropout=0.0),
             ir=replace(self.ir, sigma_m=0.0),
+            faults=(),
         )

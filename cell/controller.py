@@ -9,6 +9,10 @@ true poses, noise): that lives in `cell.truth.CellTruth`, for evaluators only.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -17,14 +21,16 @@ from cell.drives import Drives
 from cell.errors import (
     CellConfigError,
     JointLimitError,
+    SupervisionError,
     ToolChangerError,
     UnknownNameError,
     UnreachableTargetError,
 )
 from cell.kinematics import Kinematics
 from cell.robots import Robot, irb2400
-from cell.sensors import IRSensor, LaserReading, LaserScanner
-from cell.simulation import Simulation
+from cell.sensors import IRSensor, LaserReading, LaserScanner, LightBeam
+from cell.simulation import MotionStoppedError, Simulation
+from cell.supervision import ContactSensing, SupervisionLimits
 from cell.toolchanger import ToolChanger
 from cell.trajectory import joint_trajectory, quintic, straight_path
 from models.robot import (
@@ -35,17 +41,35 @@ from models.robot import (
     TABLE_TOP_POS,
     TABLE_TRAVEL,
     TOOLS,
+    beam_line,
     slot_pos,
 )
 from registration.rigid import make_T, quat_wxyz_to_R
 
 _TOOL_SPECS = {t.name: t for t in TOOLS}
+Reading = TypeVar("Reading")
 #: Default settle time after a move [s].
 SETTLE_S = 0.3
 #: Approach height above a rack slot for tool changes [m].
 RACK_APPROACH_M = 0.12
+#: How far towards the arm's base from above a slot a tool change starts and ends [m].
+RACK_FRONT_M = 0.2
 #: Control period of linear moves: the IK is solved at this period [s].
 LINEAR_PERIOD_S = 0.01
+#: How much of its path the arm backs off after a supervision stop [s].
+BACK_OFF_S = 0.3
+
+
+@dataclass(frozen=True)
+class ControllerEvent:
+    """An entry of the controller's event log: the time [s], the supervision that spoke
+    (`code`: collision, lock_sensor, table_in_position, joint_plausibility, load), what it
+    saw, and what the controller did (`action`: retried, re-read, stopped)."""
+
+    time_s: float
+    code: str
+    message: str
+    action: str
 
 
 def nominal_T_base_slot(tool: str, rack_xyz: tuple[float, float, float] = RACK_POS) -> np.ndarray:
@@ -83,8 +107,18 @@ class Controller:
         changer: ToolChanger,
         robot: Robot | None = None,
         rack_xyz: tuple[float, float, float] = RACK_POS,
+        limits: SupervisionLimits | None = None,
     ) -> None:
         self._sim = sim
+        self.limits = limits or SupervisionLimits()
+        #: The controller's event log: every supervision that spoke, in order; `on_event`
+        #: hears each as it is logged (a program's error handler, a run's progress).
+        self.events: list[ControllerEvent] = []
+        self.on_event: Callable[[ControllerEvent], None] | None = None
+        self._contacts = ContactSensing(sim, lambda: changer.held)
+        self._supervising = True
+        self._beam = LightBeam(sim.model, *(np.array(p) for p in beam_line(rack_xyz)))
+        sim.guard = self._guard
         self._robot = robot or irb2400()
         self._rack_xyz = rack_xyz
         self._encoders = encoders
@@ -164,8 +198,17 @@ class Controller:
         return _TOOL_SPECS[name].T_tool_tcp
 
     def read_joints(self) -> np.ndarray:
-        """(6,) encoder readings [rad]."""
-        return self._encoders.read()
+        """(6,) encoder readings [rad], each checked against the encoder's second channel:
+        channels that disagree are read again (and logged); twice, the cell stops."""
+        for attempt in range(2):
+            a, b = self._encoders.read_channels()
+            off = np.abs(a - b)
+            joint = int(np.argmax(off))
+            if off[joint] <= self.limits.max_channel_difference_rad:
+                return a
+            message = f"joint {joint + 1}: the encoder's channels differ by {off[joint]:.4f} rad"
+            self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")
+        raise SupervisionError("joint_plausibility", f"{message}, twice")
 
     def T_base_tcp(self) -> np.ndarray:
         """(4, 4) TCP pose computed from the encoders with the nominal kinematics."""
@@ -181,7 +224,7 @@ class Controller:
         q1 = self.kinematics.check_limits(q_target)
         sim = self._sim
         q, qd = joint_trajectory(self._drives.motor, q1, self._robot.joint_speed, sim.dt, speed)
-        self._drives.run(q, qd)
+        self._run(q, qd)
         sim.settle(settle_s)
 
     def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
@@ -214,7 +257,7 @@ class Controller:
         program's tooldata). Raises UnreachableTargetError if a point of the line has no IK
         solution."""
         q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
-        self._drives.run(q, qd)
+        self._run(q, qd)
         self._sim.settle(settle_s)
 
     def scan_linear(
@@ -227,16 +270,99 @@ class Controller:
         """Straight TCP move with the laser in hand, reading a laser line every `period_s` [s]
         while moving (each reading stamped with the encoder joints of its instant)."""
         self._require("laser")
+        return self._read_along(T_base_tcp, speed_m_s, period_s, settle_s, self.read_laser)
+
+    def sweep_beam(
+        self, T_base_tcp: np.ndarray, speed_m_s: float = 0.01, settle_s: float = SETTLE_S
+    ) -> list[tuple[np.ndarray, bool]]:
+        """Straight TCP move through the TCP check station's beam, reading it at every
+        control step: (encoder joints (6,) [rad], beam broken) at each."""
+        return self._read_along(
+            T_base_tcp,
+            speed_m_s,
+            self._sim.dt,
+            settle_s,
+            lambda: (self.read_joints(), self._beam.broken(self._sim.data)),
+        )
+
+    def _read_along(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float,
+        period_s: float,
+        settle_s: float,
+        read: Callable[[], Reading],
+    ) -> list[Reading]:
+        """A straight TCP move, `read()` every `period_s` [s] while moving."""
         sim = self._sim
         every = max(1, round(period_s / sim.dt))
         q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
         readings = []
         for start in range(0, len(q), every):
             chunk = slice(start, start + every)
-            self._drives.run(q[chunk], qd[chunk], new_move=start == 0)
-            readings.append(self.read_laser())
+            self._run(q[chunk], qd[chunk], new_move=start == 0, before=q[:start])
+            readings.append(read())
         sim.settle(settle_s)
         return readings
+
+    @property
+    def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
+        """The TCP check beam's ends (3,), (3,) [m] in the cell's layout."""
+        return self._beam.p_from.copy(), self._beam.p_to.copy()
+
+    # -- supervision --------------------------------------------------------------------------
+    def _guard(self) -> str | None:
+        """The motion supervision, every few physics steps of a move."""
+        if not self._supervising:
+            return None
+        force, body = self._contacts.external()
+        if force > self.limits.max_contact_force_n:
+            return f"collision: {force:.0f} N on {body}"
+        return None
+
+    @contextmanager
+    def supervision_off(self) -> Iterator[None]:
+        """Motion supervision off for what is meant to push (a grasp), as a program
+        switches ABB's collision detection off around a gripping move."""
+        self._supervising = False
+        try:
+            yield
+        finally:
+            self._supervising = True
+
+    def _log(self, code: str, message: str, action: str) -> None:
+        event = ControllerEvent(self.time_s, code, message, action)
+        self.events.append(event)
+        if self.on_event is not None:
+            self.on_event(event)
+
+    def _run(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        new_move: bool = True,
+        before: np.ndarray | None = None,
+    ) -> None:
+        """Run motor set-points (K, 6) under motion supervision, `before` (J, 6) the
+        set-points of the same move already run: a stop holds the arm, backs it off along
+        the path it came and raises SupervisionError."""
+        try:
+            self._drives.run(q, qd, new_move=new_move)
+        except MotionStoppedError as stop:
+            done = q[: stop.steps] if before is None else np.vstack([before, q[: stop.steps]])
+            back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
+            self._supervising = False
+            try:
+                self._drives.run(back, np.zeros_like(back))
+                self._sim.settle(SETTLE_S)
+            finally:
+                self._supervising = True
+            self._log("collision", str(stop), "stopped")
+            raise SupervisionError(
+                "collision",
+                f"motion supervision stopped the arm at t = {self.time_s:.2f} s ({stop}); it "
+                f"backed off {len(back) * self._sim.dt:.2f} s along its path",
+            ) from None
 
     def _linear_setpoints(
         self,
@@ -290,10 +416,36 @@ class Controller:
 
     # -- tool changer -------------------------------------------------------------------------
     def lock(self) -> str:
-        """Lock the tool seated against the flange; returns its name."""
-        name = self._changer.lock()
+        """Lock the tool seated against the flange; returns its name. The lock sensor must
+        say locked (one retry), and the motors' holding torques must match the tool's
+        tooldata; otherwise SupervisionError."""
+        for attempt in range(2):
+            name = self._changer.lock()
+            if self._changer.held is not None:
+                break
+            message = f"lock sensor: the {name} tool is not locked"
+            if attempt == 0:
+                self._log("lock_sensor", message, "retried")
+                continue
+            self._log("lock_sensor", message, "stopped")
+            raise SupervisionError("lock_sensor", f"{message} after a retry")
         self._drives.hold()  # the arm now carries the tool
+        self._check_load(name)
         return name
+
+    def _check_load(self, tool: str) -> None:
+        """The static load check: holding still, the motors' torques beyond what the payload
+        model compensates [N m]."""
+        self._sim.settle(0.2)
+        torque = np.abs(self._sim.data.actuator_force[self._sim.arm_act])
+        axis = int(np.argmax(torque))
+        if torque[axis] > self.limits.max_load_torque_nm:
+            message = (
+                f"load: axis {axis + 1} holds {torque[axis]:.1f} N m that the {tool} tool's "
+                "tooldata does not explain (the tool is heavier than its tooldata)"
+            )
+            self._log("load", message, "stopped")
+            raise SupervisionError("load", message)
 
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
@@ -301,12 +453,16 @@ class Controller:
         self._drives.hold()
         return name
 
-    def return_tool(self) -> None:
-        """Put the tool in hand back into its rack slot (approach, place, unlock, leave)."""
+    def return_tool(self, T_flange_tool: np.ndarray | None = None) -> None:
+        """Put the tool in hand back into its rack slot (approach from the rack's front,
+        place, unlock, leave); a tool known to sit off its seat on the flange by
+        `T_flange_tool` (4, 4) is placed so that it, not its seat, meets the slot."""
         name = self.tool_in_hand
         if name is None:
             return
         T_slot = self.T_base_slot(name)
+        if T_flange_tool is not None:
+            T_slot = T_slot @ np.linalg.inv(T_flange_tool)
         T_tcp = self.T_flange_tcp()
         self._approach(T_slot)
         self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
@@ -314,7 +470,8 @@ class Controller:
         self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
 
     def change_tool(self, tool: str) -> None:
-        """Return the tool in hand (if any), then pick `tool` from its rack slot."""
+        """Return the tool in hand (if any), then pick `tool` from its rack slot and leave
+        the rack by its front."""
         _index(tool)
         if self.tool_in_hand == tool:
             return
@@ -323,7 +480,9 @@ class Controller:
         self._approach(T_slot)
         self.move_linear(T_slot, speed_m_s=0.1)
         self.lock()
-        self.move_linear(self._above(T_slot) @ self.T_flange_tcp(), speed_m_s=0.1)
+        T_tcp = self.T_flange_tcp()
+        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
+        self.move_linear(self._front(T_slot) @ T_tcp, speed_m_s=0.2)
 
     @staticmethod
     def _above(T_slot: np.ndarray) -> np.ndarray:
@@ -331,11 +490,23 @@ class Controller:
         T[2, 3] += RACK_APPROACH_M
         return T
 
+    @staticmethod
+    def _front(T_slot: np.ndarray) -> np.ndarray:
+        """Above the slot and RACK_FRONT_M towards the arm's base, clear of the tools
+        hanging in the rack: a joint move to or from the rack starts or ends there, so the
+        tool in hand never sweeps through its neighbours."""
+        T = Controller._above(T_slot)
+        towards = -T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
+        T[:2, 3] += RACK_FRONT_M * towards
+        return T
+
     def _approach(self, T_slot: np.ndarray) -> None:
-        """Joint move to above a slot, flange seated pose shifted up (no TCP offset)."""
-        T_flange_above = self._above(T_slot)
-        q = self.kinematics.solve(T_flange_above, self._drives.motor)
+        """Joint move to the rack's front of a slot, then straight to above it (the flange
+        seated pose shifted up, the tool in hand's TCP carried along)."""
+        T_tcp = self.T_flange_tcp()
+        q = self.kinematics.solve(self._front(T_slot), self._drives.motor)
         self.move_joints(q)
+        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.2)
 
     # -- tools' actuators ---------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:
@@ -370,7 +541,20 @@ class Controller:
             raise CellConfigError(
                 f"table speed must be in (0, {TABLE_SPEED}] m/s, got {speed_m_s!r}"
             )
-        self._table.move(position_m, speed_m_s, settle_s)
+        for attempt in range(2):
+            try:
+                self._table.move(position_m, speed_m_s, settle_s)
+            except MotionStoppedError as stop:
+                self._log("collision", str(stop), "stopped")
+                raise SupervisionError(
+                    "collision", f"motion supervision stopped the table ({stop})"
+                ) from None
+            off = self._table.read() - position_m
+            if abs(off) <= self.limits.table_in_position_m:
+                return
+            message = f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
+            self._log("table_in_position", message, "retried" if attempt == 0 else "stopped")
+        raise SupervisionError("table_in_position", f"{message} after a retry")
 
     def table_position(self) -> float:
         """The table axis readout [m]."""
@@ -388,7 +572,7 @@ class Controller:
         sim = self._sim
         return LaserReading(
             distances=self._laser.cast(sim.data),
-            q_measured=self._encoders.read(),
+            q_measured=self.read_joints(),
             table_position_m=self._table.read(),
             time_s=sim.time,
         )

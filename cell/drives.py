@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from cell.config import DriveErrors
 from cell.kinematics import Kinematics, payload_model
-from cell.simulation import Simulation
+from cell.simulation import MotionStoppedError, Simulation
 
 #: The gravity torques are computed every this many set-points of a move and interpolated.
 _EVERY = 10
@@ -98,7 +98,11 @@ class Drives:
         if new_move and self.errors.repeat_sigma_rad > 0.0:
             self.jitter = self._rng.normal(0.0, self.errors.repeat_sigma_rad, 6)
         sim = self.sim
-        sim.run(sim.arm_act, q - self.offsets(q) + sim.arm_ff * qd)
+        try:
+            sim.run(sim.arm_act, q - self.offsets(q) + sim.arm_ff * qd)
+        except MotionStoppedError as stop:  # the motors stand at the last set-point they were given
+            self.motor = q[stop.steps - 1].copy()
+            raise
         self.motor = q[-1].copy()
 
     def hold(self) -> None:

@@ -32,3 +32,15 @@ class UnknownNameError(CellError, LookupError):
 
 class ToolChangerError(CellError, RuntimeError):
     """A tool-changer command that cannot be done in the current state (already holding...)."""
+
+
+class SupervisionError(RuntimeError):
+    """The controller's supervision stopped the cell (a collision, a tool not locked, the
+    table not in position, an implausible reading, a load that does not match its
+    tooldata); the arm stands backed off and still. `code` names the supervision. Not a
+    CellError: code that turns a move the arm cannot make into a planning error lets a stop
+    pass, to the job that ends there."""
+
+    def __init__(self, code: str, message: str) -> None:
+        super().__init__(message)
+        self.code = code

@@ -4,18 +4,21 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import trimesh
 
-from cell.build import build_model, draw_real_parameters
-from cell.config import CellConfig
+from cell.build import T_TABLEBODY_TABLE, build_model, draw_real_parameters
+from cell.config import CellConfig, FixedMesh, LooseMesh
 from cell.controller import Controller
 from cell.devices import Encoders, TableAxis
 from cell.drives import Drives
+from cell.faults import FaultInjector
 from cell.kinematics import Kinematics
 from cell.sensors import IRSensor, LaserScanner
 from cell.simulation import Simulation
 from cell.toolchanger import ToolChanger
 from cell.truth import CellTruth
 from models.robot import IR, LASER, ROBOT_PATH
+from registration.rigid import R_to_quat_wxyz, quat_wxyz_to_R
 
 
 def nominal_kinematics() -> Kinematics:
@@ -47,11 +50,17 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
         sim, params.table_bias_m, config.table.repeat_sigma_m, rng, params.table_profile
     )
     _carry_loose_parts(sim, config)
+    faults = FaultInjector(config.faults, config.seed)
+    faults.clock = lambda: sim.time
+    table.faults = faults
     laser = LaserScanner(sim.model, sim.tcp_site[LASER.name], config.laser, rng, params.laser_scale)
+    laser.faults = faults
+    _bind_object(sim, config, faults, laser)
     ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
     moves = np.random.default_rng(np.random.SeedSequence([config.seed, 3]))
     t = config.tools
     changer = ToolChanger(sim, t.changer_sigma_m, t.changer_sigma_rad, moves)
+    changer.faults = faults
     drives = Drives(
         sim,
         config.robot.kinematics(params.deviations),
@@ -60,7 +69,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
         lambda: changer.held,
         moves,
     )
-    encoders = Encoders(drives.read_motors, config.encoder.sigma_rad, rng)
+    encoders = Encoders(drives.read_motors, config.encoder.sigma_rad, rng, faults)
     sim.settle(0.2)
     controller = Controller(
         sim,
@@ -74,4 +83,64 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
         config.robot,
         config.rack_xyz,
     )
-    return controller, CellTruth(config, params, sim, table, laser, ir)
+    for fault in config.faults:  # what stands in the cell from the start
+        if fault.name in ("obstacle", "payload") and fault.stage is None:
+            what = (
+                f"a {fault.amount * 1e3:.0f} mm box stands at {fault.where_table} m (table)"
+                if fault.name == "obstacle"
+                else f"the {fault.option or 'screwer'} weighs {fault.amount:g} kg more"
+            )
+            faults.fire(fault.name, what)
+    return controller, CellTruth(config, params, sim, table, laser, ir, faults)
+
+
+def _upper_surface(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(K, 3) the object's vertices on its top fifth whose surface faces up (the outside of
+    a shell, not its inside), in its frame: where a reflective patch can lie."""
+    mesh = trimesh.Trimesh(np.asarray(vertices), np.asarray(faces), process=False)
+    v, n = np.asarray(mesh.vertices), np.asarray(mesh.vertex_normals)
+    return v[(v[:, 2] >= np.quantile(v[:, 2], 0.8)) & (n[:, 2] > 0.5)]
+
+
+def _bind_object(
+    sim: Simulation, config: CellConfig, faults: FaultInjector, laser: LaserScanner
+) -> None:
+    """The object on the table that faults act on (the first mesh object): the laser's
+    spurious patch lies on it, an object_bump pushes it."""
+    fixed = [o for o in config.fixtures if isinstance(o, FixedMesh)]
+    loose = [p for p in config.parts if isinstance(p, LooseMesh)]
+    if not fixed and not loose:
+        return
+    obj = fixed[0] if fixed else loose[0]
+    m = sim.model
+    geom = int(m.geom(obj.name).id)
+    laser.patch_object = (geom, _upper_surface(obj.vertices, obj.faces))
+    centre = obj.T_table_object[:3, :3] @ np.asarray(obj.vertices).mean(axis=0)
+    centre += obj.T_table_object[:3, 3]
+
+    def push(T_move: np.ndarray) -> None:
+        """Move the object by T_move (4, 4, table frame) about its centre."""
+        T = np.eye(4)
+        T[:3, 3] = centre
+        T_table = T @ T_move @ np.linalg.inv(T)
+        if fixed:
+            names = [obj.name] + [f"{obj.name}_hull{i}" for i in range(len(obj.convex_pieces))]
+            for name in names:
+                g = int(m.geom(name).id)
+                T_g = np.eye(4)
+                T_g[:3, :3] = quat_wxyz_to_R(m.geom_quat[g])
+                T_g[:3, 3] = m.geom_pos[g]
+                T_new = T_TABLEBODY_TABLE @ T_table @ np.linalg.inv(T_TABLEBODY_TABLE) @ T_g
+                m.geom_pos[g] = T_new[:3, 3]
+                m.geom_quat[g] = R_to_quat_wxyz(T_new[:3, :3])
+            faults.T_table_moved[obj.name] = T_table
+        else:
+            qadr = int(m.joint(f"{obj.name}_free").qposadr[0])
+            T_b = sim.body_T(int(m.body(obj.name).id))
+            T_base_table = sim.site_T(int(m.site("table_top").id))
+            T_new = T_base_table @ T_table @ np.linalg.inv(T_base_table) @ T_b
+            sim.data.qpos[qadr : qadr + 3] = T_new[:3, 3]
+            sim.data.qpos[qadr + 3 : qadr + 7] = R_to_quat_wxyz(T_new[:3, :3])
+        mujoco.mj_forward(m, sim.data)
+
+    faults.push = push

@@ -120,13 +120,20 @@ class Robot:
 #: The built-in arm's joint 5 range in the cell with the laser in hand [rad]: beyond 100 deg
 #: the laser's 12 cm body folds into the forearm (link 4); the arm's own stop is 120 deg.
 IRB_LASER_WRIST_BEND_RAD = float(np.deg2rad(100.0))
+#: With the screwer in hand [rad]: beyond 110 deg its changer plate comes within 5 mm of the
+#: forearm (114 deg: it touches).
+IRB_SCREWER_WRIST_BEND_RAD = float(np.deg2rad(110.0))
 
 
 def _irb_kinematics(geometry: ArmGeometry) -> Kinematics:
     kin = Kinematics.from_geometry(geometry)
-    lower, upper = kin.lower.copy(), kin.upper.copy()
-    lower[4], upper[4] = -IRB_LASER_WRIST_BEND_RAD, IRB_LASER_WRIST_BEND_RAD
-    kin.tool_limits["laser"] = (lower, upper)
+    for tool, bend in (
+        ("laser", IRB_LASER_WRIST_BEND_RAD),
+        ("screwer", IRB_SCREWER_WRIST_BEND_RAD),
+    ):
+        lower, upper = kin.lower.copy(), kin.upper.copy()
+        lower[4], upper[4] = -bend, bend
+        kin.tool_limits[tool] = (lower, upper)
     return kin
 
 

@@ -13,6 +13,18 @@ import numpy as np
 
 from models.robot import FLANGE_SITE, JOINT_NAMES, Q_HOME, TABLE_GUIDE_JOINTS, TOOLS
 
+#: Steps between two calls of the motion supervision (4 ms at the 2 ms step).
+GUARD_EVERY = 2
+
+
+class MotionStoppedError(Exception):
+    """A move stopped by the motion supervision after `steps` of its set-points; the
+    message says why."""
+
+    def __init__(self, message: str, steps: int) -> None:
+        super().__init__(message)
+        self.steps = steps
+
 
 class Simulation:
     """A compiled cell model with its data, reset to the `home` keyframe."""
@@ -50,6 +62,9 @@ class Simulation:
         self.flange_eq = {t.name: int(m.equality(f"flange_{t.name}").id) for t in TOOLS}
         self.home_key = int(m.key("home").id)
         self._watcher: Callable[[mujoco.MjData], None] | None = None
+        #: The controller's motion supervision: called every `GUARD_EVERY` steps of a move;
+        #: a message stops the move (`MotionStoppedError` is raised after that step).
+        self.guard: Callable[[], str | None] | None = None
         self._watch_every = 1
         self._since = 0
         self.reset()
@@ -93,11 +108,16 @@ class Simulation:
         """Step once per row of `setpoints` (K, len(actuators)), writing it as the set-point."""
         m, d, ctrl = self.model, self.data, self.data.ctrl
         watched = self._watcher is not None
-        for row in setpoints:
+        guard = self.guard
+        for k, row in enumerate(setpoints):
             ctrl[actuators] = row
             mujoco.mj_step(m, d)
             if watched:
                 self._tick(1)
+            if guard is not None and k % GUARD_EVERY == 0:
+                reason = guard()
+                if reason is not None:
+                    raise MotionStoppedError(reason, k + 1)
 
     def _tick(self, steps: int) -> None:
         self._since += steps

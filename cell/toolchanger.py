@@ -13,6 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cell.errors import ToolChangerError
+from cell.faults import FaultInjector
 from cell.simulation import Simulation
 from registration.rigid import R_to_quat_wxyz, invert, pose_error
 
@@ -40,6 +41,7 @@ class ToolChanger:
         self.sigma_m = sigma_m
         self.sigma_rad = sigma_rad
         self.rng = rng or np.random.default_rng(0)
+        self.faults: FaultInjector | None = None
 
     def _seat(self) -> np.ndarray:
         """(4, 4) how far a tool seats from where it met the flange (in the tool's frame)."""
@@ -85,7 +87,22 @@ class ToolChanger:
                 f"{CAPTURE_DISTANCE_M * 1e3:g} mm and {CAPTURE_ANGLE_RAD:g} rad)"
             )
         sim = self.sim
-        self._set_weld(sim.flange_eq[name], sim.tool_body[name], sim.link6, self._seat())
+        seat = self._seat()
+        fault = None if self.faults is None else self.faults.armed("tool_lock_fail")
+        if fault is not None and self.faults is not None and fault.option in (None, name):
+            if fault.amount == 0.0:  # the fingers do not engage: the tool stays in its slot
+                self.faults.fire("tool_lock_fail", f"the {name} tool did not lock")
+                sim.settle(ACTUATION_TIME_S)
+                return name
+            side = self.faults.rng.normal(size=2)
+            shift = np.eye(4)
+            shift[:2, 3] = fault.amount * side / np.linalg.norm(side)
+            seat = seat @ shift
+            self.faults.fire(
+                "tool_lock_fail",
+                f"the {name} tool locked {fault.amount * 1e3:.1f} mm off its seat",
+            )
+        self._set_weld(sim.flange_eq[name], sim.tool_body[name], sim.link6, seat)
         sim.data.eq_active[sim.rack_eq[name]] = 0
         self.held = name
         sim.settle(ACTUATION_TIME_S)

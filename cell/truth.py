@@ -8,10 +8,11 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from cell.build import RealParameters
+from cell.build import RealParameters, fault_fixtures
 from cell.config import CellConfig
 from cell.devices import TableAxis
 from cell.errors import UnknownNameError
+from cell.faults import FaultInjector
 from cell.kinematics import Kinematics, payload_model
 from cell.sensors import IRSensor, LaserScanner
 from cell.simulation import Simulation
@@ -30,6 +31,7 @@ class CellTruth:
         table: TableAxis,
         laser: LaserScanner | None = None,
         ir: IRSensor | None = None,
+        faults: FaultInjector | None = None,
     ) -> None:
         self.config = config
         self.params = params
@@ -37,6 +39,7 @@ class CellTruth:
         self._table = table
         self._laser = laser
         self._ir = ir
+        self.faults = faults or FaultInjector((), config.seed)
         self._gravity: dict[str | None, tuple[pin.Model, pin.Data]] = {}
         self._kinematics: Kinematics | None = None
 
@@ -86,9 +89,10 @@ class CellTruth:
     def T_base_object(self, name: str) -> np.ndarray:
         """(4, 4) true pose, NOW, of an object on the table in the robot base frame: a fixed
         one rides on the table; a loose one (a free body) is wherever physics has put it."""
-        for obj in self.config.fixtures:
+        for obj in (*self.config.fixtures, *fault_fixtures(self.config)):
             if obj.name == name:
-                return self.T_base_table() @ obj.T_table_object
+                moved = self.faults.T_table_moved.get(name, np.eye(4))
+                return self.T_base_table() @ moved @ obj.T_table_object
         for part in self.config.parts:
             if part.name == name:
                 return self._sim.body_T(self._sim.model.body(name).id)

@@ -31,3 +31,26 @@ def test_one_full_skull_trial(tmp_path: Path) -> None:
     report = (tmp_path / "campaign" / "report.md").read_text()
     assert "Stage: full" in report and "register only" not in report
     assert not list((tmp_path / "campaign").rglob("*.rrd"))
+
+
+def test_a_fault_campaign_reports_each_fault(tmp_path: Path) -> None:
+    """`--vary faults=NAME,...`: each trial injects one fault; the rows carry its outcome and
+    the stage that detected it, and the report counts them per fault. Ground truth: the
+    cell's injector (what fired) and the evaluator (the target errors)."""
+    config = tmp_path / "short.yaml"
+    config.write_text(SHORT + "calibration: {enabled: false}\n")
+    spec = plan_campaign(
+        str(config), stage="full", trials=1, seed=3, vary=["faults=object_bump,payload"]
+    )
+    outcome = run_campaign(spec, tmp_path / "campaign", progress=False)
+    rows = {r["vary.faults"]: r for r in outcome.rows}
+    assert set(rows) == {"object_bump", "payload"}
+    bump, payload = rows["object_bump"], rows["payload"]
+    assert bump["fault.object_bump"] == "recovered" and bump["fault.object_bump.stage"] == "verify"
+    assert bump["run_status"] == "complete" and bump["harmed"] == 0
+    assert payload["fault.payload"] == "stopped" and payload["run_status"] == "aborted"
+    assert payload["stage"] == "execute" and payload["harmed"] == 0
+    report = (tmp_path / "campaign" / "report.md").read_text()
+    assert "- complete runs with a target error beyond 1 mm: 0 (goal 0)" in report
+    assert "| object_bump | 1 | 1 (verify 1) | 1 | 0 | 0 | 0 | 0 |" in report
+    assert "| payload | 1 | 1 (execute 1) | 0 | 1 | 0 | 0 | 0 |" in report

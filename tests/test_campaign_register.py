@@ -7,11 +7,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from models import builtin_model
 from registration import invert, make_T
 from registration.synthetic import icosphere
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_config import default_register_config
-from scenarios.campaign.register_stage import run_register_trial
+from scenarios.campaign.register_stage import longest_pass_gap, run_register_trial
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
 
 NO_ERRORS = ScanErrors(range_sigma=0.0, pass_sigma=0.0, pass_rotation_sigma=0.0, jitter_sigma=0.0)
@@ -103,3 +104,32 @@ def test_noiseless_skull_trial_finds_the_true_pose() -> None:
     assert row["rotation_error_rad"] < 1e-3
     assert row["false_accept"] == 0 and row["good"] == 1
     assert row["n_targets"] == 4 and len(row["targets"].split(";")) == 4
+
+
+def test_scan_faults_in_a_registration_trial():
+    """A dropout burst (30 % of one pass's sweep) leaves a gap the trial sees; a shiny patch's
+    returns (10 mm too long) lie off the matched model; both are left out and the match is
+    accepted within the goal. Ground truth: the simulated scan (what was lost, what is
+    spurious) and the trial's evaluator (the true pose)."""
+
+    for name in ("laser_dropout_burst", "laser_spurious"):
+        config = default_register_config()
+        config["faults"] = {name: True}
+        row = run_register_trial(config, 0)
+        assert row[f"fault.{name}"] == "recovered" and row[f"fault.{name}.stage"] == "register"
+        assert row["verdict"] == "accepted" and row["target_error_max_m"] < 1e-3
+        assert row["harmed"] == 0
+
+
+def test_a_whole_scan_has_no_pass_gap():
+    """The gap check is silent on scans that lost nothing (seeds 0-4) and sees a burst."""
+
+    skull = builtin_model("skull", 0)
+    for seed in range(5):
+        for burst in (0.0, 0.3):
+            scan = simulate_scan(
+                skull.mesh.vertices, skull.mesh.faces, np.eye(4), (0.0, 55.0, 70.0), 3000,
+                ScanErrors(dropout_burst=burst), np.random.default_rng(seed),
+            )  # fmt: skip
+            gap = longest_pass_gap(scan.points, scan.pass_index)
+            assert (gap > 0.0) == (burst > 0.0), (seed, burst, gap)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -25,6 +26,12 @@ BRACKET_PROBES = builtin_model("bracket").probe_lines
 
 def _assembly(seed: int):  # the shipped assembly job
     return load_config("assembly", {"seed": seed})
+
+
+def _pieces(model: Any) -> tuple[np.ndarray, ...]:
+    """The part's convex pieces for contact (without them its hull, which spans the L's
+    inside corner, would collide where the part is not)."""
+    return tuple(p.vertices for p in model.convex_pieces)
 
 
 def _R(yaw: float) -> np.ndarray:
@@ -54,7 +61,7 @@ def test_ir_probing_passes_over_a_hole_under_a_probe_line() -> None:
     T_true[:3, :3], T_true[:3, 3] = _R(np.deg2rad(3.8)), [0.015, 0.0024, 0.0]
     p_inside = T_true[:3, :3].T @ (BRACKET_PROBES[0].p_inside - T_true[:3, 3])
     assert np.hypot(p_inside[0] + 0.028, p_inside[1] - 0.006) < 0.0033  # over the hole
-    fixture = FixedMesh("part", bracket.mesh.vertices, bracket.mesh.faces, T_true)
+    fixture = FixedMesh("part", bracket.mesh.vertices, bracket.mesh.faces, T_true, _pieces(bracket))
     controller, _ = make_cell(CellConfig(seed=3, fixtures=(fixture,)).ideal())
     result = probe_part(controller, BRACKET_PROBES, np.eye(4), 0.03)
     rotation, translation = pose_error(result.T_table_object, T_true)
@@ -65,7 +72,7 @@ def test_ir_probing_finds_the_bracket_in_an_ideal_cell() -> None:
     bracket = builtin_model("bracket")
     T_true = np.eye(4)
     T_true[:3, :3], T_true[:3, 3] = _R(np.deg2rad(4.0)), [0.009, -0.011, 0.0]
-    fixture = FixedMesh("part", bracket.mesh.vertices, bracket.mesh.faces, T_true)
+    fixture = FixedMesh("part", bracket.mesh.vertices, bracket.mesh.faces, T_true, _pieces(bracket))
     controller, truth = make_cell(CellConfig(seed=3, fixtures=(fixture,)).ideal())
     result = probe_part(controller, BRACKET_PROBES, np.eye(4), 0.03)
     rotation, translation = pose_error(result.T_table_object, T_true)

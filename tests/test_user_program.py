@@ -42,11 +42,12 @@ def _frame(p: np.ndarray, z: np.ndarray) -> np.ndarray:
     return T
 
 
-def skull_module(wobj_offset_mm: float = 0.0) -> str:
+def skull_module(wobj_offset_mm: float = 0.0, gap_mm: float = 1.0) -> str:
     """The skull's burr-hole touches as a RobotStudio user would program them on the virtual
-    cell: the work object on the phantom's nominal pose (table at 0), the pointer's tip 1 mm
-    before each entry, approached 60 mm back along the trajectory, each robtarget's
-    configuration data the nominal arm's solution (as RobotStudio writes them)."""
+    cell: the work object on the phantom's nominal pose (table at 0), the pointer's ball
+    (3 mm radius, its centre the TCP) `gap_mm` before each entry (negative: into the
+    bone), approached 60 mm back along the trajectory, each robtarget's configuration data
+    the nominal arm's solution (as RobotStudio writes them)."""
     config = load_config("skull")
     skull = builtin_model("skull", 0)
     T_base_object = nominal_T_base_table(0.0) @ nominal_pose(
@@ -66,7 +67,7 @@ def skull_module(wobj_offset_mm: float = 0.0) -> str:
     T_tcp[2, 3] = 0.2
     q = kin.lower / 2 + kin.upper / 2
     for k, hole in enumerate(skull.burr_holes):
-        T_touch = _frame(hole.p_entry - 0.001 * hole.direction, hole.direction)
+        T_touch = _frame(hole.p_entry - (gap_mm + 3.0) * 1e-3 * hole.direction, hole.direction)
         T_app = T_touch.copy()
         T_app[:3, 3] -= 0.06 * hole.direction
         for name, T in ((f"pApp{k}", T_app), (f"pTouch{k}", T_touch)):
@@ -170,3 +171,21 @@ def test_bad_modules_are_refused_before_the_cell_starts(
         results = json.loads(((out / "latest") / "results.json").read_text())
         assert results["status"] == "incomplete"
         assert "scan_points" not in results  # stopped before the cell moved
+
+
+def test_a_program_into_the_bone_is_refused_before_it_moves(tmp_path: Path) -> None:
+    """Touches programmed 2 mm into the bone: the pre-motion check follows the corrected
+    program in the virtual cell, finds the pointer in the skull at every touch and refuses
+    the run before any motion towards the object, naming the moves and the bodies."""
+    path = tmp_path / "deep.mod"
+    path.write_text(skull_module(gap_mm=-2.0))
+    out = tmp_path / "runs"
+    args = ["run", "skull", "--program", str(path), "--out", str(out), "--no-rrd", "--quiet"]
+    assert main([*args, *SHORT, "--set", "calibration.enabled=false"]) == 3
+    results = json.loads((out / "latest" / "results.json").read_text())
+    assert results["status"] == "refused" and results["stage"] == "check"
+    assert results["reason"].startswith("the corrected program collides")
+    for k in range(4):
+        assert f"pTouch{k}: approach -> touch: tool_screwer touches object" in results["reason"]
+    assert results["targets"] == [] and results["program_file"] is None
+    assert [s["code"] for s in results["supervision"]] == ["premotion"]

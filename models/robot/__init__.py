@@ -36,6 +36,7 @@ from models.robot.tools import (
     TOOL_GROUP,
     TOOLS,
     ToolSpec,
+    beam_line,
     slot_pos,
 )
 
@@ -70,6 +71,7 @@ __all__ = [
     "ArmGeometry",
     "ToolSpec",
     "arm_xml",
+    "beam_line",
     "scene_xml",
     "slot_pos",
 ]

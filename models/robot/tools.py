@@ -66,6 +66,21 @@ FINGER_TRAVEL = 0.05
 RACK_POS = (0.0, -0.85, 0.0)
 SLOT_HEIGHT = 0.8
 SLOT_X = (0.0, 0.25, 0.5, 0.75)
+#: The TCP check station's light beam (a light barrier, as ABB's BullsEye): its centre
+#: relative to the rack frame [m] (in front of the slots, towards the arm) and its half
+#: length along x [m].
+BEAM_OFFSET = (0.375, 0.35, 0.95)
+BEAM_HALF_M = 0.05
+
+
+def beam_line(
+    rack_xyz: tuple[float, float, float] = RACK_POS,
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The TCP check beam's two ends [m] (emitter, receiver), for the rack at `rack_xyz`."""
+    c = [r + o for r, o in zip(rack_xyz, BEAM_OFFSET, strict=True)]
+    return (c[0] - BEAM_HALF_M, c[1], c[2]), (c[0] + BEAM_HALF_M, c[1], c[2])
+
+
 #: Slot orientation (wxyz): the tool hangs with its z axis down (rotation of pi about x).
 SLOT_QUAT = (0.0, 1.0, 0.0, 0.0)
 
@@ -79,7 +94,7 @@ def slot_pos(
 
 
 def _plate() -> str:
-    return '<geom type="cylinder" size="0.045 0.008" pos="0 0 0.008" rgba="0.3 0.3 0.35 1"/>'
+    return '<geom type="cylinder" size="0.032 0.008" pos="0 0 0.008" rgba="0.3 0.3 0.35 1"/>'
 
 
 def _tool_body(
@@ -127,7 +142,8 @@ def tools_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
 
 def rack_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
     """The static rack, its frame at `rack_xyz` [m] (the slots `SLOT_HEIGHT` above it): a
-    beam on two posts standing on the floor, one slot site per tool."""
+    beam on two posts standing on the floor, one slot site per tool, and the TCP check
+    station's emitter and receiver on either end of its light beam (`beam_line`)."""
     x0, y0, z0 = rack_xyz
     length = SLOT_X[-1] - SLOT_X[0] + 0.3
     cx = x0 + (SLOT_X[0] + SLOT_X[-1]) / 2.0
@@ -140,10 +156,18 @@ def rack_worldbody_xml(rack_xyz: tuple[float, float, float] = RACK_POS) -> str:
     h = (z0 + SLOT_HEIGHT - 0.05) / 2
     post_l = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 - length / 2:.6g} -0.12 {h - z0:.6g}"'
     post_r = f'size="0.03 0.03 {h:.6g}" pos="{cx - x0 + length / 2:.6g} -0.12 {h - z0:.6g}"'
+    (a, b) = beam_line(rack_xyz)
+    station = "\n".join(  # the TCP check's emitter and receiver: seen, not in the way
+        f'      <geom name="beam_{end}" type="box" size="0.008 0.012 0.015" '
+        f'pos="{p[0] - x0 + side * 0.012:.6g} {p[1] - y0:.6g} {p[2] - z0:.6g}" group="2" '
+        'contype="0" conaffinity="0" rgba="0.85 0.3 0.1 1"/>'
+        for end, p, side in (("emitter", a, -1.0), ("receiver", b, 1.0))
+    )
     return f"""    <body name="rack" pos="{x0} {y0} {z0}">
       <geom type="box" {beam} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_l} rgba="0.4 0.4 0.45 1"/>
       <geom type="box" {post_r} rgba="0.4 0.4 0.45 1"/>
+{station}
 {slots}
     </body>"""
 

@@ -18,6 +18,7 @@ import time
 from typing import Any
 
 from scenarios.campaign.register_stage import MAX_TARGETS
+from scenarios.campaign.rows import HARM_M
 
 
 def _number(value: Any) -> float:
@@ -63,7 +64,8 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         "executed_error_max_m": max(exec_errors) if exec_errors else None,
         "right_object": 1,
         "good": int(within),
-        "false_accept": int(accepted and not within),
+        # A run stopped before its targets (aborted) accepted nothing that moved a tool.
+        "false_accept": int(accepted and bool(reg_errors) and not within),
         "n_targets": len(targets),
         "job_rms_m": results.get("target_error_rms_m"),
         "job_max_m": results.get("target_error_max_m"),
@@ -80,7 +82,30 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
     row["exported_compensation"] = exported.get("compensation", "")
     row["exported_rms_m"] = exported.get("target_error_rms_m")
     row["exported_max_m"] = exported.get("target_error_max_m")
+    row["stage"] = results.get("stage") or ""
+    row.update(fault_columns(results))
     for stage, seconds in (results.get("timings_s") or {}).items():
         row[f"{stage}_seconds"] = seconds
     row["trial_seconds"] = time.perf_counter() - t0
     return row
+
+
+def fault_columns(results: dict[str, Any]) -> dict[str, Any]:
+    """The row's fault columns: for each fault injected, `fault.<name>` its outcome
+    ("recovered": detected and the run complete; "stopped": detected and the run aborted
+    or refused; "missed": not detected; "not injected": its occasion never came) and
+    `fault.<name>.stage` the stage that detected it; `harmed` 1 if the run is complete with
+    a target error beyond HARM_M."""
+    out: dict[str, Any] = {}
+    status = results.get("status")
+    for fault in results.get("faults") or []:
+        by = fault.get("detected_by")
+        if by in ("missed", "not injected"):
+            outcome = by
+        else:
+            outcome = "recovered" if status == "complete" else "stopped"
+        out[f"fault.{fault['name']}"] = outcome
+        out[f"fault.{fault['name']}.stage"] = by
+    worst = results.get("target_error_max_m")
+    out["harmed"] = int(status == "complete" and worst is not None and worst > HARM_M)
+    return out

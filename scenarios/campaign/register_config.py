@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from scenarios.campaign.errors import CampaignError
 from scenarios.jobs.config import Placement, Registration, describe_validation_error
@@ -85,6 +85,53 @@ class Matching(_Section):
     min_inlier_fraction: float = Field(_SKULL.min_inlier_fraction, gt=0.0, le=1.0)
 
 
+def _scan_fault(default: float) -> Any:
+    """A scan fault's setting: a number (its amount), true (`default`), false or null
+    (none)."""
+
+    def parse(value: Any) -> Any:
+        if value is True:
+            return default
+        if value is False:
+            return None
+        return value
+
+    return parse
+
+
+class ScanFaults(_Section):
+    """The scan faults of the cell's laser, on the simulated scan: `laser_dropout_burst`, the
+    fraction of one pass's sweep that returns nothing (true: 0.3); `laser_spurious`, the
+    range error [m] of a reflective patch's returns (true: 0.01). None: no fault."""
+
+    laser_dropout_burst: float | None = Field(None, gt=0.0, lt=1.0)
+    laser_spurious: float | None = Field(None, gt=0.0, le=0.1)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _names(cls, value: Any) -> Any:
+        if isinstance(value, str):
+            value = [v.strip() for v in value.split(",") if v.strip() and v.strip() != "none"]
+        if isinstance(value, list | tuple):
+            value = {name: True for name in value}
+        if isinstance(value, dict):
+            unknown = [k for k in value if k not in SCAN_FAULT_DEFAULTS]
+            if unknown:
+                raise ValueError(
+                    f"unknown scan fault {unknown[0]!r}; the register stage has the scan "
+                    f"faults: {', '.join(SCAN_FAULT_DEFAULTS)}"
+                )
+            value = {k: _scan_fault(SCAN_FAULT_DEFAULTS[k])(v) for k, v in value.items()}
+        return value
+
+    def active(self) -> dict[str, float]:
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
+#: The scan faults' amounts when set to true.
+SCAN_FAULT_DEFAULTS = {"laser_dropout_burst": 0.3, "laser_spurious": 0.01}
+
+
 class RegisterConfig(_Section):
     """One registration trial. `model` is the virtual model matched against; `scanned_model`
     (default: the same) is what is really on the table; `model_seed` shapes the skull."""
@@ -101,6 +148,7 @@ class RegisterConfig(_Section):
     model_error: ModelError = ModelError()
     placement: Placement = Placement()
     registration: Matching = Matching()
+    faults: ScanFaults = ScanFaults()
 
 
 def default_register_config() -> dict[str, Any]:

@@ -16,10 +16,12 @@ import numpy as np
 
 from models import ObjectModel, builtin_model, real_model
 from models.model_error import ModelErrorSpec
-from registration import Acceptance, MeshModel, ScanPasses, match
+from registration import Acceptance, MeshModel, ScanPasses, invert, match
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_config import RegisterConfig, parse_register_config
+from scenarios.campaign.rows import HARM_M
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
+from scenarios.offline.localization import stray_returns
 from scenarios.realcell.placement import draw_true_pose
 
 MAX_TARGETS = 8
@@ -80,6 +82,8 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
             pass_rotation_sigma=cfg.arm.pass_rotation_sigma,
             jitter_sigma=cfg.arm.jitter_sigma,
             outlier_fraction=cfg.scan.outliers,
+            dropout_burst=cfg.faults.laser_dropout_burst or 0.0,
+            spurious_m=cfg.faults.laser_spurious or 0.0,
         ),
         rng,
         coverage=cfg.scan.coverage,
@@ -152,6 +156,67 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         row[f"err_t{k}_m"] = float(evaluation.target_error[k])
         row[f"tre_t{k}_m"] = float(predicted[k])
         row[f"ratio_t{k}"] = float(ratio[k])
+    row.update(
+        scan_fault_columns(
+            cfg.faults.active(),
+            scan.points,
+            scan.pass_index,
+            shape,
+            invert(result.T_model_data),
+            result.rms,
+            evaluation.accepted,
+            float(evaluation.target_error.max()),
+        )
+    )
     row["match_seconds"] = result.seconds
     row["trial_seconds"] = time.perf_counter() - t_start
     return row
+
+
+#: A pass without a point over this stretch of its sweep (or 20 times its median spacing)
+#: has lost it [m] (the register stage's twin of the cell's laser-gap check).
+GAP_M = 0.01
+
+
+def longest_pass_gap(points: np.ndarray, pass_index: np.ndarray) -> float:
+    """The longest stretch [m] along the sweep (y) of any pass without a point, beyond
+    what its point spacing explains (0 if none)."""
+    worst = 0.0
+    for k in np.unique(pass_index):
+        y = np.sort(points[pass_index == k, 1])
+        if len(y) < 3:
+            continue
+        gaps = np.diff(y)
+        limit = max(GAP_M, 20.0 * float(np.median(gaps)))
+        if gaps.max() > limit:
+            worst = max(worst, float(gaps.max()))
+    return worst
+
+
+def scan_fault_columns(
+    faults: dict[str, float],
+    points: np.ndarray,
+    pass_index: np.ndarray,
+    shape: MeshModel,
+    T_table_model: np.ndarray,
+    rms_m: float,
+    accepted: bool,
+    target_error_max_m: float,
+) -> dict[str, Any]:
+    """The row's fault columns (as the full stage's, scenarios.campaign.full_stage): each
+    scan fault's outcome, "register" as the stage that detected it (the pass gap for a
+    dropout burst, the points off the matched model for spurious returns), and `harmed`
+    (accepted with a target error beyond 1 mm)."""
+    seen = {
+        "laser_dropout_burst": longest_pass_gap(points, pass_index) > 0.0,
+        "laser_spurious": stray_returns(points, shape, T_table_model, rms_m) > 0,
+    }
+    out: dict[str, Any] = {}
+    for name in faults:
+        if seen[name]:
+            out[f"fault.{name}"] = "recovered" if accepted else "stopped"
+            out[f"fault.{name}.stage"] = "register"
+        else:
+            out[f"fault.{name}"], out[f"fault.{name}.stage"] = "missed", "missed"
+    out["harmed"] = int(accepted and target_error_max_m > HARM_M)
+    return out

@@ -73,6 +73,8 @@ class GroupSummary:
     exported_rms: dict[str, float]
     exported_met: int
     job_rms: dict[str, float]
+    faults: dict[str, dict[str, int]]
+    harmed: int
 
 
 def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
@@ -106,7 +108,38 @@ def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
             and r.get("exported_max_m", "") not in ("", None)
         ),
         job_rms=_quantiles(_floats(ok, "job_rms_m")),
+        faults=fault_counts(ok),
+        harmed=sum(flag(r, "harmed") for r in ok),
     )
+
+
+OUTCOMES = ("recovered", "stopped", "missed", "not injected")
+
+
+def fault_counts(rows: list[dict[str, str]]) -> dict[str, dict[str, int]]:
+    """Per fault kind: the trials it was set in, each outcome's count (OUTCOMES), and how
+    many of its runs completed with a target beyond the goal (`harmed`); detections by
+    stage as `by <stage>`."""
+    names = sorted(
+        {
+            c.removeprefix("fault.")
+            for r in rows
+            for c in r
+            if c.startswith("fault.") and not c.endswith(".stage")
+        }
+    )
+    out: dict[str, dict[str, int]] = {}
+    for name in names:
+        mine = [r for r in rows if r.get(f"fault.{name}", "") not in ("", None)]
+        counts = {"trials": len(mine)} | {o: 0 for o in OUTCOMES}
+        for r in mine:
+            counts[r[f"fault.{name}"]] += 1
+            if r[f"fault.{name}"] in ("recovered", "stopped"):
+                by = f"by {r.get(f'fault.{name}.stage', '')}"
+                counts[by] = counts.get(by, 0) + 1
+        counts["harmed"] = sum(r.get("harmed", "") not in ("", "0") for r in mine)
+        out[name] = counts
+    return out
 
 
 def _mm(x: float) -> str:
@@ -151,7 +184,36 @@ def markdown(summaries: list[GroupSummary], stage: str) -> str:
             f"{_num(s.tre_ratio['median'])} / {_num(s.tre_ratio['q75'])} | "
             f"{_num(s.trial_seconds['median'])} / {_num(s.trial_seconds['q95'])} |"
         )
+    lines.extend(_fault_lines(total, stage))
     return "\n".join(lines) + "\n"
+
+
+def _fault_lines(total: GroupSummary, stage: str) -> list[str]:
+    """The faults' table (trials with faults): per kind, how often it was detected (and by
+    which stage), recovered, stopped safely or missed, and how many of its trials went on
+    (a complete run; in the register stage, an accepted match) with a target beyond the
+    goal."""
+    if not total.faults:
+        return []
+    went_on = "accepted matches" if stage == "register" else "complete runs"
+    lines = [
+        "",
+        "## Faults",
+        "",
+        f"- {went_on} with a target error beyond 1 mm: {total.harmed} (goal 0)",
+        "",
+        "| fault | trials | detected (by stage) | recovered | stopped | missed | not injected "
+        f"| {went_on} beyond 1 mm |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, c in total.faults.items():
+        by = ", ".join(f"{k.removeprefix('by ')} {v}" for k, v in c.items() if k.startswith("by "))
+        detected = c["recovered"] + c["stopped"]
+        lines.append(
+            f"| {name} | {c['trials']} | {detected} ({by or '-'}) | {c['recovered']} | "
+            f"{c['stopped']} | {c['missed']} | {c['not injected']} | {c['harmed']} |"
+        )
+    return lines
 
 
 #: The skull job's goals for a program's target errors: RMS and max [m].

@@ -7,6 +7,9 @@ import numpy as np
 
 CALIBRATION_GOAL = (0.67, 1.5)
 """Goal of the median measured / predicted TRE ratio."""
+HARM_M = 1.0e-3
+"""A run that goes on (complete, or an accepted match) with a target off by more than this
+is harmed [m] (the skull job's goal); with a fault, the goal is none."""
 
 
 def target_columns(rows: list[dict[str, str]], prefix: str, suffix: str) -> list[str]:

@@ -19,6 +19,9 @@ from scipy.spatial.transform import Rotation
 
 from registration.shapes.mesh import sample_surface
 
+#: Radius of a reflective patch that returns spurious ranges [m] (the cell's laser_spurious).
+PATCH_RADIUS_M = 0.01
+
 
 @dataclass(frozen=True)
 class ScanErrors:
@@ -31,6 +34,10 @@ class ScanErrors:
         jitter_sigma: per-point isotropic jitter, per axis [m].
         outlier_fraction: fraction of the points replaced by spurious ones, uniform in the
             scan's bounding box padded by 20 %.
+        dropout_burst: the fraction of one pass's sweep (along y) that returns nothing (a
+            laser dropout burst; the pass drawn from the seed), 0: none.
+        spurious_m: range error [m] of the returns from a reflective patch (20 mm across, on
+            the object's upper surface, drawn from the seed), 0: none.
     """
 
     range_sigma: float = 1.0e-4
@@ -38,6 +45,8 @@ class ScanErrors:
     pass_rotation_sigma: float = 2.0e-4
     jitter_sigma: float = 5.0e-5
     outlier_fraction: float = 0.0
+    dropout_burst: float = 0.0
+    spurious_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -141,8 +150,23 @@ def simulate_scan(
         centre = p.mean(axis=0)
         chunks.append(dR.apply(p - centre) + centre + dt)
         labels.append(np.full(share, k))
-    points = np.concatenate(chunks)
+    points, labels_all = np.concatenate(chunks), np.concatenate(labels)
     inlier = np.ones(len(points), dtype=bool)
+    if errors.spurious_m > 0.0:  # a shiny patch: its returns too long along the view
+        up = np.flatnonzero(seen & (n_table[:, 2] > 0.5))
+        centre = p_table[rng.choice(up)]
+        on = np.linalg.norm(points - centre, axis=1) <= PATCH_RADIUS_M
+        views = np.array([view_direction(a) for a in tilts_deg])[labels_all[on]]
+        points[on] += errors.spurious_m * views
+        inlier[on] = False
+    if errors.dropout_burst > 0.0:  # a stretch of one pass returns nothing
+        k = int(rng.choice(np.unique(labels_all)))
+        y = points[labels_all == k, 1]
+        lo, hi = y.min(), y.max()
+        width = errors.dropout_burst * (hi - lo)
+        start = rng.uniform(lo, hi - width)
+        lost = (labels_all == k) & (points[:, 1] >= start) & (points[:, 1] <= start + width)
+        points, labels_all, inlier = points[~lost], labels_all[~lost], inlier[~lost]
     n_out = round(errors.outlier_fraction * len(points))
     if n_out:
         lo, hi = points.min(axis=0), points.max(axis=0)
@@ -150,4 +174,4 @@ def simulate_scan(
         out = rng.choice(len(points), size=n_out, replace=False)
         points[out] = rng.uniform(lo - pad, hi + pad, size=(n_out, 3))
         inlier[out] = False
-    return SimulatedScan(points, inlier, np.concatenate(labels), surface_fraction)
+    return SimulatedScan(points, inlier, labels_all, surface_fraction)

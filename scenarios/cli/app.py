@@ -211,12 +211,24 @@ def register(
 @app.command("run")
 def run(
     name: Annotated[
-        str, typer.Argument(help="A shipped job (paper, skull, assembly) or a CONFIG.yaml file.")
-    ],
+        str | None,
+        typer.Argument(help="A shipped job (paper, skull, assembly) or a CONFIG.yaml file."),
+    ] = None,
     seed: Annotated[
         int | None, typer.Option("--seed", min=0, help="Seed of all random draws.")
     ] = None,
     out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--fault",
+            help="NAME[=AMOUNT]: inject a fault into the real cell (see --list-faults), "
+            "the amount in SI units; repeatable.",
+        ),
+    ] = None,
+    list_faults: Annotated[
+        bool, typer.Option("--list-faults", help="List the faults and exit.")
+    ] = False,
     model: Annotated[
         str | None,
         typer.Option(
@@ -266,8 +278,14 @@ def run(
     """Run a job headless and write a run folder (results, table, figures, recording)."""
     from rich.console import Console
 
-    from scenarios.jobs.config import parse_assignment
+    from scenarios.jobs.config import fault_assignment, parse_assignment
     from scenarios.jobs.runner import RunOptions, run_job
+
+    if list_faults:
+        _print_faults()
+        return
+    if name is None:
+        raise typer.BadParameter("give a job (skull, assembly, paper) or a CONFIG.yaml")
 
     def progress(message: str) -> None:
         if not quiet:
@@ -281,6 +299,7 @@ def run(
     if program is not None:
         overrides["operations.program"] = program
     overrides |= dict(parse_assignment(text) for text in assign or [])
+    overrides |= dict(fault_assignment(text) for text in fault or [])
     folder, results = run_job(
         name,
         seed=seed,
@@ -297,9 +316,32 @@ def run(
 
         Console().print(results_table(results))
     typer.echo(f"run folder: {folder}")
-    if results.get("status") == "refused":
-        typer.echo(f"twincell: refused: {results.get('reason')}", err=True)
-        raise typer.Exit(3)
+    if results.get("status") in ("refused", "aborted"):
+        stage = results.get("stage")
+        typer.echo(f"twincell: {results['status']} in {stage}: {results.get('reason')}", err=True)
+        raise typer.Exit(3 if results["status"] == "refused" else 4)
+
+
+def _print_faults() -> None:
+    """The fault kinds of the real cell, as a table."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from cell.faults import FAULT_KINDS
+
+    table = Table(title="faults of the real cell (--fault NAME[=AMOUNT])")
+    for column in ("fault", "what happens", "amount", "default", "stage", "option"):
+        table.add_column(column)
+    for k in FAULT_KINDS.values():
+        table.add_row(
+            k.name,
+            k.what,
+            f"{k.amount} \\[{k.unit}]",
+            f"{k.default:g}",
+            k.stage or "start",
+            " | ".join(k.options) or "-",
+        )
+    Console(width=160).print(table)
 
 
 @app.command("execute")
@@ -391,12 +433,12 @@ def campaign(
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     """The root exceptions of the project's packages: bad input a user can fix."""
-    from cell.errors import CellError
+    from cell.errors import CellError, SupervisionError
     from models.errors import ModelError
     from registration.errors import RegistrationError
     from scenarios.errors import ScenarioError
 
-    return (RegistrationError, CellError, ModelError, ScenarioError)
+    return (RegistrationError, CellError, ModelError, ScenarioError, SupervisionError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -404,6 +446,8 @@ def main(argv: list[str] | None = None) -> int:
 
     A numerical warning (numpy's RuntimeWarning) or one of the project's own is a bug: it is
     raised as an error, reported in one line (exit status 1), never printed as a warning.
+    A run stopped by SIGINT or SIGTERM is one line too (where it stopped, its run folder),
+    exit status 130 or 143 as a shell reports a process killed by the signal.
     """
     import warnings
 
@@ -431,6 +475,13 @@ def main(argv: list[str] | None = None) -> int:
             typer.echo(f"twincell: error: {exc}", err=True)
             return 2
         raise
+    except BaseException as exc:
+        from scenarios.jobs.interrupt import RunInterrupted
+
+        if not isinstance(exc, RunInterrupted):
+            raise
+        typer.echo(f"twincell: {exc}", err=True)
+        return exc.exit_status
     return 0
 
 

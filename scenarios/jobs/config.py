@@ -33,6 +33,7 @@ from pydantic import (
     model_validator,
 )
 
+from cell.faults import FAULT_KINDS, STAGES
 from cell.robots import BUILTIN
 from scenarios.errors import ScenarioError
 
@@ -50,10 +51,12 @@ class _Section(BaseModel):
 
 class Placement(_Section):
     """Where the object sits on the table: a nominal pose (what the planner believes) and the
-    random deviation of the real one (drawn from the run's seed)."""
+    random deviation of the real one (drawn from the run's seed). The default heading (120
+    degrees) turns the skull's face 60 degrees from the robot, where the screwer reaches
+    every burr hole without folding into the forearm."""
 
     xy_m: tuple[float, float] = (0.0, 0.0)
-    yaw_deg: float = 180.0
+    yaw_deg: float = 120.0
     lift_m: float = Field(0.004, ge=0.0, le=0.1)
     range_xy_m: float = Field(0.03, ge=0.0, le=0.2)
     range_yaw_deg: float = Field(20.0, ge=0.0, le=180.0)
@@ -458,6 +461,87 @@ class ModelSection(_Section):
     ct: CTSection = CTSection()
 
 
+class VerifySection(_Section):
+    """The check of the correction before any target is touched (scenarios.offline.verify):
+    the laser scans a strip of the object again, matched on its own, and the targets it
+    places are compared with the registration's; a disagreement re-scans and re-matches
+    once, then refuses."""
+
+    enabled: bool = True
+
+
+class FaultSetting(_Section):
+    """One fault injected into the real cell (cell.faults.FAULT_KINDS): how much (`amount`,
+    SI, None: the kind's default), when (`stage`, None: the kind's default) and its
+    `option` (the table readout `honest` or `lying`, the tool of `tool_lock_fail` or
+    `payload`). In YAML or `--set`/`--vary`, a bare number is the amount and `true` the
+    defaults."""
+
+    amount: float | None = Field(None, ge=0.0)
+    stage: Literal[STAGES] | None = None  # type: ignore[valid-type]
+    option: str | None = None
+
+
+def _fault_setting(value: Any) -> Any:
+    """A bare number is the amount, true the defaults, false or null no fault."""
+    if value is True:
+        return {}
+    if value is False:
+        return None
+    if isinstance(value, int | float):
+        return {"amount": value}
+    return value
+
+
+class FaultsSection(_Section):
+    """The faults the real cell will have (none by default). A list or a comma-separated
+    string of names gives each its defaults (`--vary faults=table_stall,object_bump`)."""
+
+    tool_lock_fail: FaultSetting | None = None
+    laser_dropout_burst: FaultSetting | None = None
+    laser_spurious: FaultSetting | None = None
+    table_stall: FaultSetting | None = None
+    object_bump: FaultSetting | None = None
+    encoder_glitch: FaultSetting | None = None
+    obstacle: FaultSetting | None = None
+    payload: FaultSetting | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _names(cls, value: Any) -> Any:
+        if isinstance(value, str):
+            value = [v.strip() for v in value.split(",") if v.strip() and v.strip() != "none"]
+        if isinstance(value, list | tuple):
+            value = {name: True for name in value}
+        if isinstance(value, dict):
+            unknown = [k for k in value if k not in FAULT_KINDS]
+            if unknown:
+                raise ValueError(
+                    f"unknown fault {unknown[0]!r}; the faults are: {', '.join(FAULT_KINDS)}"
+                )
+            value = {k: _fault_setting(v) for k, v in value.items()}
+        return value
+
+    @model_validator(mode="after")
+    def _options(self) -> FaultsSection:
+        for name, setting in self.active().items():
+            options = FAULT_KINDS[name].options
+            if setting.option is not None and setting.option not in options:
+                raise ValueError(
+                    f"{name}.option {setting.option!r} is not one of: "
+                    + (", ".join(options) or "none (this fault takes no option)")
+                )
+        return self
+
+    def active(self) -> dict[str, FaultSetting]:
+        """The faults set, by name."""
+        return {
+            name: setting
+            for name in type(self).model_fields
+            if (setting := getattr(self, name)) is not None
+        }
+
+
 class JobConfig(_Section):
     """A cell job: calibrate, scan, localize, program, execute, evaluate, export (see the
     module's docstring for the sections)."""
@@ -473,6 +557,8 @@ class JobConfig(_Section):
     checks: Checks = Checks()
     export: ExportSection = ExportSection()
     output: Output = Output()
+    verify: VerifySection = VerifySection()
+    faults: FaultsSection = FaultsSection()
 
 
 class PaperConfig(_Section):
@@ -569,6 +655,28 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     except yaml.YAMLError as exc:
         raise ConfigError(f"--set {text!r}: the value is not valid YAML ({exc})") from None
     return key.strip(), value
+
+
+def fault_assignment(text: str) -> tuple[str, Any]:
+    """NAME[=AMOUNT] of `--fault`: the dotted key `faults.NAME` and its value (the amount,
+    or true for the kind's defaults); an unknown name lists the faults."""
+    name, sep, raw = text.partition("=")
+    name = name.strip()
+    if name not in FAULT_KINDS:
+        raise ConfigError(
+            f"--fault {text!r}: unknown fault {name!r}; the faults are: " + ", ".join(FAULT_KINDS)
+        )
+    if not sep:
+        return f"faults.{name}", True
+    try:
+        amount = float(raw)
+    except ValueError:
+        kind = FAULT_KINDS[name]
+        raise ConfigError(
+            f"--fault {text!r}: the amount must be a number ({kind.amount} [{kind.unit}], "
+            f"default {kind.default:g})"
+        ) from None
+    return f"faults.{name}", amount
 
 
 def shipped_cells() -> tuple[str, ...]:

@@ -21,19 +21,20 @@ from typing import Any
 import numpy as np
 
 from cell import Controller, Kinematics, nominal_T_base_table
-from cell.errors import CellConfigError
+from cell.errors import CellConfigError, SupervisionError
+from cell.faults import FAULT_KINDS, Fault
 from cell.robots import Robot, make_robot
 from models import ObjectModel, real_model
 from models.atomic import write_text
 from registration import Acceptance, MeshModel
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import JobConfig, RobotSection
+from scenarios.jobs.config import JobConfig, Registration, RobotSection
 from scenarios.jobs.exported import EXECUTION_FILE, execute_in_cell, job_targets, read_program
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.localization import Localization, localize
+from scenarios.offline.localization import Localization, localize, stray_returns
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -46,12 +47,29 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.placement import nominal_pose
+from scenarios.offline.premotion import (
+    PremotionCheck,
+    PremotionLimits,
+    check_program,
+    clear_of,
+    job_virtual_cell,
+    placement_uncertainty_m,
+)
 from scenarios.offline.probing import ProbeResult, probe_part
 from scenarios.offline.program import OfflineProgram, execute_program, plan_program
 from scenarios.offline.rapid import Filter
 from scenarios.offline.rapid_module import RapidError, with_oframe
 from scenarios.offline.reach import check_reach
-from scenarios.offline.scan import ObjectBox, ScanData, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.scan import (
+    ObjectBox,
+    PlannedPass,
+    ScanData,
+    crop_to_object,
+    execute_scan,
+    plan_scan,
+)
+from scenarios.offline.tcp_check import checked_tool
+from scenarios.offline.verify import Verification, verify_registration
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.realcell.cell_log import CellLog
@@ -60,17 +78,21 @@ from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell, build_job_cell, model_error
 
 Progress = Callable[[str], None]
+#: The arm's accuracy per axis [m] when the job does not tell the matcher (the configuration's
+#: default, a data sheet's 0.3 mm in all): the verification needs it.
+PASS_SIGMA_M = float(Registration().pass_sigma_m or 0.0)
 
 
 # -- the stages' typed results ------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class ScanStage:
-    """The scan: what the laser measured, which points were kept as the object's (N,), and
-    those points (M, 3) in the nominal table frame."""
+    """The scan: what the laser measured, which points were kept as the object's (N,),
+    those points (M, 3) in the nominal table frame, and the passes it ran."""
 
     scan: ScanData
     keep: np.ndarray
     points_table: np.ndarray
+    plan: tuple[PlannedPass, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,18 +159,19 @@ def scan_stage(
     say: Progress,
     hooks: RunHooks,
     model: CellModel,
+    detect: Callable[[str, str, str], None] | None = None,
 ) -> ScanStage:
     """Plan the laser passes in the virtual cell, run them on the real one (the points
-    rebuilt with the cell's `model`), keep the points within the object's nominal
-    footprint."""
+    rebuilt with the cell's `model`; a pass that lost a stretch run again, `detect` told),
+    keep the points within the object's nominal footprint."""
     section = config.localization.scan
     kin = controller.kinematics.for_tool("laser")
     plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table)
     say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
-    scan = execute_scan(controller, plan, section, say, model)
+    scan = execute_scan(controller, plan, section, say, model, detect)
     keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
     say(f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object")
-    return ScanStage(scan, keep, scan.points_table[keep])
+    return ScanStage(scan, keep, scan.points_table[keep], plan)
 
 
 def surface_pose(
@@ -186,6 +209,128 @@ def surface_pose(
         f"{m.seconds:.2f} s)")  # fmt: skip
     accepted = m.verdict == "accepted"
     return LocatedPose("surface", located.T_table_object, accepted, m.reason, localization=located)
+
+
+def localize_by_surface(
+    stage: str,
+    controller: Controller,
+    cell: JobCell,
+    config: JobConfig,
+    virtual: ObjectModel,
+    poses: dict[str, LocatedPose],
+    model: CellModel,
+    say: Progress,
+    hooks: RunHooks,
+    detect: Callable[[str, str, str], None],
+    enter: Callable[[str], None],
+    recording: Any | None,
+    timings: dict[str, float],
+    folder: Path,
+) -> ScanStage:
+    """The scan and its surface match (into `poses["surface"]`), each its own stage."""
+    enter(stage)
+    t0 = time.perf_counter()
+    cell.log.phase("scan", "the laser's passes over the object")
+    scanned = scan_stage(controller, cell.box, config, say, hooks, model, detect)
+    timings["scan"] = timings.get("scan", 0.0) + time.perf_counter() - t0
+    if recording is not None:
+        recording.log_scan(scanned.scan, scanned.keep)
+    hooks.moved("view")
+    outputs.write_ply(folder / "scan.ply", scanned.points_table)
+    enter("register")
+    t0 = time.perf_counter()
+    prior = poses["probe"].T_table_object if "probe" in poses else None
+    cell.log.phase("register", "the scan to the virtual model (its steps on the timeline icp)")
+    poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
+    timings["register"] = timings.get("register", 0.0) + time.perf_counter() - t0
+    located = poses["surface"].localization
+    if not poses["surface"].accepted:
+        detect("match_refused", poses["surface"].reason, "refused")
+    if located is not None:
+        stray = stray_returns(
+            scanned.points_table,
+            MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
+            located.T_table_object,
+            located.result.rms,
+        )
+        if stray:
+            message = (
+                f"{stray} scan points ({100 * stray / len(scanned.points_table):.2f} %) lie "
+                "off the matched model: spurious returns or something else on the table"
+            )
+            detect("scan_outliers", message, "left out by the match")
+    if recording is not None and located is not None:
+        recording.log_registration(
+            controller.time_s, located.result, virtual, scanned.points_table, located.points_used
+        )
+    return scanned
+
+
+def verify_stage(
+    controller: Controller,
+    virtual: ObjectModel,
+    config: JobConfig,
+    poses: dict[str, LocatedPose],
+    scanned: ScanStage,
+    programs: ProgramStage,
+    box: ObjectBox,
+    model: CellModel,
+    say: Progress,
+) -> Verification:
+    """Scan a strip of the object again at the program's table position, match it on its
+    own and compare where the two matches put the targets (scenarios.offline.verify)."""
+    pose = poses["surface"]
+    assert pose.localization is not None and pose.T_table_object is not None
+    program = next(iter(programs.operations.values()))
+    pass_sigma = config.localization.registration.pass_sigma_m
+    targets = tuple((h.name, h.p_entry) for h in virtual.burr_holes)
+    verdict = verify_registration(
+        controller,
+        virtual,
+        pose.T_table_object,
+        pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre,
+        scanned.scan,
+        scanned.keep,
+        scanned.plan,
+        targets,
+        box,
+        config.localization.scan,
+        program.table_position_m,
+        model,
+        PASS_SIGMA_M if pass_sigma is None else pass_sigma,
+        say,
+    )
+    say(f"verify: {'agrees' if verdict.agrees else 'DISAGREES'}: {verdict.summary()}")
+    return verdict
+
+
+def check_stage(
+    controller: Controller, virtual: ObjectModel, config: JobConfig, programs: ProgramStage
+) -> PremotionCheck | None:
+    """Each corrected program followed in the virtual cell before it moves
+    (scenarios.offline.premotion); the first check that fails, or None. The pick is not
+    checked: its part moves with the gripper."""
+    name = object_name(config)
+    for program in programs.operations.values():
+        cell = job_virtual_cell(
+            controller.robot,
+            config.cell.rack_xyz,
+            virtual,
+            program.T_table_object,
+            config.calibration.enabled,
+            name,
+        )
+        check = check_program(
+            program,
+            controller.kinematics,
+            cell,
+            controller.q_home,
+            controller.T_flange_tcp(program.tool),
+            object_name=name,
+        )
+        if not check.ok:
+            return check
+    return None
 
 
 def program_stage(
@@ -233,6 +378,7 @@ def program_stage(
             spins,
             **({} if table is None else {"table_positions": table}),
             table=model.T_base_table,
+            joint_margin_rad=PremotionLimits().joint_margin_rad,
         )
     return ProgramStage(pick, programs)
 
@@ -243,13 +389,16 @@ def execute_stage(
     config: JobConfig,
     hooks: RunHooks,
     say: Progress,
+    detect: Callable[[str, str, str], None],
 ) -> None:
-    """Run the pick, then each program: at each target the tool stops at the touch (and the
+    """Run the pick, then each program: the program's tool taken and checked at the beam
+    (scenarios.offline.tcp_check), then at each target the tool stops at the touch (and the
     screwer spins for `screw`)."""
     section = config.operations
     if programs.pick is not None and section.pick is not None:
         execute_pick(controller, programs.pick, section.pick, hooks)
     for method, program in programs.operations.items():
+        checked_tool(controller, program.tool, say, detect)
 
         def at_target(name: str) -> None:
             hooks.moment(name, section.tool)
@@ -281,6 +430,11 @@ def object_models(
     return virtual, real
 
 
+def object_name(config: JobConfig) -> str:
+    """The job's object's name in the cell: "part" for a loose part, else "object"."""
+    return "part" if config.cell.object.fixing == "loose" else "object"
+
+
 def job_robot(section: RobotSection) -> Robot:
     """The cell's arm as the job's configuration names it (cell.robots)."""
     home = None if section.home_deg is None else np.deg2rad(section.home_deg)
@@ -309,6 +463,7 @@ def job_cell(
     real: ObjectModel,
     robot: Robot,
     recording: Any | None = None,
+    faults: tuple[Fault, ...] = (),
 ) -> JobCell:
     """The job's real cell (scenarios.realcell.setup): the real entity at the true pose drawn
     from the job's seed (its own random stream: fixed or loose), the calibration spheres if
@@ -325,12 +480,42 @@ def job_cell(
         stream=6 if loose else 5,  # the true placement's random stream
         crop_margin_m=config.localization.scan.crop_margin_m,
         recording=recording,
-        name="part" if loose else "object",
+        name=object_name(config),
         loose=loose,
         rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
         robot=robot,
         rack_xyz=config.cell.rack_xyz,
+        faults=faults,
     )
+
+
+def job_faults(
+    config: JobConfig, virtual: ObjectModel, T_table_nominal: np.ndarray
+) -> tuple[Fault, ...]:
+    """The faults the job's real cell will have (`faults:`), each kind's defaults filled
+    in: the job's tool for a payload, and an obstacle standing 5 cm behind the first
+    operation's approach point (nominal), where the tool passes on its way there."""
+    out = []
+    for name, setting in config.faults.active().items():
+        kind = FAULT_KINDS[name]
+        option = setting.option
+        if name == "payload" and option is None:
+            option = config.operations.tool
+        where = None
+        if name == "obstacle":
+            ops = target_operations(virtual, config.operations)
+            T = T_table_nominal @ ops[0].T_object_approach
+            where = tuple(float(x) for x in T[:3, 3] - 0.05 * T[:3, 2])
+        out.append(
+            Fault(
+                name,
+                kind.default if setting.amount is None else setting.amount,
+                kind.stage if setting.stage is None else setting.stage,
+                option,
+                where,
+            )
+        )
+    return tuple(out)
 
 
 def run_cell_job(
@@ -338,8 +523,10 @@ def run_cell_job(
     folder: Path,
     progress: Progress | None = None,
     recording: Any | None = None,
+    stages: Any | None = None,
 ) -> RunResult:
-    """Run a cell job into `folder`; returns its result (written by the caller)."""
+    """Run a cell job into `folder`; returns its result (written by the caller). `stages`
+    (scenarios.jobs.stages.StageTracker) hears each stage as it begins."""
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
     timings: dict[str, float] = {}
@@ -383,10 +570,37 @@ def run_cell_job(
         f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
         "the operations in the virtual cell"
     )
-    cell = job_cell(config, virtual, real, robot, recording)
+    faults = job_faults(config, virtual, T_table_nominal)
+    cell = job_cell(config, virtual, real, robot, recording, faults)
     controller, evaluator = cell.controller, cell.evaluator
     hooks = RunHooks(evaluator, cell.log)
     log = cell.log
+    if faults:
+        say("faults injected: " + ", ".join(f.name for f in faults))
+    stage_now = ["setup"]
+    checks_seen: list[dict[str, Any]] = []  # the stages' own checks that spoke
+
+    transitions: list[tuple[float, str]] = [(0.0, "setup")]
+
+    def stage_at(time_s: float) -> str:
+        return next(name for t, name in reversed(transitions) if t <= time_s + 1e-9)
+
+    def enter(name: str) -> None:
+        stage_now[0] = name
+        transitions.append((controller.time_s, name))
+        if stages is not None:
+            stages.enter(name)
+        evaluator.enter(name)
+
+    controller.on_event = lambda e: say(f"warning: {stage_now[0]}: {e.message}; {e.action}")
+
+    def detect(code: str, message: str, action: str) -> None:
+        say(f"warning: {stage_now[0]}: {message}; {action}")
+        checks_seen.append(
+            {"stage": stage_now[0], "time_s": controller.time_s, "code": code,
+             "message": message, "action": action}
+        )  # fmt: skip
+
     if recording is not None:  # every line of progress also in the recording's log
         tell = say
 
@@ -396,84 +610,152 @@ def run_cell_job(
 
     timings["setup"] = time.perf_counter() - t0
 
-    # Calibrate: every later stage uses the calibrated arm.
+    # The stages, under the controller's supervision: a stop ends them (the arm stands
+    # backed off and still) and the run reports "aborted" with the stage.
     nominal = controller.nominal_kinematics
     calibration: CalibrationResult | None = None
-    if config.calibration.enabled:
-        t0 = time.perf_counter()
-        log.phase("calibrate", "the arm, the laser and the table, on the spheres")
-        calibration = calibrate_arm(
-            controller, config.calibration, config.seed, say, lambda: hooks.moved("view")
-        )
-        timings["calibrate"] = time.perf_counter() - t0
-        hooks.moved("view")
-        if recording is not None:
-            recording.log_calibration(controller.time_s, calibration)
-    # What the stages believe of the cell: the calibrated model, else the data sheet's.
-    model = CellModel.nominal(nominal) if calibration is None else calibration.model
-
-    # Localize: probing first (quick, and the prior of a surface match in mode "refine"),
-    # then the scan and the surface match.
-    methods = config.localization.methods
+    model = CellModel.nominal(nominal)
     poses: dict[str, LocatedPose] = {}
-    if "probe" in methods:
-        t0 = time.perf_counter()
-        log.phase("probe", "the part's edges with the IR sensor")
-        probed = probe_part(
-            controller,
-            virtual.probe_lines,
-            cell.T_table_nominal,
-            config.localization.probe.height_m,
-            progress=say,
-        )
-        poses["probe"] = LocatedPose("probe", probed.T_table_object, True, "", probe=probed)
-        timings["probe"] = time.perf_counter() - t0
-        hooks.moved("view")
-    scanned = None
-    if "surface" in methods:
-        t0 = time.perf_counter()
-        log.phase("scan", "the laser's passes over the object")
-        scanned = scan_stage(controller, cell.box, config, say, hooks, model)
-        timings["scan"] = time.perf_counter() - t0
-        if recording is not None:
-            recording.log_scan(scanned.scan, scanned.keep)
-        hooks.moved("view")
-        outputs.write_ply(folder / "scan.ply", scanned.points_table)
-        t0 = time.perf_counter()
-        prior = poses["probe"].T_table_object if "probe" in poses else None
-        log.phase("register", "the scan to the virtual model (its steps on the timeline icp)")
-        poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
-        timings["register"] = time.perf_counter() - t0
-        located = poses["surface"].localization
-        if recording is not None and located is not None:
-            recording.log_registration(
-                controller.time_s,
-                located.result,
-                virtual,
-                scanned.points_table,
-                located.points_used,
-            )
-    ordered = tuple(poses[m] for m in methods)
-    # Each method's pose against the truth, now (a pick may move the part later).
-    s0 = controller.table_position()
-    pose_errors = {
-        p.method: evaluator.pose_error(model.T_base_table(s0) @ p.T_table_object)
-        for p in ordered
-        if p.T_table_object is not None
-    }
-
-    # Program and execute, only if the pose that drives the program is accepted.
-    primary = ordered[0]
-    time_at_verdict_s = controller.time_s
-    t0 = time.perf_counter()
+    scanned: ScanStage | None = None
     programs = ProgramStage(None, {})
-    if primary.accepted:
-        log.phase("execute", f"the program corrected by the {primary.method} pose")
+    aborted: SupervisionError | None = None
+    pose_errors: dict[str, Any] = {}
+
+    def measure_poses(located: tuple[LocatedPose, ...]) -> dict[str, Any]:
+        """Each method's pose against the truth, now (a pick may move the part later)."""
+        s0 = controller.table_position()
+        return {
+            p.method: evaluator.pose_error(model.T_base_table(s0) @ p.T_table_object)
+            for p in located
+            if p.T_table_object is not None
+        }
+
+    refused_by: str | None = None  # the stage that refused, beyond the match's verdict
+    time_at_verdict_s = controller.time_s
+    methods = config.localization.methods
+
+    def planned() -> ProgramStage:
+        """The corrected programs of the accepted pose, checked in the virtual cell before
+        they move (stage check; a refusal leaves none and says why)."""
+        nonlocal refused_by
+        ordered = tuple(poses[m] for m in methods)
+        if not ordered[0].accepted:
+            return ProgramStage(None, {})
         programs = program_stage(controller, virtual, config, ordered, user, model)
-        execute_stage(controller, programs, config, hooks, say)
-    else:
-        say(f"refused: {primary.reason}; no motion towards the object")
-    timings["execute"] = time.perf_counter() - t0
+        enter("check")
+        check = check_stage(controller, virtual, config, programs)
+        if check is None:
+            say("check: the corrected program passes in the virtual cell")
+            return programs
+        detect("premotion", check.summary, "refused")
+        poses[methods[0]] = replace(poses[methods[0]], accepted=False, reason=check.summary)
+        refused_by = "check"
+        return ProgramStage(None, {})
+
+    try:
+        # Calibrate: every later stage uses the calibrated arm.
+        if config.calibration.enabled:
+            enter("calibrate")
+            t0 = time.perf_counter()
+            log.phase("calibrate", "the arm, the laser and the table, on the spheres")
+            name = object_name(config)
+            views_clear = clear_of(
+                job_virtual_cell(
+                    controller.robot, config.cell.rack_xyz, virtual, T_table_nominal, True, name
+                ),
+                "laser",
+                name,
+                placement_uncertainty_m(config.cell.object.placement, cell.box.radius_xy),
+            )
+            calibration = calibrate_arm(
+                controller,
+                config.calibration,
+                config.seed,
+                say,
+                lambda: hooks.moved("view"),
+                views_clear,
+            )
+            timings["calibrate"] = time.perf_counter() - t0
+            hooks.moved("view")
+            if recording is not None:
+                recording.log_calibration(controller.time_s, calibration)
+            # What the stages believe of the cell: the calibrated model.
+            model = calibration.model
+
+        # Localize: probing first (quick, and the prior of a surface match in mode
+        # "refine"), then the scan and the surface match.
+        if "probe" in methods:
+            enter("probe")
+            t0 = time.perf_counter()
+            log.phase("probe", "the part's edges with the IR sensor")
+            probed = probe_part(
+                controller,
+                virtual.probe_lines,
+                cell.T_table_nominal,
+                config.localization.probe.height_m,
+                progress=say,
+            )
+            poses["probe"] = LocatedPose("probe", probed.T_table_object, True, "", probe=probed)
+            timings["probe"] = time.perf_counter() - t0
+            hooks.moved("view")
+        if "surface" in methods:
+            scanned = localize_by_surface(
+                "scan", controller, cell, config, virtual, poses, model, say, hooks, detect,
+                enter, recording, timings, folder,
+            )  # fmt: skip
+        time_at_verdict_s = controller.time_s
+        t0 = time.perf_counter()
+        programs = planned()
+        # Verify the correction on the object before any target is touched; if it
+        # disagrees, scan and match once more; if it still disagrees, refuse.
+        if programs.operations and methods[0] == "surface" and config.verify.enabled:
+            for attempt in range(2):
+                enter("verify")
+                log.phase("verify", "the match on patches of the object, away from the targets")
+                assert scanned is not None
+                verdict = verify_stage(
+                    controller, virtual, config, poses, scanned, programs, cell.box, model, say
+                )
+                if verdict.agrees:
+                    break
+                message = f"the object disagrees with the match: {verdict.summary()}"
+                if attempt == 1:
+                    detect("verification", message, "refused")
+                    refused_by = "verify"
+                    poses["surface"] = replace(
+                        poses["surface"], accepted=False, reason=f"verification: {message}"
+                    )
+                    programs = ProgramStage(None, {})
+                    break
+                detect("verification", message, "re-scanned and matched again")
+                scanned = localize_by_surface(
+                    "scan", controller, cell, config, virtual, poses, model, say, hooks,
+                    detect, enter, recording, timings, folder,
+                )  # fmt: skip
+                time_at_verdict_s = controller.time_s
+                programs = planned()
+                if not programs.operations:
+                    break
+        ordered = tuple(poses[m] for m in methods)
+        primary = ordered[0]
+        pose_errors = measure_poses(ordered)
+        # Program and execute, only if the pose that drives the program is accepted.
+        if primary.accepted and programs.operations:
+            enter("execute")
+            log.phase("execute", f"the program corrected by the {primary.method} pose")
+            execute_stage(controller, programs, config, hooks, say, detect)
+        elif not primary.accepted:
+            say(f"refused: {primary.reason}; no motion towards the object")
+        timings["execute"] = time.perf_counter() - t0
+    except SupervisionError as stop:
+        aborted = stop
+        say(f"aborted in {stage_now[0]}: {stop}")
+        if not pose_errors:
+            pose_errors = measure_poses(tuple(poses.values()))
+    ordered = tuple(poses[m] for m in config.localization.methods if m in poses)
+    if not ordered:  # stopped before any pose
+        ordered = (LocatedPose(config.localization.methods[0], None, False, str(aborted)),)
+    primary = ordered[0]
     motion_after_match_s = controller.time_s - time_at_verdict_s
 
     # Evaluate (truth) and export. A user's robtargets are the touch poses themselves.
@@ -482,7 +764,7 @@ def run_cell_job(
     for pose in ordered:
         program = programs.operations.get(pose.method)
         targets = ()
-        if program is not None:
+        if program is not None and aborted is None:
             prefix = f"{pose.method}:" if config.operations.per_method else ""
             targets = tuple(
                 replace(t, name=t.name.removeprefix(prefix))
@@ -506,7 +788,7 @@ def run_cell_job(
             )
         )
     pick_eval = grasp_error = None
-    if programs.pick is not None and config.operations.pick is not None:
+    if programs.pick is not None and config.operations.pick is not None and aborted is None:
         frame = config.operations.pick.frame
         pick_eval = evaluator.pick(frame, "pick: closed", "pick: lifted", "pick: placed", frame)
         grasp_error = evaluator.frame_error(frame, frame)
@@ -515,7 +797,10 @@ def run_cell_job(
             f"{pick_eval.lifted_m * 1e3:.1f} mm, slip {pick_eval.slip_m * 1e3:.3f} mm, put "
             f"down {pick_eval.placed_displacement_m * 1e3:.3f} mm from where it was"
         )
-    primary_program = programs.operations.get(primary.method)
+    if aborted is None:
+        enter("export")
+    # An aborted run hands out no program: the cell was not as its model says.
+    primary_program = None if aborted is not None else programs.operations.get(primary.method)
     program_file = None
     exported: dict[str, Any] | None = None
     if primary_program is not None:
@@ -570,6 +855,9 @@ def run_cell_job(
             except RapidError as exc:  # a controller would stop the program there
                 exported = {"status": "refused", "reason": str(exc)}
                 say(f"{program_file} on the nominal controller: refused: {exc}")
+            except SupervisionError as exc:  # its supervision stopped the cell
+                exported = {"status": "aborted", "reason": str(exc)}
+                say(f"{program_file} on the nominal controller: aborted: {exc}")
             else:
                 exported = executed.summary()
                 write_text(folder / EXECUTION_FILE, json.dumps(executed.to_json(), indent=2) + "\n")
@@ -603,7 +891,32 @@ def run_cell_job(
         ):
             if limit is not None:
                 checks[name] = (limit, bool(value <= limit))
-    verdict = "complete" if primary.accepted else f"refused: {primary.reason}"
+    # What the supervision and the checks saw, each in the stage it spoke in, and each
+    # fault injected with the stage that detected it (the evaluator: it knows the faults).
+    spoke = sorted(
+        [
+            {"stage": stage_at(e.time_s), "time_s": e.time_s, "code": e.code,
+             "message": e.message, "action": e.action}
+            for e in controller.events
+        ]
+        + checks_seen,
+        key=lambda d: d["time_s"],
+    )  # fmt: skip
+    fault_report = evaluator.faults(spoke)
+    for entry in fault_report:
+        by = entry["detected_by"]
+        seen = by if by in ("missed", "not injected") else f"detected in {by}"
+        say(f"fault {entry['name']}: {seen}")
+    if aborted is not None:
+        status, reason, stopped_in = "aborted", str(aborted), stage_now[0]
+    elif primary.accepted:
+        status, reason, stopped_in = "complete", "", None
+    else:
+        status, reason = "refused", primary.reason
+        stopped_in = refused_by or ("register" if primary.method == "surface" else "probe")
+    verdict = {"complete": "complete", "refused": f"refused: {reason}"}.get(
+        status, f"aborted in {stopped_in}: {reason}"
+    )
     if len(errors):
         verdict += (
             f"; target error rms {np.sqrt(np.mean(errors**2)) * 1e3:.3f} mm, max "
@@ -612,8 +925,8 @@ def run_cell_job(
     log.phase("end", verdict)
     timings["total"] = time.perf_counter() - t_total
     result = RunResult(
-        status="complete" if primary.accepted else "refused",
-        reason="" if primary.accepted else primary.reason,
+        status=status,
+        reason=reason,
         job=config.name,
         seed=config.seed,
         model=obj.model,
@@ -631,6 +944,9 @@ def run_cell_job(
         robot=controller.robot.name,
         program_file=program_file,
         exported_program=exported,
+        stage=stopped_in,
+        faults=tuple(fault_report),
+        supervision=tuple(spoke),
     )
     if config.output.plots:
         outputs.write_figures(

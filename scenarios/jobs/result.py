@@ -2,8 +2,9 @@
 the evaluator's, written to results.json in one place (`RunResult.to_json`).
 
 Lengths [m], angles [deg] where the name says so, times [s]. "status" is "complete" when the
-program ran, "refused" when the localization was not accepted (no motion towards the
-object); the runner adds "incomplete" when a run fails.
+program ran, "refused" when the localization or its verification was not accepted (no
+motion towards the object), "aborted" when the controller's supervision stopped the cell;
+the runner adds "incomplete" when a run fails or is interrupted.
 """
 
 from __future__ import annotations
@@ -81,6 +82,10 @@ class RunResult:
         exported_program: that program run on the real cell by a controller without
             absolute accuracy (compensation, target error rms and max, each target's error),
             or None.
+        stage: the stage that refused the run or in which the supervision aborted it.
+        faults: each fault injected into the real cell, and the stage that detected it
+            (or "missed"); supervision: what the controller's supervision and the stages'
+            checks saw (stage, time, code, message, action), in order.
     """
 
     status: str
@@ -102,6 +107,9 @@ class RunResult:
     robot: str = "irb2400"
     program_file: str | None = None
     exported_program: dict[str, Any] | None = None
+    stage: str | None = None
+    faults: tuple[dict[str, Any], ...] = ()
+    supervision: tuple[dict[str, Any], ...] = ()
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -174,6 +182,9 @@ class RunResult:
             "robot": self.robot,
             "program_file": self.program_file,
             "exported_program": self.exported_program,
+            "stage": self.stage,
+            "faults": list(self.faults),
+            "supervision": list(self.supervision),
             **self.extra,
         }
 

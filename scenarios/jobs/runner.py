@@ -3,8 +3,14 @@
 A job is a configuration: a cell job (scenarios.jobs.pipeline) or the seed paper's
 experiments. The runner creates the folder, writes the resolved config.yaml first and
 results.json last, in one place; if the job fails or is interrupted, results.json says
-"status": "incomplete" with the reason, and the error goes on. A cell job reports its own
-status ("refused" when the localization is not accepted).
+"status": "incomplete" with the reason and the `stage` the run was in (a StageTracker that
+the job moves on), and the error goes on. A cell job reports its own status ("refused" when
+the localization is not accepted).
+
+SIGINT and SIGTERM stop a run in any stage (in the main thread): the signal raises
+RunInterrupted where the run is, the stack unwinds (nothing more is commanded to the cell,
+the recording is discarded), results.json says "reason": "interrupted (SIGTERM)" and the
+stage, and no file is left half-written: each is complete or absent.
 """
 
 from __future__ import annotations
@@ -25,6 +31,8 @@ from scenarios.jobs.config import (
     load_config,
     with_overrides,
 )
+from scenarios.jobs.interrupt import RunInterrupted, SignalGuard
+from scenarios.jobs.stages import StageTracker
 from scenarios.outputs.run_folder import RunFolder
 
 Progress = Callable[[str], None]
@@ -39,15 +47,21 @@ class RunOptions:
     spawn: bool = False
 
 
-Job = Callable[[Any, RunFolder, Progress, RunOptions], dict[str, Any]]
+Job = Callable[[Any, RunFolder, Progress, RunOptions, StageTracker], dict[str, Any]]
 
 
 def _paper(
-    config: PaperConfig, folder: RunFolder, progress: Progress, options: RunOptions
+    config: PaperConfig,
+    folder: RunFolder,
+    progress: Progress,
+    options: RunOptions,
+    stages: StageTracker,
 ) -> dict[str, Any]:
     from scenarios.jobs.paper import TESTS, plot_cases, run_paper, table_text
 
+    stages.enter("experiments")
     cases = run_paper(config.seed, progress)
+    stages.enter("export")
     rows = [case.row for case in cases]
     folder.write_text("paper_table.txt", table_text(rows))
     plot_cases(cases, str(folder.file("paper.png")))
@@ -69,20 +83,26 @@ def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
 
 
 def _cell(
-    config: JobConfig, folder: RunFolder, progress: Progress, options: RunOptions
+    config: JobConfig,
+    folder: RunFolder,
+    progress: Progress,
+    options: RunOptions,
+    stages: StageTracker,
 ) -> dict[str, Any]:
-    """A cell job through the pipeline, with its recording (kept only if the run completes)."""
+    """A cell job through the pipeline, with its recording: kept only if the run completes,
+    discarded (no run.rrd, no partial file) if anything stops it, closing included."""
     from scenarios.jobs.pipeline import run_cell_job
 
     recording = _recording(folder, config, options)
     try:
-        result = run_cell_job(config, folder.path, progress, recording)
+        result = run_cell_job(config, folder.path, progress, recording, stages=stages)
+        if recording is not None:
+            recording.close(keep=True)
     except BaseException:
         if recording is not None:
             recording.close(keep=False)
+            folder.file("run.rrd").unlink(missing_ok=True)  # a stop after it was moved in place
         raise
-    if recording is not None:
-        recording.close(keep=True)
     return result.to_json()
 
 
@@ -102,6 +122,17 @@ def run_job(
     folder; returns the folder and the results. `seed` and `overrides` (dotted keys, e.g.
     {"cell.object.model": "part.stl"}) replace the configuration's values, after those of
     the `cell` (a shipped cell's name, e.g. "ur5", or a cell YAML) if one is given."""
+    with SignalGuard() as guard:  # from here on SIGINT and SIGTERM raise RunInterrupted
+        return _run(_config(name, seed, overrides, cell), out, progress, options, guard)
+
+
+def _config(
+    name: str | Path | Config,
+    seed: int | None,
+    overrides: dict[str, Any] | None,
+    cell: str | Path | None,
+) -> Config:
+    """The job's configuration, with the cell's values, then the seed and overrides."""
     extra = dict(overrides or {})
     if seed is not None:
         extra["seed"] = seed
@@ -109,29 +140,44 @@ def run_job(
         config: Config = name
         if cell is not None:
             config = with_overrides(config, cell_overrides(cell), f"cell {cell}")
-        config = with_overrides(config, extra) if extra else config
-    else:
-        config = load_config(name, extra, cell)
+        return with_overrides(config, extra) if extra else config
+    return load_config(name, extra, cell)
+
+
+def _run(
+    config: Config,
+    out: str | Path,
+    progress: Progress | None,
+    options: RunOptions | None,
+    guard: SignalGuard,
+) -> tuple[Path, dict[str, Any]]:
+    """The run of `config` into a new folder under `out`; `guard` is told when the run
+    winds down (an error, a signal) or is done, after which no signal interrupts it."""
     if config.kind not in JOBS:
         raise ScenarioError(f"unknown kind {config.kind!r}; available: {', '.join(sorted(JOBS))}")
     say = progress or (lambda _msg: None)
-    folder = RunFolder(out, config.name)
-    folder.write_text("config.yaml", config_yaml(config))
+    stages = StageTracker()
     results: dict[str, Any] = {
         "status": "incomplete",
         "reason": "running",
         "job": config.name,
         "seed": config.seed,
     }
-    folder.write_json("results.json", results)
-    t0 = time.perf_counter()
+    folder = RunFolder(out, config.name)
     try:
-        results.update(JOBS[config.kind](config, folder, say, options or RunOptions()))
+        folder.write_text("config.yaml", config_yaml(config))
+        folder.write_json("results.json", results)
+        t0 = time.perf_counter()
+        results.update(JOBS[config.kind](config, folder, say, options or RunOptions(), stages))
+        guard.hold()  # the job is done: a signal from here on does not undo it
     except BaseException as exc:
-        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"{exc}"
-        results.update(status="incomplete", reason=reason)
+        guard.hold()  # winding down: a second signal does not interrupt the clean-up
+        results.update(status="incomplete", reason=_reason(exc), stage=stages.current)
         folder.write_json("results.json", results)
         folder.link_latest()
+        folder.remove_partial()
+        if isinstance(exc, RunInterrupted):
+            exc.stage, exc.folder = stages.current, str(folder.path)
         raise
     if results.get("status") == "incomplete":
         results.update(status="complete", reason="")
@@ -139,3 +185,12 @@ def run_job(
     folder.write_json("results.json", results)
     folder.link_latest()
     return folder.path, results
+
+
+def _reason(exc: BaseException) -> str:
+    """results.json's reason of a run stopped by `exc`."""
+    if isinstance(exc, RunInterrupted):
+        return exc.reason
+    if isinstance(exc, KeyboardInterrupt):  # Python's own SIGINT exception, raised elsewhere
+        return "interrupted (SIGINT)"
+    return f"{exc}"

@@ -315,12 +315,22 @@ def _view_pose(c: np.ndarray, tilt: float, heading: float, roll: float, d: float
     return make_T(np.column_stack([x, np.cross(v, x), v]), c - d * v)
 
 
+#: Says whether the arm with the laser at joints q (6,) stands clear of what is on the
+#: table, with the table at a position [m] (the virtual cell's view of it).
+Clear = Callable[[np.ndarray, float], bool]
+
+
 def plan_views(
-    kin: Kinematics, centres_base: np.ndarray, plan: CalibrationPlan, q_seed: np.ndarray
+    kin: Kinematics,
+    centres_base: np.ndarray,
+    plan: CalibrationPlan,
+    q_seed: np.ndarray,
+    clear: Clear | None = None,
 ) -> list[tuple[int, np.ndarray]]:
-    """(sphere, joints (6,)) of every reachable view (its approach from below included),
-    spread over tilt, heading, roll and distance (golden-ratio sequences), ordered by heading
-    around each sphere."""
+    """(sphere, joints (6,)) of every reachable view (its approach from below included) that
+    stands `clear` of the object on the table (at the plan's table position), spread over
+    tilt, heading, roll and distance (golden-ratio sequences), ordered by heading around
+    each sphere."""
     rng = np.random.default_rng(plan.seed)
     golden = (np.sqrt(5.0) - 1.0) / 2.0
     near, far = plan.standoff_m
@@ -339,9 +349,15 @@ def plan_views(
         for _heading, T in sorted(poses, key=lambda item: item[0]):
             r = kin.ik(T, q, LASER.T_tool_tcp, extra_seeds=8)
             # The view is approached from below (APPROACH_RAD): that start must be in range.
-            if r.success and np.all(r.q - APPROACH_RAD >= kin.lower):
-                views.append((s, r.q))
-                q = r.q
+            if not (r.success and np.all(r.q - APPROACH_RAD >= kin.lower)):
+                continue
+            position = plan.table_positions_m[0]
+            if clear is not None and not (
+                clear(r.q, position) and clear(r.q - APPROACH_RAD, position)
+            ):
+                continue
+            views.append((s, r.q))
+            q = r.q
     return views
 
 
@@ -367,11 +383,13 @@ def measure_spheres(
     plan: CalibrationPlan,
     progress: Progress | None = None,
     on_view: Callable[[], None] | None = None,
+    clear: Clear | None = None,
 ) -> SphereMeasurements:
     """Fetch the laser; at each of the plan's table positions, view every sphere; points
     within the radius + 10 mm of a sphere's nominal centre (and not on its post) are kept.
     The laser ends back in its slot, put there with the kinematics that fetched it.
-    `on_view()` is called with the arm at each view (e.g. to record the cell)."""
+    `on_view()` is called with the arm at each view (e.g. to record the cell); only views
+    `clear` of the object are taken."""
     say = progress or (lambda _msg: None)
     viewed = on_view or (lambda: None)
     if controller.tool_in_hand == LASER.name:
@@ -397,7 +415,7 @@ def measure_spheres(
             (position,), per_position, plan.lines_per_view, plan.standoff_m, plan.max_tilt_rad,
             plan.seed + 1000 * k,
         )  # fmt: skip
-        views = plan_views(kin, centres, sub, controller.q_home)
+        views = plan_views(kin, centres, sub, controller.q_home, clear)
         n_views += len(views)
         for s, q in views:
             try:
@@ -751,13 +769,15 @@ def calibrate(
     progress: Progress | None = None,
     on_view: Callable[[], None] | None = None,
     priors: CalibrationPriors | None = None,
+    clear: Clear | None = None,
 ) -> CalibrationResult:
-    """Measure the artifact and identify the cell (see the module's docstring). The
-    controller is left as it was: the caller decides to use the result."""
+    """Measure the artifact (the views `clear` of the object) and identify the cell (see
+    the module's docstring). The controller is left as it was: the caller decides to use
+    the result."""
     t0 = time.perf_counter()
     plan = plan or CalibrationPlan()
     priors = priors or CalibrationPriors()
-    m = measure_spheres(controller, artifact, plan, progress, on_view)
+    m = measure_spheres(controller, artifact, plan, progress, on_view, clear)
     robot = controller.robot
     fit = identify(m, robot, priors, max_residual_rms_m=max_residual_rms_m)
     layout = _Layout.of(robot, priors, m.stations)

@@ -18,6 +18,7 @@ from scenarios.offline.calibration import (
     CalibrationPlan,
     CalibrationPriors,
     CalibrationResult,
+    Clear,
     calibrate,
 )
 from scenarios.offline.scan import ObjectBox
@@ -63,9 +64,11 @@ def calibrate_arm(
     seed: int,
     say: Progress,
     on_view: Callable[[], None] | None = None,
+    clear: Clear | None = None,
 ) -> CalibrationResult:
-    """Calibrate the arm on the reference spheres and give the controller the calibrated
-    kinematics (the scan, the IK and the program use it from then on)."""
+    """Calibrate the arm on the reference spheres (the views `clear` of the object) and give
+    the controller the calibrated kinematics (the scan, the IK and the program use it from
+    then on)."""
     say("calibration: the laser views the reference spheres")
     calibration = calibrate(
         controller,
@@ -74,6 +77,7 @@ def calibrate_arm(
         section.max_residual_rms_m,
         on_view=on_view,
         priors=calibration_priors(section),
+        clear=clear,
     )
     controller.set_absolute_accuracy(calibration.kinematics)
     say(

@@ -17,6 +17,7 @@ from registration import (
     SearchSettings,
     invert,
     match,
+    transform_points,
 )
 
 
@@ -84,3 +85,25 @@ def localize(
         passes=passes,
     )
     return Localization(invert(result.T_model_data), result, used, len(points_table))
+
+
+#: Scan points farther than this from the matched model (or 8 times the match's RMS if
+#: larger) are not the object's surface [m]: a laser's spurious returns, or something on the
+#: table that is not the object.
+STRAY_M = 2.0e-3
+#: So many such points (at least, and at least this fraction of the scan) make a report (a
+#: few are a scan's stray returns at edges).
+STRAY_POINTS = 10
+STRAY_FRACTION = 5.0e-4
+
+
+def stray_returns(
+    points_table: np.ndarray, shape: MeshModel, T_table_object: np.ndarray, rms_m: float
+) -> int:
+    """How many of the object's scan points (N, 3, table frame) lie off the matched model
+    (`shape` at T_table_object, 4 x 4) by more than STRAY_M or 8 RMS; 0 if fewer than
+    STRAY_POINTS or STRAY_FRACTION of them do. The match's robust estimator leaves such
+    points out; this counts them, so that a run tells what its laser returned wrongly."""
+    p_model = transform_points(invert(T_table_object), points_table)
+    far = int(np.sum(shape.closest(p_model).distances > max(STRAY_M, 8.0 * rms_m)))
+    return far if far >= max(STRAY_POINTS, STRAY_FRACTION * len(points_table)) else 0

@@ -25,14 +25,18 @@ def execute_pick(
     T_base_lift[2, 3] += pick.lift_m
 
     def pick_and_put_down(name: str) -> None:
-        hooks.moment(name, "gripper")
-        controller.set_gripper(0.0)
-        hooks.moment("pick: closed", "gripper")
-        controller.move_linear(T_base_lift, speed_m_s=pick.speed_m_s, settle_s=pick.hold_s)
-        hooks.moment("pick: lifted", "gripper")
-        hooks.moved("lift")
-        controller.move_linear(T_base_touch, speed_m_s=pick.speed_m_s)
-        controller.set_gripper(pick.open_m)
+        # The fingers grip and carry the part: the supervision would take the grip for a
+        # collision; it is off from the closing to the release, as a program turns the
+        # collision detection off around a grip.
+        with controller.supervision_off():
+            hooks.moment(name, "gripper")
+            controller.set_gripper(0.0)
+            hooks.moment("pick: closed", "gripper")
+            controller.move_linear(T_base_lift, speed_m_s=pick.speed_m_s, settle_s=pick.hold_s)
+            hooks.moment("pick: lifted", "gripper")
+            hooks.moved("lift")
+            controller.move_linear(T_base_touch, speed_m_s=pick.speed_m_s)
+            controller.set_gripper(pick.open_m)
 
     execute_program(
         controller, grasp, pick.speed_m_s, on_touch=pick_and_put_down, on_move=hooks.moved

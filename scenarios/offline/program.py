@@ -110,6 +110,16 @@ def _spun(T: np.ndarray, angle: float) -> np.ndarray:
     return out
 
 
+def _wrist_flipped(q: np.ndarray) -> np.ndarray:
+    """(6,) the same flange pose on the wrist's other branch: joint 4 and 6 half a turn
+    round (towards zero), joint 5 mirrored."""
+    out = np.array(q, dtype=float)
+    out[3] -= np.copysign(np.pi, out[3])
+    out[4] = -out[4]
+    out[5] -= np.copysign(np.pi, out[5])
+    return out
+
+
 def _plan_at(
     kin: Kinematics,
     T_tcp: np.ndarray,
@@ -117,7 +127,13 @@ def _plan_at(
     T_base_object: np.ndarray,
     q_seed: np.ndarray,
     spins: int,
+    joint_margin_rad: float = 0.0,
 ) -> tuple[PlannedOperation, ...] | None:
+    lower, upper = kin.lower + joint_margin_rad, kin.upper - joint_margin_rad
+
+    def inside(q: np.ndarray) -> bool:
+        return bool(np.all(q >= lower) and np.all(q <= upper))
+
     planned = []
     q_prev = q_seed
     for op in operations:
@@ -129,10 +145,14 @@ def _plan_at(
             T_base_app = T_base_object @ T_app_obj
             T_base_touch = T_base_object @ T_touch_obj
             r_app = kin.ik(T_base_app, q_prev, T_tcp, extra_seeds=4)
-            if not r_app.success:
+            if not (r_app.success and inside(r_app.q)):  # the wrist's other branch
+                r_app = kin.ik(T_base_app, _wrist_flipped(q_prev), T_tcp, extra_seeds=0)
+            if not r_app.success or not inside(r_app.q):
                 continue
             r_touch = kin.ik(T_base_touch, r_app.q, T_tcp, extra_seeds=0)
             if not r_touch.success or np.max(np.abs(r_touch.q - r_app.q)) > 0.5:
+                continue
+            if not inside(r_touch.q):
                 continue
             cost = float(np.sum(np.abs(r_app.q - q_prev)))
             if best is None or cost < best[0]:
@@ -166,18 +186,23 @@ def plan_program(
     spins: int = 12,
     table_positions: tuple[float, ...] = TABLE_CANDIDATES_M,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    joint_margin_rad: float = 0.0,
 ) -> OfflineProgram:
     """Correct every operation by the measured `T_table_object` and solve it, at the first
     of `table_positions` [m] where the arm reaches them all, the table frame there from
     `table` (the cell model's; default the nominal) (spin about the tool axis chosen
-    for the least joint motion; `spins=1` keeps the operations' own orientation)."""
+    for the least joint motion; `spins=1` keeps the operations' own orientation), the
+    approach and touch joints `joint_margin_rad` [rad] inside the joint ranges (those the
+    pre-motion check holds them to)."""
     lo, hi = TABLE_TRAVEL
     for s in table_positions:
         if not lo <= s <= hi:
             continue
         T_base_table = table(s)
         T_base_object = T_base_table @ T_table_object
-        planned = _plan_at(kin, tool_T_flange_tcp, operations, T_base_object, q_seed, spins)
+        planned = _plan_at(
+            kin, tool_T_flange_tcp, operations, T_base_object, q_seed, spins, joint_margin_rad
+        )
         if planned is not None:
             return OfflineProgram(tool, s, T_table_object.copy(), planned, T_base_table)
     raise UnreachablePlanError(

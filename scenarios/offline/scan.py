@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell import Controller, Kinematics, nominal_T_base_table, points_in_table_frame
-from cell.errors import CellError
+from cell import Controller, Kinematics, LaserReading, nominal_T_base_table, points_in_table_frame
+from cell.errors import CellError, UnreachableTargetError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
@@ -136,12 +136,13 @@ def choose_table_position(
     q_seed: np.ndarray,
     what: str,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    positions: tuple[float, ...] = TABLE_CANDIDATES_M,
 ) -> tuple[float, np.ndarray]:
-    """The first table position of TABLE_CANDIDATES_M at which the nominal arm follows the
+    """The first table position of `positions` [m] at which the nominal arm follows the
     straight line between two poses (4, 4) of the table frame with the TCP `T_tcp`, and
     the joints (6,) at its start."""
     lo, hi = TABLE_TRAVEL
-    for s in TABLE_CANDIDATES_M:
+    for s in positions:
         if not lo <= s <= hi:
             continue
         T_base_table = table(s)
@@ -150,9 +151,7 @@ def choose_table_position(
         )
         if q is not None:
             return s, q
-    raise UnreachablePlanError(
-        f"{what}: no table position in {TABLE_CANDIDATES_M} m lets the arm follow it"
-    )
+    raise UnreachablePlanError(f"{what}: no table position in {positions} m lets the arm follow it")
 
 
 def plan_scan(
@@ -195,28 +194,30 @@ def execute_scan(
     config: Scan,
     progress: Progress | None = None,
     model: CellModel | None = None,
+    detect: Callable[[str, str, str], None] | None = None,
 ) -> ScanData:
     """Run the passes on the (real) cell with the laser in hand; every line's points are
     rebuilt with the cell's `model` (the arm the controller moves with, the laser's mounting
     and range scale, the table frame at the line's table readout; default the data
-    sheet's) and go into the table frame."""
+    sheet's) and go into the table frame. A pass that lost a stretch of lines (the laser's
+    plausibility) is run once more; `detect(code, message, action)` hears of it."""
     say = progress or (lambda _msg: None)
     change_tool_safely(controller, "laser")
     model = model or CellModel.nominal(controller.kinematics)
     dirs = controller.laser_directions_tcp
     points, index, origins, times, which, joints = [], [], [], [], [], []
     for k, planned in enumerate(plan):
-        if abs(controller.table_position() - planned.table_position_m) > 1e-6:
-            controller.move_table(planned.table_position_m)
-        try:
-            controller.move_joints(planned.q_start)
-            readings = controller.scan_linear(
-                planned.T_base(planned.T_table_end),
-                speed_m_s=config.speed_m_s,
-                period_s=config.period_s,
-            )
-        except CellError as exc:
-            raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
+        for attempt in range(2):
+            readings = _run_pass(controller, planned, config)
+            gap = longest_gap(readings)
+            if gap < GAP_LINES:
+                break
+            message = f"{planned.name}: {gap} laser lines in a row without a return"
+            action = "re-scanned the pass" if attempt == 0 else "kept what it returned"
+            if detect is None:
+                say(f"warning: scan: {message}; {action}")
+            else:
+                detect("laser_gap", message, action)
         n_before = sum(len(p) for p in points)
         kin = controller.kinematics
         for reading in readings:
@@ -242,6 +243,50 @@ def execute_scan(
         line_pass=np.array(which, dtype=int),
         line_q=np.array(joints).reshape(-1, 6),
     )
+
+
+#: A pass whose laser returns nothing for this many lines in a row has lost a stretch: a
+#: line always sees the table or the object within the laser's range.
+GAP_LINES = 5
+
+
+def longest_gap(readings: list[LaserReading]) -> int:
+    """The longest run of laser lines without a single return."""
+    longest = run = 0
+    for reading in readings:
+        run = 0 if reading.valid.any() else run + 1
+        longest = max(longest, run)
+    return longest
+
+
+#: After a pass the laser rises straight up this far [m] (or half of it where the arm does
+#: not reach so high) before the arm moves on: a joint move from the end of a low, tilted
+#: pass can sweep the laser through the object.
+RETREAT_M = 0.15
+
+
+def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> list[LaserReading]:
+    """One pass on the cell: the table to its position, the arm to its start, the sweep,
+    then the laser up and away from the object."""
+    if abs(controller.table_position() - planned.table_position_m) > 1e-6:
+        controller.move_table(planned.table_position_m)
+    try:
+        controller.move_joints(planned.q_start)
+        T_base_end = planned.T_base(planned.T_table_end)
+        readings = controller.scan_linear(
+            T_base_end, speed_m_s=config.speed_m_s, period_s=config.period_s
+        )
+    except CellError as exc:
+        raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
+    for rise in (RETREAT_M, RETREAT_M / 2):
+        T_up = T_base_end.copy()
+        T_up[2, 3] += rise
+        try:
+            controller.move_linear(T_up)
+            break
+        except UnreachableTargetError:
+            continue
+    return readings
 
 
 def crop_to_object(points_table: np.ndarray, box: ObjectBox, margin_m: float) -> np.ndarray:

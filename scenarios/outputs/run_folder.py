@@ -3,6 +3,9 @@
 Every file goes to a temporary name in the folder and is renamed into place, so a reader
 never sees half a file. results.json says "status": "incomplete" with the reason until the
 run finishes; `runs/latest` points at the newest finished or failed run.
+
+A temporary name starts with a dot: `.<name>.<random>.tmp` (models.atomic) or
+`.<name>.partial` (the recording); a run that stops early removes any left.
 """
 
 from __future__ import annotations
@@ -61,6 +64,20 @@ class RunFolder:
 
     def write_json(self, name: str, data: Any) -> Path:
         return write_json(self.file(name), data)
+
+    def remove_partial(self) -> list[Path]:
+        """Delete the temporary files of writes that did not finish (see the module's
+        docstring) and return them. Each writer removes its own when it fails; a signal
+        can still land between a temporary file's creation and the writer's cleanup, and a
+        run that stops early calls this last so that no such file outlives it."""
+        left = [
+            p
+            for p in self.path.iterdir()
+            if p.name.startswith(".") and p.name.endswith((".tmp", ".partial")) and p.is_file()
+        ]
+        for p in left:
+            p.unlink(missing_ok=True)
+        return left
 
     def link_latest(self) -> None:
         """Point root/latest at this run (a symbolic link, replaced atomically)."""

@@ -102,6 +102,26 @@ class KinematicsEvaluation:
     configurations: int
 
 
+#: The symptoms (the codes of the controller's supervision and of the stages' checks) by
+#: which each fault can show. A fault is detected by the first of them seen after it fired.
+SYMPTOMS: dict[str, tuple[str, ...]] = {
+    "tool_lock_fail": ("lock_sensor", "tcp_check", "verification", "match_refused", "collision"),
+    "laser_dropout_burst": ("laser_gap", "match_refused", "verification"),
+    "laser_spurious": ("scan_outliers", "match_refused", "verification"),
+    "table_stall": (
+        "table_in_position",
+        "scan_outliers",
+        "match_refused",
+        "verification",
+        "collision",
+    ),
+    "object_bump": ("verification", "collision"),
+    "encoder_glitch": ("joint_plausibility", "scan_outliers", "match_refused", "verification"),
+    "obstacle": ("collision",),
+    "payload": ("load", "collision"),
+}
+
+
 class Evaluator:
     """Reads the truth of one run: the cell's `truth`, the object's real entity and its name."""
 
@@ -223,6 +243,48 @@ class Evaluator:
             T[:3, 3] = data.xpos[b]
             poses[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)] = T
         return poses
+
+    def enter(self, stage: str) -> None:
+        """The run enters `stage`: the real cell's faults due then happen (cell.faults)."""
+        self._truth.faults.enter(stage)
+
+    def faults(self, detections: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        """Each fault of the run: what was injected and when, and the stage whose
+        supervision or check saw it first (a detection of a symptom the fault can cause,
+        at or after its injection), or "missed"; "not injected" if its occasion never came."""
+        out = []
+        for name, fault in self._truth.faults.faults.items():
+            fired = self._truth.faults.fired.get(name)
+            entry: dict[str, Any] = {
+                "name": name,
+                "amount": fault.amount,
+                "stage": fault.stage,
+                "option": fault.option,
+            }
+            if fired is None:
+                out.append(entry | {"injected": None, "detected_by": "not injected"})
+                continue
+            seen = next(
+                (
+                    d
+                    for d in detections
+                    if d["code"] in SYMPTOMS[name] and d["time_s"] >= fired.time_s - 1e-9
+                ),
+                None,
+            )
+            out.append(
+                entry
+                | {
+                    "injected": {
+                        "stage": fired.stage,
+                        "time_s": fired.time_s,
+                        "what": fired.detail,
+                    },
+                    "detected_by": "missed" if seen is None else seen["stage"],
+                    "symptom": None if seen is None else seen["code"],
+                }
+            )
+        return out
 
     def watch(self, bodies: Any, laser: Any, ir: Any = None) -> None:
         """Let a recording witness the real cell: `bodies(data)` while it moves, `laser(data,

@@ -25,6 +25,7 @@ from cell import (
     ToolErrors,
     make_cell,
 )
+from cell.faults import Fault
 from cell.robots import Robot, irb2400
 from models import ModelErrorSpec, ObjectModel
 from models.robot import RACK_POS
@@ -64,6 +65,7 @@ def cell_config(
     fixtures: tuple[FixedMesh | FixedPrimitive, ...],
     robot: Robot | None = None,
     rack_xyz: tuple[float, float, float] = RACK_POS,
+    faults: tuple[Fault, ...] = (),
 ) -> CellConfig:
     """The real cell's configuration from the run's noise section, with its `robot` (default
     the built-in arm) and the tool rack at `rack_xyz` [m]."""
@@ -84,6 +86,7 @@ def cell_config(
         ),
         laser=LaserConfig(sigma_m=noise.laser_sigma_m),
         fixtures=fixtures,
+        faults=faults,
     )
 
 
@@ -110,6 +113,7 @@ def build_job_cell(
     rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0),
     robot: Robot | None = None,
     rack_xyz: tuple[float, float, float] = RACK_POS,
+    faults: tuple[Fault, ...] = (),
 ) -> JobCell:
     """Place the real entity at a true pose drawn around the nominal one (random stream
     `stream` of `seed`), fixed on the table or `loose`; add the calibration spheres if the
@@ -130,12 +134,12 @@ def build_job_cell(
         part = LooseMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = replace(cell_config(noise, seed, spheres, robot, rack_xyz), parts=(part,))
+        config = replace(cell_config(noise, seed, spheres, robot, rack_xyz, faults), parts=(part,))
     else:
         fixed = FixedMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz)
+        config = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz, faults)
     controller, truth = make_cell(config)
     evaluator = Evaluator(truth, real, name)
     log = CellLog(recording, controller, evaluator, name, virtual.name)

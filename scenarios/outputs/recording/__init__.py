@@ -121,7 +121,8 @@ class Recording:
     def text(self, time_s: float, message: str) -> None:
         """A line of the run's progress: a decision, a refusal, a measurement."""
         self.stream.at(sim_time=time_s)
-        level = "WARN" if message.startswith(("refused", "warning")) else "INFO"
+        warns = ("refused", "warning", "aborted")
+        level = "WARN" if message.startswith(warns) else "INFO"
         self.stream.log("log", rr.TextLog(message, level=level))
 
     # -- the object -------------------------------------------------------------------------
