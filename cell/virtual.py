@@ -197,8 +197,9 @@ class VirtualCell:
             m, d, np.asarray(origin, dtype=float), dirs.reshape(-1), RAY_GROUPS, 1, -1,
             geom, dist, normal, n, range_m,
         )  # fmt: skip
-        hit = geom >= 0
+        hit = (geom >= 0) & (dist <= range_m)  # the cutoff only culls geoms beyond it
         dist = np.where(hit, dist, np.inf)
+        geom = np.where(hit, geom, -1)
         names = np.array(["" if g < 0 else self._geom_name[g] for g in geom], dtype=object)
         return dist, normal.reshape(-1, 3), names
 

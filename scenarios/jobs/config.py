@@ -152,7 +152,8 @@ class Scan(_Section):
     period [s], the sweep's margin beyond the object's nominal footprint [m], the passes; the
     points kept as the object's are those above the table within its nominal footprint
     enlarged by `crop_margin_m` [m] (how far the object may lie from where it is believed to
-    be), and the scan must keep at least `min_points` of them."""
+    be), and the scan must keep at least `min_points` of them. `plan`: "fixed" scans the
+    passes; "auto" chooses them in the virtual cell for the targets (`planning`)."""
 
     standoff_m: float = Field(0.28, gt=0.05, le=0.6)
     speed_m_s: float = Field(0.1, gt=0.0, le=0.5)

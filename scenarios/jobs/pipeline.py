@@ -614,7 +614,7 @@ def run_cell_job(
         "the operations in the virtual cell"
     )
     scan_plan = None
-    if "surface" in config.localization.methods:
+    if "surface" in config.localization.methods and config.localization.scan.plan == "auto":
         # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
         # before the real one moves: a target no pass constrains refuses the job here.
         scan_plan = job_scan_plan(
