@@ -180,7 +180,7 @@ def plan_pass(
     T_end = _pose(R, p_mid + sign * width * sweep)
     name = f"pass {index + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
     s_table, q_start = choose_table_position(
-        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, name, table
+        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, f"scan pass {index + 1}", table
     )
     return PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table))
 
