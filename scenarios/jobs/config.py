@@ -130,11 +130,15 @@ class ScanPlanning(_Section):
 
     tilts_deg: tuple[float, ...] = (0.0, 30.0, 50.0, 70.0)
     headings_deg: tuple[float, ...] = (0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0)
-    goal_tre_m: float = Field(2.5e-4, gt=0.0, le=0.01)
+    goal_tre_m: float = Field(3.0e-4, gt=0.0, le=0.01)
     budget_s: float = Field(120.0, gt=0.0, le=3600.0)
     range_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     model_error_m: float = Field(2.0e-4, ge=0.0, le=0.01)
     correlation_m: float = Field(0.02, gt=0.0, le=1.0)
+    #: The chosen passes' sweep speed [m/s]; None: lines one registration voxel apart
+    #: (voxel / line period, at most 0.5 m/s): the match keeps one point per voxel, so
+    #: closer lines add time and no information.
+    sweep_speed_m_s: float | None = Field(None, gt=0.0, le=0.5)
 
     @field_validator("tilts_deg", "headings_deg")
     @classmethod

@@ -26,7 +26,7 @@ from cell.faults import FAULT_KINDS, Fault
 from cell.robots import Robot, make_robot
 from models import ObjectModel, real_model
 from models.atomic import write_text
-from registration import Acceptance, MeshModel
+from registration import Acceptance, MeshModel, transform_points
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, Registration, RobotSection
 from scenarios.jobs.exported import EXECUTION_FILE, execute_in_cell, job_targets, read_program
@@ -170,13 +170,17 @@ def scan_stage(
     section = config.localization.scan
     kin = controller.kinematics.for_tool("laser")
     specs = None if scan_plan is None or scan_plan.mode == "fixed" else scan_plan.specs
+    if scan_plan is not None:
+        section = section.model_copy(update={"speed_m_s": scan_plan.speed_m_s})
     plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table, specs)
     say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
-    t0 = controller.time_s
     scan = execute_scan(controller, plan, section, say, model, detect)
     keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
-    say(f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object")
-    return ScanStage(scan, keep, scan.points_table[keep], plan, controller.time_s - t0)
+    say(
+        f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object, "
+        f"{scan.seconds:.1f} s of scan motions"
+    )
+    return ScanStage(scan, keep, scan.points_table[keep], plan, scan.seconds)
 
 
 def job_scan_plan(
@@ -198,13 +202,33 @@ def job_scan_plan(
     )
     laser = cell.config.laser  # the laser's data sheet: rays, range, grazing limit
     kin = robot.kinematics().for_tool("laser")
+    shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
+    noise = section.planning.range_sigma_m
+
+    def unambiguous(points_table: np.ndarray, labels: np.ndarray) -> bool:
+        """Whether the job's match finds one pose, the right one, in a scan of these points
+        (the laser's range noise added, seeded)."""
+        rng = np.random.default_rng(config.seed)
+        noisy = points_table + rng.normal(0.0, noise, points_table.shape)
+        located = localize(
+            noisy, shape, registration.max_points, _acceptance(config), config.seed,
+            registration.voxel_m, registration.mode, pass_labels=labels,
+            pass_sigma_m=registration.pass_sigma_m, targets_model=targets_model,
+        )  # fmt: skip
+        moved = transform_points(located.T_table_object, targets_model) - transform_points(
+            T_table_object, targets_model
+        )
+        return located.result.verdict == "accepted" and float(
+            np.max(np.linalg.norm(moved, axis=1))
+        ) < max(1e-3, 10 * noise)
+
     plan = plan_job_scan(
         kin, cell, ObjectBox.of(virtual.mesh.vertices, T_table_object), section,
         error_model(section, registration.voxel_m, registration.max_points, pass_sigma),
         T_table_object, targets_model, robot.q_home, robot.joint_speed,
         (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
          laser.max_incidence_rad),
-        object_name=name, say=say,
+        object_name=name, say=say, unambiguous=unambiguous,
     )  # fmt: skip
     say(
         f"scan plan ({plan.mode}): {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"
@@ -614,7 +638,7 @@ def run_cell_job(
         "the operations in the virtual cell"
     )
     scan_plan = None
-    if "surface" in config.localization.methods and config.localization.scan.plan == "auto":
+    if "surface" in config.localization.methods:
         # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
         # before the real one moves: a target no pass constrains refuses the job here.
         scan_plan = job_scan_plan(

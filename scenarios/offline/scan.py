@@ -77,6 +77,8 @@ class ScanData:
         line_times_s: (L,) controller time of each line [s].
         line_pass: (L,) index of the pass of each line.
         line_q: (L, 6) measured joints of each line [rad].
+        seconds: cell time of the scan's motions [s]: from the laser in hand to the end of
+            the last pass (the tool change not counted).
     """
 
     points_table: np.ndarray
@@ -85,6 +87,7 @@ class ScanData:
     line_times_s: np.ndarray
     line_pass: np.ndarray
     line_q: np.ndarray
+    seconds: float = 0.0
 
     @property
     def lines(self) -> int:
@@ -218,6 +221,7 @@ def execute_scan(
     plausibility) is run once more; `detect(code, message, action)` hears of it."""
     say = progress or (lambda _msg: None)
     change_tool_safely(controller, "laser")
+    t0 = controller.time_s
     model = model or CellModel.nominal(controller.kinematics)
     dirs = controller.laser_directions_tcp
     points, index, origins, times, which, joints = [], [], [], [], [], []
@@ -257,6 +261,7 @@ def execute_scan(
         line_times_s=np.array(times),
         line_pass=np.array(which, dtype=int),
         line_q=np.array(joints).reshape(-1, 6),
+        seconds=controller.time_s - t0,
     )
 
 
@@ -278,6 +283,8 @@ def longest_gap(readings: list[LaserReading]) -> int:
 #: not reach so high) before the arm moves on: a joint move from the end of a low, tilted
 #: pass can sweep the laser through the object.
 RETREAT_M = 0.15
+#: ... at this speed [m/s] (the controller's default for a straight move).
+RETREAT_SPEED_M_S = 0.2
 
 
 def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> list[LaserReading]:
@@ -297,7 +304,7 @@ def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> lis
         T_up = T_base_end.copy()
         T_up[2, 3] += rise
         try:
-            controller.move_linear(T_up)
+            controller.move_linear(T_up, speed_m_s=RETREAT_SPEED_M_S)
             break
         except UnreachableTargetError:
             continue

@@ -26,14 +26,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Kinematics, nominal_T_base_table
+from cell.controller import SETTLE_S
+from cell.trajectory import QUINTIC_PEAK
 from cell.virtual import VirtualCell
-from models.robot import LASER
+from models.robot import LASER, TABLE_SPEED
 from registration import transform_points
 from registration.quality import ResidualCorrelation, ScanPasses, pose_covariance, predicted_tre
 from registration.rigid import invert
 from scenarios.jobs.config import Scan, ScanPass
 from scenarios.offline.moves import UnreachablePlanError
-from scenarios.offline.scan import ObjectBox, PlannedPass, plan_pass
+from scenarios.offline.scan import RETREAT_M, RETREAT_SPEED_M_S, ObjectBox, PlannedPass, plan_pass
 from scenarios.offline.scan import plan_scan as plan_scan_fixed
 
 Progress = Callable[[str], None]
@@ -92,6 +94,7 @@ class ScanPlan:
     predicted_tre_m: np.ndarray
     chosen: tuple[ChosenPass, ...]
     candidates: tuple[Candidate, ...] = ()
+    speed_m_s: float = 0.1
 
     @property
     def specs(self) -> tuple[ScanPass, ...]:
@@ -106,6 +109,7 @@ class ScanPlan:
         return {
             "mode": self.mode,
             "passes": len(self.passes),
+            "sweep_speed_m_s": self.speed_m_s,
             "scan_time_s": scan_time_s,
             "predicted_scan_time_s": self.predicted_time_s,
             "predicted_tre_max_m": self.predicted_tre_max_m,
@@ -167,9 +171,41 @@ def candidate_specs(box: ObjectBox, section: Scan) -> tuple[ScanPass, ...]:
     return tuple(specs)
 
 
-def _transit_s(kin: Kinematics, q_from: np.ndarray, q_to: np.ndarray, speed: np.ndarray) -> float:
-    """Time [s] of a joint move: the slowest joint at its speed limit (with ramps: x 1.5)."""
-    return 1.5 * float(np.max(np.abs(np.asarray(q_to) - np.asarray(q_from)) / speed))
+def _joint_move_s(q_from: np.ndarray, q_to: np.ndarray, joint_speed: np.ndarray) -> float:
+    """Cell time [s] of a joint move and its settling: the controller's quintic profile,
+    the slowest joint at its speed limit at the peak."""
+    dq = np.abs(np.asarray(q_to) - np.asarray(q_from))
+    return float(np.max(QUINTIC_PEAK * dq / joint_speed)) + SETTLE_S
+
+
+def _line_s(length_m: float, speed_m_s: float) -> float:
+    """Cell time [s] of a straight move of `length_m` [m] at `speed_m_s` and its settling."""
+    return QUINTIC_PEAK * length_m / speed_m_s + SETTLE_S
+
+
+def pass_seconds(planned: PlannedPass, section: Scan) -> float:
+    """Cell time [s] of a pass itself: its sweep and the laser's rise after it."""
+    length = float(np.linalg.norm(planned.T_table_end[:3, 3] - planned.T_table_start[:3, 3]))
+    return _line_s(length, section.speed_m_s) + _line_s(RETREAT_M, RETREAT_SPEED_M_S)
+
+
+def scan_seconds(
+    passes: tuple[PlannedPass, ...] | list[PlannedPass],
+    section: Scan,
+    q_home: np.ndarray,
+    joint_speed: np.ndarray,
+) -> float:
+    """Predicted cell time [s] of the scan motions: from home, each pass' table move, the
+    joint move to its start (from the previous pass' start: the rise and the sweep are
+    short beside the arm's turns), the pass."""
+    total, q, s = 0.0, np.asarray(q_home), 0.0
+    for p in passes:
+        if abs(p.table_position_m - s) > 1e-9:
+            total += _line_s(abs(p.table_position_m - s), TABLE_SPEED)
+            s = p.table_position_m
+        total += _joint_move_s(q, p.q_start, joint_speed) + pass_seconds(p, section)
+        q = p.q_start
+    return total
 
 
 def _predict(
@@ -260,9 +296,9 @@ def candidates(
         p, n = _predict(cell, planned, T_table_object, dirs_tcp, range_m, incidence, object_name)
         if len(p) < 50:
             continue
-        length = float(np.linalg.norm(planned.T_table_end[:3, 3] - planned.T_table_start[:3, 3]))
-        seconds = length / section.speed_m_s + 2.0 * _transit_s(
-            kin, q_home, planned.q_start, joint_speed
+        # Its own time and the arm's turn to it from home and back: what adding it costs.
+        seconds = pass_seconds(planned, section) + 2.0 * _joint_move_s(
+            q_home, planned.q_start, joint_speed
         )
         found.append(Candidate(spec, planned, p, n, seconds))
     return tuple(found), len(specs)
@@ -304,6 +340,20 @@ def predict_tre(
     return predicted_tre(cov, targets_model), info
 
 
+def information_shares(
+    passes: list[Candidate], targets_model: np.ndarray, errors: ErrorModel
+) -> list[float]:
+    """Each pass' share of the plan's information: the trace of the information matrix its
+    points add to the others' (after thinning), normalized to sum to one."""
+    _, total = predict_tre(passes, targets_model, errors)
+    shares = []
+    for k in range(len(passes)):
+        _, without = predict_tre(passes[:k] + passes[k + 1 :], targets_model, errors)
+        shares.append(max(float(np.trace(total) - np.trace(without)), 0.0))
+    norm = sum(shares) or 1.0
+    return [s / norm for s in shares]
+
+
 def choose_passes(
     found: tuple[Candidate, ...],
     targets_model: np.ndarray,
@@ -311,15 +361,28 @@ def choose_passes(
     goal_m: float,
     budget_s: float,
     say: Progress | None = None,
-) -> tuple[list[Candidate], list[ChosenPass], np.ndarray]:
-    """Greedy choice (see the module's docstring): the passes, their records, and the
-    predicted TRE (K,) [m] of the plan."""
+    unambiguous: Callable[[list[Candidate]], bool] | None = None,
+) -> tuple[list[Candidate], list[ChosenPass], np.ndarray, bool]:
+    """Greedy choice (see the module's docstring): the passes, their records, the predicted
+    TRE (K,) [m] of the plan, and whether `unambiguous(passes)` holds for it (the match of
+    the points they would see finds one pose; passes are added until it does)."""
     chosen: list[Candidate] = []
     records: list[ChosenPass] = []
     tre = np.full(len(targets_model), np.inf)
     spent = 0.0
     left = list(found)
-    while left and (not chosen or np.max(tre) > goal_m):
+    unique = False
+
+    def done() -> bool:
+        nonlocal unique
+        if not chosen or np.max(tre) > goal_m:
+            return False
+        unique = unambiguous is None or unambiguous(chosen)
+        if not unique and say is not None:
+            say("scan plan: the match of what these passes see is ambiguous: one more pass")
+        return unique
+
+    while left and not done():
         best, best_gain, best_tre = None, -np.inf, tre
         worst_now = float(np.max(tre))
         for c in left:
@@ -336,7 +399,7 @@ def choose_passes(
                 gain = (worst_now - worst) / c.seconds
             if gain > best_gain:
                 best, best_gain, best_tre = c, gain, t
-        if best is None or (chosen and np.isfinite(worst_now) and best_gain <= 0):
+        if best is None:
             break
         chosen.append(best)
         left.remove(best)
@@ -359,18 +422,14 @@ def choose_passes(
                 f"scan plan: + {best.planned.name}: worst predicted TRE "
                 f"{np.max(tre) * 1e3:.3f} mm, {spent:.0f} s"
             )
-    # Each pass' share of the plan's information: the trace of what its points add.
-    _, total = predict_tre(chosen, targets_model, errors)
-    shares = []
-    for k in range(len(chosen)):
-        _, without = predict_tre(chosen[:k] + chosen[k + 1 :], targets_model, errors)
-        shares.append(max(float(np.trace(total) - np.trace(without)), 0.0))
-    norm = sum(shares) or 1.0
+    shares = information_shares(chosen, targets_model, errors)
     records = [
-        ChosenPass(**{**r.__dict__, "information_share": s / norm})
+        ChosenPass(**{**r.__dict__, "information_share": s})
         for r, s in zip(records, shares, strict=True)
     ]
-    return chosen, records, tre
+    if not unique and chosen:
+        unique = unambiguous is None or unambiguous(chosen)
+    return chosen, records, tre, unique
 
 
 def error_model(section: Scan, voxel_m: float, max_points: int, pass_sigma_m: float) -> ErrorModel:
@@ -395,10 +454,13 @@ def plan_job_scan(
     T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table,
     object_name: str = "object",
     say: Progress | None = None,
+    unambiguous: Callable[[np.ndarray, np.ndarray], bool] | None = None,
 ) -> ScanPlan:
     """The job's scan plan: in mode "auto" chosen among the candidates for `targets_model`
     (K, 3, model frame); in mode "fixed" the configuration's passes, with the same
-    prediction. Raises ScanPlanError if "auto" leaves a target unconstrained."""
+    prediction. `unambiguous(points_table (N, 3), pass_labels (N,))`: whether the match of
+    such a scan finds one pose. Raises ScanPlanError if "auto" leaves a target
+    unconstrained or the match ambiguous."""
     tell = say or (lambda _m: None)
     if section.plan == "fixed":
         passes = plan_scan_fixed(kin, box, section, q_home, T_base_table)
@@ -407,22 +469,22 @@ def plan_job_scan(
             p, n = _predict(
                 cell, planned, T_table_object, laser[0], laser[1], laser[2], object_name
             )
-            length = float(
-                np.linalg.norm(planned.T_table_end[:3, 3] - planned.T_table_start[:3, 3])
-            )
-            seconds = length / section.speed_m_s + 2.0 * _transit_s(
-                kin, q_home, planned.q_start, joint_speed
-            )
-            found.append(Candidate(spec, planned, p, n, seconds))
+            found.append(Candidate(spec, planned, p, n, pass_seconds(planned, section)))
         tre, _ = predict_tre(found, targets_model, errors)
+        shares = information_shares(found, targets_model, errors)
         chosen = tuple(
             ChosenPass(
                 c.planned.name, c.spec.tilt_deg, c.spec.heading_deg, c.spec.offset_m,
-                c.planned.table_position_m, float("nan"), c.seconds, 0.0,
+                c.planned.table_position_m, float("nan"), c.seconds, share,
             )
-            for c in found
+            for c, share in zip(found, shares, strict=True)
         )  # fmt: skip
-        return ScanPlan("fixed", passes, sum(c.seconds for c in found), tre, chosen)
+        seconds = scan_seconds(passes, section, q_home, joint_speed)
+        return ScanPlan("fixed", passes, seconds, tre, chosen, (), section.speed_m_s)
+    speed = section.planning.sweep_speed_m_s or min(0.5, errors.voxel_m / section.period_s)
+    if errors.voxel_m <= 0 and section.planning.sweep_speed_m_s is None:
+        speed = section.speed_m_s
+    section = section.model_copy(update={"speed_m_s": speed})
     found_all, tried = candidates(
         kin, cell, box, section, T_table_object, q_home, joint_speed, laser, T_base_table,
         object_name,
@@ -432,13 +494,30 @@ def plan_job_scan(
         "seeing the object"
     )
     goal = section.planning.goal_tre_m
-    chosen, records, tre = choose_passes(
-        found_all, targets_model, errors, goal, section.planning.budget_s, tell
+
+    def unique(passes: list[Candidate]) -> bool:
+        if unambiguous is None:
+            return True
+        points = np.concatenate([c.points_model for c in passes])
+        labels = np.concatenate([np.full(len(c.points_model), k) for k, c in enumerate(passes)])
+        return unambiguous(transform_points(T_table_object, points), labels)
+
+    chosen, records, tre, unique = choose_passes(
+        found_all, targets_model, errors, goal, section.planning.budget_s, tell, unique
     )
-    if not np.all(np.isfinite(tre)) or not chosen:
+    if not chosen or not np.all(np.isfinite(tre)):
+        free = [] if not chosen else [int(k) + 1 for k in np.flatnonzero(~np.isfinite(tre))]
+        which = f"targets {free}" if free else "the targets"
         raise ScanPlanError(
-            "scan plan: no reachable pass set constrains the targets "
-            f"({len(found_all)} of {tried} candidates usable); the job refuses before any motion"
+            f"scan plan: no reachable pass set constrains {which} ({len(found_all)} of "
+            f"{tried} candidate passes reachable, clear and seeing the object); the job "
+            "refuses before any motion"
+        )
+    if not unique:
+        raise ScanPlanError(
+            f"scan plan: the match of what the {len(chosen)} chosen passes would see is "
+            f"still ambiguous within the {section.planning.budget_s:g} s budget (a rival "
+            "pose or a symmetry fits as well); the job refuses before any motion"
         )
     if np.max(tre) > goal:
         worst = int(np.argmax(tre))
@@ -452,8 +531,9 @@ def plan_job_scan(
     return ScanPlan(
         "auto",
         passes,
-        sum(c.seconds for c in chosen),
+        scan_seconds(passes, section, q_home, joint_speed),
         tre,
         tuple(records),
         found_all,
+        speed,
     )
