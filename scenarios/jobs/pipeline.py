@@ -190,9 +190,10 @@ def job_scan_plan(
     T_table_object: np.ndarray,
     targets_model: np.ndarray,
     say: Progress,
+    target_names: tuple[str, ...] | None = None,
 ) -> ScanPlan:
     """The job's scan plan in its virtual cell (scenarios.offline.scan_plan) with the nominal
-    arm and table, for the operation targets (K, 3, model frame)."""
+    arm and table, for the operation targets (K, 3, model frame) named `target_names`."""
     section = config.localization.scan
     registration = config.localization.registration
     pass_sigma = registration.pass_sigma_m if registration.pass_sigma_m is not None else 0.0
@@ -228,7 +229,7 @@ def job_scan_plan(
         T_table_object, targets_model, robot.q_home, robot.joint_speed,
         (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
          laser.max_incidence_rad),
-        object_name=name, say=say, unambiguous=unambiguous,
+        object_name=name, say=say, unambiguous=unambiguous, target_names=target_names,
     )  # fmt: skip
     say(
         f"scan plan ({plan.mode}): {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"
@@ -644,6 +645,7 @@ def run_cell_job(
         scan_plan = job_scan_plan(
             robot, config, virtual, T_table_nominal,
             np.array([op.T_object_touch[:3, 3] for op in operations]), say,
+            tuple(op.name for op in operations),
         )  # fmt: skip
     faults = job_faults(config, virtual, T_table_nominal)
     cell = job_cell(config, virtual, real, robot, recording, faults)

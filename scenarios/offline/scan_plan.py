@@ -455,12 +455,13 @@ def plan_job_scan(
     object_name: str = "object",
     say: Progress | None = None,
     unambiguous: Callable[[np.ndarray, np.ndarray], bool] | None = None,
+    target_names: tuple[str, ...] | None = None,
 ) -> ScanPlan:
     """The job's scan plan: in mode "auto" chosen among the candidates for `targets_model`
     (K, 3, model frame); in mode "fixed" the configuration's passes, with the same
     prediction. `unambiguous(points_table (N, 3), pass_labels (N,))`: whether the match of
-    such a scan finds one pose. Raises ScanPlanError if "auto" leaves a target
-    unconstrained or the match ambiguous."""
+    such a scan finds one pose. Raises ScanPlanError if "auto" leaves a target (named by
+    `target_names`) unconstrained or above the goal, or the match ambiguous."""
     tell = say or (lambda _m: None)
     if section.plan == "fixed":
         passes = plan_scan_fixed(kin, box, section, q_home, T_base_table)
@@ -505,12 +506,24 @@ def plan_job_scan(
     chosen, records, tre, unique = choose_passes(
         found_all, targets_model, errors, goal, section.planning.budget_s, tell, unique
     )
+    names = target_names or tuple(f"target {k + 1}" for k in range(len(targets_model)))
+    usable = f"{len(found_all)} of {tried} candidate passes reachable, clear and seeing the object"
     if not chosen or not np.all(np.isfinite(tre)):
-        free = [] if not chosen else [int(k) + 1 for k in np.flatnonzero(~np.isfinite(tre))]
-        which = f"targets {free}" if free else "the targets"
+        free = [names[k] for k in np.flatnonzero(~np.isfinite(tre))] if chosen else list(names)
         raise ScanPlanError(
-            f"scan plan: no reachable pass set constrains {which} ({len(found_all)} of "
-            f"{tried} candidate passes reachable, clear and seeing the object); the job "
+            f"scan plan: no reachable pass constrains {', '.join(free)} ({usable}); the job "
+            "refuses before any motion"
+        )
+    if np.max(tre) > goal:
+        over = [f"{names[k]} {tre[k] * 1e3:.3f} mm" for k in np.flatnonzero(tre > goal)]
+        why = (
+            f"the {section.planning.budget_s:g} s budget is spent"
+            if len(chosen) < len(found_all)
+            else f"every usable pass is in the plan ({usable})"
+        )
+        raise ScanPlanError(
+            f"scan plan: {', '.join(over)} predicted above the goal "
+            f"{goal * 1e3:.3f} mm (localization.scan.planning.goal_tre_m) and {why}; the job "
             "refuses before any motion"
         )
     if not unique:
@@ -518,12 +531,6 @@ def plan_job_scan(
             f"scan plan: the match of what the {len(chosen)} chosen passes would see is "
             f"still ambiguous within the {section.planning.budget_s:g} s budget (a rival "
             "pose or a symmetry fits as well); the job refuses before any motion"
-        )
-    if np.max(tre) > goal:
-        worst = int(np.argmax(tre))
-        tell(
-            f"scan plan: target {worst + 1} predicted to {tre[worst] * 1e3:.3f} mm, above the "
-            f"goal {goal * 1e3:.3f} mm, within the {section.planning.budget_s:g} s budget"
         )
     # Re-plan the chosen passes in scan order (alternating sweeps join without crossing).
     specs = tuple(c.spec for c in chosen)
