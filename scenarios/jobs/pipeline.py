@@ -1035,6 +1035,11 @@ def run_cell_job(
             poses.get("surface"),
             virtual,
             None if scanned is None else scanned.points_table,
+            scan_plan,
+            T_table_nominal,
+            config.localization.scan.planning.goal_tre_m
+            if config.localization.scan.plan == "auto"
+            else None,
         )
     return result
 

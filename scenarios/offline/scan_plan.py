@@ -95,6 +95,8 @@ class ScanPlan:
     chosen: tuple[ChosenPass, ...]
     candidates: tuple[Candidate, ...] = ()
     speed_m_s: float = 0.1
+    #: The points (M_k, 3) each chosen pass is predicted to see, in the model frame.
+    seen_model: tuple[np.ndarray, ...] = ()
 
     @property
     def specs(self) -> tuple[ScanPass, ...]:
@@ -481,7 +483,10 @@ def plan_job_scan(
             for c, share in zip(found, shares, strict=True)
         )  # fmt: skip
         seconds = scan_seconds(passes, section, q_home, joint_speed)
-        return ScanPlan("fixed", passes, seconds, tre, chosen, (), section.speed_m_s)
+        return ScanPlan(
+            "fixed", passes, seconds, tre, chosen, (), section.speed_m_s,
+            tuple(c.points_model for c in found),
+        )  # fmt: skip
     speed = section.planning.sweep_speed_m_s or min(0.5, errors.voxel_m / section.period_s)
     if errors.voxel_m <= 0 and section.planning.sweep_speed_m_s is None:
         speed = section.speed_m_s
@@ -543,4 +548,5 @@ def plan_job_scan(
         tuple(records),
         found_all,
         speed,
+        tuple(c.points_model for c in chosen),
     )

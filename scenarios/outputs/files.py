@@ -13,7 +13,9 @@ from models import ObjectModel
 from models.atomic import write_atomic
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import Filter, program_module
+from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.registration_figure import TargetMark, write_registration_figure
+from scenarios.outputs.scan_plan_figure import write_scan_plan_figure
 
 if TYPE_CHECKING:
     from scenarios.jobs.result import RunResult
@@ -62,13 +64,17 @@ def write_figures(
     surface: Any | None,
     virtual: ObjectModel,
     scan_points: np.ndarray | None = None,
+    scan_plan: ScanPlan | None = None,
+    T_table_nominal: np.ndarray | None = None,
+    goal_tre_m: float | None = None,
 ) -> list[Path]:
     """The run's figures: registration.png (scenarios.outputs.registration_figure) when a
     surface match ran (the scan's object points `scan_points` (N, 3) in the table frame, else
     the points the match used); targets.png (each target's achieved error,
     the exported program's on a controller without absolute accuracy, and the predicted
     TRE, with the goals); methods.png when several localization methods
-    ran side by side (each one's pose error and target errors)."""
+    ran side by side (each one's pose error and target errors); scan_plan.png with the
+    scan's plan (scenarios.outputs.scan_plan_figure)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -128,6 +134,15 @@ def write_figures(
         fig.tight_layout()
         written.append(_save(fig, folder / "targets.png"))
         plt.close(fig)
+    if scan_plan is not None and T_table_nominal is not None and scan_plan.chosen:
+        written.append(
+            write_atomic(
+                folder / "scan_plan.png",
+                lambda tmp: write_scan_plan_figure(
+                    tmp, scan_plan, T_table_nominal, virtual.mesh.vertices, goal_tre_m
+                ),
+            )
+        )
     if len(result.methods) > 1 and any(r.targets for r in result.methods):
         written.append(_methods_figure(folder, result))
     return written
