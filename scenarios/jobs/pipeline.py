@@ -649,6 +649,8 @@ def run_cell_job(
         )  # fmt: skip
     faults = job_faults(config, virtual, T_table_nominal)
     cell = job_cell(config, virtual, real, robot, recording, faults)
+    if recording is not None and scan_plan is not None:
+        recording.log_scan_plan(0.0, scan_plan)
     controller, evaluator = cell.controller, cell.evaluator
     hooks = RunHooks(evaluator, cell.log)
     log = cell.log

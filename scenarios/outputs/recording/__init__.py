@@ -34,6 +34,7 @@ from registration.quality import target_covariance
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.scan import ScanData
+from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.recording.layout import blueprint
 from scenarios.outputs.recording.match import colour_bar, log_icp, log_registered
 from scenarios.outputs.recording.scan import LaserRays, log_scan
@@ -45,6 +46,11 @@ from scenarios.realcell.evaluation import TargetEvaluation
 
 #: The table frame the cell model believes: the table's top, where the object stands.
 TABLE = "world/cell/table/frame"
+#: Colours of the chosen scan passes, in order.
+PASS_COLOURS = (
+    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
+    (140, 86, 75), (227, 119, 194), (23, 190, 207),
+)  # fmt: skip
 
 
 class Recording:
@@ -188,10 +194,41 @@ class Recording:
         label = "sphere point to its sphere, identified model [mm] (inside < 0 < outside)"
         self.stream.log("legend/residual", rr.Image(colour_bar(scale, label)))
 
+    def log_scan_plan(self, time_s: float, plan: ScanPlan) -> None:
+        """The scan's plan at `time_s` (table frame): every candidate pass' sweep in grey,
+        the chosen ones in colour, numbered, with what each is predicted to see; cleared
+        once the scan is done (`log_scan`)."""
+        self.stream.at(sim_time=time_s)
+        if plan.candidates:
+            self.stream.log(
+                f"{TABLE}/scan_plan/candidates",
+                rr.LineStrips3D(
+                    [[c.planned.T_table_start[:3, 3], c.planned.T_table_end[:3, 3]]
+                     for c in plan.candidates],
+                    colors=[[150, 150, 150, 120]], radii=0.0007,
+                ),
+            )  # fmt: skip
+        colours = [PASS_COLOURS[k % len(PASS_COLOURS)] for k in range(len(plan.passes))]
+        self.stream.log(
+            f"{TABLE}/scan_plan/chosen",
+            rr.LineStrips3D(
+                [[p.T_table_start[:3, 3], p.T_table_end[:3, 3]] for p in plan.passes],
+                colors=colours, radii=0.002,
+                labels=[f"{k + 1}: {c.name}" for k, c in enumerate(plan.chosen)],
+            ),
+        )  # fmt: skip
+        T = self._T_table_nominal
+        for k, seen in enumerate(plan.seen_model):
+            self.stream.log(
+                f"{TABLE}/scan_plan/seen/p{k + 1:02d}",
+                rr.Points3D(seen[::3] @ T[:3, :3].T + T[:3, 3], colors=[colours[k]], radii=0.0005),
+            )
+
     def log_scan(self, scan: ScanData, on_object: np.ndarray) -> None:
         """The measured scan building up (see scan.py); the close-up's camera on the object
         where the table held it at the scan's end."""
         log_scan(self.stream, scan, on_object, f"{TABLE}/scan")
+        self.stream.log(f"{TABLE}/scan_plan", rr.Clear(recursive=True))  # scanned: done
         if self._scene is not None:
             table = self._scene.latest().get(self._scene.path_of_body("table"))
             if table is not None:
