@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from rrd_reader import read_rrd
 
 from cell.config import FixedMesh
 from cell.robots import irb2400
@@ -138,7 +139,7 @@ def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(tmp_path: 
     The cell time the planner predicts is within 30 % of what the scan took."""
     code = main(
         ["run", "skull", "--set", "localization.scan.plan=auto", "--out", str(tmp_path),
-         "--quiet", "--no-rrd"]
+         "--quiet"]
     )  # fmt: skip
     assert code == 0
     results = json.loads((tmp_path / "latest" / "results.json").read_text())
@@ -150,3 +151,10 @@ def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(tmp_path: 
     assert results["status"] == "complete"
     assert results["target_error_rms_m"] <= 0.5e-3
     assert results["target_error_max_m"] <= 1.0e-3
+    # The figure and the recording show the plan: every candidate's sweep, the chosen ones.
+    assert (tmp_path / "latest" / "scan_plan.png").stat().st_size > 10_000
+    plan_path = "/world/cell/table/frame/scan_plan"
+    recorded = read_rrd(tmp_path / "latest" / "run.rrd", (plan_path,))
+    (_, candidates), *_ = recorded[f"{plan_path}/candidates"].timed("LineStrips3D:strips")
+    (_, chosen), *_ = recorded[f"{plan_path}/chosen"].timed("LineStrips3D:strips")
+    assert len(candidates) == plan["candidates"] > len(chosen) == plan["passes"]

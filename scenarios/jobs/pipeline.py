@@ -68,7 +68,7 @@ from scenarios.offline.scan import (
     execute_scan,
     plan_scan,
 )
-from scenarios.offline.scan_plan import ScanPlan, error_model, plan_job_scan
+from scenarios.offline.scan_plan import ScanPlan, error_model, plan_job_scan, replan
 from scenarios.offline.tcp_check import checked_tool
 from scenarios.offline.verify import Verification, verify_registration
 from scenarios.outputs import exports
@@ -169,10 +169,11 @@ def scan_stage(
     keep the points within the object's nominal footprint."""
     section = config.localization.scan
     kin = controller.kinematics.for_tool("laser")
-    specs = None if scan_plan is None or scan_plan.mode == "fixed" else scan_plan.specs
-    if scan_plan is not None:
+    if scan_plan is None or scan_plan.mode == "fixed":
+        plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table)
+    else:  # the chosen passes, for the arm and table the cell now believes
         section = section.model_copy(update={"speed_m_s": scan_plan.speed_m_s})
-    plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table, specs)
+        plan = replan(kin, box, section, scan_plan, model.T_base_table)
     say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
     scan = execute_scan(controller, plan, section, say, model, detect)
     keep = crop_to_object(scan.points_table, box, section.crop_margin_m)

@@ -165,10 +165,11 @@ def plan_pass(
     index: int,
     q_seed: np.ndarray,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    positions: tuple[float, ...] = TABLE_CANDIDATES_M,
 ) -> PlannedPass:
     """One pass over the object's nominal box (see `ScanPass`), the `index`-th of its plan
-    (even: sweeping along +y of its heading, odd: back), at the first table position at
-    which the arm follows it."""
+    (even: sweeping along +y of its heading, odd: back), at the first table position of
+    `positions` [m] at which the arm follows it."""
     heading = np.deg2rad(spec.heading_deg)
     ch, sh = np.cos(heading), np.sin(heading)
     Rz = np.array([[ch, -sh, 0.0], [sh, ch, 0.0], [0.0, 0.0, 1.0]])
@@ -183,7 +184,7 @@ def plan_pass(
     T_end = _pose(R, p_mid + sign * width * sweep)
     name = f"pass {index + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
     s_table, q_start = choose_table_position(
-        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, f"scan pass {index + 1}", table
+        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, f"scan pass {index + 1}", table, positions
     )
     return PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table))
 

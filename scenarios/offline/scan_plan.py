@@ -34,7 +34,7 @@ from registration import transform_points
 from registration.quality import ResidualCorrelation, ScanPasses, pose_covariance, predicted_tre
 from registration.rigid import invert
 from scenarios.jobs.config import Scan, ScanPass
-from scenarios.offline.moves import UnreachablePlanError
+from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.offline.scan import RETREAT_M, RETREAT_SPEED_M_S, ObjectBox, PlannedPass, plan_pass
 from scenarios.offline.scan import plan_scan as plan_scan_fixed
 
@@ -550,3 +550,21 @@ def plan_job_scan(
         speed,
         tuple(c.points_model for c in chosen),
     )
+
+
+def replan(
+    kin: Kinematics,
+    box: ObjectBox,
+    section: Scan,
+    plan: ScanPlan,
+    table: Callable[[float], np.ndarray] = nominal_T_base_table,
+) -> tuple[PlannedPass, ...]:
+    """The plan's passes for the arm and table the cell now believes (`kin`, `table`: the
+    calibrated ones): each pass from its planned joints, at its planned table position
+    first."""
+    out = []
+    for k, (spec, planned) in enumerate(zip(plan.specs, plan.passes, strict=True)):
+        s = planned.table_position_m
+        order = (s, *(p for p in TABLE_CANDIDATES_M if p != s))
+        out.append(plan_pass(kin, box, section, spec, k, planned.q_start, table, order))
+    return tuple(out)
