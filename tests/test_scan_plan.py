@@ -17,6 +17,7 @@ from cell.config import FixedMesh
 from cell.robots import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, TABLE_TOP_POS
+from scenarios.campaign import plan_campaign, run_campaign
 from scenarios.cli import main
 from scenarios.jobs import pipeline
 from scenarios.jobs.config import Scan
@@ -158,3 +159,23 @@ def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(tmp_path: 
     (_, candidates), *_ = recorded[f"{plan_path}/candidates"].timed("LineStrips3D:strips")
     (_, chosen), *_ = recorded[f"{plan_path}/chosen"].timed("LineStrips3D:strips")
     assert len(candidates) == plan["candidates"] > len(chosen) == plan["passes"]
+
+
+def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> None:
+    """Eight seeds of the skull job scanned with the chosen passes (the phantom's pose, the
+    cell's errors and the phantom's deviation from its model drawn from each seed): the
+    registration's error at each target, measured against the truth, over the TRE the
+    planner predicted for it before any motion has a median within [0.67, 1.5], and every
+    run meets the skull goals."""
+    spec = plan_campaign(
+        "skull", stage="full", trials=8, seed=70000, vary=["localization.scan.plan=auto"]
+    )
+    outcome = run_campaign(spec, tmp_path / "campaign", progress=False, workers=2)
+    ratios = []
+    for row in outcome.rows:
+        assert row["run_status"] == "complete", row.get("error") or row.get("reason")
+        assert row["scan_plan"] == "auto"
+        assert row["job_rms_m"] <= 0.5e-3 and row["job_max_m"] <= 1.0e-3
+        ratios += [row[f"err_t{k}_m"] / row[f"plan_tre_t{k}_m"] for k in range(row["n_targets"])]
+    assert len(ratios) == 32
+    assert 0.67 <= float(np.median(ratios)) <= 1.5, sorted(ratios)
