@@ -196,8 +196,8 @@ class Recording:
 
     def log_scan_plan(self, time_s: float, plan: ScanPlan) -> None:
         """The scan's plan at `time_s` (table frame): every candidate pass' sweep in grey,
-        the chosen ones in colour, numbered, with what each is predicted to see; cleared
-        once the scan is done (`log_scan`)."""
+        the chosen ones in colour, numbered, and what each is predicted to see until the
+        scan starts; cleared once the scan is done (`log_scan`)."""
         self.stream.at(sim_time=time_s)
         if plan.candidates:
             self.stream.log(
@@ -227,6 +227,9 @@ class Recording:
     def log_scan(self, scan: ScanData, on_object: np.ndarray) -> None:
         """The measured scan building up (see scan.py); the close-up's camera on the object
         where the table held it at the scan's end."""
+        if scan.lines:  # what the passes were predicted to see gives way to what they see
+            self.stream.at(sim_time=float(scan.line_times_s[0]))
+            self.stream.log(f"{TABLE}/scan_plan/seen", rr.Clear(recursive=True))
         log_scan(self.stream, scan, on_object, f"{TABLE}/scan")
         self.stream.log(f"{TABLE}/scan_plan", rr.Clear(recursive=True))  # scanned: done
         if self._scene is not None:
