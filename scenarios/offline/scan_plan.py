@@ -34,6 +34,7 @@ from registration import transform_points
 from registration.quality import ResidualCorrelation, ScanPasses, pose_covariance, predicted_tre
 from registration.rigid import invert
 from scenarios.jobs.config import Scan, ScanPass
+from scenarios.offline.localization import voxel_thin
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.offline.scan import RETREAT_M, RETREAT_SPEED_M_S, ObjectBox, PlannedPass, plan_pass
 from scenarios.offline.scan import plan_scan as plan_scan_fixed
@@ -306,15 +307,6 @@ def candidates(
     return tuple(found), len(specs)
 
 
-def _thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
-    """Indices of one point per `voxel_m` cube (the first), as the match thins the scan."""
-    if voxel_m <= 0:
-        return np.arange(len(points))
-    keys = np.floor(points / voxel_m).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
-    return np.sort(first)
-
-
 def predict_tre(
     chosen: list[Candidate], targets_model: np.ndarray, errors: ErrorModel
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -325,7 +317,7 @@ def predict_tre(
     points = np.concatenate([c.points_model for c in chosen])
     normals = np.concatenate([c.normals_model for c in chosen])
     labels = np.concatenate([np.full(len(c.points_model), k) for k, c in enumerate(chosen)])
-    keep = _thin(points, errors.voxel_m)
+    keep = voxel_thin(points, errors.voxel_m)
     # The match draws at most max_points of the thinned points: so many carry its information.
     scale = min(1.0, errors.max_points / max(len(keep), 1))
     p, n, lab = points[keep], normals[keep], labels[keep]
