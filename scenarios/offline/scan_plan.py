@@ -467,12 +467,14 @@ def plan_job_scan(
             found.append(Candidate(spec, planned, p, n, pass_seconds(planned, section)))
         tre, _ = predict_tre(found, targets_model, errors)
         shares = information_shares(found, targets_model, errors)
+        so_far = [float(np.max(predict_tre(found[: k + 1], targets_model, errors)[0]))
+                  for k in range(len(found))]  # fmt: skip
         chosen = tuple(
             ChosenPass(
                 c.planned.name, c.spec.tilt_deg, c.spec.heading_deg, c.spec.offset_m,
-                c.planned.table_position_m, float("nan"), c.seconds, share,
+                c.planned.table_position_m, worst, c.seconds, share,
             )
-            for c, share in zip(found, shares, strict=True)
+            for c, share, worst in zip(found, shares, so_far, strict=True)
         )  # fmt: skip
         seconds = scan_seconds(passes, section, q_home, joint_speed)
         return ScanPlan(

@@ -40,6 +40,7 @@ def write_scan_plan_figure(
     top.scatter(outline[:, 0] * 1e3, outline[:, 1] * 1e3, s=1, c="0.85", label="object")
     centre = outline.mean(axis=0) * 1e3
     reach = float(np.max(np.linalg.norm(outline[:, :2] * 1e3 - centre[:2], axis=1)))
+    sides: list[np.ndarray] = []
     for k, (chosen, seen) in enumerate(zip(plan.chosen, plan.seen_model, strict=False)):
         colour = colours(k % 10)
         p = transform_points(T_table_object, _subsample(seen, MAX_POINTS // 2, rng))
@@ -52,7 +53,11 @@ def write_scan_plan_figure(
         else:
             # Steeper views start farther out, so that passes from one side stay apart.
             out = 1.1 + 0.8 * (1.0 - float(np.linalg.norm(view[:2])))
-            head = centre[:2] + flat * reach * out
+            # Passes from the same side side by side.
+            same = sum(1 for d in sides if float(d @ flat) > 0.95)
+            sides.append(flat)
+            aside = np.array([-flat[1], flat[0]]) * 0.18 * reach * same
+            head = centre[:2] + flat * reach * out + aside
             tail = head + flat * reach * 0.6
             top.annotate(
                 str(k + 1), xy=head, xytext=tail, color=colour, ha="center", va="center",
