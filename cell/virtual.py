@@ -163,20 +163,14 @@ class VirtualCell:
         flange)."""
         self._place()
         b = int(self.model.body(name).id)
-        T = np.eye(4)
-        T[:3, :3] = self.data.xmat[b].reshape(3, 3)
-        T[:3, 3] = self.data.xpos[b]
-        return T
+        return _pose(self.data.xpos[b], self.data.xmat[b])
 
     def T_world_site(self, name: str) -> np.ndarray:
         """(4, 4) world pose of site `name` in the current pose (e.g. "table_top", the table
         frame)."""
         self._place()
         i = int(self.model.site(name).id)
-        T = np.eye(4)
-        T[:3, :3] = self.data.site_xmat[i].reshape(3, 3)
-        T[:3, 3] = self.data.site_xpos[i]
-        return T
+        return _pose(self.data.site_xpos[i], self.data.site_xmat[i])
 
     # -- rays ---------------------------------------------------------------------------------
     def cast(
@@ -240,6 +234,14 @@ class VirtualCell:
             closest[key] = min(closest.get(key, np.inf), float(dk))
         found = [Contact(a, b, dk) for (a, b), dk in closest.items()]
         return tuple(sorted(found, key=lambda c: c.distance_m))
+
+
+def _pose(position: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """(4, 4) of MuJoCo's world position (3,) and flat rotation matrix (9,)."""
+    T = np.eye(4)
+    T[:3, :3] = np.asarray(matrix).reshape(3, 3)
+    T[:3, 3] = position
+    return T
 
 
 def _descends(m: mujoco.MjModel, body: int, ancestors: set[int]) -> bool:

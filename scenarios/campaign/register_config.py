@@ -12,7 +12,12 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from scenarios.campaign.errors import CampaignError
-from scenarios.jobs.config import Placement, Registration, describe_validation_error
+from scenarios.jobs.config import (
+    Placement,
+    Registration,
+    describe_validation_error,
+    fault_mapping,
+)
 
 _SKULL = Registration()  # the skull job's verdict thresholds: the trials judge alike
 
@@ -110,17 +115,13 @@ class ScanFaults(_Section):
     @model_validator(mode="before")
     @classmethod
     def _names(cls, value: Any) -> Any:
-        if isinstance(value, str):
-            value = [v.strip() for v in value.split(",") if v.strip() and v.strip() != "none"]
-        if isinstance(value, list | tuple):
-            value = {name: True for name in value}
+        value = fault_mapping(
+            value,
+            SCAN_FAULT_DEFAULTS,
+            "unknown scan fault {!r}; the register stage has the scan faults: "
+            + ", ".join(SCAN_FAULT_DEFAULTS),
+        )
         if isinstance(value, dict):
-            unknown = [k for k in value if k not in SCAN_FAULT_DEFAULTS]
-            if unknown:
-                raise ValueError(
-                    f"unknown scan fault {unknown[0]!r}; the register stage has the scan "
-                    f"faults: {', '.join(SCAN_FAULT_DEFAULTS)}"
-                )
             value = {k: _scan_fault(SCAN_FAULT_DEFAULTS[k])(v) for k, v in value.items()}
         return value
 

@@ -518,6 +518,21 @@ class FaultSetting(_Section):
     option: str | None = None
 
 
+def fault_mapping(value: Any, known: Any, unknown: str) -> Any:
+    """A faults section as a mapping of name to setting: "a,b" or a list of names (each with
+    its defaults) or a mapping; a name not in `known` raises ValueError with `unknown`
+    formatted with it."""
+    if isinstance(value, str):
+        value = [v.strip() for v in value.split(",") if v.strip() and v.strip() != "none"]
+    if isinstance(value, list | tuple):
+        value = {name: True for name in value}
+    if isinstance(value, dict):
+        for k in value:
+            if k not in known:
+                raise ValueError(unknown.format(k))
+    return value
+
+
 def _fault_setting(value: Any) -> Any:
     """A bare number is the amount, true the defaults, false or null no fault."""
     if value is True:
@@ -545,16 +560,10 @@ class FaultsSection(_Section):
     @model_validator(mode="before")
     @classmethod
     def _names(cls, value: Any) -> Any:
-        if isinstance(value, str):
-            value = [v.strip() for v in value.split(",") if v.strip() and v.strip() != "none"]
-        if isinstance(value, list | tuple):
-            value = {name: True for name in value}
+        value = fault_mapping(
+            value, FAULT_KINDS, "unknown fault {!r}; the faults are: " + ", ".join(FAULT_KINDS)
+        )
         if isinstance(value, dict):
-            unknown = [k for k in value if k not in FAULT_KINDS]
-            if unknown:
-                raise ValueError(
-                    f"unknown fault {unknown[0]!r}; the faults are: {', '.join(FAULT_KINDS)}"
-                )
             value = {k: _fault_setting(v) for k, v in value.items()}
         return value
 
