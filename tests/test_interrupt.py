@@ -208,7 +208,7 @@ CASES = {
     "calibrate": Case(
         "skull", ("calibration.enabled=true",), "calibration: the laser views", "calibrate"
     ),
-    "scan": Case("skull", NO_CALIBRATION, "scan plan:", "scan"),
+    "scan": Case("skull", NO_CALIBRATION, "scan pass 1", "scan"),
     # scan.ply is written as the scan ends, then the match runs (0.3 s or more).
     "register": Case("skull", NO_CALIBRATION, "scan.ply", "register", marker_is_file=True),
     # The verification re-scans a strip of the object (a second or more) right after the

@@ -1,5 +1,6 @@
-"""An object whose pose cannot be told (a sphere: any rotation fits) is refused after the
-scan, before any motion towards it; the run says why."""
+"""An object whose pose cannot be told (a sphere: any rotation fits), scanned with the fixed
+passes, is refused after the scan, before any motion towards it; the run says why. (The
+chosen plan refuses it earlier, at set-up: tests/test_scan_plan.py.)"""
 
 from __future__ import annotations
 
@@ -19,8 +20,9 @@ def test_a_sphere_is_refused_before_any_motion_towards_it(
     trimesh.creation.icosphere(subdivisions=4, radius=80.0).export(mesh)  # millimetres
     out = tmp_path / "runs"
     code = main(
-        ["run", "skull", "--model", str(mesh), "--units", "mm", "--out", str(out), "--no-rrd"]
-    )
+        ["run", "skull", "--model", str(mesh), "--units", "mm", "--out", str(out), "--no-rrd",
+         "--set", "localization.scan.plan=fixed"]
+    )  # fmt: skip
     assert code == 3  # refused: neither success (0) nor a user error (2)
     err = capsys.readouterr().err
     assert "refused" in err and "ambigu" in err

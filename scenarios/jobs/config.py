@@ -176,9 +176,9 @@ class Scan(_Section):
         ),
         min_length=1,
     )
-    #: "fixed": the passes above; "auto": chosen in the virtual cell for the targets
-    #: (`planning`).
-    plan: Literal["fixed", "auto"] = "fixed"
+    #: "auto" (default): passes chosen in the virtual cell for the targets (`planning`);
+    #: "fixed": the passes above.
+    plan: Literal["fixed", "auto"] = "auto"
     planning: ScanPlanning = ScanPlanning()
 
 
