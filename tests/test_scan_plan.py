@@ -180,3 +180,73 @@ def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> No
         ratios += [row[f"err_t{k}_m"] / row[f"plan_tre_t{k}_m"] for k in range(row["n_targets"])]
     assert len(ratios) == 32
     assert 0.67 <= float(np.median(ratios)) <= 1.5, sorted(ratios)
+
+
+def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_home() -> None:
+    """Between two passes the arm turns in joint space; where that turn would bring the
+    laser or the arm within 10 mm of the object (found along the move at a tenth of the
+    checker's step), the plan routes it through home, and that way clears; a transit that
+    clears keeps its direct move. Ground truth: the virtual cell's contacts, sampled finely
+    along the joint moves."""
+    from cell import nominal_T_base_table
+    from scenarios.offline.scan_plan import _retreat_q, candidates, route_transits
+
+    post = trimesh.creation.box((0.12, 0.12, 0.25))  # a tall post: low passes turn around it
+    T = np.eye(4)
+    T[2, 3] = 0.125
+    V, F = np.asarray(post.vertices), np.asarray(post.faces)
+    robot = irb2400()
+    cell = VirtualCell.of(robot, RACK_POS, (FixedMesh("object", V, F, T, (V,)),))
+    kin = robot.kinematics().for_tool("laser")
+    laser = cell.config.laser
+    section = Scan.model_validate(
+        {"plan": "auto", "min_points": 100,
+         "planning": {"tilts_deg": [50.0, 70.0], "headings_deg": [0, 90, 180, -90],
+                      "extra_standoffs_m": []}}
+    )  # fmt: skip
+    found, _ = candidates(
+        kin, cell, ObjectBox.of(V, T), section, T, robot.q_home, robot.joint_speed,
+        (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
+         laser.max_incidence_rad),
+    )  # fmt: skip
+
+    def touches(q0: np.ndarray, q1: np.ndarray, table_m: float) -> bool:
+        cell.set_tool("laser")
+        cell.set_table(table_m)
+        steps = int(np.ceil(np.max(np.abs(q1 - q0)) / 0.005)) + 1
+        for s in np.linspace(0.0, 1.0, steps):
+            cell.set_joints(q0 + s * (q1 - q0))
+            if cell.contacts(0.01):
+                return True
+        return False
+
+    home = np.asarray(robot.q_home, dtype=float)
+    blocked = clear = None
+    for a in found:
+        for b in found:
+            s = b.planned.table_position_m
+            if a is b or a.planned.table_position_m != s:
+                continue
+            if touches(home, home, s) or touches(home, a.planned.q_start, s):
+                continue
+            q_up = _retreat_q(kin, a.planned, nominal_T_base_table)
+            if q_up is None:
+                continue
+            direct = touches(q_up, b.planned.q_start, s)
+            if blocked is None and direct:
+                if not touches(q_up, home, s) and not touches(home, b.planned.q_start, s):
+                    blocked = (a, b)
+            elif clear is None and not direct:
+                clear = (a, b)
+        if blocked and clear:
+            break
+    assert blocked is not None, "no pair of passes whose direct transit meets the post"
+    assert clear is not None
+    a, b = blocked
+    routed = route_transits(cell, kin, (a.planned, b.planned), robot.q_home)
+    assert len(routed[0].q_via) == 0
+    assert len(routed[1].q_via) == 1
+    np.testing.assert_allclose(routed[1].q_via[0], home)
+    a, b = clear
+    routed = route_transits(cell, kin, (a.planned, b.planned), robot.q_home)
+    assert [len(p.q_via) for p in routed] == [0, 0]

@@ -113,23 +113,28 @@ class ScanPass(_Section):
     `tilt_deg` about the table's y axis (positive: towards +x, away from the robot), aimed
     `offset_m` along x from the object's centre, and the sweep runs along y over the object's
     width plus `margin_m`. `heading_deg` turns all of that about the table's vertical (90:
-    the laser looks towards +y and sweeps along x)."""
+    the laser looks towards +y and sweeps along x). `standoff_m`: the laser's distance from
+    the object's nominal box along its view [m] (None: the scan's `standoff_m`)."""
 
     tilt_deg: float = Field(0.0, ge=-75.0, le=75.0)
     offset_m: float = Field(0.0, ge=-0.5, le=0.5)
     heading_deg: float = Field(0.0, ge=-180.0, le=180.0)
+    standoff_m: float | None = Field(None, gt=0.05, le=0.6)
 
 
 class ScanPlanning(_Section):
     """How `plan: auto` chooses its passes (scenarios.offline.scan_plan): candidates at the
     tilts [deg] from above to the sides and the headings [deg] about the vertical; passes
     are added until every target's predicted TRE is below `goal_tre_m` [m] or the scan's
-    cell time reaches `budget_s` [s]. The predicted errors are data-sheet numbers: the
+    cell time reaches `budget_s` [s]. Each candidate is tried at the scan's stand-off and at
+    each of `extra_standoffs_m` [m] farther (negative: nearer); a farther laser's fan covers
+    more of the object per line. The predicted errors are data-sheet numbers: the
     laser's range noise [m], the object's deviation from its model [m] and that deviation's
     correlation length [m] (a moulded phantom or a machined part: about 0.2 mm over 2 cm)."""
 
     tilts_deg: tuple[float, ...] = (0.0, 30.0, 50.0, 70.0)
     headings_deg: tuple[float, ...] = (0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0)
+    extra_standoffs_m: tuple[float, ...] = (0.08,)
     goal_tre_m: float = Field(3.0e-4, gt=0.0, le=0.01)
     budget_s: float = Field(120.0, gt=0.0, le=3600.0)
     range_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
@@ -139,6 +144,16 @@ class ScanPlanning(_Section):
     #: (voxel / line period, at most 0.5 m/s): the match keeps one point per voxel, so
     #: closer lines add time and no information.
     sweep_speed_m_s: float | None = Field(None, gt=0.0, le=0.5)
+
+    @field_validator("extra_standoffs_m")
+    @classmethod
+    def _standoffs(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if any(not -0.2 <= d <= 0.3 or d == 0.0 for d in v):
+            raise ValueError(
+                "extra_standoffs_m must be non-zero distances in [-0.2, 0.3] m (the scan's own "
+                f"stand-off is always a candidate); got {list(v)}"
+            )
+        return v
 
     @field_validator("tilts_deg", "headings_deg")
     @classmethod

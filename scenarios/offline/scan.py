@@ -50,7 +50,9 @@ class ObjectBox:
 @dataclass(frozen=True)
 class PlannedPass:
     """A straight laser pass: laser TCP poses (4, 4) at its ends in the table frame, the
-    table position [m] at which the arm follows it, and the joints (6,) at its start."""
+    table position [m] at which the arm follows it, and the joints (6,) at its start;
+    `q_via`: joints (6,) the arm moves through on its way to the start (a transit that would
+    otherwise sweep the laser through the object)."""
 
     name: str
     T_table_start: np.ndarray
@@ -58,6 +60,7 @@ class PlannedPass:
     table_position_m: float
     q_start: np.ndarray
     T_base_table: np.ndarray | None = None
+    q_via: tuple[np.ndarray, ...] = ()
 
     def T_base(self, T_table: np.ndarray) -> np.ndarray:
         """(4, 4) the pose T_table (in the table frame) in the base frame at this pass' table
@@ -178,11 +181,13 @@ def plan_pass(
     reach = float(np.abs(view) @ box.half)  # the box's half depth along the view
     width = float(np.abs(sweep) @ box.half) + config.margin_m
     aim = box.centre + spec.offset_m * Rz[:, 0]
-    p_mid = aim - (reach + config.standoff_m) * view
+    standoff = config.standoff_m if spec.standoff_m is None else spec.standoff_m
+    p_mid = aim - (reach + standoff) * view
     sign = 1.0 if index % 2 == 0 else -1.0
     T_start = _pose(R, p_mid - sign * width * sweep)
     T_end = _pose(R, p_mid + sign * width * sweep)
-    name = f"pass {index + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg)"
+    name = f"pass {index + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg"
+    name += ")" if spec.standoff_m is None else f", {spec.standoff_m * 1e3:.0f} mm away)"
     s_table, q_start = choose_table_position(
         kin, LASER.T_tool_tcp, T_start, T_end, q_seed, f"scan pass {index + 1}", table, positions
     )
@@ -289,11 +294,13 @@ RETREAT_SPEED_M_S = 0.2
 
 
 def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> list[LaserReading]:
-    """One pass on the cell: the table to its position, the arm to its start, the sweep,
-    then the laser up and away from the object."""
-    if abs(controller.table_position() - planned.table_position_m) > 1e-6:
-        controller.move_table(planned.table_position_m)
+    """One pass on the cell: the arm through its via points, the table to its position, the
+    arm to its start, the sweep, then the laser up and away from the object."""
     try:
+        for q in planned.q_via:
+            controller.move_joints(q)
+        if abs(controller.table_position() - planned.table_position_m) > 1e-6:
+            controller.move_table(planned.table_position_m)
         controller.move_joints(planned.q_start)
         T_base_end = planned.T_base(planned.T_table_end)
         readings = controller.scan_linear(

@@ -21,7 +21,7 @@ motion.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -69,14 +69,15 @@ class Candidate:
 
 @dataclass(frozen=True)
 class ChosenPass:
-    """A chosen pass: its name, the worst predicted TRE [m] once it is added, its cell time
-    [s] and its share of the plan's information (the trace of the information matrix it
-    adds, over the plan's)."""
+    """A chosen pass: its name, parameters (`standoff_m` None: the scan's own), the worst
+    predicted TRE [m] once it is added, its cell time [s] and its share of the plan's
+    information (the trace of the information matrix it adds, over the plan's)."""
 
     name: str
     tilt_deg: float
     heading_deg: float
     offset_m: float
+    standoff_m: float | None
     table_position_m: float
     predicted_tre_max_m: float
     seconds: float
@@ -98,14 +99,19 @@ class ScanPlan:
     speed_m_s: float = 0.1
     #: The points (M_k, 3) each chosen pass is predicted to see, in the model frame.
     seen_model: tuple[np.ndarray, ...] = ()
+    #: The scan's own stand-off [m] (that of a pass without one of its own).
+    standoff_m: float = 0.28
 
     @property
     def specs(self) -> tuple[ScanPass, ...]:
         """The chosen passes' parameters, in scan order."""
         return tuple(
-            ScanPass(tilt_deg=c.tilt_deg, heading_deg=c.heading_deg, offset_m=c.offset_m)
+            ScanPass(
+                tilt_deg=c.tilt_deg, heading_deg=c.heading_deg, offset_m=c.offset_m,
+                standoff_m=c.standoff_m,
+            )
             for c in self.chosen
-        )
+        )  # fmt: skip
 
     def to_json(self, scan_time_s: float | None) -> dict[str, object]:
         """results.json's "scan_plan": `scan_time_s` is the cell time the scan took [s]."""
@@ -124,14 +130,16 @@ class ScanPlan:
                     "tilt_deg": c.tilt_deg,
                     "heading_deg": c.heading_deg,
                     "offset_m": c.offset_m,
+                    "standoff_m": self.standoff_m if c.standoff_m is None else c.standoff_m,
                     "table_position_m": c.table_position_m,
                     "predicted_tre_max_m": None
                     if not np.isfinite(c.predicted_tre_max_m)
                     else c.predicted_tre_max_m,
                     "seconds": c.seconds,
                     "information_share": c.information_share,
+                    "through_home": bool(p.q_via),
                 }
-                for c in self.chosen
+                for c, p in zip(self.chosen, self.passes, strict=True)
             ],
         }
 
@@ -157,21 +165,32 @@ class ErrorModel:
 def candidate_specs(box: ObjectBox, section: Scan) -> tuple[ScanPass, ...]:
     """The candidate passes' parameters: from above at three aims across the object, and
     tilted at the planner's tilts from every heading, aimed at the object's centre and at its
-    near side."""
+    near side; each at the scan's stand-off and at the planner's other stand-offs."""
     half = float(max(box.half[0], box.half[1]))
     plan = section.planning
-    specs = [
-        ScanPass(tilt_deg=0.0, heading_deg=h, offset_m=round(f * half, 4))
-        for h in (0.0, 90.0)
-        for f in (-0.5, 0.0, 0.5)
-    ]
-    for tilt in plan.tilts_deg:
-        if tilt == 0.0:
-            continue
-        for h in plan.headings_deg:
-            for f in (-0.5, 0.0):
-                specs.append(ScanPass(tilt_deg=tilt, heading_deg=h, offset_m=round(f * half, 4)))
-    return tuple(specs)
+    standoffs: tuple[float | None, ...] = (
+        None,
+        *(round(section.standoff_m + d, 4) for d in plan.extra_standoffs_m),
+    )
+    specs = []
+    for standoff in standoffs:
+        specs += [
+            ScanPass(tilt_deg=0.0, heading_deg=h, offset_m=round(f * half, 4), standoff_m=standoff)
+            for h in (0.0, 90.0)
+            for f in (-0.5, 0.0, 0.5)
+        ]
+        for tilt in plan.tilts_deg:
+            if tilt == 0.0:
+                continue
+            for h in plan.headings_deg:
+                for f in (-0.5, 0.0):
+                    specs.append(
+                        ScanPass(
+                            tilt_deg=tilt, heading_deg=h, offset_m=round(f * half, 4),
+                            standoff_m=standoff,
+                        )
+                    )  # fmt: skip
+    return tuple(s for s in specs if s.standoff_m is None or s.standoff_m > 0.05)
 
 
 def _joint_move_s(q_from: np.ndarray, q_to: np.ndarray, joint_speed: np.ndarray) -> float:
@@ -199,16 +218,104 @@ def scan_seconds(
     joint_speed: np.ndarray,
 ) -> float:
     """Predicted cell time [s] of the scan motions: from home, each pass' table move, the
-    joint move to its start (from the previous pass' start: the rise and the sweep are
-    short beside the arm's turns), the pass."""
+    joint moves through its via points to its start (from the previous pass' start: the
+    rise and the sweep are short beside the arm's turns), the pass."""
     total, q, s = 0.0, np.asarray(q_home), 0.0
     for p in passes:
         if abs(p.table_position_m - s) > 1e-9:
             total += _line_s(abs(p.table_position_m - s), TABLE_SPEED)
             s = p.table_position_m
-        total += _joint_move_s(q, p.q_start, joint_speed) + pass_seconds(p, section)
-        q = p.q_start
+        for q_next in (*p.q_via, p.q_start):
+            total += _joint_move_s(q, q_next, joint_speed)
+            q = q_next
+        total += pass_seconds(p, section)
     return total
+
+
+#: Largest joint step [rad] between the poses of a transit checked for collisions.
+TRANSIT_STEP_RAD = 0.05
+
+
+def _retreat_q(
+    kin: Kinematics, planned: PlannedPass, T_base_table: Callable[[float], np.ndarray]
+) -> np.ndarray | None:
+    """The joints (6,) at the end of a pass after the laser's rise (as the scan runs it:
+    RETREAT_M up, or half of it), or None if the arm does not follow."""
+    T_base = T_base_table(planned.table_position_m)
+    end = kin.ik(T_base @ planned.T_table_end, planned.q_start, LASER.T_tool_tcp, extra_seeds=4)
+    if not end.success:
+        return None
+    for rise in (RETREAT_M, RETREAT_M / 2):
+        T_up = T_base @ planned.T_table_end
+        T_up[2, 3] += rise
+        up = kin.ik(T_up, end.q, LASER.T_tool_tcp, extra_seeds=0)
+        if up.success:
+            return up.q
+    return end.q
+
+
+def _joint_path_clear(
+    cell: VirtualCell, q0: np.ndarray, q1: np.ndarray, table_m: float, margin_m: float
+) -> bool:
+    """Whether the arm with the laser clears the cell by `margin_m` [m] along the joint
+    move q0 -> q1 (straight in joint space, as the controller moves) with the table at
+    `table_m` [m]."""
+    cell.set_tool("laser")
+    cell.set_table(table_m)
+    steps = max(2, int(np.ceil(np.max(np.abs(q1 - q0)) / TRANSIT_STEP_RAD)) + 1)
+    for s in np.linspace(0.0, 1.0, steps):
+        cell.set_joints(q0 + s * (q1 - q0))
+        if cell.contacts(margin_m):
+            return False
+    return True
+
+
+def _table_travel_clear(
+    cell: VirtualCell, q: np.ndarray, s0: float, s1: float, margin_m: float
+) -> bool:
+    """Whether the arm held at `q` clears the cell by `margin_m` [m] while the table moves
+    from `s0` to `s1` [m] (checked every 2 cm of the travel)."""
+    steps = max(1, int(np.ceil(abs(s1 - s0) / 0.02))) + 1
+    return all(_joint_path_clear(cell, q, q, s, margin_m) for s in np.linspace(s0, s1, steps))
+
+
+def route_transits(
+    cell: VirtualCell,
+    kin: Kinematics,
+    passes: tuple[PlannedPass, ...],
+    q_home: np.ndarray,
+    T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table,
+    margin_m: float = 0.01,
+) -> tuple[PlannedPass, ...]:
+    """The passes with their transits checked in the virtual cell, as the scan runs them:
+    from home to the first start, and from each pass' end, the laser risen, to the next
+    start (the table moved first, the arm held where it rose). A transit that comes within
+    `margin_m` [m] of anything goes through home instead (the table moving with the arm
+    there); if that does not clear either, ScanPlanError names the pass."""
+    out: list[PlannedPass] = []
+    home = np.asarray(q_home, dtype=float)
+    q_from, s_from = home, passes[0].table_position_m if passes else 0.0
+    for planned in passes:
+        s = planned.table_position_m
+        if _table_travel_clear(cell, q_from, s_from, s, margin_m) and _joint_path_clear(
+            cell, q_from, planned.q_start, s, margin_m
+        ):
+            out.append(replace(planned, q_via=()))
+        elif (
+            _joint_path_clear(cell, q_from, home, s_from, margin_m)
+            and _table_travel_clear(cell, home, s_from, s, margin_m)
+            and _joint_path_clear(cell, home, planned.q_start, s, margin_m)
+        ):
+            out.append(replace(planned, q_via=(home,)))
+        else:
+            raise ScanPlanError(
+                f"scan plan: no clear way to {planned.name}: the arm's move to its start "
+                f"comes within {margin_m * 1e3:.0f} mm of the cell, directly and through "
+                "home; the job refuses before any motion"
+            )
+        rose = _retreat_q(kin, planned, T_base_table)
+        q_from, s_from = (planned.q_start if rose is None else rose), s
+    return tuple(out)
 
 
 def _predict(
@@ -405,6 +512,7 @@ def choose_passes(
                 best.spec.tilt_deg,
                 best.spec.heading_deg,
                 best.spec.offset_m,
+                best.spec.standoff_m,
                 best.planned.table_position_m,
                 float(np.max(tre)),
                 best.seconds,
@@ -458,7 +566,10 @@ def plan_job_scan(
     `target_names`) unconstrained or above the goal, or the match ambiguous."""
     tell = say or (lambda _m: None)
     if section.plan == "fixed":
-        passes = plan_scan_fixed(kin, box, section, q_home, T_base_table)
+        passes = route_transits(
+            cell, kin, plan_scan_fixed(kin, box, section, q_home, T_base_table), q_home,
+            T_base_table,
+        )  # fmt: skip
         found = []
         for spec, planned in zip(section.passes, passes, strict=True):
             p, n = _predict(
@@ -472,14 +583,14 @@ def plan_job_scan(
         chosen = tuple(
             ChosenPass(
                 c.planned.name, c.spec.tilt_deg, c.spec.heading_deg, c.spec.offset_m,
-                c.planned.table_position_m, worst, c.seconds, share,
+                c.spec.standoff_m, c.planned.table_position_m, worst, c.seconds, share,
             )
             for c, share, worst in zip(found, shares, so_far, strict=True)
         )  # fmt: skip
         seconds = scan_seconds(passes, section, q_home, joint_speed)
         return ScanPlan(
             "fixed", passes, seconds, tre, chosen, (), section.speed_m_s,
-            tuple(c.points_model for c in found),
+            tuple(c.points_model for c in found), section.standoff_m,
         )  # fmt: skip
     speed = section.planning.sweep_speed_m_s or min(0.5, errors.voxel_m / section.period_s)
     if errors.voxel_m <= 0 and section.planning.sweep_speed_m_s is None:
@@ -533,7 +644,10 @@ def plan_job_scan(
         )
     # Re-plan the chosen passes in scan order (alternating sweeps join without crossing).
     specs = tuple(c.spec for c in chosen)
-    passes = plan_scan_fixed(kin, box, section, q_home, T_base_table, specs)
+    passes = route_transits(
+        cell, kin, plan_scan_fixed(kin, box, section, q_home, T_base_table, specs), q_home,
+        T_base_table,
+    )  # fmt: skip
     return ScanPlan(
         "auto",
         passes,
@@ -543,6 +657,7 @@ def plan_job_scan(
         found_all,
         speed,
         tuple(c.points_model for c in chosen),
+        section.standoff_m,
     )
 
 
@@ -555,10 +670,11 @@ def replan(
 ) -> tuple[PlannedPass, ...]:
     """The plan's passes for the arm and table the cell now believes (`kin`, `table`: the
     calibrated ones): each pass from its planned joints, at its planned table position
-    first."""
+    first, through the same via points."""
     out = []
     for k, (spec, planned) in enumerate(zip(plan.specs, plan.passes, strict=True)):
         s = planned.table_position_m
         order = (s, *(p for p in TABLE_CANDIDATES_M if p != s))
-        out.append(plan_pass(kin, box, section, spec, k, planned.q_start, table, order))
+        again = plan_pass(kin, box, section, spec, k, planned.q_start, table, order)
+        out.append(replace(again, q_via=planned.q_via))
     return tuple(out)
