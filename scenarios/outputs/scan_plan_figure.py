@@ -32,7 +32,7 @@ def write_scan_plan_figure(
     """Write the figure of `plan` (the object's nominal pose T_table_object (4, 4), its
     vertices (N, 3) in the model frame) to `path` (PNG)."""
     rng = np.random.default_rng(0)
-    fig = Figure(figsize=(12, 5.2))
+    fig = Figure(figsize=(12, 6.2))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.25, 1.0))
     top = fig.add_subplot(grid[:, 0])
     colours = matplotlib.colormaps["tab10"]
@@ -70,7 +70,7 @@ def write_scan_plan_figure(
     top.set_xlabel("table x [mm]")
     top.set_ylabel("table y [mm]")
     top.set_title("seen from above: what each pass sees; arrows: where it looks from", fontsize=9)
-    top.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    top.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
     fig.suptitle(
         f"{plan.mode} scan plan: {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"
         f" of cell time, worst predicted TRE {plan.predicted_tre_max_m * 1e3:.3f} mm"
