@@ -250,3 +250,22 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
     a, b = clear
     routed = route_transits(cell, kin, (a.planned, b.planned), robot.q_home)
     assert [len(p.q_via) for p in routed] == [0, 0]
+
+
+def test_a_pass_with_its_own_standoff_looks_from_that_far() -> None:
+    """From above, the laser's TCP sweeps at the pass' stand-off over the box's top (the
+    scan's own where the pass gives none)."""
+    from scenarios.jobs.config import ScanPass
+    from scenarios.offline.scan import plan_pass
+
+    robot = irb2400()
+    kin = robot.kinematics().for_tool("laser")
+    top = 0.15
+    box = ObjectBox(np.array([0.0, 0.0, top / 2]), np.array([0.08, 0.06, top / 2]), 0.1)
+    section = Scan(standoff_m=0.28)
+    for standoff, expected in ((None, 0.28), (0.36, 0.36), (0.22, 0.22)):
+        spec = ScanPass(tilt_deg=0.0, standoff_m=standoff)
+        planned = plan_pass(kin, box, section, spec, 0, robot.q_home)
+        for T in (planned.T_table_start, planned.T_table_end):
+            assert T[2, 3] - top == pytest.approx(expected, abs=1e-9)
+            np.testing.assert_allclose(T[:3, 2], [0.0, 0.0, -1.0], atol=1e-9)

@@ -127,14 +127,14 @@ class ScanPlanning(_Section):
     tilts [deg] from above to the sides and the headings [deg] about the vertical; passes
     are added until every target's predicted TRE is below `goal_tre_m` [m] or the scan's
     cell time reaches `budget_s` [s]. Each candidate is tried at the scan's stand-off and at
-    each of `extra_standoffs_m` [m] farther (negative: nearer); a farther laser's fan covers
-    more of the object per line. The predicted errors are data-sheet numbers: the
+    each of `extra_standoffs_m` [m] farther (negative: nearer; a farther laser's fan covers
+    more of the object per line). The predicted errors are data-sheet numbers: the
     laser's range noise [m], the object's deviation from its model [m] and that deviation's
     correlation length [m] (a moulded phantom or a machined part: about 0.2 mm over 2 cm)."""
 
     tilts_deg: tuple[float, ...] = (0.0, 30.0, 50.0, 70.0)
     headings_deg: tuple[float, ...] = (0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0)
-    extra_standoffs_m: tuple[float, ...] = (0.08,)
+    extra_standoffs_m: tuple[float, ...] = ()
     goal_tre_m: float = Field(3.0e-4, gt=0.0, le=0.01)
     budget_s: float = Field(120.0, gt=0.0, le=3600.0)
     range_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
