@@ -151,7 +151,7 @@ class ScanPlanning(_Section):
         if any(not -0.2 <= d <= 0.3 or d == 0.0 for d in v):
             raise ValueError(
                 "extra_standoffs_m must be non-zero distances in [-0.2, 0.3] m (the scan's own "
-                f"stand-off is always a candidate); got {list(v)}"
+                "stand-off is always a candidate)"
             )
         return v
 
