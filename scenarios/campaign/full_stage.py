@@ -8,9 +8,9 @@ target moved by the estimated pose against the true one), comparable with the pr
 `job_rms_m`, `job_max_m`: the job's own execution's target errors; `exported_rms_m`,
 `exported_max_m`: those of the exported program run by a controller without absolute
 accuracy at the end of the job (`exported_status`, `exported_compensation`). The scan's
-plan: `scan_plan` (its mode), `scan_passes`, `scan_time_s` (cell time of the scan motions)
-and the planner's predictions (`scan_predicted_time_s`, `scan_predicted_tre_max_m`,
-`plan_tre_t<k>_m`).
+plan: `scan_plan` (its mode), `scan_passes`, `scan_time_s` (cell time of the scan motions),
+`scan_through_home` (passes reached through home) and the planner's predictions
+(`scan_predicted_time_s`, `scan_predicted_tre_max_m`, `plan_tre_t<k>_m`).
 """
 
 from __future__ import annotations
@@ -90,6 +90,7 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
     row["scan_plan"] = plan.get("mode", "")
     row["scan_passes"] = plan.get("passes")
     row["scan_time_s"] = plan.get("scan_time_s")
+    row["scan_through_home"] = sum(bool(c.get("through_home")) for c in plan.get("chosen") or [])
     row["scan_predicted_time_s"] = plan.get("predicted_scan_time_s")
     row["scan_predicted_tre_max_m"] = plan.get("predicted_tre_max_m")
     for k, tre in enumerate((plan.get("predicted_tre_m") or [])[:MAX_TARGETS]):
