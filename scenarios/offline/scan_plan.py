@@ -15,7 +15,8 @@ points the passes would see, thinned as the match thins them, with correlated mo
 and each pass's rigid offset (the arm's accuracy) from the configuration's data-sheet
 numbers. It stops when every target is below the goal or the time budget is spent. A target
 that no reachable pass set constrains below the goal is said so: the job refuses before any
-motion.
+motion. The moves between the chosen passes are checked in the virtual cell too: one that
+would bring the arm or the laser against the object goes through home.
 """
 
 from __future__ import annotations
