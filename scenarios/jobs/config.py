@@ -137,6 +137,10 @@ class ScanPlanning(_Section):
     extra_standoffs_m: tuple[float, ...] = ()
     goal_tre_m: float = Field(3.0e-4, gt=0.0, le=0.01)
     budget_s: float = Field(120.0, gt=0.0, le=3600.0)
+    #: Short of the goal, passes are added only while one lowers the worst predicted TRE by
+    #: at least this fraction of it; a plan that stops short is scanned if the match would
+    #: accept its prediction (registration.max_predicted_tre_m), and refused otherwise.
+    min_gain: float = Field(0.02, ge=0.0, lt=1.0)
     range_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     model_error_m: float = Field(2.0e-4, ge=0.0, le=0.01)
     correlation_m: float = Field(0.02, gt=0.0, le=1.0)

@@ -231,6 +231,7 @@ def job_scan_plan(
         (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
          laser.max_incidence_rad),
         object_name=name, say=say, unambiguous=unambiguous, target_names=target_names,
+        acceptable_tre_m=registration.max_predicted_tre_m,
     )  # fmt: skip
     say(
         f"scan plan ({plan.mode}): {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"

@@ -464,10 +464,13 @@ def choose_passes(
     budget_s: float,
     say: Progress | None = None,
     unambiguous: Callable[[list[Candidate]], bool] | None = None,
+    min_gain: float = 0.0,
 ) -> tuple[list[Candidate], list[ChosenPass], np.ndarray, bool]:
     """Greedy choice (see the module's docstring): the passes, their records, the predicted
     TRE (K,) [m] of the plan, and whether `unambiguous(passes)` holds for it (the match of
-    the points they would see finds one pose; passes are added until it does)."""
+    the points they would see finds one pose; passes are added until it does). Short of
+    the goal, the choice also stops when no pass lowers the worst predicted TRE by the
+    fraction `min_gain` of it: more scanning would buy next to nothing."""
     chosen: list[Candidate] = []
     records: list[ChosenPass] = []
     tre = np.full(len(targets_model), np.inf)
@@ -487,11 +490,14 @@ def choose_passes(
     while left and not done():
         best, best_gain, best_tre = None, -np.inf, tre
         worst_now = float(np.max(tre))
+        largest_drop = 0.0  # the most any one pass lowers the worst predicted TRE [m]
         for c in left:
             if chosen and spent + c.seconds > budget_s:
                 continue
             t, _ = predict_tre([*chosen, c], targets_model, errors)
             worst = float(np.max(t))
+            if np.isfinite(worst) and np.isfinite(worst_now):
+                largest_drop = max(largest_drop, worst_now - worst)
             if not np.isfinite(worst):
                 gain = -np.inf if np.isfinite(worst_now) else len(c.points_model) / c.seconds
                 gain = gain * 1e-12  # constrains nothing yet: coverage first
@@ -502,6 +508,13 @@ def choose_passes(
             if gain > best_gain:
                 best, best_gain, best_tre = c, gain, t
         if best is None:
+            break
+        if np.isfinite(worst_now) and worst_now > goal_m and largest_drop < min_gain * worst_now:
+            if say is not None:
+                say(
+                    f"scan plan: no pass lowers the worst predicted TRE by {min_gain:.0%} any "
+                    "more: the plan stops here"
+                )
             break
         chosen.append(best)
         left.remove(best)
@@ -559,12 +572,15 @@ def plan_job_scan(
     say: Progress | None = None,
     unambiguous: Callable[[np.ndarray, np.ndarray], bool] | None = None,
     target_names: tuple[str, ...] | None = None,
+    acceptable_tre_m: float | None = None,
 ) -> ScanPlan:
     """The job's scan plan: in mode "auto" chosen among the candidates for `targets_model`
     (K, 3, model frame); in mode "fixed" the configuration's passes, with the same
     prediction. `unambiguous(points_table (N, 3), pass_labels (N,))`: whether the match of
     such a scan finds one pose. Raises ScanPlanError if "auto" leaves a target (named by
-    `target_names`) unconstrained or above the goal, or the match ambiguous."""
+    `target_names`) unconstrained, or above the goal and above `acceptable_tre_m` [m] (what
+    the match accepts; None: above the goal refuses), or the match ambiguous. A plan short
+    of the goal but within `acceptable_tre_m` is scanned, and said so."""
     tell = say or (lambda _m: None)
     if section.plan == "fixed":
         passes = route_transits(
@@ -614,8 +630,9 @@ def plan_job_scan(
         labels = np.concatenate([np.full(len(c.points_model), k) for k, c in enumerate(passes)])
         return unambiguous(transform_points(T_table_object, points), labels)
 
+    budget, min_gain = section.planning.budget_s, section.planning.min_gain
     chosen, records, tre, unique = choose_passes(
-        found_all, targets_model, errors, goal, section.planning.budget_s, tell, unique
+        found_all, targets_model, errors, goal, budget, tell, unique, min_gain
     )
     names = target_names or tuple(f"target {k + 1}" for k in range(len(targets_model)))
     usable = f"{len(found_all)} of {tried} candidate passes reachable, clear and seeing the object"
@@ -627,15 +644,29 @@ def plan_job_scan(
         )
     if np.max(tre) > goal:
         over = [f"{names[k]} {tre[k] * 1e3:.3f} mm" for k in np.flatnonzero(tre > goal)]
-        why = (
-            f"the {section.planning.budget_s:g} s budget is spent"
-            if len(chosen) < len(found_all)
-            else f"every usable pass is in the plan ({usable})"
+        spent = sum(c.seconds for c in chosen)
+        rest = [c.seconds for c in found_all if c not in chosen]
+        if not rest:
+            why = f"every usable pass is in the plan ({usable})"
+        elif spent + min(rest) > budget:
+            why = f"the {budget:g} s budget is spent"
+        else:
+            why = f"no further pass lowers it by {min_gain:.0%}"
+        over_goal = (
+            f"{', '.join(over)} predicted above the goal {goal * 1e3:.3f} mm "
+            f"(localization.scan.planning.goal_tre_m): {why}"
         )
-        raise ScanPlanError(
-            f"scan plan: {', '.join(over)} predicted above the goal "
-            f"{goal * 1e3:.3f} mm (localization.scan.planning.goal_tre_m) and {why}; the job "
-            "refuses before any motion"
+        if acceptable_tre_m is None or np.max(tre) > acceptable_tre_m:
+            limit = (
+                ""
+                if acceptable_tre_m is None
+                else f" and above the {acceptable_tre_m * 1e3:.3f} mm the match accepts "
+                "(localization.registration.max_predicted_tre_m)"
+            )
+            raise ScanPlanError(f"scan plan: {over_goal}{limit}; the job refuses before any motion")
+        tell(
+            f"warning: scan plan: {over_goal}; the job scans the {len(chosen)} passes that "
+            f"get there (the match accepts up to {acceptable_tre_m * 1e3:.3f} mm)"
         )
     if not unique:
         raise ScanPlanError(
