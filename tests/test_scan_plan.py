@@ -219,10 +219,10 @@ def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> No
 
 def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_home() -> None:
     """Between two passes the arm turns in joint space; where that turn would bring the
-    laser or the arm within 10 mm of the object (found along the move at a tenth of the
-    checker's step), the plan routes it through home, and that way clears; a transit that
-    clears keeps its direct move. Ground truth: the virtual cell's contacts, sampled finely
-    along the joint moves."""
+    laser or the arm within 10 mm of the object (found along the move every 0.005 rad, four
+    times finer than the checker's joint step), the plan routes it through home, and that
+    way clears; a transit that clears keeps its direct move. Ground truth: the virtual
+    cell's contacts, sampled finely along the joint moves."""
     from cell import nominal_T_base_table
     from scenarios.offline.scan_plan import _retreat_q, candidates, route_transits
 

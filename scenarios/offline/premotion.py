@@ -222,6 +222,29 @@ def _count(steps: float) -> int:
     return max(1, math.ceil(steps - 1e-9))
 
 
+def joint_move_samples(
+    kin: Kinematics,
+    T_flange_tcp: np.ndarray,
+    q0: np.ndarray,
+    q1: np.ndarray,
+    step_m: float,
+    step_rad: float,
+) -> np.ndarray:
+    """Fractions (n,) in (0, 1] of the joint move q0 -> q1 (a line in joint space) at which
+    to check it: the largest joint at most `step_rad` [rad] and the TCP at most `step_m` [m]
+    of travel apart."""
+    dq = np.asarray(q1, dtype=float) - np.asarray(q0, dtype=float)
+    n = _count(float(np.max(np.abs(dq))) / step_rad)
+    for _ in range(3):
+        s = np.arange(0, n + 1) / n
+        p = np.array([(kin.fk(q0 + sk * dq) @ T_flange_tcp)[:3, 3] for sk in s])
+        hop = float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+        if hop <= step_m:
+            break
+        n = math.ceil(n * hop / step_m * 1.05)
+    return np.arange(1, n + 1) / n
+
+
 @dataclass
 class _Finding:
     first: float
@@ -340,17 +363,11 @@ class _Checker:
         move = _Move(name, "joint")
         self.moves.append(move)
         dq = q1 - q0
-        n = _count(float(np.max(np.abs(dq))) / self.limits.step_rad)
         # As finely as the TCP moves: its travel between samples at most step_m.
-        for _ in range(3):
-            s = np.arange(0, n + 1) / n
-            p = np.array([(self.kin.fk(q0 + sk * dq) @ self.T_tcp)[:3, 3] for sk in s])
-            hop = float(np.max(np.linalg.norm(np.diff(p, axis=0), axis=1)))
-            if hop <= self.limits.step_m:
-                break
-            n = math.ceil(n * hop / self.limits.step_m * 1.05)
-        for k in range(1, n + 1):
-            at = k / n
+        for at in joint_move_samples(
+            self.kin, self.T_tcp, q0, q1, self.limits.step_m, self.limits.step_rad
+        ):
+            at = float(at)
             q = q0 + at * dq
             move.samples += 1
             self._joints(move, q, at)

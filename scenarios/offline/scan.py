@@ -308,15 +308,24 @@ def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> lis
         )
     except CellError as exc:
         raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
-    for rise in (RETREAT_M, RETREAT_M / 2):
-        T_up = T_base_end.copy()
-        T_up[2, 3] += rise
+    for T_up in risen(T_base_end):
         try:
             controller.move_linear(T_up, speed_m_s=RETREAT_SPEED_M_S)
             break
         except UnreachableTargetError:
             continue
     return readings
+
+
+def risen(T_base_end: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Where the laser rises to after a pass ending at `T_base_end` (4, 4, base frame):
+    RETREAT_M straight up, else half of it where the arm does not reach so high."""
+    out = []
+    for rise in (RETREAT_M, RETREAT_M / 2):
+        T_up = np.array(T_base_end, dtype=float)
+        T_up[2, 3] += rise
+        out.append(T_up)
+    return tuple(out)
 
 
 def crop_to_object(points_table: np.ndarray, box: ObjectBox, margin_m: float) -> np.ndarray:

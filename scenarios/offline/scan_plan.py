@@ -37,7 +37,15 @@ from registration.rigid import invert
 from scenarios.jobs.config import Scan, ScanPass
 from scenarios.offline.localization import voxel_thin
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
-from scenarios.offline.scan import RETREAT_M, RETREAT_SPEED_M_S, ObjectBox, PlannedPass, plan_pass
+from scenarios.offline.premotion import PremotionLimits, joint_move_samples
+from scenarios.offline.scan import (
+    RETREAT_M,
+    RETREAT_SPEED_M_S,
+    ObjectBox,
+    PlannedPass,
+    plan_pass,
+    risen,
+)
 from scenarios.offline.scan import plan_scan as plan_scan_fixed
 
 Progress = Callable[[str], None]
@@ -233,8 +241,8 @@ def scan_seconds(
     return total
 
 
-#: Largest joint step [rad] between the poses of a transit checked for collisions.
-TRANSIT_STEP_RAD = 0.05
+#: How finely a transit is checked: the pre-motion check's steps (TCP travel, joint angle).
+TRANSIT_LIMITS = PremotionLimits()
 
 
 def _retreat_q(
@@ -246,38 +254,45 @@ def _retreat_q(
     end = kin.ik(T_base @ planned.T_table_end, planned.q_start, LASER.T_tool_tcp, extra_seeds=4)
     if not end.success:
         return None
-    for rise in (RETREAT_M, RETREAT_M / 2):
-        T_up = T_base @ planned.T_table_end
-        T_up[2, 3] += rise
+    for T_up in risen(T_base @ planned.T_table_end):
         up = kin.ik(T_up, end.q, LASER.T_tool_tcp, extra_seeds=0)
         if up.success:
             return up.q
     return end.q
 
 
-def _joint_path_clear(
-    cell: VirtualCell, q0: np.ndarray, q1: np.ndarray, table_m: float, margin_m: float
-) -> bool:
-    """Whether the arm with the laser clears the cell by `margin_m` [m] along the joint
-    move q0 -> q1 (straight in joint space, as the controller moves) with the table at
-    `table_m` [m]."""
+def _pose_clear(cell: VirtualCell, q: np.ndarray, table_m: float, margin_m: float) -> bool:
+    """Whether the arm with the laser at joints `q` (6,), the table at `table_m` [m], keeps
+    `margin_m` [m] from everything in the virtual cell."""
     cell.set_tool("laser")
     cell.set_table(table_m)
-    steps = max(2, int(np.ceil(np.max(np.abs(q1 - q0)) / TRANSIT_STEP_RAD)) + 1)
-    for s in np.linspace(0.0, 1.0, steps):
-        cell.set_joints(q0 + s * (q1 - q0))
-        if cell.contacts(margin_m):
-            return False
-    return True
+    cell.set_joints(q)
+    return not cell.contacts(margin_m)
+
+
+def _joint_path_clear(
+    cell: VirtualCell,
+    kin: Kinematics,
+    q0: np.ndarray,
+    q1: np.ndarray,
+    table_m: float,
+    margin_m: float,
+) -> bool:
+    """Whether the joint move q0 -> q1 (straight in joint space, as the controller moves)
+    keeps `margin_m` [m] from everything, the table at `table_m` [m]: sampled as the
+    pre-motion check samples a joint move (q0 itself not checked)."""
+    limits = TRANSIT_LIMITS
+    steps = joint_move_samples(kin, LASER.T_tool_tcp, q0, q1, limits.step_m, limits.step_rad)
+    return all(_pose_clear(cell, q0 + s * (q1 - q0), table_m, margin_m) for s in steps)
 
 
 def _table_travel_clear(
     cell: VirtualCell, q: np.ndarray, s0: float, s1: float, margin_m: float
 ) -> bool:
     """Whether the arm held at `q` clears the cell by `margin_m` [m] while the table moves
-    from `s0` to `s1` [m] (checked every 2 cm of the travel)."""
+    from `s0` to `s1` [m] (checked every 2 cm of the travel, both ends included)."""
     steps = max(1, int(np.ceil(abs(s1 - s0) / 0.02))) + 1
-    return all(_joint_path_clear(cell, q, q, s, margin_m) for s in np.linspace(s0, s1, steps))
+    return all(_pose_clear(cell, q, s, margin_m) for s in np.linspace(s0, s1, steps))
 
 
 def route_transits(
@@ -299,13 +314,13 @@ def route_transits(
     for planned in passes:
         s = planned.table_position_m
         if _table_travel_clear(cell, q_from, s_from, s, margin_m) and _joint_path_clear(
-            cell, q_from, planned.q_start, s, margin_m
+            cell, kin, q_from, planned.q_start, s, margin_m
         ):
             out.append(replace(planned, q_via=()))
         elif (
-            _joint_path_clear(cell, q_from, home, s_from, margin_m)
+            _joint_path_clear(cell, kin, q_from, home, s_from, margin_m)
             and _table_travel_clear(cell, home, s_from, s, margin_m)
-            and _joint_path_clear(cell, home, planned.q_start, s, margin_m)
+            and _joint_path_clear(cell, kin, home, planned.q_start, s, margin_m)
         ):
             out.append(replace(planned, q_via=(home,)))
         else:

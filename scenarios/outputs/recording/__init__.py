@@ -214,7 +214,7 @@ class Recording:
             rr.LineStrips3D(
                 [[p.T_table_start[:3, 3], p.T_table_end[:3, 3]] for p in plan.passes],
                 colors=colours, radii=0.002,
-                labels=[f"{k + 1}: {c.name}" for k, c in enumerate(plan.chosen)],
+                labels=[str(k + 1) for k in range(len(plan.passes))],  # as the log numbers them
             ),
         )  # fmt: skip
         T = self._T_table_nominal
