@@ -20,8 +20,9 @@ import trimesh
 from rich.console import Console
 from rich.table import Table
 
-from cell import CellConfig, FixedMesh, LaserConfig, make_cell, nominal_kinematics
-from cell.sensors import RAY_GROUPS
+from cell import FixedMesh, LaserConfig, nominal_kinematics
+from cell.scene import RAY_GROUPS
+from cell.sim import CellConfig, make_cell
 from models.robot import Q_HOME
 from registration.rigid import make_T
 

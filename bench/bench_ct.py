@@ -25,8 +25,8 @@ import numpy as np
 
 
 def _make(path: Path) -> None:
-    from models import builtin_model
     from models.ct import CTSettings, ct_scan
+    from models.registry import builtin_model
 
     skull = builtin_model("skull")
     extent = np.ptp(np.asarray(skull.mesh.vertices), axis=0) * 1e3 + 10.0

@@ -279,7 +279,7 @@ def closest_point_table() -> None:
     import igl
     import trimesh
 
-    from models import load_model
+    from models.registry import load_model
 
     skull, _ = load_model("skull", seed=0)
     v = np.asarray(skull.mesh.vertices, dtype=float)

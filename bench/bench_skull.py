@@ -23,7 +23,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from cell import FixedMesh, make_cell, nominal_T_base_table
+from cell import FixedMesh, nominal_T_base_table
+from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.jobs.config import load_config
 from scenarios.jobs.pipeline import object_models

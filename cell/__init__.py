@@ -1,25 +1,19 @@
-"""The cell: MuJoCo build, physics, controller API, sensors, tool changer, kinematics.
+"""The cell as a controller's user sees it: the controller API, its readings, the arm's data
+sheets and nominal kinematics, the cell's layout, and the virtual cell.
 
-`make_cell(config)` returns the controller (what a robot program sees) and the truth (what
-only an evaluator reads); `VirtualCell` is the nominal cell, posed without physics, that a
-program is checked for collisions in before it moves.
+`Controller` is what a robot program drives; `VirtualCell` is the nominal cell, posed without
+physics, that a program is checked for collisions in before it moves. The simulated real
+cell that implements the controller, and its truth, are `cell.sim`'s: nothing here imports
+them.
 """
 
-from cell.config import (
-    ArmErrors,
-    CellConfig,
-    DriveErrors,
-    EncoderNoise,
-    FixedMesh,
-    FixedPrimitive,
-    IRConfig,
-    LaserConfig,
-    LooseMesh,
-    LoosePart,
-    TableErrors,
-    ToolErrors,
+from cell.controller import (
+    Controller,
+    ControllerEvent,
+    SupervisionLimits,
+    nominal_T_base_slot,
+    nominal_T_base_table,
 )
-from cell.controller import Controller, nominal_T_base_slot, nominal_T_base_table
 from cell.errors import (
     CellConfigError,
     CellError,
@@ -29,24 +23,28 @@ from cell.errors import (
     UnknownNameError,
     UnreachableTargetError,
 )
-from cell.factory import make_cell, nominal_kinematics
 from cell.kinematics import IKResult, Kinematics
 from cell.laser import laser_points_base, points_in_table_frame
-from cell.robots import ur5_kinematics
-from cell.sensors import LaserReading
-from cell.truth import CellTruth
+from cell.layout import (
+    CellLayout,
+    FixedMesh,
+    FixedPrimitive,
+    IRConfig,
+    LaserConfig,
+    LooseMesh,
+    LoosePart,
+)
+from cell.readings import LaserReading
+from cell.robots import Robot, nominal_kinematics, ur5_kinematics
 from cell.virtual import Contact, VirtualCell
 
 __all__ = [
-    "ArmErrors",
-    "CellConfig",
     "CellConfigError",
     "CellError",
-    "CellTruth",
+    "CellLayout",
     "Contact",
     "Controller",
-    "DriveErrors",
-    "EncoderNoise",
+    "ControllerEvent",
     "FixedMesh",
     "FixedPrimitive",
     "IKResult",
@@ -57,15 +55,14 @@ __all__ = [
     "LaserReading",
     "LooseMesh",
     "LoosePart",
+    "Robot",
     "SupervisionError",
-    "TableErrors",
+    "SupervisionLimits",
     "ToolChangerError",
-    "ToolErrors",
     "UnknownNameError",
     "UnreachableTargetError",
     "VirtualCell",
     "laser_points_base",
-    "make_cell",
     "nominal_T_base_slot",
     "nominal_T_base_table",
     "nominal_kinematics",

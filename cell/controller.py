@@ -1,63 +1,38 @@
-"""The controller-like API: the only way planning code drives and reads the real cell.
+"""The controller API: the only way planning code drives and reads the real cell.
 
 It offers what a robot controller offers: joint and linear TCP moves, the tool changer, the
-table axis, encoder, IR and laser readings. Kinematics is the NOMINAL model (Pinocchio on the
-nominal robot-only MJCF). Nothing here returns the simulated truth (true kinematic parameters,
-true poses, noise): that lives in `cell.truth.CellTruth`, for evaluators only.
+table axis, encoder, IR and laser readings, its event log. Kinematics is the NOMINAL model
+(Pinocchio on the nominal robot-only MJCF) or the calibrated one it is given. `Controller` is
+abstract: the simulated real cell implements it (cell.sim.controller), and so would a real
+controller's client. Nothing here can return the simulated truth (true kinematic parameters,
+true poses, noise): that lives in `cell.sim`, for evaluators only.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
-from typing import TypeVar
 
 import numpy as np
 
-from cell.devices import Encoders, TableAxis
-from cell.drives import Drives
-from cell.errors import (
-    CellConfigError,
-    JointLimitError,
-    SupervisionError,
-    ToolChangerError,
-    UnknownNameError,
-    UnreachableTargetError,
-)
+from cell.errors import ToolChangerError, UnknownNameError
 from cell.kinematics import Kinematics
-from cell.robots import Robot, irb2400
-from cell.sensors import IRSensor, LaserReading, LaserScanner, LightBeam
-from cell.simulation import MotionStoppedError, Simulation
-from cell.supervision import ContactSensing, SupervisionLimits
-from cell.toolchanger import ToolChanger
-from cell.trajectory import joint_trajectory, quintic, straight_path
-from models.robot import (
-    FINGER_TRAVEL,
-    RACK_POS,
-    SLOT_QUAT,
-    TABLE_SPEED,
-    TABLE_TOP_POS,
-    TABLE_TRAVEL,
-    TOOLS,
-    beam_line,
-    slot_pos,
-)
+from cell.laser import laser_points_base
+from cell.layout import LaserConfig
+from cell.readings import LaserReading
+from cell.robots import Robot
+from models.robot import RACK_POS, SLOT_QUAT, TABLE_SPEED, TABLE_TOP_POS, TOOLS, slot_pos
 from registration.rigid import make_T, quat_wxyz_to_R
 
 _TOOL_SPECS = {t.name: t for t in TOOLS}
-Reading = TypeVar("Reading")
 #: Default settle time after a move [s].
 SETTLE_S = 0.3
 #: Approach height above a rack slot for tool changes [m].
 RACK_APPROACH_M = 0.12
 #: How far towards the arm's base from above a slot a tool change starts and ends [m].
 RACK_FRONT_M = 0.2
-#: Control period of linear moves: the IK is solved at this period [s].
-LINEAR_PERIOD_S = 0.01
-#: How much of its path the arm backs off after a supervision stop [s].
-BACK_OFF_S = 0.3
 
 
 @dataclass(frozen=True)
@@ -72,10 +47,26 @@ class ControllerEvent:
     action: str
 
 
+@dataclass(frozen=True)
+class SupervisionLimits:
+    """The supervision's thresholds: the external force that stops a move [N] (ABB's
+    collision detection trips at a few tens of newtons at this arm's tool); how far a
+    joint's two encoder channels may differ [rad] (their noise is a few hundredths of a
+    milliradian); the table's in-position window [m]; the largest unexplained holding
+    torque after a tool change [N m]."""
+
+    max_contact_force_n: float = 40.0
+    max_channel_difference_rad: float = 1.0e-3
+    table_in_position_m: float = 2.0e-4
+    max_load_torque_nm: float = 5.0
+
+
 def nominal_T_base_slot(tool: str, rack_xyz: tuple[float, float, float] = RACK_POS) -> np.ndarray:
     """(4, 4) nominal pose of `tool`'s rack slot in the robot base frame, for the rack at
     `rack_xyz` [m] (its nominal place in the cell's layout)."""
-    return make_T(quat_wxyz_to_R(np.array(SLOT_QUAT)), np.array(slot_pos(_index(tool), rack_xyz)))
+    return make_T(
+        quat_wxyz_to_R(np.array(SLOT_QUAT)), np.array(slot_pos(tool_index(tool), rack_xyz))
+    )
 
 
 def nominal_T_base_table(table_position_m: float) -> np.ndarray:
@@ -83,7 +74,8 @@ def nominal_T_base_table(table_position_m: float) -> np.ndarray:
     return make_T(np.eye(3), np.array(TABLE_TOP_POS) + np.array([0.0, table_position_m, 0.0]))
 
 
-def _index(tool: str) -> int:
+def tool_index(tool: str) -> int:
+    """The rack slot of `tool`; an unknown name lists the tools."""
     for i, spec in enumerate(TOOLS):
         if spec.name == tool:
             return i
@@ -92,51 +84,38 @@ def _index(tool: str) -> int:
     )
 
 
-class Controller:
-    """Commands and readings of the cell, as a robot controller would offer them."""
+class Controller(ABC):
+    """Commands and readings of the cell, as a robot controller would offer them.
+
+    What it holds is what a controller knows: the arm's data sheet (`robot`), the kinematics
+    it moves with, the cell's layout (the rack's place), the supervision's limits, the
+    laser's data sheet, and its event log.
+    """
 
     def __init__(
         self,
-        sim: Simulation,
+        robot: Robot,
         kinematics: Kinematics,
-        encoders: Encoders,
-        table: TableAxis,
-        laser: LaserScanner,
-        ir: IRSensor,
-        drives: Drives,
-        changer: ToolChanger,
-        robot: Robot | None = None,
-        rack_xyz: tuple[float, float, float] = RACK_POS,
+        rack_xyz: tuple[float, float, float],
+        laser: LaserConfig,
         limits: SupervisionLimits | None = None,
     ) -> None:
-        self._sim = sim
         self.limits = limits or SupervisionLimits()
         #: The controller's event log: every supervision that spoke, in order; `on_event`
         #: hears each as it is logged (a program's error handler, a run's progress).
         self.events: list[ControllerEvent] = []
         self.on_event: Callable[[ControllerEvent], None] | None = None
-        self._contacts = ContactSensing(sim, lambda: changer.held)
-        self._supervising = True
-        self._beam = LightBeam(sim.model, *(np.array(p) for p in beam_line(rack_xyz)))
-        sim.guard = self._guard
-        self._robot = robot or irb2400()
+        self._robot = robot
         self._rack_xyz = rack_xyz
-        self._encoders = encoders
-        self._table = table
-        self._laser = laser
-        self._ir = ir
-        self._drives = drives
-        self._changer = changer
         self._nominal = kinematics
         self._kinematics = kinematics
-        self.laser_directions_tcp = laser.dirs_tcp.copy()
-        c = laser.config
-        #: The laser's data sheet: its rays (see laser_directions_tcp), measuring range [m] and
+        #: The laser's data sheet: its rays (N, 3) in its TCP frame, measuring range [m] and
         #: the largest incidence it returns from [rad]; its noise and errors are not told.
-        self.laser_range_m = (c.range_min_m, c.range_max_m)
-        self.laser_max_incidence_rad = c.max_incidence_rad
+        self.laser_directions_tcp = laser.directions_tcp()
+        self.laser_range_m = (laser.range_min_m, laser.range_max_m)
+        self.laser_max_incidence_rad = laser.max_incidence_rad
 
-    # -- state --------------------------------------------------------------------------------
+    # -- what the controller knows --------------------------------------------------------
     @property
     def kinematics(self) -> Kinematics:
         """The arm's kinematics the controller moves with, for the tool in hand: the nominal
@@ -179,62 +158,17 @@ class Controller:
         """Names of the tools in the cell."""
         return tuple(t.name for t in TOOLS)
 
-    @property
-    def tool_in_hand(self) -> str | None:
-        """The tool locked on the flange, or None."""
-        return self._changer.held
-
-    @property
-    def time_s(self) -> float:
-        """The controller's clock [s]."""
-        return self._sim.time
-
     def T_flange_tcp(self, tool: str | None = None) -> np.ndarray:
         """(4, 4) nominal TCP of `tool` (default: the tool in hand; the flange if none)."""
         name = tool if tool is not None else self.tool_in_hand
         if name is None:
             return np.eye(4)
-        _index(name)  # an unknown name lists the tools
+        tool_index(name)  # an unknown name lists the tools
         return _TOOL_SPECS[name].T_tool_tcp
 
-    def read_joints(self) -> np.ndarray:
-        """(6,) encoder readings [rad], each checked against the encoder's second channel:
-        channels that disagree are read again (and logged); twice, the cell stops."""
-        for attempt in range(2):
-            a, b = self._encoders.read_channels()
-            off = np.abs(a - b)
-            joint = int(np.argmax(off))
-            if off[joint] <= self.limits.max_channel_difference_rad:
-                return a
-            message = f"joint {joint + 1}: the encoder's channels differ by {off[joint]:.4f} rad"
-            self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")
-        raise SupervisionError("joint_plausibility", f"{message}, twice")
-
     def T_base_tcp(self) -> np.ndarray:
-        """(4, 4) TCP pose computed from the encoders with the nominal kinematics."""
+        """(4, 4) TCP pose computed from the encoders with the controller's kinematics."""
         return self.kinematics.fk(self.read_joints()) @ self.T_flange_tcp()
-
-    # -- motion -------------------------------------------------------------------------------
-    def move_joints(
-        self, q_target: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
-    ) -> None:
-        """Joint move to `q_target` (6,) [rad], peak joint speeds `speed` x the limits."""
-        if not 0.0 < speed <= 1.0:
-            raise CellConfigError(f"speed must be a fraction in (0, 1], got {speed!r}")
-        q1 = self.kinematics.check_limits(q_target)
-        sim = self._sim
-        q, qd = joint_trajectory(self._drives.motor, q1, self._robot.joint_speed, sim.dt, speed)
-        self._run(q, qd)
-        sim.settle(settle_s)
-
-    def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
-        """Joints that put the current TCP at `T_base_tcp`, seeded from the current joints."""
-        seed = self._drives.motor if q_seed is None else q_seed
-        return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
-
-    def reachable(self, T_base_tcp: np.ndarray) -> bool:
-        """Whether the current TCP can reach `T_base_tcp` within the joint limits."""
-        return self.kinematics.reachable(T_base_tcp, self._drives.motor, self.T_flange_tcp())
 
     def move_tcp(
         self, T_base_tcp: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
@@ -244,6 +178,59 @@ class Controller:
         self.move_joints(q, speed, settle_s)
         return q
 
+    def laser_points_base(self, reading: LaserReading) -> tuple[np.ndarray, np.ndarray]:
+        """Points (M, 3) [m] of the returns in the robot base frame and their ray indices (M,),
+        reconstructed with the controller's kinematics and the laser's nominal TCP from the
+        measured joints."""
+        return laser_points_base(
+            reading, self.kinematics, self.T_flange_tcp("laser"), self.laser_directions_tcp
+        )
+
+    def _log(self, code: str, message: str, action: str) -> None:
+        event = ControllerEvent(self.time_s, code, message, action)
+        self.events.append(event)
+        if self.on_event is not None:
+            self.on_event(event)
+
+    def _require(self, tool: str) -> None:
+        if self.tool_in_hand != tool:
+            raise ToolChangerError(
+                f"the {tool!r} tool is not in hand (in hand: {self.tool_in_hand}); "
+                f"call change_tool({tool!r}) first"
+            )
+
+    # -- state ------------------------------------------------------------------------------
+    @property
+    @abstractmethod
+    def tool_in_hand(self) -> str | None:
+        """The tool locked on the flange, or None."""
+
+    @property
+    @abstractmethod
+    def time_s(self) -> float:
+        """The controller's clock [s]."""
+
+    @abstractmethod
+    def read_joints(self) -> np.ndarray:
+        """(6,) encoder readings [rad], each checked against the encoder's second channel:
+        channels that disagree are read again (and logged); twice, the cell stops."""
+
+    # -- motion -----------------------------------------------------------------------------
+    @abstractmethod
+    def move_joints(
+        self, q_target: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
+    ) -> None:
+        """Joint move to `q_target` (6,) [rad], peak joint speeds `speed` x the limits."""
+
+    @abstractmethod
+    def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
+        """Joints that put the current TCP at `T_base_tcp`, seeded from the current joints."""
+
+    @abstractmethod
+    def reachable(self, T_base_tcp: np.ndarray) -> bool:
+        """Whether the current TCP can reach `T_base_tcp` within the joint limits."""
+
+    @abstractmethod
     def move_linear(
         self,
         T_base_tcp: np.ndarray,
@@ -256,10 +243,8 @@ class Controller:
         speed limit), the TCP the nominal one of the tool in hand or `T_flange_tcp` (4, 4) (a
         program's tooldata). Raises UnreachableTargetError if a point of the line has no IK
         solution."""
-        q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
-        self._run(q, qd)
-        self._sim.settle(settle_s)
 
+    @abstractmethod
     def scan_linear(
         self,
         T_base_tcp: np.ndarray,
@@ -269,326 +254,69 @@ class Controller:
     ) -> list[LaserReading]:
         """Straight TCP move with the laser in hand, reading a laser line every `period_s` [s]
         while moving (each reading stamped with the encoder joints of its instant)."""
-        self._require("laser")
-        return self._read_along(T_base_tcp, speed_m_s, period_s, settle_s, self.read_laser)
 
+    @abstractmethod
     def sweep_beam(
         self, T_base_tcp: np.ndarray, speed_m_s: float = 0.01, settle_s: float = SETTLE_S
     ) -> list[tuple[np.ndarray, bool]]:
         """Straight TCP move through the TCP check station's beam, reading it at every
         control step: (encoder joints (6,) [rad], beam broken) at each."""
-        return self._read_along(
-            T_base_tcp,
-            speed_m_s,
-            self._sim.dt,
-            settle_s,
-            lambda: (self.read_joints(), self._beam.broken(self._sim.data)),
-        )
-
-    def _read_along(
-        self,
-        T_base_tcp: np.ndarray,
-        speed_m_s: float,
-        period_s: float,
-        settle_s: float,
-        read: Callable[[], Reading],
-    ) -> list[Reading]:
-        """A straight TCP move, `read()` every `period_s` [s] while moving."""
-        sim = self._sim
-        every = max(1, round(period_s / sim.dt))
-        q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
-        readings = []
-        for start in range(0, len(q), every):
-            chunk = slice(start, start + every)
-            self._run(q[chunk], qd[chunk], new_move=start == 0, before=q[:start])
-            readings.append(read())
-        sim.settle(settle_s)
-        return readings
 
     @property
+    @abstractmethod
     def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
         """The TCP check beam's ends (3,), (3,) [m] in the cell's layout."""
-        return self._beam.p_from.copy(), self._beam.p_to.copy()
 
-    # -- supervision --------------------------------------------------------------------------
-    def _guard(self) -> str | None:
-        """The motion supervision, every few physics steps of a move."""
-        if not self._supervising:
-            return None
-        force, body = self._contacts.external()
-        if force > self.limits.max_contact_force_n:
-            return f"collision: {force:.0f} N on {body}"
-        return None
-
-    @contextmanager
-    def supervision_off(self) -> Iterator[None]:
+    @abstractmethod
+    def supervision_off(self) -> AbstractContextManager[None]:
         """Motion supervision off for what is meant to push (a grasp), as a program
         switches ABB's collision detection off around a gripping move."""
-        self._supervising = False
-        try:
-            yield
-        finally:
-            self._supervising = True
 
-    def _log(self, code: str, message: str, action: str) -> None:
-        event = ControllerEvent(self.time_s, code, message, action)
-        self.events.append(event)
-        if self.on_event is not None:
-            self.on_event(event)
-
-    def _run(
-        self,
-        q: np.ndarray,
-        qd: np.ndarray,
-        new_move: bool = True,
-        before: np.ndarray | None = None,
-    ) -> None:
-        """Run motor set-points (K, 6) under motion supervision, `before` (J, 6) the
-        set-points of the same move already run: a stop holds the arm, backs it off along
-        the path it came and raises SupervisionError."""
-        try:
-            self._drives.run(q, qd, new_move=new_move)
-        except MotionStoppedError as stop:
-            done = q[: stop.steps] if before is None else np.vstack([before, q[: stop.steps]])
-            back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
-            self._supervising = False
-            try:
-                self._drives.run(back, np.zeros_like(back))
-                self._sim.settle(SETTLE_S)
-            finally:
-                self._supervising = True
-            self._log("collision", str(stop), "stopped")
-            raise SupervisionError(
-                "collision",
-                f"motion supervision stopped the arm at t = {self.time_s:.2f} s ({stop}); it "
-                f"backed off {len(back) * self._sim.dt:.2f} s along its path",
-            ) from None
-
-    def _linear_setpoints(
-        self,
-        T_base_tcp: np.ndarray,
-        speed_m_s: float,
-        angular_speed_rad_s: float,
-        T_flange_tcp: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Motor set-points (K, 6) [rad] and velocities (K, 6) [rad/s] of a straight TCP
-        line from the current set-point."""
-        if not (speed_m_s > 0 and angular_speed_rad_s > 0):
-            raise CellConfigError(
-                f"speeds must be > 0, got {speed_m_s!r} m/s, {angular_speed_rad_s!r} rad/s"
-            )
-        T_base_tcp = np.asarray(T_base_tcp, dtype=float)
-        T_tcp = self.T_flange_tcp() if T_flange_tcp is None else np.asarray(T_flange_tcp, float)
-        sim, kin = self._sim, self.kinematics
-        q0 = self._drives.motor.copy()
-        T0 = kin.fk(q0) @ T_tcp
-        dist = float(np.linalg.norm(T_base_tcp[:3, 3] - T0[:3, 3]))
-        R_rel = T0[:3, :3].T @ T_base_tcp[:3, :3]
-        angle = float(np.arccos(np.clip((np.trace(R_rel) - 1) / 2, -1, 1)))
-        duration = 1.875 * max(dist / speed_m_s, angle / angular_speed_rad_s, LINEAR_PERIOD_S)
-        for _ in range(4):
-            n = max(2, math.ceil(duration / LINEAR_PERIOD_S))
-            s, _ds = quintic(n)
-            qs = np.empty((n + 1, 6))
-            qs[0] = q0
-            for k, T in enumerate(straight_path(T0, T_base_tcp, s)):
-                r = kin.ik(T, qs[k], T_tcp, extra_seeds=0)
-                if not r.success or np.max(np.abs(r.q - qs[k])) > 0.5:
-                    p = T[:3, 3]
-                    raise UnreachableTargetError(
-                        f"linear move to p_base = [{p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}] m fails at "
-                        f"{100 * s[k]:.0f}% of the line: residual {r.position_error_m:.3g} m, "
-                        f"{r.rotation_error_rad:.3g} rad (or a configuration flip)"
-                    )
-                qs[k + 1] = r.q
-            peak = np.max(np.abs(np.diff(qs, axis=0)) / (duration / n) / self._robot.joint_speed)
-            if peak <= 1.0:
-                break
-            duration *= peak * 1.05
-        # Linear interpolation of the IK samples at the physics step, velocity by differences.
-        t_samples = np.linspace(0.0, duration, n + 1)
-        n_steps = max(1, round(duration / sim.dt))
-        t = np.arange(1, n_steps + 1) * (duration / n_steps)
-        q = np.stack([np.interp(t, t_samples, qs[:, j]) for j in range(6)], axis=1)
-        qd = np.gradient(q, t, axis=0) if n_steps > 1 else np.zeros_like(q)
-        qd[-1] = 0.0
-        return q, qd
-
-    # -- tool changer -------------------------------------------------------------------------
+    # -- tool changer -----------------------------------------------------------------------
+    @abstractmethod
     def lock(self) -> str:
         """Lock the tool seated against the flange; returns its name. The lock sensor must
         say locked (one retry), and the motors' holding torques must match the tool's
         tooldata; otherwise SupervisionError."""
-        for attempt in range(2):
-            name = self._changer.lock()
-            if self._changer.held is not None:
-                break
-            message = f"lock sensor: the {name} tool is not locked"
-            if attempt == 0:
-                self._log("lock_sensor", message, "retried")
-                continue
-            self._log("lock_sensor", message, "stopped")
-            raise SupervisionError("lock_sensor", f"{message} after a retry")
-        self._drives.hold()  # the arm now carries the tool
-        self._check_load(name)
-        return name
 
-    def _check_load(self, tool: str) -> None:
-        """The static load check: holding still, the motors' torques beyond what the payload
-        model compensates [N m]."""
-        self._sim.settle(0.2)
-        torque = np.abs(self._sim.data.actuator_force[self._sim.arm_act])
-        axis = int(np.argmax(torque))
-        if torque[axis] > self.limits.max_load_torque_nm:
-            message = (
-                f"load: axis {axis + 1} holds {torque[axis]:.1f} N m that the {tool} tool's "
-                "tooldata does not explain (the tool is heavier than its tooldata)"
-            )
-            self._log("load", message, "stopped")
-            raise SupervisionError("load", message)
-
+    @abstractmethod
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
-        name = self._changer.unlock()
-        self._drives.hold()
-        return name
 
+    @abstractmethod
     def return_tool(self, T_flange_tool: np.ndarray | None = None) -> None:
         """Put the tool in hand back into its rack slot (approach from the rack's front,
         place, unlock, leave); a tool known to sit off its seat on the flange by
         `T_flange_tool` (4, 4) is placed so that it, not its seat, meets the slot."""
-        name = self.tool_in_hand
-        if name is None:
-            return
-        T_slot = self.T_base_slot(name)
-        if T_flange_tool is not None:
-            T_slot = T_slot @ np.linalg.inv(T_flange_tool)
-        T_tcp = self.T_flange_tcp()
-        self._approach(T_slot)
-        self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
-        self.unlock()
-        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
 
+    @abstractmethod
     def change_tool(self, tool: str) -> None:
         """Return the tool in hand (if any), then pick `tool` from its rack slot and leave
         the rack by its front."""
-        _index(tool)
-        if self.tool_in_hand == tool:
-            return
-        self.return_tool()
-        T_slot = self.T_base_slot(tool)
-        self._approach(T_slot)
-        self.move_linear(T_slot, speed_m_s=0.1)
-        self.lock()
-        T_tcp = self.T_flange_tcp()
-        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
-        self.move_linear(self._front(T_slot) @ T_tcp, speed_m_s=0.2)
 
-    @staticmethod
-    def _above(T_slot: np.ndarray) -> np.ndarray:
-        T = T_slot.copy()
-        T[2, 3] += RACK_APPROACH_M
-        return T
-
-    @staticmethod
-    def _front(T_slot: np.ndarray) -> np.ndarray:
-        """Above the slot and RACK_FRONT_M towards the arm's base, clear of the tools
-        hanging in the rack: a joint move to or from the rack starts or ends there, so the
-        tool in hand never sweeps through its neighbours."""
-        T = Controller._above(T_slot)
-        towards = -T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
-        T[:2, 3] += RACK_FRONT_M * towards
-        return T
-
-    def _approach(self, T_slot: np.ndarray) -> None:
-        """Joint move to the rack's front of a slot, then straight to above it (the flange
-        seated pose shifted up, the tool in hand's TCP carried along)."""
-        T_tcp = self.T_flange_tcp()
-        q = self.kinematics.solve(self._front(T_slot), self._drives.motor)
-        self.move_joints(q)
-        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.2)
-
-    # -- tools' actuators ---------------------------------------------------------------------
+    # -- tools' actuators, the table, the sensors -------------------------------------------
+    @abstractmethod
     def set_gripper(self, opening_m: float) -> None:
         """Command each finger to `opening_m` [m] from the centre (0 = closed), then settle."""
-        self._require("gripper")
-        if not 0.0 <= opening_m <= FINGER_TRAVEL:
-            raise CellConfigError(
-                f"finger opening must be in [0, {FINGER_TRAVEL}] m, got {opening_m!r}"
-            )
-        self._sim.data.ctrl[self._sim.finger_act] = opening_m
-        self._sim.settle(0.3)
 
+    @abstractmethod
     def spin_screwer(self, rad_s: float, seconds: float) -> None:
         """Run the screwer spindle at `rad_s` [rad/s] for `seconds` [s], then stop it."""
-        self._require("screwer")
-        sim = self._sim
-        sim.data.ctrl[sim.spindle_act] = rad_s
-        sim.settle(seconds)
-        sim.data.ctrl[sim.spindle_act] = 0.0
 
-    # -- table --------------------------------------------------------------------------------
+    @abstractmethod
     def move_table(
         self, position_m: float, speed_m_s: float = TABLE_SPEED, settle_s: float = SETTLE_S
     ) -> None:
         """Move the table to `position_m` [m] within its travel."""
-        lo, hi = TABLE_TRAVEL
-        if not lo <= position_m <= hi:
-            raise JointLimitError(
-                f"table position {position_m!r} m is outside its travel [{lo}, {hi}] m"
-            )
-        if not 0.0 < speed_m_s <= TABLE_SPEED:
-            raise CellConfigError(
-                f"table speed must be in (0, {TABLE_SPEED}] m/s, got {speed_m_s!r}"
-            )
-        for attempt in range(2):
-            try:
-                self._table.move(position_m, speed_m_s, settle_s)
-            except MotionStoppedError as stop:
-                self._log("collision", str(stop), "stopped")
-                raise SupervisionError(
-                    "collision", f"motion supervision stopped the table ({stop})"
-                ) from None
-            off = self._table.read() - position_m
-            if abs(off) <= self.limits.table_in_position_m:
-                return
-            message = f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
-            self._log("table_in_position", message, "retried" if attempt == 0 else "stopped")
-        raise SupervisionError("table_in_position", f"{message} after a retry")
 
+    @abstractmethod
     def table_position(self) -> float:
         """The table axis readout [m]."""
-        return self._table.read()
 
-    # -- sensors ------------------------------------------------------------------------------
+    @abstractmethod
     def read_ir(self) -> float | None:
         """IR distance [m] along the IR tool's axis, None for no return."""
-        self._require("ir")
-        return self._ir.cast(self._sim.data)
 
+    @abstractmethod
     def read_laser(self) -> LaserReading:
         """One laser line: distances (NaN = no return) and the encoder joints at that instant."""
-        self._require("laser")
-        sim = self._sim
-        return LaserReading(
-            distances=self._laser.cast(sim.data),
-            q_measured=self.read_joints(),
-            table_position_m=self._table.read(),
-            time_s=sim.time,
-        )
-
-    def laser_points_base(self, reading: LaserReading) -> tuple[np.ndarray, np.ndarray]:
-        """Points (M, 3) [m] of the returns in the robot base frame and their ray indices (M,),
-        reconstructed with the NOMINAL kinematics and laser TCP from the measured joints."""
-        from cell.laser import laser_points_base
-
-        return laser_points_base(
-            reading, self.kinematics, self.T_flange_tcp("laser"), self.laser_directions_tcp
-        )
-
-    def _require(self, tool: str) -> None:
-        if self.tool_in_hand != tool:
-            raise ToolChangerError(
-                f"the {tool!r} tool is not in hand (in hand: {self.tool_in_hand}); "
-                f"call change_tool({tool!r}) first"
-            )

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from cell.kinematics import Kinematics
-from cell.sensors import LaserReading
+from cell.readings import LaserReading
 
 
 def laser_points_base(

@@ -29,7 +29,15 @@ import pinocchio as pin
 
 from cell.errors import CellConfigError
 from cell.kinematics import Kinematics
-from models.robot import JOINT_NAMES, JOINT_SPEED, JOINT_TORQUE, Q_HOME, ArmGeometry, arm_xml
+from models.robot import (
+    JOINT_NAMES,
+    JOINT_SPEED,
+    JOINT_TORQUE,
+    Q_HOME,
+    ROBOT_PATH,
+    ArmGeometry,
+    arm_xml,
+)
 from models.robot.arm import servo_actuators
 
 #: Deviation names of the built-in arm, in the order of its deviation vectors (12,).
@@ -576,3 +584,8 @@ def ur5_kinematics() -> Kinematics:
     """Kinematics of the UR5 (ur5_robot.urdf) at the origin, tip frame `tool0`."""
     share = example_robot_data_share()
     return Kinematics.from_urdf(ur5_urdf(), "tool0", package_dirs=[str(share)])
+
+
+def nominal_kinematics() -> Kinematics:
+    """Pinocchio kinematics of the built-in arm (its robot-only MJCF), tip frame `flange`."""
+    return Kinematics.from_mjcf(ROBOT_PATH, "flange")

@@ -1,7 +1,7 @@
 """The virtual cell: the cell's nominal MuJoCo model, posed kinematically, for collision checks.
 
 An offline-programming tool checks a program in its own model of the cell before the program
-moves the robot. This is that model: built from NOMINAL data only (`CellConfig.ideal()`: the
+moves the robot. This is that model: built from NOMINAL data only (a `CellLayout`: the
 robot's nominal arm, the tools' nominal TCPs, the rack at its layout place, the table, and
 the objects at the poses the planner believes, e.g. the virtual model at its estimated pose
 with its convex pieces for contact). Nothing is stepped: the arm's joints, the table's
@@ -23,11 +23,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from cell.build import build_model
-from cell.config import CellConfig, FixedMesh, FixedPrimitive
 from cell.errors import CellConfigError, JointLimitError, UnknownNameError
+from cell.layout import CellLayout, FixedMesh, FixedPrimitive
 from cell.robots import Robot
-from cell.sensors import RAY_GROUPS
+from cell.scene import RAY_GROUPS, build_model
 from models.robot import FINGER_TRAVEL, FLANGE_SITE, JOINT_NAMES, TABLE_TRAVEL, TOOLS
 from registration.rigid import R_to_quat_wxyz
 
@@ -56,12 +55,12 @@ class Contact:
 
 
 class VirtualCell:
-    """The nominal cell of `config` (its errors ignored: `config.ideal()`), posed by
+    """The nominal cell of `layout` (the data sheets' arm and TCPs), posed by
     `set_joints`, `set_table` and `set_tool`, asked for `contacts`."""
 
-    def __init__(self, config: CellConfig) -> None:
-        self.config = config.ideal()
-        self.model = build_model(self.config)  # the nominal arm and TCPs
+    def __init__(self, layout: CellLayout) -> None:
+        self.layout = layout
+        self.model = build_model(layout)  # the nominal arm and TCPs
         self.data = mujoco.MjData(self.model)
         m = self.model
         self._arm_qadr = np.array([m.joint(n).qposadr[0] for n in JOINT_NAMES])
@@ -86,12 +85,12 @@ class VirtualCell:
         by_id = {b: name for name, b in self._tool_body.items()}
         #: The tool each body belongs to (a tool's body, its fingers, its spindle), or None.
         self._tool_of_body = [by_id.get(int(root[b])) for b in range(m.nbody)]
-        self._geom_name = _geom_names(m, self.config, self._tool_of_body)
+        self._geom_name = _geom_names(m, layout, self._tool_of_body)
         self._geom_body = m.geom_bodyid.copy()
         for name in ("finger_left", "finger_right"):
             self.data.qpos[m.joint(name).qposadr[0]] = FINGER_TRAVEL  # open, as the cell starts
         self._margin = -1.0
-        self.q = np.array(self.config.robot.q_home, dtype=float)
+        self.q = np.array(layout.robot.q_home, dtype=float)
         self.table_position_m = 0.0
         self.tool_in_hand: str | None = None
         self.set_joints(self.q)
@@ -105,7 +104,7 @@ class VirtualCell:
     ) -> VirtualCell:
         """The nominal cell of `robot` with its rack at `rack_xyz` [m] and `fixtures` on the
         table at the poses the planner believes."""
-        return cls(CellConfig(robot=robot, rack_xyz=rack_xyz, fixtures=fixtures))
+        return cls(CellLayout(robot=robot, rack_xyz=rack_xyz, fixtures=fixtures))
 
     @property
     def tools(self) -> tuple[str, ...]:
@@ -253,11 +252,11 @@ def _descends(m: mujoco.MjModel, body: int, ancestors: set[int]) -> bool:
     return False
 
 
-def _geom_names(m: mujoco.MjModel, config: CellConfig, tool_of_body: list[str | None]) -> list[str]:
+def _geom_names(m: mujoco.MjModel, layout: CellLayout, tool_of_body: list[str | None]) -> list[str]:
     """A name a user knows for every geom: the object or fixture it belongs to (its exact
     surface and its convex pieces alike), else its tool, else its body (an arm's link),
     else its own name (the world's: the floor)."""
-    fixtures = {o.name for o in config.fixtures}
+    fixtures = {o.name for o in layout.fixtures}
     names = []
     for g in range(m.ngeom):
         geom = m.geom(g).name

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from models import builtin_model
+from models.registry import builtin_model
 from scenarios.campaign import plan_campaign, run_campaign
 
 SHORT = "name: skull\nlocalization:\n  scan: {speed_m_s: 0.25, period_s: 0.02}\n"

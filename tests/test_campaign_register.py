@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from models import builtin_model
+from models.registry import builtin_model
 from registration import invert, make_T
 from registration.synthetic import icosphere
 from scenarios.campaign.evaluate import evaluate_registration

@@ -6,7 +6,7 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
-from cell.selfcheck import CheckReport
+from cell.sim.selfcheck import CheckReport
 from scenarios.cli.app import main
 
 KEYS = {

@@ -8,24 +8,19 @@ import numpy as np
 import pytest
 
 from cell import (
-    CellConfig,
     CellConfigError,
-    CellTruth,
     Controller,
-    DriveErrors,
-    EncoderNoise,
     FixedMesh,
     JointLimitError,
     LaserConfig,
-    TableErrors,
     ToolChangerError,
     UnknownNameError,
     UnreachableTargetError,
-    make_cell,
     nominal_kinematics,
 )
-from cell.build import RealParameters, draw_real_parameters
-from cell.simulation import Simulation
+from cell.sim import CellConfig, CellTruth, DriveErrors, EncoderNoise, TableErrors, make_cell
+from cell.sim.real import RealParameters, draw_real_parameters
+from cell.sim.simulation import Simulation
 from registration.rigid import make_T
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
@@ -251,7 +246,7 @@ def test_mesh_with_convex_pieces_collides_by_its_pieces_and_is_seen_exactly() ->
 
 
 def test_check_report_to_a_missing_folder_is_refused(tmp_path) -> None:
-    from cell.selfcheck import CheckReport, write_json
+    from cell.sim.selfcheck import CheckReport, write_json
 
     report = CheckReport(0, 0.0, 1.0, 0.0, {}, 1.0, 0.0, 0.0, 0.0)
     with pytest.raises(CellConfigError, match="does not exist"):

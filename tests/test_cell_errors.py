@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cell import CellConfig, DriveErrors, TableErrors, ToolErrors, make_cell
-from cell.devices import table_profile
+from cell.sim import CellConfig, DriveErrors, TableErrors, ToolErrors, make_cell
+from cell.sim.devices import table_profile
 from models.robot import TABLE_TOP_POS, TABLE_TRAVEL
 from registration.rigid import pose_error
 

@@ -11,10 +11,11 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from cell import CellConfig, CellConfigError, LooseMesh, make_cell
-from cell.build import OBJECT_GROUP
+from cell import CellConfigError, LooseMesh
 from cell.mass import mesh_mass_properties
-from models import builtin_model
+from cell.scene import OBJECT_GROUP
+from cell.sim import CellConfig, make_cell
+from models.registry import builtin_model
 from registration import MeshModel
 from registration.rigid import invert, make_T, pose_error
 

@@ -7,10 +7,10 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from cell import CellConfig
-from cell.build import build_model
-from cell.selfcheck import fk_max_error, random_controls_warnings
-from cell.simulation import Simulation
+from cell.sim import CellConfig
+from cell.sim.real import build_real_model
+from cell.sim.selfcheck import fk_max_error, random_controls_warnings
+from cell.sim.simulation import Simulation
 from cell.trajectory import joint_trajectory
 from models.robot import (
     JOINT_NAMES,
@@ -74,7 +74,7 @@ def test_perturbed_geometry_changes_the_flange_by_the_given_amounts() -> None:
 
 def test_the_arm_moves_freely_and_tracks() -> None:
     """Large joint moves: no contact between arm bodies, set-points reached within 1e-6 rad."""
-    sim = Simulation(build_model(CellConfig().ideal()))
+    sim = Simulation(build_real_model(CellConfig().ideal()))
     m, d = sim.model, sim.data
     arm_bodies = {
         m.body(n).id for n in ("base", "link1", "link2", "link3", "link4", "link5", "link6")

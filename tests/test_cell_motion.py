@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cell import CellConfig, make_cell
+from cell.sim import CellConfig, make_cell
 from cell.trajectory import joint_trajectory, straight_path
 from models.robot import JOINT_SPEED
 from registration.rigid import R_to_quat_wxyz, invert, make_T, quat_wxyz_to_R

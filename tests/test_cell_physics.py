@@ -9,7 +9,8 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from cell import CellConfig, FixedMesh, FixedPrimitive, LoosePart, make_cell
+from cell import FixedMesh, FixedPrimitive, LoosePart
+from cell.sim import CellConfig, make_cell
 from registration.rigid import invert, make_T, pose_error
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])

@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell import CellConfig, make_cell
 from cell.errors import CellConfigError
 from cell.robots import irb2400, load_arm_model, make_robot, robot_from_file, ur5, ur5_urdf
+from cell.sim import CellConfig, make_cell
 
 #: MuJoCo and Pinocchio agree to rounding on the same kinematic chain [m].
 FK_TOL_M = 1e-9

@@ -8,9 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cell import CellConfig, SupervisionError, make_cell
-from cell.faults import Fault
-from cell.supervision import ContactSensing
+from cell import SupervisionError
+from cell.sim import CellConfig, make_cell
+from cell.sim.faults import Fault
+from cell.sim.supervision import ContactSensing
 from models.robot import TABLE_TOP_POS
 
 

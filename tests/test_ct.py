@@ -16,9 +16,9 @@ import pytest
 from pydicom.dataset import FileMetaDataset
 from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian, generate_uid
 
-from models import builtin_model
 from models.ct import CTSettings, VolumeError, bone_model, ct_scan, read_plan, read_volume
 from models.ct.volume import Volume
+from models.registry import builtin_model
 from registration import MeshModel
 from scenarios.cli.app import main
 

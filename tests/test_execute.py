@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from cell import CellConfig, make_cell
 from cell.robots import irb2400
+from cell.sim import CellConfig, make_cell
 from models.robot import TOOLS
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config

@@ -14,8 +14,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cell import CellConfig, ToolChangerError, make_cell
-from cell.faults import Fault
+from cell import ToolChangerError
+from cell.sim import CellConfig, make_cell
+from cell.sim.faults import Fault
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.tcp_check import check_tcp

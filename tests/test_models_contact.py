@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from models import builtin_model
+from models.registry import builtin_model
 
 
 def _drop(name: str) -> tuple[float, float]:

@@ -6,13 +6,9 @@ import igl
 import numpy as np
 import pytest
 
-from models import (
-    ModelErrorSpec,
-    ModelParameterError,
-    apply_model_error,
-    builtin_model,
-    real_model,
-)
+from models.errors import ModelParameterError
+from models.model_error import ModelErrorSpec, apply_model_error
+from models.registry import builtin_model, real_model
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import models.implicit as implicit
-from models import ModelParameterError
+from models.errors import ModelParameterError
 
 
 def _sphere(p: np.ndarray) -> np.ndarray:

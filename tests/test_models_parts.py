@@ -7,13 +7,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from models import (
-    MeshDataError,
-    OperationFrame,
-    UnknownModelError,
-    builtin_model,
-    builtin_names,
-)
+from models.errors import MeshDataError, UnknownModelError
+from models.registry import builtin_model, builtin_names
+from models.targets import OperationFrame
 
 # Volumes from the drawings [mm^3]; holes are 48-gon prisms: area (48/2) r^2 sin(2 pi/48).
 _POLYGON = 24 * np.sin(2 * np.pi / 48)

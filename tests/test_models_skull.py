@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from models import ModelParameterError, builtin_model, make_skull
+from models.errors import ModelParameterError
+from models.registry import builtin_model
+from models.skull import make_skull
 
 
 @pytest.fixture(scope="module")

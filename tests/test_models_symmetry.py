@@ -8,7 +8,7 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from models import builtin_model
+from models.registry import builtin_model
 from registration import MeshModel, match
 
 NOISE = 0.1e-3  # laser range noise [m]

@@ -9,17 +9,11 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from models import (
-    MeshDataError,
-    MeshFileError,
-    ModelParameterError,
-    TriangleMesh,
-    UnknownModelError,
-    builtin_model,
-    load_mesh_file,
-    load_model,
-    write_mesh,
-)
+from models.errors import MeshDataError, MeshFileError, ModelParameterError, UnknownModelError
+from models.export import write_mesh
+from models.mesh import TriangleMesh
+from models.registry import builtin_model, load_model
+from models.user_mesh import load_mesh_file
 
 
 @pytest.fixture(scope="module")

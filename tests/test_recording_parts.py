@@ -10,7 +10,7 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from models import builtin_model
+from models.registry import builtin_model
 from scenarios.outputs.recording.scene import MOVED, CellScene
 from scenarios.outputs.recording.targets import ellipsoids, magnification
 from scenarios.outputs.residuals import OFF_MODEL_M, signed_residuals

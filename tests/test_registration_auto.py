@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 import pytest
 
-from models import builtin_model
+from models.registry import builtin_model
 from registration import MeshModel, match, pose_error, transform_points
 from registration.synthetic import asymmetric_blob, partial_scan
 

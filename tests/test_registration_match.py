@@ -239,7 +239,7 @@ def test_the_judge_prefers_the_pose_that_explains_the_whole_scan() -> None:
     # true pose is the identity. Slid 4 mm along its length, the scan still lies on the
     # model but for the strip beyond the end face (about 5 % of it). Handed the slid pose
     # as the better one, the judge prefers the other and finds no rival.
-    from models import builtin_model
+    from models.registry import builtin_model
     from registration.judge import Judge
     from registration.search import SearchSettings
 

@@ -13,17 +13,17 @@ import pytest
 import trimesh
 from rrd_reader import read_rrd
 
-from cell.config import FixedMesh
+from cell.layout import FixedMesh
 from cell.robots import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, TABLE_TOP_POS
 from scenarios.campaign import plan_campaign, run_campaign
 from scenarios.cli import main
 from scenarios.jobs import pipeline
-from scenarios.jobs.config import Scan
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.scan_plan import ErrorModel, ScanPlanError, plan_job_scan
+from scenarios.offline.settings import Scan
 
 #: The planner's errors for the test parts: the configuration's defaults (laser noise, model
 #: error over 2 cm, the arm's pass offset), thinned to 3 mm.
@@ -58,7 +58,7 @@ def _plan(
     V, F = np.asarray(mesh.vertices), np.asarray(mesh.faces)
     robot = irb2400()
     cell = VirtualCell.of(robot, RACK_POS, (FixedMesh("object", V, F, T, (V,)),))
-    laser = cell.config.laser
+    laser = cell.layout.laser
     return plan_job_scan(
         robot.kinematics().for_tool("laser"), cell, ObjectBox.of(V, T), section, ERRORS, T,
         targets, robot.q_home, robot.joint_speed,
@@ -233,7 +233,7 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
     robot = irb2400()
     cell = VirtualCell.of(robot, RACK_POS, (FixedMesh("object", V, F, T, (V,)),))
     kin = robot.kinematics().for_tool("laser")
-    laser = cell.config.laser
+    laser = cell.layout.laser
     section = Scan.model_validate(
         {"plan": "auto", "min_points": 100,
          "planning": {"tilts_deg": [50.0, 70.0], "headings_deg": [0, 90, 180, -90],
@@ -290,8 +290,8 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
 def test_a_pass_with_its_own_standoff_looks_from_that_far() -> None:
     """From above, the laser's TCP sweeps at the pass' stand-off over the box's top (the
     scan's own where the pass gives none)."""
-    from scenarios.jobs.config import ScanPass
     from scenarios.offline.scan import plan_pass
+    from scenarios.offline.settings import ScanPass
 
     robot = irb2400()
     kin = robot.kinematics().for_tool("laser")

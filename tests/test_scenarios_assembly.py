@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from cell import CellConfig, FixedMesh, LooseMesh, make_cell, nominal_T_base_table
-from models import builtin_model
+from cell import FixedMesh, LooseMesh, nominal_T_base_table
+from cell.sim import CellConfig, make_cell
+from models.registry import builtin_model
 from registration import pose_error
 from scenarios.jobs.config import load_config
 from scenarios.jobs.runner import RunOptions, run_job
@@ -183,7 +184,8 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     """Rebuild the real cell from the seed (same draws, the part loose on the table and
     settled as built) and compare the reported 3D pose error with one computed here from the
     truth and the estimated pose."""
-    from models import ModelErrorSpec, real_model
+    from models.model_error import ModelErrorSpec
+    from models.registry import real_model
     from scenarios.offline.operations import screw_targets
     from scenarios.realcell.placement import draw_true_pose
     from scenarios.realcell.setup import cell_config

@@ -12,15 +12,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from cell import (
-    CellConfig,
-    CellTruth,
-    Controller,
-    Kinematics,
-    LaserConfig,
-    make_cell,
-    nominal_T_base_slot,
-)
+from cell import Controller, Kinematics, LaserConfig, nominal_T_base_slot
+from cell.sim import CellConfig, CellTruth, make_cell
 from models.robot import LASER, SCREWER
 from scenarios.jobs.config import ConfigError, parse_config
 from scenarios.offline.calibration import (

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import builtin_model
+from models.registry import builtin_model
 from registration import MeshModel
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
@@ -61,9 +61,9 @@ def test_skull_job_on_a_users_ct_volume_and_plan(tmp_path: Path) -> None:
     targets: the bone is meshed, the plan lands on it, the job runs within its goals."""
     import nibabel as nib
 
-    from models import builtin_model
     from models.ct import CTSettings, ct_scan
     from models.ct.volume import RAS_FROM_LPS
+    from models.registry import builtin_model
 
     skull = builtin_model("skull")
     volume = ct_scan(skull.mesh, CTSettings(voxel_mm=(1.0, 1.0, 1.0)), np.random.default_rng(1))

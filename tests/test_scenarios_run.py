@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 import yaml
 
-from cell import FixedMesh, make_cell
+from cell import FixedMesh
+from cell.sim import make_cell
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.jobs.pipeline import object_models

@@ -7,14 +7,16 @@ import numpy as np
 import pytest
 from igl import point_mesh_squared_distance
 
-from cell import FixedMesh, make_cell, nominal_T_base_table
+from cell import FixedMesh, nominal_T_base_table
+from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
-from scenarios.jobs.config import JobConfig, LocalizationSection, Scan
+from scenarios.jobs.config import JobConfig
 from scenarios.jobs.pipeline import object_models
 from scenarios.offline.localization import localize
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.program import burr_hole_operations, execute_program, plan_program
 from scenarios.offline.scan import ObjectBox, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.settings import LocalizationSection, Scan
 from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from models import ObjectModel, TriangleMesh
+from models.mesh import TriangleMesh
+from models.model import ObjectModel
 from scenarios.offline.targets import TargetsFileError, generate_targets, read_targets, targets_path
 
 

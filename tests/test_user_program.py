@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from cell import nominal_T_base_table
 from cell.robots import irb2400
-from models import builtin_model
+from models.registry import builtin_model
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.offline.placement import nominal_pose

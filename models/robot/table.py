@@ -42,7 +42,7 @@ def table_worldbody_xml() -> str:
 
 
 #: The carriage's guideway errors (straightness, pitch, yaw) are joints held by stiff servos
-#: at the values the real axis has at its position (cell.devices.TableAxis).
+#: at the values the real axis has at its position (cell.sim.devices.TableAxis).
 TABLE_GUIDE_JOINTS: tuple[str, ...] = ("table_x", "table_z", "table_pitch", "table_yaw")
 
 

@@ -12,12 +12,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from scenarios.campaign.errors import CampaignError
-from scenarios.jobs.config import (
-    Placement,
-    Registration,
-    describe_validation_error,
-    fault_mapping,
-)
+from scenarios.jobs.config import Placement, describe_validation_error, fault_mapping
+from scenarios.offline.settings import Registration
 
 _SKULL = Registration()  # the skull job's verdict thresholds: the trials judge alike
 

@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from models import ObjectModel, builtin_model, real_model
+from models.model import ObjectModel
 from models.model_error import ModelErrorSpec
+from models.registry import builtin_model, real_model
 from registration import Acceptance, MeshModel, ScanPasses, invert, match
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_config import RegisterConfig, parse_register_config

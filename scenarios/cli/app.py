@@ -43,7 +43,7 @@ def check(
     """Self-check of the cell: physics, FK/IK, tool changes, table, laser. Exit 0 if all hold."""
     from rich.console import Console
 
-    from cell.selfcheck import render, run_check, write_json
+    from cell.sim.selfcheck import render, run_check, write_json
 
     report = run_check()
     Console().print(render(report))
@@ -58,8 +58,8 @@ def _volume_model(path: str, iso: float, units: str, out: str | None) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from models import write_mesh
     from models.ct import bone_model, read_volume
+    from models.export import write_mesh
 
     volume = read_volume(path)
     bone = bone_model(volume, iso_hu=iso)
@@ -117,8 +117,10 @@ def model(
     from rich.table import Table
     from rich.text import Text
 
-    from models import check_model, load_model, write_mesh
+    from models.check import check_model
     from models.ct.readers import is_volume
+    from models.export import write_mesh
+    from models.registry import load_model
 
     if is_volume(name):
         _volume_model(name, iso, units, out)
@@ -327,7 +329,7 @@ def _print_faults() -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from cell.faults import FAULT_KINDS
+    from cell.sim.faults import FAULT_KINDS
 
     table = Table(title="faults of the real cell (--fault NAME[=AMOUNT])")
     for column in ("fault", "what happens", "amount", "default", "stage", "option"):

@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from cell.robots import Robot
-from models import ObjectModel
 from models.atomic import write_text
+from models.model import ObjectModel
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, load_config
 from scenarios.jobs.exported import (

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from models import ObjectModel
+from models.model import ObjectModel
 from models.robot import TOOLS
 from scenarios.jobs.config import JobConfig
 from scenarios.offline.operations import UserProgram

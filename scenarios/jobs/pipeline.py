@@ -14,27 +14,26 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cell import Controller, Kinematics, nominal_T_base_table
+from cell import Kinematics, nominal_T_base_table
 from cell.errors import CellConfigError, SupervisionError
-from cell.faults import FAULT_KINDS, Fault
 from cell.robots import Robot, make_robot
-from models import ObjectModel, real_model
+from cell.sim.faults import FAULT_KINDS, Fault
 from models.atomic import write_text
-from registration import Acceptance, MeshModel, transform_points
+from models.model import ObjectModel
+from models.registry import real_model
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import JobConfig, Registration, RobotSection
+from scenarios.jobs.config import JobConfig, RobotSection
 from scenarios.jobs.exported import EXECUTION_FILE, execute_in_cell, job_targets, read_program
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.localization import Localization, localize, stray_returns
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -45,103 +44,60 @@ from scenarios.offline.operations import (
     target_operations,
     virtual_model,
 )
-from scenarios.offline.pick import execute_pick
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.premotion import (
-    PremotionCheck,
-    PremotionLimits,
-    check_program,
     clear_of,
     job_virtual_cell,
     placement_uncertainty_m,
 )
-from scenarios.offline.probing import ProbeResult, probe_part
-from scenarios.offline.program import OfflineProgram, execute_program, plan_program
+from scenarios.offline.probing import probe_part
+from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import Filter
 from scenarios.offline.rapid_module import RapidError, with_oframe
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import (
     ObjectBox,
-    PlannedPass,
-    ScanData,
-    crop_to_object,
-    execute_scan,
-    plan_scan,
 )
-from scenarios.offline.scan_plan import ScanPlan, error_model, plan_job_scan, replan
-from scenarios.offline.tcp_check import checked_tool
-from scenarios.offline.verify import Verification, verify_registration
+from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.ct import ct_virtual_model
 from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell, build_job_cell, model_error
+from scenarios.stages.context import StageContext
+from scenarios.stages.execute import execute_stage
+from scenarios.stages.program import ProgramStage, check_stage, program_stage
+from scenarios.stages.register import LocatedPose, stray_message, surface_pose
+from scenarios.stages.scan import ScanStage, job_scan_plan, scan_stage
+from scenarios.stages.verify import verify_stage
 
 Progress = Callable[[str], None]
-#: The arm's accuracy per axis [m] when the job does not tell the matcher (the configuration's
-#: default, a data sheet's 0.3 mm in all): the verification needs it.
-PASS_SIGMA_M = float(Registration().pass_sigma_m or 0.0)
-
-
-# -- the stages' typed results ------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class ScanStage:
-    """The scan: what the laser measured, which points were kept as the object's (N,),
-    those points (M, 3) in the nominal table frame, and the passes it ran."""
-
-    scan: ScanData
-    keep: np.ndarray
-    points_table: np.ndarray
-    plan: tuple[PlannedPass, ...] = ()
-    scan_time_s: float = 0.0
-
-
-@dataclass(frozen=True, eq=False)
-class LocatedPose:
-    """One localization method's pose of the object in the nominal table frame (4, 4), or
-    None; whether it may drive a program, and why not."""
-
-    method: str
-    T_table_object: np.ndarray | None
-    accepted: bool
-    reason: str
-    localization: Localization | None = None
-    probe: ProbeResult | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class ProgramStage:
-    """The corrected programs: the pick (if any) and the operations, by method."""
-
-    pick: OfflineProgram | None
-    operations: dict[str, OfflineProgram]
 
 
 # -- the runner's hooks: the truth recorded at the stages' moments -------------------------------
 class RunHooks:
     """The stages' moments go to the evaluator (it records the truth then), their moves to
-    the recording (the true bodies, the arm's path)."""
+    the recording (the true bodies, the arm's path), their progress and their checks to the
+    run's `say` and `detect`."""
 
-    def __init__(self, evaluator: Evaluator, log: CellLog) -> None:
-        self.evaluator = evaluator
-        self.log = log
+    def __init__(
+        self,
+        evaluator: Evaluator,
+        log: CellLog,
+        say: Progress,
+        detect: Callable[[str, str, str], None],
+    ) -> None:
+        self._evaluator = evaluator
+        self._log = log
+        self.say = say
+        self.detect = detect
 
     def moment(self, name: str, tool: str) -> None:
-        self.evaluator.record_touch(name, tool)
+        self._evaluator.record_touch(name, tool)
 
     def moved(self, what: str) -> None:
-        self.log.moved(what)
-
-
-def _acceptance(config: JobConfig) -> Acceptance:
-    r = config.localization.registration
-    return Acceptance(
-        max_rms=r.max_rms_m,
-        min_inlier_fraction=r.min_inlier_fraction,
-        max_ambiguity=r.max_ambiguity,
-        max_predicted_tre=r.max_predicted_tre_m,
-    )
+        self._log.moved(what)
 
 
 def target_points(virtual: ObjectModel, targets: tuple[Any, ...]) -> np.ndarray | None:
@@ -153,141 +109,12 @@ def target_points(virtual: ObjectModel, targets: tuple[Any, ...]) -> np.ndarray 
     return np.array([holes[t.name] for t in targets])
 
 
-# -- the stages ---------------------------------------------------------------------------------
-def scan_stage(
-    controller: Controller,
-    box: Any,
-    config: JobConfig,
-    say: Progress,
-    hooks: RunHooks,
-    model: CellModel,
-    detect: Callable[[str, str, str], None] | None = None,
-    scan_plan: ScanPlan | None = None,
-) -> ScanStage:
-    """Plan the laser passes in the virtual cell, run them on the real one (the points
-    rebuilt with the cell's `model`; a pass that lost a stretch run again, `detect` told),
-    keep the points within the object's nominal footprint."""
-    section = config.localization.scan
-    kin = controller.kinematics.for_tool("laser")
-    if scan_plan is None or scan_plan.mode == "fixed":
-        plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table)
-    else:  # the chosen passes, for the arm and table the cell now believes
-        section = section.model_copy(update={"speed_m_s": scan_plan.speed_m_s})
-        plan = replan(kin, box, section, scan_plan, model.T_base_table)
-    say(f"scan plan: {len(plan)} passes at table positions {[p.table_position_m for p in plan]}")
-    scan = execute_scan(controller, plan, section, say, model, detect)
-    keep = crop_to_object(scan.points_table, box, section.crop_margin_m)
-    say(
-        f"scan: {len(scan.points_table)} points, {int(keep.sum())} on the object, "
-        f"{scan.seconds:.1f} s of scan motions"
-    )
-    return ScanStage(scan, keep, scan.points_table[keep], plan, scan.seconds)
-
-
-def job_scan_plan(
-    robot: Robot,
-    config: JobConfig,
-    virtual: ObjectModel,
-    T_table_object: np.ndarray,
-    targets_model: np.ndarray,
-    say: Progress,
-    target_names: tuple[str, ...] | None = None,
-) -> ScanPlan:
-    """The job's scan plan in its virtual cell (scenarios.offline.scan_plan) with the nominal
-    arm and table, for the operation targets (K, 3, model frame) named `target_names`."""
-    section = config.localization.scan
-    registration = config.localization.registration
-    pass_sigma = registration.pass_sigma_m if registration.pass_sigma_m is not None else 0.0
-    name = object_name(config)
-    cell = job_virtual_cell(
-        robot, config.cell.rack_xyz, virtual, T_table_object, config.calibration.enabled, name
-    )
-    laser = cell.config.laser  # the laser's data sheet: rays, range, grazing limit
-    kin = robot.kinematics().for_tool("laser")
-    shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
-    noise = section.planning.range_sigma_m
-
-    def unambiguous(points_table: np.ndarray, labels: np.ndarray) -> bool:
-        """Whether the job's match finds one pose, the right one, in a scan of these points
-        (the laser's range noise added, seeded)."""
-        rng = np.random.default_rng(config.seed)
-        noisy = points_table + rng.normal(0.0, noise, points_table.shape)
-        located = localize(
-            noisy, shape, registration.max_points, _acceptance(config), config.seed,
-            registration.voxel_m, registration.mode, pass_labels=labels,
-            pass_sigma_m=registration.pass_sigma_m, targets_model=targets_model,
-        )  # fmt: skip
-        moved = transform_points(located.T_table_object, targets_model) - transform_points(
-            T_table_object, targets_model
-        )
-        return located.result.verdict == "accepted" and float(
-            np.max(np.linalg.norm(moved, axis=1))
-        ) < max(1e-3, 10 * noise)
-
-    plan = plan_job_scan(
-        kin, cell, ObjectBox.of(virtual.mesh.vertices, T_table_object), section,
-        error_model(section, registration.voxel_m, registration.max_points, pass_sigma),
-        T_table_object, targets_model, robot.q_home, robot.joint_speed,
-        (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
-         laser.max_incidence_rad),
-        object_name=name, say=say, unambiguous=unambiguous, target_names=target_names,
-        acceptable_tre_m=registration.max_predicted_tre_m,
-    )  # fmt: skip
-    say(
-        f"scan plan ({plan.mode}): {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"
-        f", worst predicted TRE {plan.predicted_tre_max_m * 1e3:.3f} mm"
-    )
-    return plan
-
-
-def surface_pose(
-    scanned: ScanStage,
-    virtual: ObjectModel,
-    config: JobConfig,
-    prior: np.ndarray | None,
-    say: Progress,
-) -> LocatedPose:
-    """Surface matching of the scan to the virtual model, with a verdict per operation
-    target; too few object points refuse it."""
-    section = config.localization
-    if len(scanned.points_table) < section.scan.min_points:
-        reason = (
-            f"the scan has {len(scanned.points_table)} object points, fewer than the "
-            f"{section.scan.min_points} required"
-        )
-        return LocatedPose("surface", None, False, reason)
-    r = section.registration
-    located = localize(
-        scanned.points_table,
-        MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
-        r.max_points,
-        _acceptance(config),
-        config.seed,
-        r.voxel_m,
-        r.mode,
-        prior,  # the start of mode "refine" only
-        scanned.scan.line_pass[scanned.scan.line_index][scanned.keep],
-        r.pass_sigma_m,
-        targets_model=np.array([h.p_entry for h in virtual.burr_holes]),
-    )
-    m = located.result
-    say(f"match: {m.verdict} (rms {m.rms * 1e3:.3f} mm, ambiguity {m.ambiguity:.2f}, "
-        f"{m.seconds:.2f} s)")  # fmt: skip
-    accepted = m.verdict == "accepted"
-    return LocatedPose("surface", located.T_table_object, accepted, m.reason, localization=located)
-
-
+# -- the runner ---------------------------------------------------------------------------------
 def localize_by_surface(
-    stage: str,
-    controller: Controller,
-    cell: JobCell,
-    config: JobConfig,
-    virtual: ObjectModel,
+    ctx: StageContext,
+    log: CellLog,
     poses: dict[str, LocatedPose],
     model: CellModel,
-    say: Progress,
-    hooks: RunHooks,
-    detect: Callable[[str, str, str], None],
     enter: Callable[[str], None],
     recording: Any | None,
     timings: dict[str, float],
@@ -295,190 +122,43 @@ def localize_by_surface(
     scan_plan: ScanPlan | None = None,
 ) -> ScanStage:
     """The scan and its surface match (into `poses["surface"]`), each its own stage."""
-    enter(stage)
+    enter("scan")
     t0 = time.perf_counter()
-    cell.log.phase("scan", "the laser's passes over the object")
-    scanned = scan_stage(controller, cell.box, config, say, hooks, model, detect, scan_plan)
+    log.phase("scan", "the laser's passes over the object")
+    scanned = scan_stage(ctx, model, scan_plan)
     timings["scan"] = timings.get("scan", 0.0) + time.perf_counter() - t0
     if recording is not None:
         recording.log_scan(scanned.scan, scanned.keep)
-    hooks.moved("view")
+    ctx.hooks.moved("view")
     outputs.write_ply(folder / "scan.ply", scanned.points_table)
     enter("register")
     t0 = time.perf_counter()
     prior = poses["probe"].T_table_object if "probe" in poses else None
-    cell.log.phase("register", "the scan to the virtual model (its steps on the timeline icp)")
-    poses["surface"] = surface_pose(scanned, virtual, config, prior, say)
+    log.phase("register", "the scan to the virtual model (its steps on the timeline icp)")
+    labels = scanned.scan.line_pass[scanned.scan.line_index][scanned.keep]
+    pose = surface_pose(
+        scanned.points_table, labels, ctx.virtual, ctx.settings, prior, ctx.hooks.say
+    )
+    poses["surface"] = pose
     timings["register"] = timings.get("register", 0.0) + time.perf_counter() - t0
-    located = poses["surface"].localization
-    if not poses["surface"].accepted:
-        detect("match_refused", poses["surface"].reason, "refused")
+    located = pose.localization
+    if not pose.accepted:
+        ctx.hooks.detect("match_refused", pose.reason, "refused")
     if located is not None:
-        stray = stray_returns(
-            scanned.points_table,
-            MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
-            located.T_table_object,
-            located.result.rms,
-        )
+        stray = stray_message(scanned.points_table, ctx.virtual, located)
         if stray:
-            message = (
-                f"{stray} scan points ({100 * stray / len(scanned.points_table):.2f} %) lie "
-                "off the matched model: spurious returns or something else on the table"
-            )
-            detect("scan_outliers", message, "left out by the match")
+            ctx.hooks.detect("scan_outliers", stray, "left out by the match")
     if recording is not None and located is not None:
         recording.log_registration(
-            controller.time_s, located.result, virtual, scanned.points_table, located.points_used
+            ctx.controller.time_s,
+            located.result,
+            ctx.virtual,
+            scanned.points_table,
+            located.points_used,
         )
     return scanned
 
 
-def verify_stage(
-    controller: Controller,
-    virtual: ObjectModel,
-    config: JobConfig,
-    poses: dict[str, LocatedPose],
-    scanned: ScanStage,
-    programs: ProgramStage,
-    box: ObjectBox,
-    model: CellModel,
-    say: Progress,
-) -> Verification:
-    """Scan a strip of the object again at the program's table position, match it on its
-    own and compare where the two matches put the targets (scenarios.offline.verify)."""
-    pose = poses["surface"]
-    assert pose.localization is not None and pose.T_table_object is not None
-    program = next(iter(programs.operations.values()))
-    pass_sigma = config.localization.registration.pass_sigma_m
-    targets = tuple((h.name, h.p_entry) for h in virtual.burr_holes)
-    verdict = verify_registration(
-        controller,
-        virtual,
-        pose.T_table_object,
-        pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre,
-        scanned.scan,
-        scanned.keep,
-        scanned.plan,
-        targets,
-        box,
-        config.localization.scan,
-        program.table_position_m,
-        model,
-        PASS_SIGMA_M if pass_sigma is None else pass_sigma,
-        say,
-    )
-    say(f"verify: {'agrees' if verdict.agrees else 'DISAGREES'}: {verdict.summary()}")
-    return verdict
-
-
-def check_stage(
-    controller: Controller, virtual: ObjectModel, config: JobConfig, programs: ProgramStage
-) -> PremotionCheck | None:
-    """Each corrected program followed in the virtual cell before it moves
-    (scenarios.offline.premotion); the first check that fails, or None. The pick is not
-    checked: its part moves with the gripper."""
-    name = object_name(config)
-    for program in programs.operations.values():
-        cell = job_virtual_cell(
-            controller.robot,
-            config.cell.rack_xyz,
-            virtual,
-            program.T_table_object,
-            config.calibration.enabled,
-            name,
-        )
-        check = check_program(
-            program,
-            controller.kinematics,
-            cell,
-            controller.q_home,
-            controller.T_flange_tcp(program.tool),
-            object_name=name,
-        )
-        if not check.ok:
-            return check
-    return None
-
-
-def program_stage(
-    controller: Controller,
-    virtual: ObjectModel,
-    config: JobConfig,
-    poses: tuple[LocatedPose, ...],
-    user: UserProgram | None,
-    model: CellModel,
-) -> ProgramStage:
-    """Correct and solve the operations with the first method's pose (and, with
-    `per_method`, once with each accepted method's pose), and the pick before them. A
-    user's program keeps its poses (no spin about the tool axis) and its table position."""
-    section = config.operations
-    kin = controller.kinematics
-    pick = None
-    if section.pick is not None:
-        pick = plan_program(
-            kin.for_tool("gripper"),
-            controller.T_flange_tcp("gripper"),
-            "gripper",
-            (grasp_operation(virtual, section.pick),),
-            poses[0].T_table_object,  # type: ignore[arg-type]
-            controller.read_joints(),
-            spins=2,
-            table=model.T_base_table,
-        )
-    if user is None:
-        operations = target_operations(virtual, section)
-        spins, table = section.spins, None
-    else:
-        operations, spins, table = program_operations(user), 1, (user.table_position_m,)
-    programs: dict[str, OfflineProgram] = {}
-    for pose in poses if section.per_method else poses[:1]:
-        if pose.T_table_object is None or not pose.accepted:
-            continue
-        prefix = f"{pose.method}:" if section.per_method else ""
-        programs[pose.method] = plan_program(
-            kin.for_tool(section.tool),
-            controller.T_flange_tcp(section.tool),
-            section.tool,
-            tuple(replace(op, name=prefix + op.name) for op in operations),
-            pose.T_table_object,
-            controller.read_joints(),
-            spins,
-            **({} if table is None else {"table_positions": table}),
-            table=model.T_base_table,
-            joint_margin_rad=PremotionLimits().joint_margin_rad,
-        )
-    return ProgramStage(pick, programs)
-
-
-def execute_stage(
-    controller: Controller,
-    programs: ProgramStage,
-    config: JobConfig,
-    hooks: RunHooks,
-    say: Progress,
-    detect: Callable[[str, str, str], None],
-) -> None:
-    """Run the pick, then each program: the program's tool taken and checked at the beam
-    (scenarios.offline.tcp_check), then at each target the tool stops at the touch (and the
-    screwer spins for `screw`)."""
-    section = config.operations
-    if programs.pick is not None and section.pick is not None:
-        execute_pick(controller, programs.pick, section.pick, hooks)
-    for method, program in programs.operations.items():
-        checked_tool(controller, program.tool, say, detect)
-
-        def at_target(name: str) -> None:
-            hooks.moment(name, section.tool)
-            if section.kind == "screw":
-                controller.spin_screwer(section.screw_speed_rad_s, section.screw_s)
-
-        execute_program(
-            controller, program, section.touch_speed_m_s, on_touch=at_target, on_move=hooks.moved
-        )
-        say(f"{method}: {len(program.operations)} operations at table {program.table_position_m} m")
-
-
-# -- the runner ---------------------------------------------------------------------------------
 def object_models(
     config: JobConfig, user: UserProgram | None = None
 ) -> tuple[ObjectModel, ObjectModel]:
@@ -486,8 +166,14 @@ def object_models(
     the touches of the user's program; what the planner knows) and its real entity (the
     model error drawn from the seed, or with `model.source: ct` the design itself, the
     virtual model being meshed from its simulated CT: the truth)."""
+    obj = config.cell.object
     virtual = virtual_model(
-        config.cell.object, config.operations.kind, config.seed, config.model.ct.iso_hu
+        obj.model,
+        obj.units,
+        obj.targets_file,
+        config.operations.kind,
+        config.seed,
+        config.model.ct.iso_hu,
     )
     if user is not None:
         virtual = replace(virtual, burr_holes=program_targets(user))
@@ -495,11 +181,6 @@ def object_models(
         return ct_virtual_model(virtual, config.model.ct, config.seed), virtual
     real, _ = real_model(virtual, model_error(config.cell.noise), seed=config.seed)
     return virtual, real
-
-
-def object_name(config: JobConfig) -> str:
-    """The job's object's name in the cell: "part" for a loose part, else "object"."""
-    return "part" if config.cell.object.fixing == "loose" else "object"
 
 
 def job_robot(section: RobotSection) -> Robot:
@@ -547,7 +228,7 @@ def job_cell(
         stream=6 if loose else 5,  # the true placement's random stream
         crop_margin_m=config.localization.scan.crop_margin_m,
         recording=recording,
-        name=object_name(config),
+        name=config.object_name,
         loose=loose,
         rgba=(0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0),
         robot=robot,
@@ -601,6 +282,7 @@ def run_cell_job(
     # The virtual model and the real cell (the truth stays here).
     t0 = time.perf_counter()
     obj = config.cell.object
+    settings = config.planning()  # all that the stages are told of the job
     say(f"model {obj.model!r}: virtual and real entity")
     if config.model.source == "ct":
         ct = config.model.ct
@@ -617,7 +299,7 @@ def run_cell_job(
         )
     user = None if config.operations.program is None else read_user_program(config.operations)
     virtual, real = object_models(config, user)
-    T_table_nominal = nominal_pose(obj.placement, virtual.mesh.vertices)
+    T_table_nominal = nominal_pose(settings.placement, virtual.mesh.vertices)
     if user is not None:
         check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
         say(f"program {config.operations.program}: {len(user.operations)} touches")
@@ -627,7 +309,7 @@ def run_cell_job(
     )
     reach = check_reach(
         robot,
-        config,
+        settings,
         ObjectBox.of(virtual.mesh.vertices, T_table_nominal),
         T_table_nominal,
         operations,
@@ -645,7 +327,7 @@ def run_cell_job(
         # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
         # before the real one moves: a target no pass constrains refuses the job here.
         scan_plan = job_scan_plan(
-            robot, config, virtual, T_table_nominal,
+            robot, settings, virtual, T_table_nominal,
             np.array([op.T_object_touch[:3, 3] for op in operations]), say,
             tuple(op.name for op in operations),
         )  # fmt: skip
@@ -654,7 +336,6 @@ def run_cell_job(
     if recording is not None and scan_plan is not None:
         recording.log_scan_plan(0.0, scan_plan)
     controller, evaluator = cell.controller, cell.evaluator
-    hooks = RunHooks(evaluator, cell.log)
     log = cell.log
     if faults:
         say("faults injected: " + ", ".join(f.name for f in faults))
@@ -689,6 +370,9 @@ def run_cell_job(
             tell(message)
             log.say(message)
 
+    hooks = RunHooks(evaluator, log, lambda message: say(message), detect)
+    ctx = StageContext(controller, virtual, T_table_nominal, cell.box, settings, hooks, user)
+
     timings["setup"] = time.perf_counter() - t0
 
     # The stages, under the controller's supervision: a stop ends them (the arm stands
@@ -722,9 +406,9 @@ def run_cell_job(
         ordered = tuple(poses[m] for m in methods)
         if not ordered[0].accepted:
             return ProgramStage(None, {})
-        programs = program_stage(controller, virtual, config, ordered, user, model)
+        programs = program_stage(ctx, ordered, model)
         enter("check")
-        check = check_stage(controller, virtual, config, programs)
+        check = check_stage(ctx, programs)
         if check is None:
             say("check: the corrected program passes in the virtual cell")
             return programs
@@ -739,14 +423,16 @@ def run_cell_job(
             enter("calibrate")
             t0 = time.perf_counter()
             log.phase("calibrate", "the arm, the laser and the table, on the spheres")
-            name = object_name(config)
+            name = config.object_name
             views_clear = clear_of(
                 job_virtual_cell(
-                    controller.robot, config.cell.rack_xyz, virtual, T_table_nominal, True, name
+                    controller.robot, settings.rack_xyz, virtual, T_table_nominal, True, name
                 ),
                 "laser",
                 name,
-                placement_uncertainty_m(config.cell.object.placement, cell.box.radius_xy),
+                placement_uncertainty_m(
+                    settings.tolerance, settings.placement.lift_m, cell.box.radius_xy
+                ),
             )
             calibration = calibrate_arm(
                 controller,
@@ -781,9 +467,8 @@ def run_cell_job(
             hooks.moved("view")
         if "surface" in methods:
             scanned = localize_by_surface(
-                "scan", controller, cell, config, virtual, poses, model, say, hooks, detect,
-                enter, recording, timings, folder, scan_plan,
-            )  # fmt: skip
+                ctx, log, poses, model, enter, recording, timings, folder, scan_plan
+            )
         time_at_verdict_s = controller.time_s
         t0 = time.perf_counter()
         programs = planned()
@@ -794,9 +479,7 @@ def run_cell_job(
                 enter("verify")
                 log.phase("verify", "the match on patches of the object, away from the targets")
                 assert scanned is not None
-                verdict = verify_stage(
-                    controller, virtual, config, poses, scanned, programs, cell.box, model, say
-                )
+                verdict = verify_stage(ctx, poses["surface"], scanned, programs, model)
                 if verdict.agrees:
                     break
                 message = f"the object disagrees with the match: {verdict.summary()}"
@@ -810,9 +493,8 @@ def run_cell_job(
                     break
                 detect("verification", message, "re-scanned and matched again")
                 scanned = localize_by_surface(
-                    "scan", controller, cell, config, virtual, poses, model, say, hooks,
-                    detect, enter, recording, timings, folder, scan_plan,
-                )  # fmt: skip
+                    ctx, log, poses, model, enter, recording, timings, folder, scan_plan
+                )
                 time_at_verdict_s = controller.time_s
                 programs = planned()
                 if not programs.operations:
@@ -824,7 +506,7 @@ def run_cell_job(
         if primary.accepted and programs.operations:
             enter("execute")
             log.phase("execute", f"the program corrected by the {primary.method} pose")
-            execute_stage(controller, programs, config, hooks, say, detect)
+            execute_stage(ctx, programs)
         elif not primary.accepted:
             say(f"refused: {primary.reason}; no motion towards the object")
         timings["execute"] = time.perf_counter() - t0

@@ -11,7 +11,6 @@ from collections.abc import Callable
 import numpy as np
 
 from cell import Controller
-from scenarios.jobs.config import Calibration
 from scenarios.offline.calibration import (
     DEFAULT_ARTIFACT,
     CalibrationError,
@@ -22,6 +21,7 @@ from scenarios.offline.calibration import (
     calibrate,
 )
 from scenarios.offline.scan import ObjectBox
+from scenarios.offline.settings import Calibration
 
 Progress = Callable[[str], None]
 

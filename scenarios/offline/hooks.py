@@ -1,4 +1,5 @@
-"""What a stage tells the run while it moves the cell: a moment worth recording and a move.
+"""What a stage tells the run while it moves the cell: a moment worth recording, a move, a
+line of progress, and a check of its own that spoke.
 
 The stages see the real cell only through the controller. The run (the runner) may want to
 record the truth at those moments (the evaluator) or show the cell as it moved (the rerun
@@ -20,6 +21,12 @@ class StageHooks(Protocol):
     def moved(self, what: str) -> None:
         """The arm or the table moved (`what`: e.g. "tool change", "approach", "view")."""
 
+    def say(self, message: str) -> None:
+        """A line of the stage's progress."""
+
+    def detect(self, code: str, message: str, action: str) -> None:
+        """A check of the stage's own spoke (`code`), saw `message` and did `action`."""
+
 
 class NoHooks:
     """Hooks that do nothing (a stage run on its own)."""
@@ -28,4 +35,10 @@ class NoHooks:
         return None
 
     def moved(self, what: str) -> None:
+        return None
+
+    def say(self, message: str) -> None:
+        return None
+
+    def detect(self, code: str, message: str, action: str) -> None:
         return None

@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from models import BurrHole, ObjectModel, load_model
 from models.ct.object import volume_object
 from models.ct.readers import is_volume
+from models.model import ObjectModel
+from models.registry import load_model
+from models.targets import BurrHole
 from registration.rigid import pose_error
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import ObjectSection, OperationsSection, Pick
 from scenarios.offline.program import Operation, burr_hole_operations
 from scenarios.offline.rapid_module import (
     RapidError,
@@ -28,6 +29,7 @@ from scenarios.offline.rapid_module import (
     read_module,
     touch_operations,
 )
+from scenarios.offline.settings import OperationsSection, Pick
 from scenarios.offline.targets import generate_targets, read_targets, targets_path
 
 
@@ -47,21 +49,26 @@ def screw_targets(model: ObjectModel) -> tuple[BurrHole, ...]:
 
 
 def virtual_model(
-    section: ObjectSection, kind: str, seed: int, iso_hu: float = 300.0
+    name: str,
+    units: str,
+    targets_file: str | None,
+    kind: str,
+    seed: int,
+    iso_hu: float = 300.0,
 ) -> ObjectModel:
-    """The virtual model of the job's object with its targets for operations of `kind`:
-    burr holes for touches (the model's own, `targets_file`, a `<mesh>.targets.yaml` beside
-    a mesh file, or generated on its upper surface), screw frames driven from above for
-    screws. A CT volume's model is its bone at `iso_hu` [HU], and a JSON `targets_file` is
-    the plan made on it (models.ct.plan)."""
-    if is_volume(section.model):  # a CT: its bone, and the plan made on it
-        plan = section.targets_file
-        json_plan = plan is not None and plan.lower().endswith(".json")
-        model = volume_object(section.model, iso_hu, plan if json_plan else None, seed)
+    """The virtual model of the object `name` (built in, a mesh file in `units`, or a CT
+    volume) with its targets for operations of `kind`: burr holes for touches (the model's
+    own, `targets_file`, a `<mesh>.targets.yaml` beside a mesh file, or generated on its
+    upper surface), screw frames driven from above for screws. A CT volume's model is its
+    bone at `iso_hu` [HU], and a JSON `targets_file` is the plan made on it
+    (models.ct.plan)."""
+    if is_volume(name):  # a CT: its bone, and the plan made on it
+        json_plan = targets_file is not None and targets_file.lower().endswith(".json")
+        model = volume_object(name, iso_hu, targets_file if json_plan else None, seed)
         if json_plan:
             return model
     else:
-        model, _warnings = load_model(section.model, seed=seed, units=section.units)
+        model, _warnings = load_model(name, seed=seed, units=units)
     if kind == "screw":
         holes = screw_targets(model)
         if not holes:
@@ -70,12 +77,12 @@ def virtual_model(
                 f"{[f.name for f in model.frames]}"
             )
         return replace(model, burr_holes=holes)
-    if section.targets_file is not None:
-        return replace(model, burr_holes=read_targets(section.targets_file, section.units))
+    if targets_file is not None:
+        return replace(model, burr_holes=read_targets(targets_file, units))
     if model.burr_holes:
         return model
-    beside = targets_path(section.model)
-    holes = read_targets(beside, section.units) if beside.is_file() else None
+    beside = targets_path(name)
+    holes = read_targets(beside, units) if beside.is_file() else None
     return replace(model, burr_holes=holes or generate_targets(model, seed=seed))
 
 

@@ -5,10 +5,10 @@ pick pose to put it down, so the program needs no new pose estimate of it."""
 from __future__ import annotations
 
 from cell import Controller
-from scenarios.jobs.config import Pick
 from scenarios.offline.hooks import StageHooks
 from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.program import OfflineProgram, execute_program
+from scenarios.offline.settings import Pick
 
 
 def execute_pick(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenarios.jobs.config import Placement
+from scenarios.offline.settings import NominalPlacement
 
 
 def resting_pose(R: np.ndarray, xy: np.ndarray, vertices: np.ndarray, lift_m: float) -> np.ndarray:
@@ -18,7 +18,7 @@ def resting_pose(R: np.ndarray, xy: np.ndarray, vertices: np.ndarray, lift_m: fl
     return T
 
 
-def nominal_pose(placement: Placement, vertices_object: np.ndarray) -> np.ndarray:
+def nominal_pose(placement: NominalPlacement, vertices_object: np.ndarray) -> np.ndarray:
     """(4, 4) the pose the planner believes: yaw about the table's vertical, resting on it."""
     R = Rotation.from_euler("z", placement.yaw_deg, degrees=True).as_matrix()
     return resting_pose(R, np.array(placement.xy_m), vertices_object, placement.lift_m)

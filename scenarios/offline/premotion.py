@@ -43,11 +43,11 @@ from cell import FixedMesh, FixedPrimitive, Kinematics
 from cell.robots import Robot
 from cell.trajectory import straight_path
 from cell.virtual import Contact, VirtualCell
-from models import ObjectModel
+from models.model import ObjectModel
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import Placement
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
 from scenarios.offline.program import OfflineProgram
+from scenarios.offline.settings import FixtureTolerance
 
 Kind = Literal["reach", "joint_limit", "singularity", "collision"]
 KINDS: tuple[str, ...] = ("reach", "joint_limit", "singularity", "collision")
@@ -478,15 +478,15 @@ def check_program(
     return checker.result(time.perf_counter() - t0)
 
 
-def placement_uncertainty_m(placement: Placement, radius_m: float) -> float:
+def placement_uncertainty_m(tolerance: FixtureTolerance, lift_m: float, radius_m: float) -> float:
     """How far [m] a point of an object of `radius_m` (its footprint about its centre) may
-    be from where its nominal pose puts it, given how it is placed (`placement`'s ranges:
-    sideways, about the vertical, tilted, lifted)."""
+    be from where its nominal pose puts it, given the fixture's `tolerance` (sideways, about
+    the vertical, tilted) and its nominal lift `lift_m` [m] off the table."""
     return float(
-        np.hypot(placement.range_xy_m, placement.range_xy_m)
-        + 2.0 * radius_m * np.sin(np.deg2rad(placement.range_yaw_deg) / 2.0)
-        + radius_m * np.sin(np.deg2rad(placement.range_tilt_deg))
-        + placement.lift_m
+        np.hypot(tolerance.xy_m, tolerance.xy_m)
+        + 2.0 * radius_m * np.sin(np.deg2rad(tolerance.yaw_deg) / 2.0)
+        + radius_m * np.sin(np.deg2rad(tolerance.tilt_deg))
+        + lift_m
     )
 
 

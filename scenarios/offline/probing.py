@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, nominal_T_base_table
-from models import ProbeLine
+from models.targets import ProbeLine
 from scenarios.errors import ScenarioError
 from scenarios.offline.moves import change_tool_safely
 

@@ -16,8 +16,8 @@ import numpy as np
 
 from cell import Controller, Kinematics, nominal_T_base_table
 from cell.errors import CellError
-from models import BurrHole
 from models.robot import TABLE_TRAVEL
+from models.targets import BurrHole
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
 
 

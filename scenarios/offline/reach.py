@@ -18,10 +18,10 @@ from cell import nominal_T_base_slot
 from cell.controller import RACK_APPROACH_M
 from cell.robots import Robot
 from models.robot import TOOLS
-from scenarios.jobs.config import JobConfig
 from scenarios.offline.moves import UnreachablePlanError
 from scenarios.offline.program import Operation, plan_program
 from scenarios.offline.scan import ObjectBox, plan_scan
+from scenarios.offline.settings import PlanningSettings
 
 _TCP = {t.name: t.T_tool_tcp for t in TOOLS}
 
@@ -43,7 +43,7 @@ def _what_to_move(robot: Robot) -> str:
     )
 
 
-def job_tools(config: JobConfig) -> tuple[str, ...]:
+def job_tools(config: PlanningSettings) -> tuple[str, ...]:
     """The tools a job changes to, in the order it uses them."""
     tools = []
     if config.calibration.enabled or "surface" in config.localization.methods:
@@ -75,7 +75,7 @@ def check_slots(robot: Robot, rack_xyz: tuple[float, float, float], tools: tuple
 
 def check_reach(
     robot: Robot,
-    config: JobConfig,
+    config: PlanningSettings,
     box: ObjectBox,
     T_table_object: np.ndarray,
     operations: tuple[Operation, ...],
@@ -87,7 +87,7 @@ def check_reach(
     at the object's nominal pose T_table_object (4, 4) [m], at `table_positions` [m] if the
     program fixes them. Raises UnreachablePlanError naming what is out of reach."""
     tools = job_tools(config)
-    check_slots(robot, config.cell.rack_xyz, tools)
+    check_slots(robot, config.rack_xyz, tools)
     kin = robot.kinematics()
     q = robot.q_home
     scan_tables: tuple[float, ...] = ()

@@ -19,9 +19,9 @@ from cell.errors import CellError, UnreachableTargetError
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
-from scenarios.jobs.config import Scan, ScanPass
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
+from scenarios.offline.settings import Scan, ScanPass
 
 Progress = Callable[[str], None]
 #: Table positions tried, in order, for a pass or an operation that the arm cannot reach [m].

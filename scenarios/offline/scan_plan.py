@@ -34,7 +34,6 @@ from models.robot import LASER, TABLE_SPEED
 from registration import transform_points
 from registration.quality import ResidualCorrelation, ScanPasses, pose_covariance, predicted_tre
 from registration.rigid import invert
-from scenarios.jobs.config import Scan, ScanPass
 from scenarios.offline.localization import voxel_thin
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.offline.premotion import PremotionLimits, joint_move_samples
@@ -47,6 +46,7 @@ from scenarios.offline.scan import (
     risen,
 )
 from scenarios.offline.scan import plan_scan as plan_scan_fixed
+from scenarios.offline.settings import Scan, ScanPass
 
 Progress = Callable[[str], None]
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from models import BurrHole, ObjectModel
+from models.model import ObjectModel
+from models.targets import BurrHole
 from models.units import unit_scale
 from scenarios.errors import ScenarioError
 

@@ -23,10 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller
-from models import ObjectModel
+from models.model import ObjectModel
 from models.robot import LASER
 from registration import Acceptance, MeshModel, invert, transform_points
-from scenarios.jobs.config import Scan
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.localization import localize
 from scenarios.offline.moves import TABLE_CANDIDATES_M
@@ -38,6 +37,7 @@ from scenarios.offline.scan import (
     crop_to_object,
     execute_scan,
 )
+from scenarios.offline.settings import Scan
 
 Progress = Callable[[str], None]
 #: Least allowed difference at a target [m]: below it, the two matches agree within what

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cell import Kinematics, nominal_kinematics
-from models import ObjectModel
 from models.atomic import write_atomic
+from models.model import ObjectModel
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.rapid import Filter, program_module
 from scenarios.offline.scan_plan import ScanPlan

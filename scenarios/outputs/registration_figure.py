@@ -18,7 +18,7 @@ import trimesh
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from models import ObjectModel
+from models.model import ObjectModel
 from registration import MatchResult, invert
 from scenarios.outputs.residuals import (
     COLOUR_MAP,

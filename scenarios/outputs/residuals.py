@@ -6,7 +6,7 @@ from __future__ import annotations
 import matplotlib
 import numpy as np
 
-from models import ObjectModel
+from models.model import ObjectModel
 from registration import MeshModel
 
 #: The colour scale's steps [m]; the smallest that holds 2 sigma of the fit is used.

@@ -8,8 +8,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from models import ObjectModel
 from models.ct import CTSettings, bone_model, ct_scan
+from models.model import ObjectModel
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import CTSection
 

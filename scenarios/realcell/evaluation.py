@@ -15,8 +15,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from cell import CellTruth, Kinematics, nominal_T_base_slot
-from models import ObjectModel
+from cell import Kinematics, nominal_T_base_slot
+from cell.sim import CellTruth
+from models.model import ObjectModel
 from models.robot import TOOLS
 from registration import pose_error, transform_points
 from scenarios.offline.calibration import CalibrationResult
@@ -245,7 +246,7 @@ class Evaluator:
         return poses
 
     def enter(self, stage: str) -> None:
-        """The run enters `stage`: the real cell's faults due then happen (cell.faults)."""
+        """The run enters `stage`: the real cell's faults due then happen (cell.sim.faults)."""
         self._truth.faults.enter(stage)
 
     def faults(self, detections: list[dict[str, Any]]) -> list[dict[str, Any]]:

@@ -11,29 +11,27 @@ from typing import Any
 
 import numpy as np
 
-from cell import (
+from cell import Controller, FixedMesh, FixedPrimitive, LaserConfig, LooseMesh
+from cell.robots import Robot, irb2400
+from cell.sim import (
     ArmErrors,
     CellConfig,
-    Controller,
     DriveErrors,
     EncoderNoise,
-    FixedMesh,
-    FixedPrimitive,
-    LaserConfig,
-    LooseMesh,
     TableErrors,
     ToolErrors,
     make_cell,
 )
-from cell.faults import Fault
-from cell.robots import Robot, irb2400
-from models import ModelErrorSpec, ObjectModel
+from cell.sim.faults import Fault
+from models.model import ObjectModel
+from models.model_error import ModelErrorSpec
 from models.robot import RACK_POS
-from scenarios.jobs.config import Calibration, Noise, Placement
+from scenarios.jobs.config import Noise, Placement
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.scan import ObjectBox
+from scenarios.offline.settings import Calibration
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.placement import draw_true_pose

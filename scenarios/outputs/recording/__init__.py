@@ -27,7 +27,7 @@ import numpy as np
 import rerun as rr
 from scipy.spatial.transform import Rotation
 
-from models import ObjectModel
+from models.model import ObjectModel
 from models.robot.visuals import LinkVisual
 from registration import MatchResult
 from registration.quality import target_covariance

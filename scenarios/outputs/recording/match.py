@@ -20,7 +20,7 @@ import numpy as np
 import rerun as rr
 from matplotlib.figure import Figure
 
-from models import ObjectModel
+from models.model import ObjectModel
 from registration import MatchResult, invert
 from scenarios.outputs.recording.stream import Stream, pose
 from scenarios.outputs.residuals import (

@@ -7,7 +7,7 @@ The controller commands motor angles. A link stops short of its motor by
 - a small random spread redrawn at every move (the arm's pose repeatability),
 - a slow zero drift as the arm warms up (off by default),
 so the encoders (on the motors) read the commanded angles while the links, and the tool,
-are elsewhere. All of it is the real cell's (cell.config.DriveErrors); the controller knows
+are elsewhere. All of it is the real cell's (cell.sim.config.DriveErrors); the controller knows
 none of it.
 """
 
@@ -18,9 +18,9 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from cell.config import DriveErrors
 from cell.kinematics import Kinematics, payload_model
-from cell.simulation import MotionStoppedError, Simulation
+from cell.sim.config import DriveErrors
+from cell.sim.simulation import MotionStoppedError, Simulation
 
 #: The gravity torques are computed every this many set-points of a move and interpolated.
 _EVERY = 10

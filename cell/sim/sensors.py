@@ -9,35 +9,16 @@ A ray that hits nothing, or lands outside the range limits, or too grazing, is "
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from cell.config import IRConfig, LaserConfig
-from cell.faults import FaultInjector
+from cell.layout import IRConfig, LaserConfig
+from cell.scene import RAY_GROUPS
+from cell.sim.faults import FaultInjector
 
 #: Radius of a reflective patch that returns spurious ranges (fault laser_spurious) [m].
 PATCH_RADIUS_M = 0.01
-#: Geom groups the rays see: environment (0) and objects' exact surfaces (1).
-RAY_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
-
-
-@dataclass(frozen=True, eq=False)
-class LaserReading:
-    """One laser line: `distances` (n_rays,) [m], NaN where there was no return, and the
-    measured (encoder) joints `q_measured` (6,) [rad] at the same instant, with the
-    table readout `table_position_m`, the simulated time `time_s`."""
-
-    distances: np.ndarray
-    q_measured: np.ndarray
-    table_position_m: float
-    time_s: float
-
-    @property
-    def valid(self) -> np.ndarray:
-        """(n_rays,) bool: rays with a return."""
-        return np.isfinite(self.distances)
 
 
 class LaserScanner:

@@ -8,15 +8,15 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from cell.build import RealParameters, fault_fixtures
-from cell.config import CellConfig
-from cell.devices import TableAxis
 from cell.errors import UnknownNameError
-from cell.faults import FaultInjector
 from cell.kinematics import Kinematics, payload_model
-from cell.sensors import IRSensor, LaserScanner
-from cell.simulation import Simulation
-from cell.toolchanger import flange_offset
+from cell.sim.config import CellConfig
+from cell.sim.devices import TableAxis
+from cell.sim.faults import FaultInjector
+from cell.sim.real import RealParameters, fault_fixtures
+from cell.sim.sensors import IRSensor, LaserScanner
+from cell.sim.simulation import Simulation
+from cell.sim.toolchanger import flange_offset
 from models.robot import TOOLS
 
 

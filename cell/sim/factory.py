@@ -6,24 +6,20 @@ import mujoco
 import numpy as np
 import trimesh
 
-from cell.build import T_TABLEBODY_TABLE, build_model, draw_real_parameters
-from cell.config import CellConfig, FixedMesh, LooseMesh
-from cell.controller import Controller
-from cell.devices import Encoders, TableAxis
-from cell.drives import Drives
-from cell.faults import FaultInjector
-from cell.kinematics import Kinematics
-from cell.sensors import IRSensor, LaserScanner
-from cell.simulation import Simulation
-from cell.toolchanger import ToolChanger
-from cell.truth import CellTruth
-from models.robot import IR, LASER, ROBOT_PATH
+from cell.layout import FixedMesh, LooseMesh
+from cell.scene import T_TABLEBODY_TABLE
+from cell.sim.config import CellConfig
+from cell.sim.controller import SimController
+from cell.sim.devices import Encoders, TableAxis
+from cell.sim.drives import Drives
+from cell.sim.faults import FaultInjector
+from cell.sim.real import build_real_model, draw_real_parameters
+from cell.sim.sensors import IRSensor, LaserScanner
+from cell.sim.simulation import Simulation
+from cell.sim.toolchanger import ToolChanger
+from cell.sim.truth import CellTruth
+from models.robot import IR, LASER
 from registration.rigid import R_to_quat_wxyz, quat_wxyz_to_R
-
-
-def nominal_kinematics() -> Kinematics:
-    """Pinocchio kinematics of the built-in arm (its robot-only MJCF), tip frame `flange`."""
-    return Kinematics.from_mjcf(ROBOT_PATH, "flange")
 
 
 def _carry_loose_parts(sim: Simulation, config: CellConfig) -> None:
@@ -36,7 +32,7 @@ def _carry_loose_parts(sim: Simulation, config: CellConfig) -> None:
     mujoco.mj_forward(sim.model, sim.data)
 
 
-def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
+def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTruth]:
     """Build the real cell described by `config` (default: default errors, seed 0).
 
     The controller sees the cell as a robot program would; the truth is for evaluation only.
@@ -44,7 +40,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     """
     config = config or CellConfig()
     params = draw_real_parameters(config)
-    sim = Simulation(build_model(config, params), config.robot.q_home)
+    sim = Simulation(build_real_model(config, params), config.robot.q_home)
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 2]))
     table = TableAxis(
         sim, params.table_bias_m, config.table.repeat_sigma_m, rng, params.table_profile
@@ -71,7 +67,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[Controller, CellTruth]:
     )
     encoders = Encoders(drives.read_motors, config.encoder.sigma_rad, rng, faults)
     sim.settle(0.2)
-    controller = Controller(
+    controller = SimController(
         sim,
         config.robot.kinematics(),
         encoders,

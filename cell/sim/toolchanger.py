@@ -13,8 +13,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cell.errors import ToolChangerError
-from cell.faults import FaultInjector
-from cell.simulation import Simulation
+from cell.sim.faults import FaultInjector
+from cell.sim.simulation import Simulation
 from registration.rigid import R_to_quat_wxyz, invert, pose_error
 
 #: The changer engages only when the tool's interface is this close to the flange [m], [rad].

@@ -16,14 +16,16 @@ import mujoco
 import numpy as np
 from rich.table import Table
 
-from cell.build import build_model
-from cell.config import CellConfig, FixedPrimitive
 from cell.controller import Controller
 from cell.errors import CellConfigError, CellError
-from cell.factory import make_cell, nominal_kinematics
 from cell.kinematics import Kinematics
-from cell.simulation import Simulation
-from cell.truth import CellTruth
+from cell.layout import FixedPrimitive
+from cell.robots import nominal_kinematics
+from cell.sim.config import CellConfig
+from cell.sim.factory import make_cell
+from cell.sim.real import build_real_model
+from cell.sim.simulation import Simulation
+from cell.sim.truth import CellTruth
 from models.atomic import write_text
 from models.robot import BODY_NAMES, FLANGE_SITE, Q_HOME, TABLE_TRAVEL, TOOLS
 from registration.rigid import make_T, pose_error
@@ -86,7 +88,7 @@ class CheckReport:
 
 def random_controls_warnings(seed: int = 0, seconds: float = 2.0) -> int:
     """Step the nominal scene with random set-points (held 0.2 s each); MuJoCo warnings."""
-    sim = Simulation(build_model(CellConfig().ideal()))
+    sim = Simulation(build_real_model(CellConfig().ideal()))
     rng = np.random.default_rng(seed)
     lo, hi = sim.model.actuator_ctrlrange.T
     for _ in range(round(seconds / 0.2)):
@@ -98,7 +100,7 @@ def random_controls_warnings(seed: int = 0, seconds: float = 2.0) -> int:
 def fk_max_error(kin: Kinematics, n: int = 1000, seed: int = 0) -> float:
     """Largest disagreement between MuJoCo and Pinocchio over `n` random configurations [m]:
     frame origins, and rotation matrices' entries (per metre of lever)."""
-    sim = Simulation(build_model(CellConfig().ideal()))
+    sim = Simulation(build_real_model(CellConfig().ideal()))
     m, d = sim.model, sim.data
     rng = np.random.default_rng(seed)
     bodies = [m.body(b).id for b in BODY_NAMES]

@@ -17,26 +17,11 @@ simulation's own figures.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from cell.simulation import Simulation
-
-
-@dataclass(frozen=True)
-class SupervisionLimits:
-    """The supervision's thresholds: the external force that stops a move [N] (ABB's
-    collision detection trips at a few tens of newtons at this arm's tool); how far a
-    joint's two encoder channels may differ [rad] (their noise is a few hundredths of a
-    milliradian); the table's in-position window [m]; the largest unexplained holding
-    torque after a tool change [N m]."""
-
-    max_contact_force_n: float = 40.0
-    max_channel_difference_rad: float = 1.0e-3
-    table_in_position_m: float = 2.0e-4
-    max_load_torque_nm: float = 5.0
+from cell.sim.simulation import Simulation
 
 
 class ContactSensing:

@@ -1,26 +1,30 @@
-"""Build the cell's MuJoCo model from a config: nominal or real (perturbed) arm, objects.
+"""The cell's MuJoCo scene built from its layout: the arm (nominal, or with the kinematic
+deviations and tool TCPs it is given), the table, the rack and tools, the objects.
 
-The scene text comes from `models.robot`; the robot-only MJCF is generated with the real arm's
-kinematic parameters and passed as the scene's include. Objects are added with MjSpec.
+The scene text comes from `models.robot`; the robot-only MJCF is generated with the arm's
+kinematic parameters and passed as the scene's include. Objects are added with MjSpec. The
+virtual cell builds its nominal scene here; the simulation builds the real one here too,
+with the parameters it drew (cell.sim.real).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Mapping
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from cell.config import CellConfig, FixedMesh, FixedPrimitive, LooseMesh, LoosePart
 from cell.errors import CellConfigError
+from cell.layout import CellLayout, FixedMesh, FixedPrimitive, LooseMesh, LoosePart
 from cell.mass import MassProperties, mesh_mass_properties
-from models.robot import ROBOT_FILE, TABLE_TOP_POS, TOOLS, scene_xml
+from models.robot import ROBOT_FILE, TABLE_TOP_POS, scene_xml
 from registration.rigid import R_to_quat_wxyz, make_T, quat_wxyz_to_R
 
 #: Geom group of objects' exact surfaces (seen by the rays) and of contact-only pieces.
 OBJECT_GROUP = 1
 CONTACT_ONLY_GROUP = 5
+#: Geom groups the rays see: environment (0) and objects' exact surfaces (1).
+RAY_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
 #: Pose of the table frame (`table_top` site) in the `table` body frame.
 T_TABLEBODY_TABLE = make_T(np.eye(3), np.array([0.0, 0.0, TABLE_TOP_POS[2]]))
 #: Contact of loose mesh objects: soft-constraint parameters as stiff as the fingers' (a
@@ -30,66 +34,6 @@ T_TABLEBODY_TABLE = make_T(np.eye(3), np.array([0.0, 0.0, TABLE_TOP_POS[2]]))
 LOOSE_SOLREF = (0.004, 1.0)
 LOOSE_SOLIMP = (0.95, 0.99, 0.0005, 0.5, 2.0)
 LOOSE_CONDIM = 4
-
-
-@dataclass(frozen=True, eq=False)
-class RealParameters:
-    """The real cell's hidden parameters drawn from the config (the truth).
-
-    Attributes:
-        deviations: the real arm's kinematic deviations from the nominal (see cell.robots).
-        table_bias_m: the table axis' constant positioning error [m].
-        stiffness_nm_rad: (2,) the real stiffness of joints 2 and 3 [N m/rad] (0: rigid).
-        T_tool_tcp: each tool's true TCP in its frame (4, 4) (the laser's: its optical frame,
-            where its rays start).
-        laser_scale: the laser's relative range scale error.
-        table_profile: (4,) the table axis' sideways and vertical bow [m] and its pitch and
-            yaw at the travel's positive end [rad] (see cell.devices.table_profile).
-    """
-
-    deviations: np.ndarray
-    table_bias_m: float
-    stiffness_nm_rad: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    T_tool_tcp: dict[str, np.ndarray] = field(default_factory=dict)
-    laser_scale: float = 0.0
-    table_profile: np.ndarray = field(default_factory=lambda: np.zeros(4))
-
-
-def _small_transform(rng: np.random.Generator, sigma_m: float, sigma_rad: float) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = Rotation.from_rotvec(rng.normal(0.0, 1.0, 3) * sigma_rad).as_matrix()
-    T[:3, 3] = rng.normal(0.0, 1.0, 3) * sigma_m
-    return T
-
-
-def draw_real_parameters(config: CellConfig) -> RealParameters:
-    """Draw the real cell's hidden parameters from `config.seed` (each group from its own
-    random stream, so that switching one error source off leaves the others' draws)."""
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 1]))
-    deviations = config.robot.draw_deviations(
-        rng, config.arm.length_sigma_m, config.arm.offset_sigma_rad
-    )
-    bias = float(rng.normal(0.0, 1.0)) * config.table.bias_sigma_m
-    drives = config.drives
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 11]))
-    spread = 1.0 + rng.normal(0.0, 1.0, 2) * drives.stiffness_spread
-    stiffness = np.asarray(drives.stiffness_nm_rad, dtype=float) * np.maximum(spread, 0.2)
-    tools = config.tools
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 12]))
-    T_tool_tcp = {}
-    for spec in TOOLS:
-        if spec.name == "laser":
-            sigma_m, sigma_rad = tools.laser_mount_sigma_m, tools.laser_mount_sigma_rad
-        else:
-            sigma_m, sigma_rad = tools.tcp_sigma_m, tools.tcp_sigma_rad
-        T_tool_tcp[spec.name] = spec.T_tool_tcp @ _small_transform(rng, sigma_m, sigma_rad)
-    laser_scale = float(rng.normal(0.0, 1.0)) * tools.laser_scale_sigma
-    table = config.table
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 13]))
-    profile = rng.normal(0.0, 1.0, 4) * np.array(
-        [table.straightness_sigma_m] * 2 + [table.pitch_sigma_rad, table.yaw_sigma_rad]
-    )
-    return RealParameters(deviations, bias, stiffness, T_tool_tcp, laser_scale, profile)
 
 
 def _add_fixture(spec: mujoco.MjSpec, obj: FixedMesh | FixedPrimitive) -> None:
@@ -210,44 +154,34 @@ def _add_convex_pieces(
         )
 
 
-def fault_fixtures(config: CellConfig) -> tuple[FixedPrimitive, ...]:
-    """The bodies a fault leaves in the cell: an obstacle's box on the table."""
-    return tuple(
-        FixedPrimitive(
-            "obstacle",
-            "box",
-            (f.amount / 2,) * 3,
-            make_T(np.eye(3), np.asarray(f.where_table, dtype=float)),
-            rgba=(0.85, 0.2, 0.2, 1.0),
-        )
-        for f in config.faults
-        if f.name == "obstacle" and f.where_table is not None and f.amount > 0
-    )
-
-
-def build_model(config: CellConfig, params: RealParameters | None = None) -> mujoco.MjModel:
-    """Compile the cell's MuJoCo model: its robot's arm deviated by `params.deviations` and
-    its tools' TCP sites at their true places (default: the nominal cell)."""
-    deviations = None if params is None else params.deviations
+def build_model(
+    layout: CellLayout,
+    deviations: np.ndarray | None = None,
+    T_tool_tcp: Mapping[str, np.ndarray] | None = None,
+    extra_fixtures: tuple[FixedMesh | FixedPrimitive, ...] = (),
+    payloads_kg: Mapping[str, float] | None = None,
+) -> mujoco.MjModel:
+    """Compile the cell's MuJoCo model of `layout`: its arm deviated by `deviations` (None:
+    nominal), its tools' TCP sites at `T_tool_tcp` (4, 4 each, in the tool frame; None: the
+    data sheet's), `extra_fixtures` on the table beside the layout's, and for each tool in
+    `payloads_kg` a mass [kg] on it that its tooldata does not know."""
     spec = mujoco.MjSpec.from_string(
-        scene_xml(rack_xyz=config.rack_xyz),
-        include={ROBOT_FILE: config.robot.mjcf(deviations).encode()},
+        scene_xml(rack_xyz=layout.rack_xyz),
+        include={ROBOT_FILE: layout.robot.mjcf(deviations).encode()},
     )
-    if params is not None:
-        for tool, T in params.T_tool_tcp.items():
-            site = spec.site(f"{tool}_tcp")
-            site.pos = T[:3, 3]
-            site.quat = R_to_quat_wxyz(T[:3, :3])
-    for obj in (*config.fixtures, *fault_fixtures(config)):
+    for tool, T in (T_tool_tcp or {}).items():
+        site = spec.site(f"{tool}_tcp")
+        site.pos = T[:3, 3]
+        site.quat = R_to_quat_wxyz(T[:3, :3])
+    for obj in (*layout.fixtures, *extra_fixtures):
         _add_fixture(spec, obj)
-    for fault in config.faults:
-        if fault.name == "payload":  # a mass the tool's gravity compensation does not know
-            tool = spec.body(f"tool_{fault.option or 'screwer'}")
-            extra = tool.add_body(name="payload_extra", pos=[0.0, 0.0, 0.08], gravcomp=0.0)
-            extra.mass = fault.amount
-            extra.inertia = [1e-4, 1e-4, 1e-4]
-            extra.explicitinertial = True
-    for part in config.parts:
+    for tool_name, kg in (payloads_kg or {}).items():
+        tool = spec.body(f"tool_{tool_name}")
+        extra = tool.add_body(name="payload_extra", pos=[0.0, 0.0, 0.08], gravcomp=0.0)
+        extra.mass = kg
+        extra.inertia = [1e-4, 1e-4, 1e-4]
+        extra.explicitinertial = True
+    for part in layout.parts:
         if isinstance(part, LooseMesh):
             _add_loose_mesh(spec, part)
         else:

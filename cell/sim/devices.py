@@ -6,14 +6,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cell.faults import FaultInjector
-from cell.simulation import MotionStoppedError, Simulation
+from cell.sim.faults import FaultInjector
+from cell.sim.simulation import MotionStoppedError, Simulation
 from cell.trajectory import joint_trajectory
 from models.robot import TABLE_TRAVEL
 
 
 class Encoders:
-    """Joint readings: the motors' angles (`motors()`, see cell.drives) plus Gaussian noise
+    """Joint readings: the motors' angles (`motors()`, see cell.sim.drives) plus Gaussian noise
     `sigma_rad`, from two channels per joint (a safety encoder's redundant channels, each
     with its own noise); `faults` may make one reading of channel A jump (encoder_glitch)."""
 

@@ -1,0 +1,97 @@
+"""The surface match of the scan to the virtual model (scenarios.offline.localization): a
+pose with a verdict at the operation targets, and the scan's returns that lie off it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.model import ObjectModel
+from registration import Acceptance, MeshModel
+from scenarios.offline.localization import Localization, localize, stray_returns
+from scenarios.offline.probing import ProbeResult
+from scenarios.offline.settings import PlanningSettings
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True, eq=False)
+class LocatedPose:
+    """One localization method's pose of the object in the nominal table frame (4, 4), or
+    None; whether it may drive a program, and why not."""
+
+    method: str
+    T_table_object: np.ndarray | None
+    accepted: bool
+    reason: str
+    localization: Localization | None = None
+    probe: ProbeResult | None = None
+
+
+def acceptance(settings: PlanningSettings) -> Acceptance:
+    """The match's acceptance thresholds of the job's registration settings."""
+    r = settings.localization.registration
+    return Acceptance(
+        max_rms=r.max_rms_m,
+        min_inlier_fraction=r.min_inlier_fraction,
+        max_ambiguity=r.max_ambiguity,
+        max_predicted_tre=r.max_predicted_tre_m,
+    )
+
+
+def surface_pose(
+    points_table: np.ndarray,
+    pass_labels: np.ndarray,
+    virtual: ObjectModel,
+    settings: PlanningSettings,
+    prior: np.ndarray | None,
+    say: Progress,
+) -> LocatedPose:
+    """Surface matching of the scan's object points (M, 3) [m] (nominal table frame), each
+    labelled with its pass (M,), to the virtual model, with a verdict per operation target;
+    too few object points refuse it. `prior` (4, 4) is the start of mode "refine" only."""
+    section = settings.localization
+    if len(points_table) < section.scan.min_points:
+        reason = (
+            f"the scan has {len(points_table)} object points, fewer than the "
+            f"{section.scan.min_points} required"
+        )
+        return LocatedPose("surface", None, False, reason)
+    r = section.registration
+    located = localize(
+        points_table,
+        MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
+        r.max_points,
+        acceptance(settings),
+        settings.seed,
+        r.voxel_m,
+        r.mode,
+        prior,
+        pass_labels,
+        r.pass_sigma_m,
+        targets_model=np.array([h.p_entry for h in virtual.burr_holes]),
+    )
+    m = located.result
+    say(f"match: {m.verdict} (rms {m.rms * 1e3:.3f} mm, ambiguity {m.ambiguity:.2f}, "
+        f"{m.seconds:.2f} s)")  # fmt: skip
+    accepted = m.verdict == "accepted"
+    return LocatedPose("surface", located.T_table_object, accepted, m.reason, localization=located)
+
+
+def stray_message(points_table: np.ndarray, virtual: ObjectModel, located: Localization) -> str:
+    """What the match says of the scan's returns (M, 3) that lie off the matched model
+    (spurious returns, or something else on the table), or "" if none do."""
+    stray = stray_returns(
+        points_table,
+        MeshModel(virtual.mesh.vertices, virtual.mesh.faces),
+        located.T_table_object,
+        located.result.rms,
+    )
+    if not stray:
+        return ""
+    return (
+        f"{stray} scan points ({100 * stray / len(points_table):.2f} %) lie off the matched "
+        "model: spurious returns or something else on the table"
+    )
