@@ -6,7 +6,7 @@
    methods interleaved trial by trial:
    - twincell `match` in auto, global and local mode, the model built from its vertices
      and faces inside the timing (as a command-line call pays it), and auto mode with the
-     model prepared once (`MeshModel(...).prepare()`, outside the timing);
+     model prepared once (`prepare(MeshModel(...))`, outside the timing);
    - Open3D point-to-plane ICP from the 24 rotations of the cube group, centroids aligned,
      against the mesh's vertices with their normals (the scan thinned to 3 mm, the best
      run refined on all points);
@@ -35,7 +35,15 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from registration import MeshModel, PointModel, load_points, make_T, match, transform_points
+from registration import (
+    MeshModel,
+    PointModel,
+    load_points,
+    make_T,
+    match,
+    prepare,
+    transform_points,
+)
 from registration.io.mesh import read_mesh
 from registration.shapes.mesh import sample_surface
 from registration.synthetic import asymmetric_blob, partial_scan
@@ -151,7 +159,7 @@ def _real_objects() -> list[
 
 def real_scan_table(trials: int) -> None:
     objects = _real_objects()
-    prepared = {name: MeshModel(v, f).prepare() for name, v, f, _ in objects}
+    prepared = {name: prepare(MeshModel(v, f)) for name, v, f, _ in objects}
     rng = np.random.default_rng(2025)
     rows: dict[str, list[tuple[float, bool, bool | None]]] = {}
     # (time, right, accepted or valid; None: the method has no verdict)
@@ -227,7 +235,7 @@ def synthetic_table(trials: int) -> None:
     model_points, model_normals = sample_surface(vertices, faces, 35000, seed=1)
     extent = float(np.linalg.norm(np.ptp(model_points, axis=0)))
     model = PointModel(model_points, model_normals)
-    model.prepare()
+    prepare(model)
     surface = MeshModel(vertices, faces)  # the yardstick, not used by any method
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(model_points))
     pcd.normals = o3d.utility.Vector3dVector(model_normals)

@@ -61,16 +61,17 @@ class Kinematics:
         ranges the cell allows with that tool (`tool_limits`: a bulky tool must not fold into
         the arm; a compliant model, scenarios.offline.cell_model, also carries the tool's
         payload)."""
-        base = getattr(self, "_base", self)
+        base: Kinematics = getattr(self, "_base", self)
         limits = base.tool_limits.get(tool)
         if limits is None:
             return base
-        if tool not in base._with_tool:
+        variants = base._with_tool
+        if tool not in variants:
             other = Kinematics(base.model, base.tip_frame)
             other.lower, other.upper = (np.array(v, dtype=float) for v in limits)
             other._base = base
-            base._with_tool[tool] = other
-        return base._with_tool[tool]
+            variants[tool] = other
+        return variants[tool]
 
     # -- construction -------------------------------------------------------------------------
     @classmethod

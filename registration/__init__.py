@@ -10,19 +10,21 @@ TRE, ambiguity, verdict per target).
     >>> result = match(scan_points, MeshModel(vertices, faces))          # mode="auto"
     >>> result.T_model_data, result.verdict, result.predicted_tre(targets).verdict
 
-One call, one result: `match` returns a `MatchResult`. The building blocks stay in their
-modules (registration.icp, registration.horn, registration.haralick, registration.search,
-registration.symmetry, ...) for those who want them.
+One call, one result: `match` returns a `MatchResult`; `prepare(model)` builds once what many
+matches against one model share. The building blocks and the search's internals stay in
+their modules (registration.icp, registration.horn, registration.haralick,
+registration.search with its `SearchSettings`, registration.result's `Minimum` and
+`SearchTrace`, registration.quality's `ScanPasses`, registration.symmetry, ...) for those who
+want them.
 """
 
 from registration.errors import FormatError, InputError, RegistrationError
 from registration.io import load_model, load_points
 from registration.kernels import L2, Kernel, Trimmed, Tukey
 from registration.matcher import MODES, match
-from registration.quality import ScanPasses
-from registration.result import MatchResult, Minimum, SearchTrace
+from registration.prepare import prepare
+from registration.result import MatchResult
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
-from registration.search import SearchSettings
 from registration.shapes import (
     MeshModel,
     ParametricModel,
@@ -42,13 +44,9 @@ __all__ = [
     "Kernel",
     "MatchResult",
     "MeshModel",
-    "Minimum",
     "ParametricModel",
     "PointModel",
     "RegistrationError",
-    "ScanPasses",
-    "SearchSettings",
-    "SearchTrace",
     "SegmentModel",
     "Shape",
     "Symmetry",
@@ -61,6 +59,7 @@ __all__ = [
     "make_T",
     "match",
     "pose_error",
+    "prepare",
     "rotation_angle",
     "transform_points",
 ]

@@ -1,6 +1,7 @@
-"""The import contracts of pyproject.toml hold (registration stands alone; the offline stages
-never import the simulation, the cell's truth or the evaluator), and the checker does catch
-a broken one."""
+"""The import contracts of pyproject.toml hold (registration stands alone; the controller's
+side of the cell knows nothing of its simulation; the planning and the stages never import
+the simulation, the truth, the evaluator, the runner or the job's configuration, not even
+through another module), and the checker does catch a broken one."""
 
 from __future__ import annotations
 
@@ -12,11 +13,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _lint(config: Path) -> subprocess.CompletedProcess[str]:
+def _lint(config: Path, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
     lint = shutil.which("lint-imports") or str(Path(sys.executable).parent / "lint-imports")
     return subprocess.run(
         [lint, "--config", str(config), "--no-cache"],
-        cwd=ROOT,
+        cwd=cwd,
         capture_output=True,
         text=True,
         timeout=300,
@@ -43,3 +44,39 @@ def test_a_broken_contract_is_caught(tmp_path: Path) -> None:
     run = _lint(config)
     assert run.returncode != 0
     assert "probe BROKEN" in run.stdout.replace("\n", " ")
+
+
+PROBES = {
+    "the truth and the factory": "from cell.sim.factory import make_cell\n"
+    "from cell.sim.truth import CellTruth\n",
+    "the evaluator": "from scenarios.realcell.evaluation import Evaluator\n",
+    "the runner": "from scenarios.jobs.pipeline import run_cell_job\n",
+    "the job's configuration": "from scenarios.jobs.config import JobConfig\n",
+}
+
+
+def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: Path) -> None:
+    # A copy of the project's packages with a probe module in the stages' package (and one in
+    # the planning's) that imports what the stages must never see: lint-imports then fails,
+    # naming each probe's import; the same copy without the probes passes.
+    for package in ("cell", "models", "registration", "scenarios"):
+        shutil.copytree(
+            ROOT / package,
+            tmp_path / package,
+            ignore=shutil.ignore_patterns("__pycache__", "*.stl", "*.obj", "*.xml", "*.yaml"),
+        )
+    config = tmp_path / "pyproject.toml"
+    shutil.copy(ROOT / "pyproject.toml", config)
+    clean = _lint(config, cwd=tmp_path)
+    assert clean.returncode == 0, clean.stdout + clean.stderr
+    for i, (what, source) in enumerate(PROBES.items()):
+        package = "stages" if i % 2 == 0 else "offline"
+        (tmp_path / "scenarios" / package / f"probe_{i}.py").write_text(
+            f'"""A probe that imports {what}."""\n\n' + source
+        )
+    run = _lint(config, cwd=tmp_path)
+    out = run.stdout.replace("\n", " ")
+    assert run.returncode != 0, out
+    assert "the planning and the stages never see the truth" in run.stdout.replace("\n", " ")
+    for i in range(len(PROBES)):
+        assert f"probe_{i}" in out, (i, out)

@@ -163,7 +163,7 @@ def test_bad_options_are_named() -> None:
         match(pts, MODEL, mode="refine")
     with pytest.raises(InputError, match="model must be"):
         match(pts, "skull.stl")
-    from registration import ScanPasses
+    from registration.quality import ScanPasses
 
     with pytest.raises(InputError, match="one pass per data point"):
         match(pts, MODEL, passes=ScanPasses(np.zeros(3, dtype=int), 3e-4))
@@ -218,7 +218,7 @@ def _three_pass_scan(k: int, offset: float):
 def test_predicted_tre_accounts_for_rigid_offsets_of_scan_passes() -> None:
     """Three passes, each displaced as a whole by the arm's error (0.3 mm per axis): the
     covariance takes the offsets from `ScanPasses`. Truth: 24 independent draws."""
-    from registration import ScanPasses
+    from registration.quality import ScanPasses
 
     targets = np.array([[0.0, 0.0, 0.0], [0.08, 0.02, 0.03], [-0.05, -0.04, 0.02]])
     errors, predicted = [], []

@@ -132,20 +132,6 @@ class Shape:
             normals[inside] = exact.normals
         return Closest(q, normals, d, fast.found)
 
-    def prepare(self) -> Shape:
-        """Build now what `match` would build on its first call with this model (the
-        trees, the voxel lookup, the anchors, the symmetries at the default floor), so that
-        every call pays only for its data. Returns the shape itself."""
-        from registration.search import SearchSettings
-        from registration.symmetry import find_symmetries
-
-        settings = SearchSettings()
-        _ = self.sample_tree, self.sample_lookup, self.resolution
-        self.anchor_frames(settings.anchors, settings.normal_radius * self.extent)
-        self.closest(self.samples[:1])  # the exact operator's tree, where it has one
-        find_symmetries(self, 1e-4 * self.extent)
-        return self
-
     @cached_property
     def sample_tree(self) -> cKDTree:
         """KD-tree over the surface sample, for the vectorised coarse search."""

@@ -17,7 +17,8 @@ import numpy as np
 from models.model import ObjectModel
 from models.model_error import ModelErrorSpec
 from models.registry import builtin_model, real_model
-from registration import Acceptance, MeshModel, ScanPasses, invert, match
+from registration import Acceptance, MeshModel, invert, match
+from registration.quality import ScanPasses
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_config import RegisterConfig, parse_register_config
 from scenarios.campaign.rows import HARM_M

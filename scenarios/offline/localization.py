@@ -13,12 +13,12 @@ from registration import (
     Acceptance,
     MatchResult,
     MeshModel,
-    ScanPasses,
-    SearchSettings,
     invert,
     match,
     transform_points,
 )
+from registration.quality import ScanPasses
+from registration.search import SearchSettings
 
 
 @dataclass(frozen=True, eq=False)
