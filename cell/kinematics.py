@@ -10,7 +10,7 @@ from __future__ import annotations
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -44,6 +44,8 @@ class Kinematics:
     def __init__(self, model: pin.Model, tip_frame: str) -> None:
         self.model = model
         self.data = model.createData()
+        #: The arm this one restricts to a tool's joint ranges (for_tool), or itself.
+        self._base: Kinematics = self
         self.lower = np.array(model.lowerPositionLimit, dtype=float)
         self.upper = np.array(model.upperPositionLimit, dtype=float)
         self.tip_frame = tip_frame
@@ -61,7 +63,7 @@ class Kinematics:
         ranges the cell allows with that tool (`tool_limits`: a bulky tool must not fold into
         the arm; a compliant model, scenarios.offline.cell_model, also carries the tool's
         payload)."""
-        base: Kinematics = getattr(self, "_base", self)
+        base: Kinematics = self._base
         limits = base.tool_limits.get(tool)
         if limits is None:
             return base
@@ -257,10 +259,10 @@ class Kinematics:
         T_base_target: np.ndarray,
         q_seed: np.ndarray,
         T_tip_tcp: np.ndarray | None = None,
-        **kwargs: float,
+        **kwargs: Any,
     ) -> np.ndarray:
         """Like `ik` but returns q, or raises UnreachableTargetError naming target and residual."""
-        result = self.ik(T_base_target, q_seed, T_tip_tcp, **kwargs)  # type: ignore[arg-type]
+        result = self.ik(T_base_target, q_seed, T_tip_tcp, **kwargs)
         if not result.success:
             p = np.asarray(T_base_target)[:3, 3]
             raise UnreachableTargetError(

@@ -85,7 +85,7 @@ class IRConfig:
 
 def _check_T(owner: str, T: np.ndarray) -> np.ndarray:
     T = np.asarray(T, dtype=float)
-    ok = T.shape == (4, 4) and np.all(np.isfinite(T))
+    ok = T.shape == (4, 4) and bool(np.all(np.isfinite(T)))
     if ok:
         R = T[:3, :3]
         ok = bool(np.allclose(R.T @ R, np.eye(3), atol=1e-6) and np.linalg.det(R) > 0)

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 
-def write_atomic(path: str | Path, write: Callable[[Path], None]) -> Path:
+def write_atomic(path: str | Path, write: Callable[[Path], object]) -> Path:
     """Call `write(tmp_path)` on a temporary file beside `path` (its folder is created if
     missing; the temporary name starts with a dot and ends in .tmp, so that a glob of the
     target's suffix never sees it), then rename it into place. Returns the path."""

@@ -27,6 +27,8 @@ def write_mesh(mesh: TriangleMesh, path: str | Path, units: str | float = "mm") 
     scale = unit_scale(units)
     out = trimesh.Trimesh(np.asarray(mesh.vertices) / scale, np.asarray(mesh.faces), process=False)
     data = out.export(file_type=suffix[1:])
+    if isinstance(data, dict):  # a format that exports several files: not one of ours
+        raise MeshFileError(f"{path}: {suffix} exports more than one file")
     payload = data.encode() if isinstance(data, str) else data
     try:
         return write_bytes(path, payload)

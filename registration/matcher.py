@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Literal
+from typing import Literal, TypeGuard
 
 import numpy as np
 
@@ -54,10 +54,22 @@ from registration.shapes.mesh import MeshModel
 from registration.shapes.points import PointModel
 from registration.starts import surface_points
 from registration.symmetry import find_symmetries
-from registration.verdict import Acceptance, Rival, assess_targets, fit_rejection, model_verdict
+from registration.verdict import (
+    Acceptance,
+    Rival,
+    Verdict,
+    assess_targets,
+    fit_rejection,
+    model_verdict,
+)
 
 Mode = Literal["auto", "global", "local", "refine"]
 MODES: tuple[str, ...] = ("auto", "global", "local", "refine")
+
+
+def is_mode(name: str) -> TypeGuard[Mode]:
+    """Whether `name` is one of the `MODES`."""
+    return name in MODES
 Progress = Callable[[str], None]
 
 #: A scan more than this many times larger or smaller than the model is in other units.
@@ -69,7 +81,7 @@ def as_shape(model: Shape | Array | object) -> Shape:
     if isinstance(model, Shape):
         return model
     if hasattr(model, "vertices") and hasattr(model, "faces"):
-        return MeshModel(model.vertices, model.faces)  # type: ignore[attr-defined]
+        return MeshModel(model.vertices, model.faces)
     if isinstance(model, np.ndarray | list | tuple):
         return PointModel(np.asarray(model, dtype=float))
     raise InputError(
@@ -366,17 +378,17 @@ def _match(
         poses = [other.T_model_data]
         if not same_pose(coarse.T_model_data, runs[index].T_model_data):
             poses.append(runs[index].T_model_data)
-        verdict = judge(coarse.T_model_data, poses)
-        if verdict.rival_wins and verdict.rival == 0:
+        judgement = judge(coarse.T_model_data, poses)
+        if judgement.rival_wins and judgement.rival == 0:
             # The rival, refined, fits better: it becomes the best (and the best a rival);
             # the rivals judged so far are judged against it as they stand.
-            judged = [(coarse.T_model_data, verdict.best_cost, verdict.ambiguity), *judged]
-            best_cost, best_index = verdict.rival_cost, index
+            judged = [(coarse.T_model_data, judgement.best_cost, judgement.ambiguity), *judged]
+            best_cost, best_index = judgement.rival_cost, index
             coarse, trajectory = other, other_trajectory
             continue
         # Only where the ranking left it does a rival fit better: a tie at best.
-        ambiguity = 1.0 if verdict.rival_wins else verdict.ambiguity
-        judged.append((poses[verdict.rival], verdict.rival_cost, ambiguity))
+        ambiguity = 1.0 if judgement.rival_wins else judgement.ambiguity
+        judged.append((poses[judgement.rival], judgement.rival_cost, ambiguity))
     # Each rival's motion is measured from the best as it was judged: the final refinement
     # may carry the best further along a valley, but the valley is what makes the targets
     # ambiguous.
@@ -476,7 +488,7 @@ def _match(
     )
 
 
-def _worst_target(verdicts: tuple[str, ...], reasons: tuple[str, ...]) -> tuple:
+def _worst_target(verdicts: tuple[str, ...], reasons: tuple[str, ...]) -> tuple[Verdict, str]:
     """The overall verdict with targets: the worst target's, with its reason."""
     for level in ("rejected", "ambiguous"):
         bad = [k for k, v in enumerate(verdicts) if v == level]

@@ -4,11 +4,15 @@ scalar-first quaternions of MuJoCo and RAPID. The project's one rigid-transform 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-Array = NDArray[np.float64]
+#: A numpy array; the docstrings give each one's shape and what it holds (floats [m], indices,
+#: masks).
+Array = NDArray[Any]
 
 
 def make_T(R: Array, t: Array) -> Array:

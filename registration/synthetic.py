@@ -79,7 +79,7 @@ def partial_scan(
     vertices: Array,
     faces: Array,
     count: int,
-    view: Array = (0.0, 0.0, 1.0),
+    view: Array | tuple[float, float, float] = (0.0, 0.0, 1.0),
     min_cosine: float = 0.2,
     noise: float = 0.0,
     outlier_fraction: float = 0.0,

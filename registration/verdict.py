@@ -180,13 +180,13 @@ def assess_targets(
     reasons: list[str] = []
     for symmetry in symmetries:
         shift = symmetry.displacement(targets)
-        for k in np.flatnonzero(shift > tolerance):
+        for k in map(int, np.flatnonzero(shift > tolerance)):
             moved[k] = moved[k] or f"the model's {symmetry.name} (moves it {shift[k]:.3g})"
     for rival in rivals:
         if rival.ambiguity <= acceptance.max_ambiguity:
             continue
         shift = np.linalg.norm(transform_points(rival.motion, targets) - targets, axis=1)
-        for k in np.flatnonzero(shift > tolerance):
+        for k in map(int, np.flatnonzero(shift > tolerance)):
             moved[k] = moved[k] or (
                 f"a distinct pose that fits almost as well (ambiguity {rival.ambiguity:.2f}, "
                 f"moves it {shift[k]:.3g})"

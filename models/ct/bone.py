@@ -151,6 +151,7 @@ def bone_model(
     distance = _from_isosurface(grey, iso_hu, volume, offset, np.asarray(mesh.vertices))
     watertight = bool(mesh.is_watertight)
     model_vertices = lps_mm_to_model(mesh.vertices)
+    sx, sy, sz = (float(s) for s in volume.spacing_mm)
     check = BoneCheck(
         deviation_mean_m=float(distance.mean()) * 1e-3,
         deviation_max_m=float(distance.max()) * 1e-3,
@@ -158,6 +159,6 @@ def bone_model(
         watertight=watertight,
         faces=len(mesh.faces),
         iso_hu=float(iso_hu),
-        voxel_mm=tuple(float(s) for s in volume.spacing_mm),  # type: ignore[arg-type]
+        voxel_mm=(sx, sy, sz),
     )
     return BoneModel(TriangleMesh(model_vertices, np.asarray(mesh.faces)), check)

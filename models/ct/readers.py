@@ -45,7 +45,7 @@ def read_nifti(path: Path) -> Volume:
     import nibabel as nib
 
     try:
-        image = nib.load(str(path))
+        image: Any = nib.load(str(path))  # a NIfTI image (nibabel types it as any file)
         data = np.asarray(image.get_fdata(dtype=np.float32))
     except Exception as exc:  # nibabel raises many kinds for a bad file
         raise VolumeError(f"{path}: not a NIfTI volume ({exc})") from None
@@ -53,7 +53,8 @@ def read_nifti(path: Path) -> Volume:
         data = data[..., 0]
     if data.ndim != 3:
         raise VolumeError(f"{path}: a 3D volume is needed, this one has shape {data.shape}")
-    return Volume(data, RAS_FROM_LPS @ np.asarray(image.affine, float), None, "RAS", str(path))
+    affine = RAS_FROM_LPS @ np.asarray(image.affine, dtype=float)
+    return Volume(data, affine, None, "RAS", str(path))
 
 
 def read_nrrd(path: Path) -> Volume:
@@ -90,7 +91,7 @@ def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
 
     import pydicom
 
-    headers: dict[str, list[tuple[Path, object]]] = {}
+    headers: dict[str, list[tuple[Path, Any]]] = {}  # pydicom datasets
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # pydicom warns on the VR quirks it reads through
         for f in sorted(p for p in folder.iterdir() if p.is_file()):
@@ -113,7 +114,7 @@ def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
         series = next(iter(headers))
     else:
         listed = "; ".join(
-            f"{v[0][1].get('Modality', '?')} {len(v)} slice(s) ({v[0][0].name})"  # type: ignore[attr-defined]
+            f"{v[0][1].get('Modality', '?')} {len(v)} slice(s) ({v[0][0].name})"
             for v in headers.values()
         )
         raise VolumeError(
@@ -144,8 +145,9 @@ class _Image:
     values: np.ndarray
 
 
-def _floats(value: object) -> np.ndarray:
-    return np.array([float(v) for v in value], dtype=float)  # type: ignore[attr-defined]
+def _floats(value: Any) -> np.ndarray:
+    """A DICOM multi-valued number (pydicom's MultiValue of DSfloat) as floats."""
+    return np.array([float(v) for v in value], dtype=float)
 
 
 def _pixels(f: Path, ds: Any) -> np.ndarray:

@@ -105,11 +105,11 @@ def _box_inertia(mass: float, size: tuple[float, float, float]) -> str:
 
 
 def servo_actuators(
-    lower: Sequence[float],
-    upper: Sequence[float],
-    effort: Sequence[float],
-    kp: Sequence[float],
-    kv: Sequence[float],
+    lower: Sequence[float] | np.ndarray,
+    upper: Sequence[float] | np.ndarray,
+    effort: Sequence[float] | np.ndarray,
+    kp: Sequence[float] | np.ndarray,
+    kv: Sequence[float] | np.ndarray,
 ) -> str:
     """The six joints' position servos as MJCF `<general>` actuators: gains `kp` [N m/rad]
     and `kv` [N m s/rad], torque within +-`effort` [N m], set-points within the joint range

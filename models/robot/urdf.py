@@ -190,7 +190,7 @@ def _is_zero(inertia: pin.Inertia) -> bool:
 
 def _check_unique(robot: ET.Element) -> None:
     for tag in ("link", "joint"):
-        names = [element.get("name") for element in robot.findall(tag)]
+        names = [element.get("name", "") for element in robot.findall(tag)]
         repeated = sorted({n for n in names if names.count(n) > 1})
         if repeated:
             raise ValueError(f"URDF {tag} names must be unique; repeated: {repeated}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -49,7 +50,7 @@ def irb2400_visuals() -> tuple[LinkVisual, ...]:
     """The IRB 2400's link meshes, read once."""
     out = []
     for name, body, origin, rgba in _LINKS:
-        mesh = trimesh.load(FOLDER / f"{name}.stl", force="mesh")
+        mesh: Any = trimesh.load(FOLDER / f"{name}.stl", force="mesh")  # a Trimesh
         out.append(
             LinkVisual(
                 body,

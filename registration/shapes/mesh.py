@@ -9,6 +9,7 @@ first exact query: the coarse search needs only the surface sample.
 from __future__ import annotations
 
 from functools import cached_property
+from typing import Any
 
 import igl
 import numpy as np
@@ -74,9 +75,9 @@ class MeshModel(Shape):
         )
 
     @classmethod
-    def from_trimesh(cls, mesh: object, sample_count: int = 20000) -> MeshModel:
+    def from_trimesh(cls, mesh: Any, sample_count: int = 20000) -> MeshModel:
         """Build from any object with `vertices` and `faces` (e.g. a trimesh.Trimesh)."""
-        return cls(mesh.vertices, mesh.faces, sample_count)  # type: ignore[attr-defined]
+        return cls(mesh.vertices, mesh.faces, sample_count)
 
     def __getstate__(self) -> dict[str, object]:
         # The tree stays behind (it does not pickle); the copy builds its own when needed.

@@ -28,7 +28,7 @@ class PointModel(Shape):
         self.samples = self.points
         self.workers = workers
         self._tree = cKDTree(self.points)
-        self.sample_tree = self._tree  # type: ignore[misc]
+        self.sample_tree = self._tree
         if normals is None:
             if len(self.points) >= dense:
                 normals = estimate_normals(self.points)

@@ -6,23 +6,27 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from models.atomic import write_atomic
 from scenarios.campaign.rows import CALIBRATION_GOAL, group_rows, per_target
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 Rows = list[dict[str, str]]
 
 
-def _save(fig: object, path: Path) -> Path:
+def _save(fig: Figure, path: Path) -> Path:
     """Save a figure through a temporary file and close it."""
     import matplotlib.pyplot as plt
 
     try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png"))  # type: ignore[attr-defined]
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png"))
     finally:
-        plt.close(fig)  # type: ignore[arg-type]
+        plt.close(fig)
     return path
 
 

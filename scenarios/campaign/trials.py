@@ -49,7 +49,7 @@ def stage_function(stage: str) -> TrialFunction:
     if stage not in STAGES:
         raise CampaignError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
     module, _, name = STAGES[stage].partition(":")
-    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+    return getattr(importlib.import_module(module), name)
 
 
 def run_trial(trial: Trial) -> dict[str, Any]:

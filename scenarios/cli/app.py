@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import sys
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -467,7 +467,8 @@ def main(argv: list[str] | None = None) -> int:
         typer.echo("twincell: aborted", err=True)
         return 130
     except typer.TyperException as exc:  # usage errors: typer prints them the click way
-        exc.show()  # type: ignore[attr-defined]
+        click_error: Any = exc  # typer's exceptions are click's, which show themselves
+        click_error.show()
         return int(getattr(exc, "exit_code", 2))
     except Warning as exc:
         typer.echo(f"twincell: internal error (an unexpected warning): {exc}", err=True)

@@ -10,6 +10,7 @@ import numpy as np
 
 from registration import MODES, InputError, MatchResult, load_model, load_points, match
 from registration.io import load_targets
+from registration.matcher import is_mode
 from scenarios.outputs.run_folder import write_json
 
 
@@ -40,7 +41,7 @@ def register_files(
 ) -> MatchResult:
     """Load the data points and the model (in their units), and match them; T_init (4, 4)
     [m] is a guess of T_model_data (needed by mode "refine", one more start in the others)."""
-    if mode not in MODES:
+    if not is_mode(mode):
         raise InputError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
     if mode == "refine" and T_init is None:
         raise InputError("mode 'refine' starts from a guess: give it with --init FILE")
@@ -50,7 +51,7 @@ def register_files(
         return match(
             data,
             model,
-            mode=mode,  # type: ignore[arg-type]
+            mode=mode,
             T_init=T_init,
             seed=seed,
             targets=None if targets is None else targets.points,

@@ -25,7 +25,6 @@ from typing import Any, Literal
 
 import yaml
 from pydantic import (
-    BaseModel,
     Field,
     ValidationError,
     field_validator,
@@ -385,7 +384,7 @@ class PaperConfig(Section):
 
 
 Config = JobConfig | PaperConfig
-_KINDS: dict[str, type[BaseModel]] = {"cell": JobConfig, "paper": PaperConfig}
+_KINDS: dict[str, type[JobConfig] | type[PaperConfig]] = {"cell": JobConfig, "paper": PaperConfig}
 
 
 def shipped_names() -> tuple[str, ...]:
@@ -427,7 +426,7 @@ def parse_config(data: dict[str, Any], source: str = "config") -> Config:
     if kind not in _KINDS:
         raise ConfigError(f"{source}: 'kind' must be one of {sorted(_KINDS)}, got {kind!r}")
     try:
-        return _KINDS[kind].model_validate(data)  # type: ignore[return-value]
+        return _KINDS[kind].model_validate(data)
     except ValidationError as exc:
         raise ConfigError(f"{source}: {describe_validation_error(exc)}") from None
 

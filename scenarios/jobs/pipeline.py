@@ -249,11 +249,12 @@ def job_faults(
         option = setting.option
         if name == "payload" and option is None:
             option = config.operations.tool
-        where = None
+        where: tuple[float, float, float] | None = None
         if name == "obstacle":
             ops = target_operations(virtual, config.operations)
             T = T_table_nominal @ ops[0].T_object_approach
-            where = tuple(float(x) for x in T[:3, 3] - 0.05 * T[:3, 2])
+            x, y, z = (float(v) for v in T[:3, 3] - 0.05 * T[:3, 2])
+            where = (x, y, z)
         out.append(
             Fault(
                 name,
@@ -526,7 +527,7 @@ def run_cell_job(
     reports = []
     for pose in ordered:
         program = programs.operations.get(pose.method)
-        targets = ()
+        targets: tuple[Any, ...] = ()
         if program is not None and aborted is None:
             prefix = f"{pose.method}:" if config.operations.per_method else ""
             targets = tuple(
@@ -677,15 +678,15 @@ def run_cell_job(
     else:
         status, reason = "refused", primary.reason
         stopped_in = refused_by or ("register" if primary.method == "surface" else "probe")
-    verdict = {"complete": "complete", "refused": f"refused: {reason}"}.get(
+    ending = {"complete": "complete", "refused": f"refused: {reason}"}.get(
         status, f"aborted in {stopped_in}: {reason}"
     )
     if len(errors):
-        verdict += (
+        ending += (
             f"; target error rms {np.sqrt(np.mean(errors**2)) * 1e3:.3f} mm, max "
             f"{errors.max() * 1e3:.3f} mm"
         )
-    log.phase("end", verdict)
+    log.phase("end", ending)
     timings["total"] = time.perf_counter() - t_total
     result = RunResult(
         status=status,

@@ -14,6 +14,7 @@ scan, the program and the export then use in place of the data sheet's.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -77,7 +78,9 @@ class CompliantKinematics(Kinematics):
     def jacobian(self, q: np.ndarray, frame: str | None = None, local: bool = False) -> np.ndarray:
         return super().jacobian(self.link_angles(q), frame, local)
 
-    def ik(self, T_base_target: np.ndarray, q_seed: np.ndarray, *args, **kwargs) -> IKResult:  # type: ignore[no-untyped-def]
+    def ik(
+        self, T_base_target: np.ndarray, q_seed: np.ndarray, *args: Any, **kwargs: Any
+    ) -> IKResult:
         result = super().ik(T_base_target, self.link_angles(q_seed), *args, **kwargs)
         return replace(result, q=np.clip(self.motor_angles(result.q), self.lower, self.upper))
 

@@ -17,6 +17,7 @@ from registration import (
     match,
     transform_points,
 )
+from registration.matcher import Mode
 from registration.quality import ScanPasses
 from registration.search import SearchSettings
 
@@ -49,7 +50,7 @@ def localize(
     acceptance: Acceptance,
     seed: int,
     voxel_m: float = 0.0,
-    mode: str = "auto",
+    mode: Mode = "auto",
     T_table_object_prior: np.ndarray | None = None,
     pass_labels: np.ndarray | None = None,
     pass_sigma_m: float | None = None,
@@ -76,7 +77,7 @@ def localize(
     result = match(
         used,
         shape,
-        mode=mode,  # type: ignore[arg-type]
+        mode=mode,
         T_init=T_init,
         targets=targets_model,
         seed=seed,

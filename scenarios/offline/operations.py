@@ -82,8 +82,10 @@ def virtual_model(
     if model.burr_holes:
         return model
     beside = targets_path(name)
-    holes = read_targets(beside, units) if beside.is_file() else None
-    return replace(model, burr_holes=holes or generate_targets(model, seed=seed))
+    if beside.is_file():
+        holes = read_targets(beside, units) or generate_targets(model, seed=seed)
+        return replace(model, burr_holes=holes)
+    return replace(model, burr_holes=generate_targets(model, seed=seed))
 
 
 def target_operations(model: ObjectModel, section: OperationsSection) -> tuple[Operation, ...]:

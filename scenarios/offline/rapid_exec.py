@@ -362,7 +362,7 @@ def _speed(
                 f"speed {key} is neither a predefined speeddata (v5 .. v7000, vmax) nor a "
                 "declared speeddata [v_tcp, v_ori, v_leax, v_reax]",
             )
-        v_tcp, v_ori = float(value[0]), float(value[1])  # type: ignore[arg-type]
+        v_tcp, v_ori = float(value[0]), float(value[1])
     if "v" in options:
         v_tcp = _number(module, options["v"] or "", line, "the speed \\V")
     v_tcp_m_s = min(v_tcp * state.override, state.v_max_m_s * 1e3) * 1e-3
@@ -434,7 +434,7 @@ def _jointtarget(module: RapidModule, step: Step, kin: Kinematics) -> tuple[np.n
     if values is None:
         value = _declared(module, text, "jointtarget", step.line)
         if isinstance(value, tuple) and len(value) == 2:
-            values = [float(v) for part in value for v in part]  # type: ignore[union-attr]
+            values = [float(v) for part in value for v in part]
     if values is None or len(values) != 12:
         raise program_error(
             module,

@@ -333,6 +333,12 @@ _BINARY = {
 }
 
 
+def _as_float(value: object) -> float:
+    """A number literal's value (the parser stores it as a float)."""
+    assert isinstance(value, int | float), value
+    return float(value)
+
+
 class _Parser:
     """Recursive descent over the tokens of one module:
 
@@ -770,7 +776,7 @@ def _literal(node: _Node | None) -> object:
     if node.kind in ("num", "str", "bool"):
         return node.value
     if node.kind == "unary" and node.value in ("-", "+") and node.items[0].kind == "num":
-        value = float(node.items[0].value)  # type: ignore[arg-type]
+        value = _as_float(node.items[0].value)
         return -value if node.value == "-" else value
     if node.kind == "agg":
         items = tuple(_literal(item) for item in node.items)
@@ -951,7 +957,7 @@ class _Builder:
     def number(self, node: _Node, scope: _Scope, call: _Call) -> float | None:
         """A numeric argument [as written], None if known only at run time."""
         if node.kind == "num":
-            return float(node.value)  # type: ignore[arg-type]
+            return _as_float(node.value)
         if node.kind == "unary" and node.value in ("-", "+"):
             x = self.number(node.items[0], scope, call)
             return None if x is None else (-x if node.value == "-" else x)
@@ -1041,7 +1047,9 @@ class _Builder:
         scope = _Scope(call.routine, call.loop_vars)
         *targets, speed, zone, tool = positional[: n_targets + 3]
         self.check_declared(tool, "tooldata", "tool", call)
-        wobj = next((a for a in call.args if a.optional and a.name.casefold() == "wobj"), None)
+        wobj = next(
+            (a for a in call.args if a.optional and (a.name or "").casefold() == "wobj"), None
+        )
         if wobj is not None:
             if wobj.value is None:
                 raise self.error(call.line, f"\\WObj of {call.name} needs := and a work object")
@@ -1097,7 +1105,7 @@ def read_module(source: str | Path, name: str | None = None) -> RapidModule:
     if isinstance(source, Path):
         path: Path | None = source
         text = _read_text(source)
-        label = name or str(source)
+        label: str | None = name or str(source)
     elif "\n" not in source and re.search(r"\.(mod|modx|sys|prg)\s*$", source, re.IGNORECASE):
         raise RapidError(f"{source!r} looks like a file name: pass a Path to read a file")
     else:

@@ -18,7 +18,7 @@ from cell import nominal_T_base_slot
 from cell.controller import RACK_APPROACH_M
 from cell.robots import Robot
 from models.robot import TOOLS
-from scenarios.offline.moves import UnreachablePlanError
+from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.offline.program import Operation, plan_program
 from scenarios.offline.scan import ObjectBox, plan_scan
 from scenarios.offline.settings import PlanningSettings
@@ -95,7 +95,6 @@ def check_reach(
         if "surface" in config.localization.methods:
             plan = plan_scan(kin, box, config.localization.scan, q)
             scan_tables = tuple(p.table_position_m for p in plan)
-        table = {} if table_positions is None else {"table_positions": table_positions}
         if pick is not None:
             plan_program(kin, _TCP["gripper"], "gripper", (pick,), T_table_object, q, spins=2)
         section = config.operations
@@ -107,7 +106,7 @@ def check_reach(
             T_table_object,
             q,
             section.spins if table_positions is None else 1,
-            **table,
+            TABLE_CANDIDATES_M if table_positions is None else table_positions,
         )
     except UnreachablePlanError as exc:
         raise UnreachablePlanError(f"{_what_to_move(robot)}: {exc}") from None

@@ -230,7 +230,12 @@ def execute_scan(
     t0 = controller.time_s
     model = model or CellModel.nominal(controller.kinematics)
     dirs = controller.laser_directions_tcp
-    points, index, origins, times, which, joints = [], [], [], [], [], []
+    points: list[np.ndarray] = []
+    index: list[np.ndarray] = []
+    origins: list[np.ndarray] = []
+    times: list[float] = []
+    which: list[int] = []
+    joints: list[np.ndarray] = []
     for k, planned in enumerate(plan):
         for attempt in range(2):
             readings = _run_pass(controller, planned, config)

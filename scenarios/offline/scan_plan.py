@@ -638,7 +638,7 @@ def plan_job_scan(
     )
     goal = section.planning.goal_tre_m
 
-    def unique(passes: list[Candidate]) -> bool:
+    def is_unique(passes: list[Candidate]) -> bool:
         if unambiguous is None:
             return True
         points = np.concatenate([c.points_model for c in passes])
@@ -646,21 +646,21 @@ def plan_job_scan(
         return unambiguous(transform_points(T_table_object, points), labels)
 
     budget, min_gain = section.planning.budget_s, section.planning.min_gain
-    chosen, records, tre, unique = choose_passes(
-        found_all, targets_model, errors, goal, budget, tell, unique, min_gain
+    picked, records, tre, unique = choose_passes(
+        found_all, targets_model, errors, goal, budget, tell, is_unique, min_gain
     )
     names = target_names or tuple(f"target {k + 1}" for k in range(len(targets_model)))
     usable = f"{len(found_all)} of {tried} candidate passes reachable, clear and seeing the object"
-    if not chosen or not np.all(np.isfinite(tre)):
-        free = [names[k] for k in np.flatnonzero(~np.isfinite(tre))] if chosen else list(names)
+    if not picked or not np.all(np.isfinite(tre)):
+        free = [names[k] for k in np.flatnonzero(~np.isfinite(tre))] if picked else list(names)
         raise ScanPlanError(
             f"scan plan: no reachable pass constrains {', '.join(free)} ({usable}); the job "
             "refuses before any motion"
         )
     if np.max(tre) > goal:
         over = [f"{names[k]} {tre[k] * 1e3:.3f} mm" for k in np.flatnonzero(tre > goal)]
-        spent = sum(c.seconds for c in chosen)
-        rest = [c.seconds for c in found_all if c not in chosen]
+        spent = sum(c.seconds for c in picked)
+        rest = [c.seconds for c in found_all if c not in picked]
         if not rest:
             why = f"every usable pass is in the plan ({usable})"
         elif spent + min(rest) > budget:
@@ -680,17 +680,17 @@ def plan_job_scan(
             )
             raise ScanPlanError(f"scan plan: {over_goal}{limit}; the job refuses before any motion")
         tell(
-            f"warning: scan plan: {over_goal}; the job scans the {len(chosen)} passes that "
+            f"warning: scan plan: {over_goal}; the job scans the {len(picked)} passes that "
             f"get there (the match accepts up to {acceptable_tre_m * 1e3:.3f} mm)"
         )
     if not unique:
         raise ScanPlanError(
-            f"scan plan: the match of what the {len(chosen)} chosen passes would see is "
+            f"scan plan: the match of what the {len(picked)} picked passes would see is "
             f"still ambiguous within the {section.planning.budget_s:g} s budget (a rival "
             "pose or a symmetry fits as well); the job refuses before any motion"
         )
-    # Re-plan the chosen passes in scan order (alternating sweeps join without crossing).
-    specs = tuple(c.spec for c in chosen)
+    # Re-plan the picked passes in scan order (alternating sweeps join without crossing).
+    specs = tuple(c.spec for c in picked)
     passes = route_transits(
         cell, kin, plan_scan_fixed(kin, box, section, q_home, T_base_table, specs), q_home,
         T_base_table,
@@ -703,7 +703,7 @@ def plan_job_scan(
         tuple(records),
         found_all,
         speed,
-        tuple(c.points_model for c in chosen),
+        tuple(c.points_model for c in picked),
         section.standoff_m,
     )
 

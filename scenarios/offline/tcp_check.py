@@ -128,5 +128,6 @@ def checked_tool(
             detect("tcp_check", check.summary(), "re-seated the tool")
             controller.move_joints(controller.q_home)
             controller.return_tool(check.T_flange_tool if np.isfinite(check.off_m) else None)
+    assert check is not None  # a check that could not be made returned above
     detect("tcp_check", check.summary(), "stopped")
     raise SupervisionError("tcp_check", f"TCP check: {check.summary()}, after re-seating it")

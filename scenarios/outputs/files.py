@@ -18,6 +18,8 @@ from scenarios.outputs.registration_figure import TargetMark, write_registration
 from scenarios.outputs.scan_plan_figure import write_scan_plan_figure
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from scenarios.jobs.result import RunResult
 
 
@@ -200,5 +202,5 @@ def _methods_figure(folder: Path, result: RunResult) -> Path:
     return path
 
 
-def _save(fig: object, path: Path) -> Path:
-    return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))  # type: ignore[attr-defined]
+def _save(fig: Figure, path: Path) -> Path:
+    return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 import numpy as np
@@ -52,7 +53,7 @@ def _basis(view: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _render(
-    ax: object,
+    ax: Any,
     view: np.ndarray,
     vertices: np.ndarray,
     normals: np.ndarray,
