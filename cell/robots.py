@@ -38,7 +38,7 @@ from models.robot import (
     ArmGeometry,
     arm_xml,
 )
-from models.robot.arm import servo_actuators
+from models.robot.arm import LinkXml, arm_document, servo_actuators
 
 #: Deviation names of the built-in arm, in the order of its deviation vectors (12,).
 IRB_PARAMETERS: tuple[str, ...] = (
@@ -275,93 +275,53 @@ def arm_mjcf(
     lower, upper = model.lowerPositionLimit, model.upperPositionLimit
     mount = model.jointPlacements[1].translation
 
-    def body(k: int, indent: str) -> str:
+    def link(k: int) -> LinkXml:
         j = k + 1
         M = model.jointPlacements[j]
         inertia = model.inertias[j]
         inertia_com = inertia.inertia  # about the centre of mass, joint frame
-        axis = _motion_axis(model, j)
-        lines = [
-            f'{indent}<body name="link{j}" pos="{_f(M.translation)}" quat="{_quat(M.rotation)}" '
-            'gravcomp="1">',
-        ]
-        if inertia.mass > 0:
-            lines.append(
-                f'{indent}  <inertial pos="{_f(inertia.lever)}" mass="{inertia.mass:.12g}" '
-                f'fullinertia="{_f(_six(inertia_com))}"/>'
-            )
-        else:
-            lines.append(
-                f'{indent}  <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-9 1e-9 1e-9"/>'
-            )
-        lines.append(
-            f'{indent}  <joint name="{JOINT_NAMES[k]}" axis="{_f(axis)}" '
-            f'range="{lower[k]:.12g} {upper[k]:.12g}" armature="{servo.armature[k]:g}"/>'
+        inertial = (
+            f'<inertial pos="{_f(inertia.lever)}" mass="{inertia.mass:.12g}" '
+            f'fullinertia="{_f(_six(inertia_com))}"/>'
+            if inertia.mass > 0
+            else '<inertial pos="0 0 0" mass="1e-6" diaginertia="1e-9 1e-9 1e-9"/>'
         )
         child = model.jointPlacements[j + 1].translation if j < 6 else tip.placement.translation
+        geoms: tuple[str, ...] = ()
         if np.linalg.norm(child) > 1e-3:
-            for cls in ("collision", "visual"):
-                lines.append(
-                    f'{indent}  <geom class="{cls}" type="capsule" size="{radius_m:g}" '
-                    f'fromto="0 0 0 {_f(child)}"/>'
-                )
-        if j == 6:
-            P = tip.placement
-            lines.append(
-                f'{indent}  <site name="flange" pos="{_f(P.translation)}" '
-                f'quat="{_quat(P.rotation)}" size="0.01"/>'
+            geoms = tuple(
+                f'<geom class="{cls}" type="capsule" size="{radius_m:g}" '
+                f'fromto="0 0 0 {_f(child)}"/>'
+                for cls in ("collision", "visual")
             )
-        else:
-            lines.append(body(k + 1, indent + "  "))
-        lines.append(f"{indent}</body>")
-        return "\n".join(lines)
+        return LinkXml(
+            f"link{j}",
+            f' pos="{_f(M.translation)}" quat="{_quat(M.rotation)}"',
+            inertial,
+            f'<joint name="{JOINT_NAMES[k]}" axis="{_f(_motion_axis(model, j))}" '
+            f'range="{lower[k]:.12g} {upper[k]:.12g}" armature="{servo.armature[k]:g}"/>',
+            geoms,
+        )
 
-    names = ("base", *(f"link{j}" for j in range(1, 7)))
-    excludes = "\n".join(
-        f'    <exclude body1="{a}" body2="{b}"/>'
-        for i, a in enumerate(names)
-        for b in names[i + 1 :]
-    )
-    actuators = servo_actuators(lower, upper, effort, servo.kp, servo.kv)
     height = max(float(mount[2]), 0.01)
-    return f"""<mujoco model="{name}">
-  <compiler angle="radian" autolimits="true"/>
-
-  <default>
-    <default class="{name}">
-      <default class="visual">
-        <geom group="2" contype="0" conaffinity="0" rgba="0.35 0.55 0.75 1"/>
-      </default>
-      <default class="collision">
-        <geom group="3" rgba="0.5 0.5 0.5 1"/>
-      </default>
-    </default>
-  </default>
-
-  <worldbody>
-    <body name="base" childclass="{name}">
-      <inertial pos="0 0 0.1" mass="50" diaginertia="1 1 1"/>
-      <geom class="collision" type="cylinder" size="0.1 {height / 2:.6g}"
-            pos="{mount[0]:.6g} {mount[1]:.6g} {height / 2:.6g}"/>
-      <geom class="visual" type="cylinder" size="0.1 {height / 2:.6g}"
-            pos="{mount[0]:.6g} {mount[1]:.6g} {height / 2:.6g}"/>
-{body(0, "      ")}
-    </body>
-  </worldbody>
-
-  <contact>
-{excludes}
-  </contact>
-
-  <actuator>
-{actuators}
-  </actuator>
-
-  <keyframe>
-    <key name="home" qpos="{_f(q_home)}" ctrl="{_f(q_home)}"/>
-  </keyframe>
-</mujoco>
-"""
+    pedestal = (
+        f'type="cylinder" size="0.1 {height / 2:.6g}"\n'
+        f'            pos="{mount[0]:.6g} {mount[1]:.6g} {height / 2:.6g}"/>'
+    )
+    P = tip.placement
+    return arm_document(
+        name,
+        [link(k) for k in range(6)],
+        (
+            '<inertial pos="0 0 0.1" mass="50" diaginertia="1 1 1"/>',
+            f'<geom class="collision" {pedestal}',
+            f'<geom class="visual" {pedestal}',
+        ),
+        f'<site name="flange" pos="{_f(P.translation)}" quat="{_quat(P.rotation)}" size="0.01"/>',
+        servo_actuators(lower, upper, effort, servo.kp, servo.kv),
+        q_home,
+        "0.35 0.55 0.75 1",
+    )
 
 
 def robot_from_file(

@@ -77,6 +77,6 @@ def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: 
     run = _lint(config, cwd=tmp_path)
     out = run.stdout.replace("\n", " ")
     assert run.returncode != 0, out
-    assert "the planning and the stages never see the truth" in run.stdout.replace("\n", " ")
+    assert "the planning, RAPID and the stages never see the truth" in run.stdout.replace("\n", " ")
     for i in range(len(PROBES)):
         assert f"probe_{i}" in out, (i, out)

@@ -157,7 +157,7 @@ def test_a_stop_while_the_recording_closes_discards_it(
     """The job is done and its recording is being kept (flushed, moved into place) when the
     signal lands: the run is incomplete, so neither run.rrd nor its partial file stays."""
     from scenarios.jobs import pipeline
-    from scenarios.outputs.recording import Recording
+    from scenarios.realcell.recording import Recording
 
     class Done:
         def to_json(self) -> dict[str, Any]:

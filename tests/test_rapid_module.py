@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from scenarios.offline.rapid_module import (
+from scenarios.rapid.module import (
     RapidError,
     RapidModule,
     read_module,

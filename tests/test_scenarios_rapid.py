@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from cell import nominal_kinematics, nominal_T_base_table
 from scenarios.offline.program import OfflineProgram, Operation, PlannedOperation
-from scenarios.offline.rapid import configuration, program_module
+from scenarios.rapid.writer import configuration, program_module
 
 _NUM = r"[-+0-9.Ee]+"
 

@@ -20,7 +20,7 @@ from models.registry import builtin_model
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.offline.placement import nominal_pose
-from scenarios.offline.rapid import configuration
+from scenarios.rapid.writer import configuration
 
 SHORT = ["--set", "localization.scan.speed_m_s=0.25", "--set", "localization.scan.period_s=0.02"]
 
@@ -132,7 +132,7 @@ def test_the_module_comes_back_with_only_its_oframe_corrected(run: tuple[Path, P
     assert _rapidcheck(folder / "program.mod").returncode == 0
     # The new oframe moves the object frame to the measured pose of the phantom (in the
     # table frame the calibration identified: microns from the nominal one here).
-    from scenarios.offline.rapid_module import read_module
+    from scenarios.rapid.module import read_module
 
     read = read_module(folder / "program.mod")
     w = read.wobjs["wobjSkull"]

@@ -84,7 +84,7 @@ class ArmGeometry:
         )
 
 
-def _f(values: tuple[float, ...] | np.ndarray) -> str:
+def _f(values: Sequence[float] | np.ndarray) -> str:
     return " ".join(f"{float(v):.12g}" for v in values)
 
 
@@ -121,6 +121,91 @@ def servo_actuators(
         f'biastype="affine" biasprm="0 {-kp[i]:g} {-kv[i]:g}"/>'
         for i in range(6)
     )
+
+
+@dataclass(frozen=True)
+class LinkXml:
+    """One moving link of an arm's robot-only MJCF, as its text: the body's `name`, its
+    placement attributes in the parent's frame (' pos="..."', with ' quat="..."' if it turns),
+    its `inertial` and `joint` elements, and its `geoms` (collision and visual)."""
+
+    name: str
+    placement: str
+    inertial: str
+    joint: str
+    geoms: tuple[str, ...]
+
+
+def arm_document(
+    name: str,
+    links: Sequence[LinkXml],
+    base: Sequence[str],
+    flange_site: str,
+    actuators: str,
+    q_home: Sequence[float] | np.ndarray,
+    rgba: str,
+) -> str:
+    """The robot-only MJCF of a serial arm named `name`, as the cell expects it: a `base` body
+    (its elements `base`) carrying `links` as a chain (joints `joint1`..`joint6`), the
+    `flange_site` element in the last, the arm's own bodies excluded from touching each
+    other, its servos (`actuators`, servo_actuators) and a `home` keyframe at `q_home` (6,)
+    [rad]. Visual geoms in group 2 coloured `rgba`, collision geoms in group 3. The one
+    writer of arm models: the built-in arm (arm_xml) and any arm from its file
+    (cell.robots) are both written here."""
+
+    def chain(k: int, indent: str) -> str:
+        link = links[k]
+        lines = [
+            f'{indent}<body name="{link.name}"{link.placement} gravcomp="1">',
+            f"{indent}  {link.inertial}",
+            f"{indent}  {link.joint}",
+            *(f"{indent}  {geom}" for geom in link.geoms),
+            f"{indent}  {flange_site}" if k == len(links) - 1 else chain(k + 1, indent + "  "),
+            f"{indent}</body>",
+        ]
+        return "\n".join(lines)
+
+    names = ("base", *(link.name for link in links))
+    excludes = "\n".join(
+        f'    <exclude body1="{a}" body2="{b}"/>'
+        for i, a in enumerate(names)
+        for b in names[i + 1 :]
+    )
+    base_lines = "\n".join(f"      {line}" for line in base)
+    return f"""<mujoco model="{name}">
+  <compiler angle="radian" autolimits="true"/>
+
+  <default>
+    <default class="{name}">
+      <default class="visual">
+        <geom group="2" contype="0" conaffinity="0" rgba="{rgba}"/>
+      </default>
+      <default class="collision">
+        <geom group="3" rgba="0.5 0.5 0.5 1"/>
+      </default>
+    </default>
+  </default>
+
+  <worldbody>
+    <body name="base" childclass="{name}">
+{base_lines}
+{chain(0, "      ")}
+    </body>
+  </worldbody>
+
+  <contact>
+{excludes}
+  </contact>
+
+  <actuator>
+{actuators}
+  </actuator>
+
+  <keyframe>
+    <key name="home" qpos="{_f(q_home)}" ctrl="{_f(q_home)}"/>
+  </keyframe>
+</mujoco>
+"""
 
 
 def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") -> str:
@@ -196,75 +281,33 @@ def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") ->
         ),
     )
 
-    def body(i: int, indent: str) -> str:
-        name = BODY_NAMES[i + 1]
+    def link(i: int) -> LinkXml:
         com, half, geoms = links[i]
         quat = f' quat="{_quat_axis_angle(_AXES[i], off[i])}"' if off[i] != 0.0 else ""
-        lines = [
-            f'{indent}<body name="{name}" pos="{_f(pos[i])}"{quat} gravcomp="1">',
-            f'{indent}  <inertial pos="{_f(com)}" mass="{_MASS[i + 1]}" '
-            f'diaginertia="{_box_inertia(_MASS[i + 1], half)}"/>',
-            f'{indent}  <joint name="{JOINT_NAMES[i]}" axis="{_f(_AXES[i])}" '
-            f'range="{JOINT_LOWER[i]:.12g} {JOINT_UPPER[i]:.12g}" armature="{_ARMATURE[i]}"/>',
-        ]
+        both = []
         for geom in geoms:
-            lines.append(f"{indent}  {geom}")
-            visual = geom.replace('class="collision"', 'class="visual"')
-            lines.append(f"{indent}  {visual}")
-        if i == 5:
-            lines.append(
-                f'{indent}  <site name="{FLANGE_SITE}" quat="0.70710678118654757 0 '
-                '0.70710678118654757 0" size="0.01"/>'
-            )
-        else:
-            lines.append(body(i + 1, indent + "  "))
-        lines.append(f"{indent}</body>")
-        return "\n".join(lines)
+            both += [geom, geom.replace('class="collision"', 'class="visual"')]
+        return LinkXml(
+            BODY_NAMES[i + 1],
+            f' pos="{_f(pos[i])}"{quat}',
+            f'<inertial pos="{_f(com)}" mass="{_MASS[i + 1]}" '
+            f'diaginertia="{_box_inertia(_MASS[i + 1], half)}"/>',
+            f'<joint name="{JOINT_NAMES[i]}" axis="{_f(_AXES[i])}" '
+            f'range="{JOINT_LOWER[i]:.12g} {JOINT_UPPER[i]:.12g}" armature="{_ARMATURE[i]}"/>',
+            tuple(both),
+        )
 
-    actuators = servo_actuators(JOINT_LOWER, JOINT_UPPER, JOINT_TORQUE, _KP, _KV)
-    return f"""<mujoco model="{model_name}">
-  <compiler angle="radian" autolimits="true"/>
-
-  <default>
-    <default class="{model_name}">
-      <default class="visual">
-        <geom group="2" contype="0" conaffinity="0" rgba="0.93 0.55 0.12 1"/>
-      </default>
-      <default class="collision">
-        <geom group="3" rgba="0.5 0.5 0.5 1"/>
-      </default>
-    </default>
-  </default>
-
-  <worldbody>
-    <body name="base" childclass="{model_name}">
-      <inertial pos="0 0 0.1" mass="50" diaginertia="1 1 1"/>
-      <geom class="collision" type="cylinder" size="0.25 0.1" pos="0 0 0.1"/>
-      <geom class="visual" type="cylinder" size="0.25 0.1" pos="0 0 0.1"/>
-{body(0, "      ")}
-    </body>
-  </worldbody>
-
-  <contact>
-{_excludes()}
-  </contact>
-
-  <actuator>
-{actuators}
-  </actuator>
-
-  <keyframe>
-    <key name="home" qpos="{_f(Q_HOME)}" ctrl="{_f(Q_HOME)}"/>
-  </keyframe>
-</mujoco>
-"""
-
-
-def _excludes() -> str:
-    """Exclude every pair of arm bodies: the arm's links never touch each other in reach."""
-    pairs = [
-        (BODY_NAMES[i], BODY_NAMES[j])
-        for i in range(len(BODY_NAMES))
-        for j in range(i + 1, len(BODY_NAMES))
-    ]
-    return "\n".join(f'    <exclude body1="{a}" body2="{b}"/>' for a, b in pairs)
+    return arm_document(
+        model_name,
+        [link(i) for i in range(6)],
+        (
+            '<inertial pos="0 0 0.1" mass="50" diaginertia="1 1 1"/>',
+            '<geom class="collision" type="cylinder" size="0.25 0.1" pos="0 0 0.1"/>',
+            '<geom class="visual" type="cylinder" size="0.25 0.1" pos="0 0 0.1"/>',
+        ),
+        f'<site name="{FLANGE_SITE}" quat="0.70710678118654757 0 0.70710678118654757 0" '
+        'size="0.01"/>',
+        servo_actuators(JOINT_LOWER, JOINT_UPPER, JOINT_TORQUE, _KP, _KV),
+        Q_HOME,
+        "0.93 0.55 0.12 1",
+    )

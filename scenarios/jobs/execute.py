@@ -6,7 +6,7 @@ The run folder's config.yaml rebuilds the job's real cell exactly as `twincell r
 (the same seed: the same real arm, the same true placement of the object), with the
 controller moving its nominal arm: no calibration and no absolute accuracy, the arm's
 kinematics as its data sheet gives them. The program (program.mod, or `--program`) is planned
-on that nominal arm before the cell is built (scenarios.offline.rapid_exec): a program that
+on that nominal arm before the cell is built (scenarios.rapid.executor): a program that
 cannot run is refused without any motion. Then it runs, and at each touch (a MoveL to a stop
 point) the evaluator records the truth; a touch whose robtarget stands for one of the job's
 targets (the writer's p<Name>Touch, or a user program's own touch robtarget) is measured
@@ -39,7 +39,7 @@ from scenarios.jobs.exported import (
 )
 from scenarios.jobs.pipeline import job_cell, job_robot, object_models
 from scenarios.offline.operations import UserProgram, read_user_program
-from scenarios.offline.rapid_exec import plan_execution
+from scenarios.rapid.executor import plan_execution
 from scenarios.realcell.setup import JobCell
 
 Progress = Callable[[str], None]

@@ -20,8 +20,7 @@ from models.model import ObjectModel
 from models.robot import TOOLS
 from scenarios.jobs.config import JobConfig
 from scenarios.offline.operations import UserProgram
-from scenarios.offline.rapid import _identifier
-from scenarios.offline.rapid_exec import (
+from scenarios.rapid.executor import (
     ExecutedMove,
     ExecutionPlan,
     ExecutionRecord,
@@ -29,7 +28,8 @@ from scenarios.offline.rapid_exec import (
     execute_plan,
     plan_execution,
 )
-from scenarios.offline.rapid_module import RapidError, RapidModule, read_module
+from scenarios.rapid.module import RapidError, RapidModule, read_module
+from scenarios.rapid.writer import _identifier
 from scenarios.realcell.evaluation import TargetEvaluation
 from scenarios.realcell.setup import JobCell
 
@@ -181,7 +181,7 @@ def _fold(name: str) -> str:
 # -- the job: its targets and its real cell ------------------------------------------------------
 def job_targets(config: JobConfig, virtual: ObjectModel, user: UserProgram | None) -> JobTargets:
     """The job's targets and the robtargets that stand for them: the writer's p<Name>Touch
-    (scenarios.offline.rapid; with a method's prefix when the job ran each method), or a
+    (scenarios.rapid.writer; with a method's prefix when the job ran each method), or a
     user program's own touch robtargets (the touch is the target: no offset)."""
     names: dict[str, str] = {}
     prefixes = [""]

@@ -52,8 +52,6 @@ from scenarios.offline.premotion import (
 )
 from scenarios.offline.probing import probe_part
 from scenarios.offline.program import OfflineProgram
-from scenarios.offline.rapid import Filter
-from scenarios.offline.rapid_module import RapidError, with_oframe
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import (
     ObjectBox,
@@ -61,6 +59,8 @@ from scenarios.offline.scan import (
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
+from scenarios.rapid.module import RapidError, with_oframe
+from scenarios.rapid.writer import Filter
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.ct import ct_virtual_model
 from scenarios.realcell.evaluation import Evaluator, calibration_report

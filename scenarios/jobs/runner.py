@@ -75,7 +75,7 @@ def _paper(
 def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
     if not (options.rrd and config.output.rrd) and not options.spawn:
         return None
-    from scenarios.outputs.recording import Recording
+    from scenarios.realcell.recording import Recording
 
     name = f"{folder.path.name} (seed {config.seed})"
     to_file = options.rrd and config.output.rrd

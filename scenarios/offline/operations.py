@@ -21,7 +21,9 @@ from models.targets import BurrHole
 from registration.rigid import pose_error
 from scenarios.errors import ScenarioError
 from scenarios.offline.program import Operation, burr_hole_operations
-from scenarios.offline.rapid_module import (
+from scenarios.offline.settings import OperationsSection, Pick
+from scenarios.offline.targets import generate_targets, read_targets, targets_path
+from scenarios.rapid.module import (
     RapidError,
     RapidModule,
     TouchOperation,
@@ -29,8 +31,6 @@ from scenarios.offline.rapid_module import (
     read_module,
     touch_operations,
 )
-from scenarios.offline.settings import OperationsSection, Pick
-from scenarios.offline.targets import generate_targets, read_targets, targets_path
 
 
 class OperationsError(ScenarioError, ValueError):

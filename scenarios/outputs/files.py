@@ -12,10 +12,10 @@ from cell import Kinematics, nominal_kinematics
 from models.atomic import write_atomic
 from models.model import ObjectModel
 from scenarios.offline.program import OfflineProgram
-from scenarios.offline.rapid import Filter, program_module
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.registration_figure import TargetMark, write_registration_figure
 from scenarios.outputs.scan_plan_figure import write_scan_plan_figure
+from scenarios.rapid.writer import Filter, program_module
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -54,7 +54,7 @@ def write_program(
 ) -> Path:
     """The RAPID module of `program` for a controller computing with the arm `kinematics`
     (default: the built-in arm's nominal), filtered for the calibrated arm if `filtered`
-    (see scenarios.offline.rapid)."""
+    (see scenarios.rapid.writer)."""
     kin = nominal_kinematics() if kinematics is None else kinematics
     text = program_module(program, kin, T_table_nominal, filtered=filtered)
     return write_atomic(path, lambda tmp: tmp.write_text(text))

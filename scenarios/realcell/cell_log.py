@@ -13,7 +13,7 @@ from scenarios.realcell.evaluation import Evaluator
 
 
 class CellLog:
-    """Connects `recording` (a scenarios.outputs.recording.Recording, or None) to the real
+    """Connects `recording` (a scenarios.realcell.recording.Recording, or None) to the real
     cell of one run: the evaluator lets it witness the physics, the controller tells time.
     `object_name` is the real object's name in the cell, shown as `object_entity`."""
 

@@ -22,13 +22,13 @@ from matplotlib.figure import Figure
 
 from models.model import ObjectModel
 from registration import MatchResult, invert
-from scenarios.outputs.recording.stream import Stream, pose
 from scenarios.outputs.residuals import (
     COLOUR_MAP,
     colour_scale,
     residual_colours,
     signed_residuals,
 )
+from scenarios.realcell.recording.stream import Stream, pose
 
 
 def colour_bar(

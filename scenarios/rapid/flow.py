@@ -1,6 +1,6 @@
 """The order in which a controller runs the statements of a RAPID module, from `main`.
 
-`scenarios.offline.rapid_module` reads a module's data and moves but not its control flow:
+`scenarios.rapid.module` reads a module's data and moves but not its control flow:
 its moves come in the order of the text. A controller runs `main` statement by statement and
 enters each routine it calls. This module follows that order for the programs an offline
 cell program is made of: straight sequences of instructions and calls of routines without
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.offline.rapid_module import (
+from scenarios.rapid.module import (
     MOVES,
     Move,
     RapidError,

@@ -15,8 +15,8 @@ import numpy as np
 import rerun as rr
 from scipy.spatial.transform import Rotation
 
-from scenarios.outputs.recording.stream import Stream
 from scenarios.realcell.evaluation import TargetEvaluation
+from scenarios.realcell.recording.stream import Stream
 
 #: A target's label stands this far out from it, away from the object's centre [m].
 LABEL_OUT_M = 0.03

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import rerun.blueprint as rrb
 
-from scenarios.outputs.recording.stream import SIM_TIME
+from scenarios.realcell.recording.stream import SIM_TIME
 
 
 def blueprint(

@@ -20,7 +20,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from models.robot.visuals import LinkVisual
-from scenarios.outputs.recording.stream import Stream, pose
+from scenarios.realcell.recording.stream import Stream, pose
 
 #: Geom groups shown: environment, objects, arm visuals, tools (not collision-only ones).
 SHOWN_GROUPS = (0, 1, 2, 4)

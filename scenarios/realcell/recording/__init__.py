@@ -35,14 +35,14 @@ from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.scan import ScanData
 from scenarios.offline.scan_plan import ScanPlan
-from scenarios.outputs.recording.layout import blueprint
-from scenarios.outputs.recording.match import colour_bar, log_icp, log_registered
-from scenarios.outputs.recording.scan import LaserRays, log_scan
-from scenarios.outputs.recording.scene import CellScene, mesh_archetype
-from scenarios.outputs.recording.stream import ICP, Stream, pose
-from scenarios.outputs.recording.targets import log_targets
 from scenarios.outputs.residuals import colour_scale, residual_colours
 from scenarios.realcell.evaluation import TargetEvaluation
+from scenarios.realcell.recording.layout import blueprint
+from scenarios.realcell.recording.match import colour_bar, log_icp, log_registered
+from scenarios.realcell.recording.scan import LaserRays, log_scan
+from scenarios.realcell.recording.scene import CellScene, mesh_archetype
+from scenarios.realcell.recording.stream import ICP, Stream, pose
+from scenarios.realcell.recording.targets import log_targets
 
 #: The table frame the cell model believes: the table's top, where the object stands.
 TABLE = "world/cell/table/frame"

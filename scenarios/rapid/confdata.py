@@ -5,7 +5,7 @@ A pose of a six-axis arm has up to eight solutions (shoulder in front of or behi
 elbow up or down, wrist flipped or not), and each wrist axis with more than one turn of range
 repeats them by whole turns. ABB's confdata (cf1, cf4, cf6, cfx) names one: the quadrants of
 axes 1, 4 and 6 (cfk = floor(qk / 90 deg), so that cf6 also counts the turns of axis 6) and
-cfx, the branch bits as `scenarios.offline.rapid.configuration` defines them after ABB's table
+cfx, the branch bits as `scenarios.rapid.writer.configuration` defines them after ABB's table
 of eight configurations: 4 = the wrist centre behind axis 1, 2 = the wrist centre below (on
 the far side of) the lower arm, 1 = axis 5 negative.
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Kinematics
-from scenarios.offline.rapid import configuration
+from scenarios.rapid.writer import configuration
 
 Conf = tuple[int, int, int, int]
 

@@ -4,13 +4,13 @@ absolute-accuracy option runs it: every target solved with the arm's NOMINAL kin
 Two steps, so that a program that cannot run is refused before anything moves:
 
 - `plan_execution` walks the program from `main` in the order the controller runs it
-  (scenarios.offline.rapid_flow) and resolves every move: its tool (a declared tooldata, or
+  (scenarios.rapid.flow) and resolves every move: its tool (a declared tooldata, or
   tool0, the flange), its work object (a declared wobjdata with a fixed user frame, or wobj0,
   the base frame), the target in the base frame T_base_tcp = T_base_uframe @ T_uframe_oframe
   @ T_wobj_tcp, the table (external axis A [mm]; 9E+09 leaves it where it is), the speed
   (speeddata v_tcp [mm/s] and v_ori [deg/s], predefined or declared, \\V:=, VelSet), the zone
   (fine or \\Inpos: a stop point; zNN: a fly-by point) and the joints: MoveJ solves the target
-  in the robtarget's confdata (scenarios.offline.confdata), MoveL follows the straight line
+  in the robtarget's confdata (scenarios.rapid.confdata), MoveL follows the straight line
   from the previous point and must end in the robtarget's confdata (ConfL\\On), MoveAbsJ takes
   its jointtarget [deg]. A RapidError `<file>:<line>: <what>` names the first move or
   instruction that cannot run.
@@ -42,11 +42,11 @@ from cell.errors import CellError
 from cell.trajectory import straight_path
 from models.robot import TABLE_TRAVEL
 from scenarios.errors import ScenarioError
-from scenarios.offline.confdata import Conf, honours, solve_in_configuration
 from scenarios.offline.moves import change_tool_safely
-from scenarios.offline.rapid import _identifier, configuration
-from scenarios.offline.rapid_flow import Step, execution_order, program_error
-from scenarios.offline.rapid_module import RapidError, RapidModule, ToolData
+from scenarios.rapid.confdata import Conf, honours, solve_in_configuration
+from scenarios.rapid.flow import Step, execution_order, program_error
+from scenarios.rapid.module import RapidError, RapidModule, ToolData
+from scenarios.rapid.writer import _identifier, configuration
 
 #: Predefined speeddata: name -> (v_tcp [mm/s], v_ori [deg/s]) (v_leax, v_reax unused here).
 SPEEDS: dict[str, tuple[float, float]] = {

@@ -14,7 +14,7 @@ import numpy as np
 import rerun as rr
 
 from scenarios.offline.scan import ScanData
-from scenarios.outputs.recording.stream import Stream
+from scenarios.realcell.recording.stream import Stream
 
 #: Rays drawn per laser line (evenly across its returns).
 RAYS_PER_LINE = 5

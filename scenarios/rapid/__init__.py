@@ -1,0 +1,11 @@
+"""ABB RAPID, in and out: the one place the project reads, models, writes and runs RAPID.
+
+- `scenarios.rapid.module`: the reader (tokenizer and parser of a module) and the module's
+  model (`RapidModule`: its data, moves, tools and work objects), and `with_oframe`, which
+  writes a module back with one work object's object frame corrected;
+- `scenarios.rapid.writer`: the corrected offline program written as a module (program.mod);
+- `scenarios.rapid.flow`: the order in which a controller runs a module's statements;
+- `scenarios.rapid.confdata`: a robtarget's configuration data, and the solution it asks for;
+- `scenarios.rapid.executor`: a module run on the cell's controller the way an IRC5 without
+  absolute accuracy runs it (the job's exported program and `twincell execute`).
+"""
