@@ -14,13 +14,13 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cell import Kinematics, nominal_T_base_table
+from cell import Controller, Kinematics, nominal_T_base_table
 from cell.errors import CellConfigError, SupervisionError
 from cell.robots import Robot, make_robot
 from cell.sim.faults import FAULT_KINDS, Fault
@@ -31,6 +31,7 @@ from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, RobotSection
 from scenarios.jobs.exported import EXECUTION_FILE, execute_in_cell, job_targets, read_program
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
+from scenarios.jobs.run_log import RunLog
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.cell_model import CellModel
@@ -57,6 +58,7 @@ from scenarios.offline.scan import (
     ObjectBox,
 )
 from scenarios.offline.scan_plan import ScanPlan
+from scenarios.offline.settings import PlanningSettings
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
 from scenarios.rapid.module import RapidError, with_oframe
@@ -267,21 +269,25 @@ def job_faults(
     return tuple(out)
 
 
-def run_cell_job(
-    config: JobConfig,
-    folder: Path,
-    progress: Progress | None = None,
-    recording: Any | None = None,
-    stages: Any | None = None,
-) -> RunResult:
-    """Run a cell job into `folder`; returns its result (written by the caller). `stages`
-    (scenarios.jobs.stages.StageTracker) hears each stage as it begins."""
-    say = progress or (lambda _msg: None)
-    t_total = time.perf_counter()
-    timings: dict[str, float] = {}
+@dataclass(frozen=True, eq=False)
+class JobPlan:
+    """What a job is before its real cell is built: its planning settings, its arm, the
+    user's program (if any), the virtual model and the real entity (the truth: for the real
+    cell's set-up only), the nominal pose T_table_object (4, 4), and the scan plan."""
 
-    # The virtual model and the real cell (the truth stays here).
-    t0 = time.perf_counter()
+    settings: PlanningSettings
+    robot: Robot
+    user: UserProgram | None
+    virtual: ObjectModel
+    real: ObjectModel
+    T_table_nominal: np.ndarray
+    scan_plan: ScanPlan | None
+
+
+def plan_job(config: JobConfig, say: Progress) -> JobPlan:
+    """The job in its virtual cell, before the real one: the models, whether the arm reaches
+    the rack slots, the scan and the operations, and the scan's passes (chosen, or for a
+    fixed plan predicted): a job that cannot be done refuses here."""
     obj = config.cell.object
     settings = config.planning()  # all that the stages are told of the job
     say(f"model {obj.model!r}: virtual and real entity")
@@ -332,6 +338,28 @@ def run_cell_job(
             np.array([op.T_object_touch[:3, 3] for op in operations]), say,
             tuple(op.name for op in operations),
         )  # fmt: skip
+    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan)
+
+
+def run_cell_job(
+    config: JobConfig,
+    folder: Path,
+    progress: Progress | None = None,
+    recording: Any | None = None,
+    stages: Any | None = None,
+) -> RunResult:
+    """Run a cell job into `folder`; returns its result (written by the caller). `stages`
+    (scenarios.jobs.stages.StageTracker) hears each stage as it begins."""
+    say = progress or (lambda _msg: None)
+    t_total = time.perf_counter()
+    timings: dict[str, float] = {}
+
+    # The virtual model and the real cell (the truth stays here).
+    t0 = time.perf_counter()
+    plan = plan_job(config, say)
+    settings, robot, user = plan.settings, plan.robot, plan.user
+    virtual, real, T_table_nominal = plan.virtual, plan.real, plan.T_table_nominal
+    scan_plan, obj = plan.scan_plan, config.cell.object
     faults = job_faults(config, virtual, T_table_nominal)
     cell = job_cell(config, virtual, real, robot, recording, faults)
     if recording is not None and scan_plan is not None:
@@ -340,38 +368,9 @@ def run_cell_job(
     log = cell.log
     if faults:
         say("faults injected: " + ", ".join(f.name for f in faults))
-    stage_now = ["setup"]
-    checks_seen: list[dict[str, Any]] = []  # the stages' own checks that spoke
-
-    transitions: list[tuple[float, str]] = [(0.0, "setup")]
-
-    def stage_at(time_s: float) -> str:
-        return next(name for t, name in reversed(transitions) if t <= time_s + 1e-9)
-
-    def enter(name: str) -> None:
-        stage_now[0] = name
-        transitions.append((controller.time_s, name))
-        if stages is not None:
-            stages.enter(name)
-        evaluator.enter(name)
-
-    controller.on_event = lambda e: say(f"warning: {stage_now[0]}: {e.message}; {e.action}")
-
-    def detect(code: str, message: str, action: str) -> None:
-        say(f"warning: {stage_now[0]}: {message}; {action}")
-        checks_seen.append(
-            {"stage": stage_now[0], "time_s": controller.time_s, "code": code,
-             "message": message, "action": action}
-        )  # fmt: skip
-
-    if recording is not None:  # every line of progress also in the recording's log
-        tell = say
-
-        def say(message: str) -> None:
-            tell(message)
-            log.say(message)
-
-    hooks = RunHooks(evaluator, log, lambda message: say(message), detect)
+    run = RunLog(controller, evaluator, log, say, stages, recording)
+    say, enter, detect = run.say, run.enter, run.detect
+    hooks = RunHooks(evaluator, log, say, detect)
     ctx = StageContext(controller, virtual, T_table_nominal, cell.box, settings, hooks, user)
 
     timings["setup"] = time.perf_counter() - t0
@@ -513,7 +512,7 @@ def run_cell_job(
         timings["execute"] = time.perf_counter() - t0
     except SupervisionError as stop:
         aborted = stop
-        say(f"aborted in {stage_now[0]}: {stop}")
+        say(f"aborted in {run.stage}: {stop}")
         if not pose_errors:
             pose_errors = measure_poses(tuple(poses.values()))
     ordered = tuple(poses[m] for m in config.localization.methods if m in poses)
@@ -568,24 +567,9 @@ def run_cell_job(
     program_file = None
     exported: dict[str, Any] | None = None
     if primary_program is not None:
-        filtered = None
-        compensation = config.export.compensation
-        if compensation == "filtered" and (calibration is None or user is not None):
-            say(
-                "program: compensation nominal: "
-                + (
-                    "filtering needs the calibrated arm"
-                    if calibration is None
-                    else "your own module keeps its robtargets (its oframe is corrected)"
-                )
-            )
-        elif compensation == "filtered" and calibration is not None:
-            filtered = Filter(
-                calibration.kinematics,
-                nominal,
-                controller.T_base_slot(primary_program.tool),
-                controller.q_home,
-            )
+        filtered = program_filter(
+            config.export.compensation, calibration, user, controller, primary_program.tool, say
+        )
         program_file = export_program(
             folder,
             primary_program,
@@ -608,28 +592,9 @@ def run_cell_job(
         if program_file is not None and config.export.execute:
             t0 = time.perf_counter()
             log.phase("exported program", f"{program_file} on the nominal controller")
-            try:
-                executed = execute_in_cell(
-                    cell,
-                    read_program(folder / program_file),
-                    job_targets(config, virtual, user),
-                    say,
-                    refetch=True,
-                )
-            except RapidError as exc:  # a controller would stop the program there
-                exported = {"status": "refused", "reason": str(exc)}
-                say(f"{program_file} on the nominal controller: refused: {exc}")
-            except SupervisionError as exc:  # its supervision stopped the cell
-                exported = {"status": "aborted", "reason": str(exc)}
-                say(f"{program_file} on the nominal controller: aborted: {exc}")
-            else:
-                exported = executed.summary()
-                write_text(folder / EXECUTION_FILE, json.dumps(executed.to_json(), indent=2) + "\n")
-                say(
-                    f"{program_file} ({executed.compensation}) on the nominal controller: "
-                    f"target error rms {(executed.rms_m or 0) * 1e3:.3f} mm, max "
-                    f"{(executed.max_m or 0) * 1e3:.3f} mm"
-                )
+            exported = run_exported(
+                cell, folder, program_file, job_targets(config, virtual, user), say
+            )
             timings["export_execute"] = time.perf_counter() - t0
     exports.write_robot_urdf(
         folder, controller.robot, nominal, None if calibration is None else calibration.links
@@ -657,22 +622,14 @@ def run_cell_job(
                 checks[name] = (limit, bool(value <= limit))
     # What the supervision and the checks saw, each in the stage it spoke in, and each
     # fault injected with the stage that detected it (the evaluator: it knows the faults).
-    spoke = sorted(
-        [
-            {"stage": stage_at(e.time_s), "time_s": e.time_s, "code": e.code,
-             "message": e.message, "action": e.action}
-            for e in controller.events
-        ]
-        + checks_seen,
-        key=lambda d: d["time_s"],
-    )  # fmt: skip
+    spoke = list(run.spoke())
     fault_report = evaluator.faults(spoke)
     for entry in fault_report:
         by = entry["detected_by"]
         seen = by if by in ("missed", "not injected") else f"detected in {by}"
         say(f"fault {entry['name']}: {seen}")
     if aborted is not None:
-        status, reason, stopped_in = "aborted", str(aborted), stage_now[0]
+        status, reason, stopped_in = "aborted", str(aborted), run.stage
     elif primary.accepted:
         status, reason, stopped_in = "complete", "", None
     else:
@@ -729,6 +686,60 @@ def run_cell_job(
             else None,
         )
     return result
+
+
+def program_filter(
+    compensation: str,
+    calibration: CalibrationResult | None,
+    user: UserProgram | None,
+    controller: Controller,
+    tool: str,
+    say: Progress,
+) -> Filter | None:
+    """The exported program's filter for the calibrated arm (compensation "filtered"), or
+    None: the nominal poses, as asked or, said why, when there is no calibrated arm or the
+    program is the user's own module (its oframe is corrected, its robtargets kept)."""
+    if compensation != "filtered":
+        return None
+    if calibration is None or user is not None:
+        why = (
+            "filtering needs the calibrated arm"
+            if calibration is None
+            else "your own module keeps its robtargets (its oframe is corrected)"
+        )
+        say(f"program: compensation nominal: {why}")
+        return None
+    return Filter(
+        calibration.kinematics,
+        controller.nominal_kinematics,
+        controller.T_base_slot(tool),
+        controller.q_home,
+    )
+
+
+def run_exported(
+    cell: JobCell, folder: Path, program_file: str, targets: Any, say: Progress
+) -> dict[str, Any]:
+    """Run the exported program in the real cell as a controller without absolute accuracy
+    would (scenarios.jobs.exported), written to EXECUTION_FILE; its summary, or its refusal
+    (a RAPID error) or its stop (the supervision) with the reason."""
+    try:
+        executed = execute_in_cell(
+            cell, read_program(folder / program_file), targets, say, refetch=True
+        )
+    except RapidError as exc:  # a controller would stop the program there
+        say(f"{program_file} on the nominal controller: refused: {exc}")
+        return {"status": "refused", "reason": str(exc)}
+    except SupervisionError as exc:  # its supervision stopped the cell
+        say(f"{program_file} on the nominal controller: aborted: {exc}")
+        return {"status": "aborted", "reason": str(exc)}
+    write_text(folder / EXECUTION_FILE, json.dumps(executed.to_json(), indent=2) + "\n")
+    say(
+        f"{program_file} ({executed.compensation}) on the nominal controller: "
+        f"target error rms {(executed.rms_m or 0) * 1e3:.3f} mm, max "
+        f"{(executed.max_m or 0) * 1e3:.3f} mm"
+    )
+    return executed.summary()
 
 
 def export_program(
