@@ -33,7 +33,6 @@ from scenarios.jobs.exported import EXECUTION_FILE, execute_in_cell, job_targets
 from scenarios.jobs.result import MatchReport, MethodReport, RunResult
 from scenarios.jobs.run_log import RunLog
 from scenarios.offline.calibration import CalibrationResult
-from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.operations import (
     UserProgram,
@@ -46,12 +45,6 @@ from scenarios.offline.operations import (
     virtual_model,
 )
 from scenarios.offline.placement import nominal_pose
-from scenarios.offline.premotion import (
-    clear_of,
-    job_virtual_cell,
-    placement_uncertainty_m,
-)
-from scenarios.offline.probing import probe_part
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import (
@@ -67,8 +60,10 @@ from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.ct import ct_virtual_model
 from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell, build_job_cell, model_error
+from scenarios.stages.calibrate import calibrate_stage
 from scenarios.stages.context import StageContext
 from scenarios.stages.execute import execute_stage
+from scenarios.stages.probe import probe_stage
 from scenarios.stages.program import ProgramStage, check_stage, program_stage
 from scenarios.stages.register import LocatedPose, stray_message, surface_pose
 from scenarios.stages.scan import ScanStage, job_scan_plan, scan_stage
@@ -423,25 +418,7 @@ def run_cell_job(
             enter("calibrate")
             t0 = time.perf_counter()
             log.phase("calibrate", "the arm, the laser and the table, on the spheres")
-            name = config.object_name
-            views_clear = clear_of(
-                job_virtual_cell(
-                    controller.robot, settings.rack_xyz, virtual, T_table_nominal, True, name
-                ),
-                "laser",
-                name,
-                placement_uncertainty_m(
-                    settings.tolerance, settings.placement.lift_m, cell.box.radius_xy
-                ),
-            )
-            calibration = calibrate_arm(
-                controller,
-                config.calibration,
-                config.seed,
-                say,
-                lambda: hooks.moved("view"),
-                views_clear,
-            )
+            calibration = calibrate_stage(ctx)
             timings["calibrate"] = time.perf_counter() - t0
             hooks.moved("view")
             if recording is not None:
@@ -455,14 +432,7 @@ def run_cell_job(
             enter("probe")
             t0 = time.perf_counter()
             log.phase("probe", "the part's edges with the IR sensor")
-            probed = probe_part(
-                controller,
-                virtual.probe_lines,
-                cell.T_table_nominal,
-                config.localization.probe.height_m,
-                progress=say,
-            )
-            poses["probe"] = LocatedPose("probe", probed.T_table_object, True, "", probe=probed)
+            poses["probe"] = probe_stage(ctx)
             timings["probe"] = time.perf_counter() - t0
             hooks.moved("view")
         if "surface" in methods:

@@ -1,0 +1,31 @@
+"""The calibration: the arm, the laser's mounting and range scale and the table identified
+on the calibration spheres (scenarios.offline.calibration), the views kept clear of the
+object by the fixture's tolerance."""
+
+from __future__ import annotations
+
+from scenarios.offline.calibration import CalibrationResult
+from scenarios.offline.calibration_step import calibrate_arm
+from scenarios.offline.premotion import clear_of, job_virtual_cell, placement_uncertainty_m
+from scenarios.stages.context import StageContext
+
+
+def calibrate_stage(ctx: StageContext) -> CalibrationResult:
+    """Calibrate the arm on the spheres; every view keeps the object's footprint plus the
+    fixture's tolerance clear (the virtual cell, the object at its nominal pose)."""
+    settings, controller = ctx.settings, ctx.controller
+    name = settings.object_name
+    cell = job_virtual_cell(
+        controller.robot, settings.rack_xyz, ctx.virtual, ctx.T_table_nominal, True, name
+    )
+    margin = placement_uncertainty_m(
+        settings.tolerance, settings.placement.lift_m, ctx.box.radius_xy
+    )
+    return calibrate_arm(
+        controller,
+        settings.calibration,
+        settings.seed,
+        ctx.hooks.say,
+        lambda: ctx.hooks.moved("view"),
+        clear_of(cell, "laser", name, margin),
+    )
