@@ -493,33 +493,18 @@ def run_cell_job(
 
     # Evaluate (truth) and export. A user's robtargets are the touch poses themselves.
     touch_offset = 0.0 if user is not None else config.operations.touch_offset_m
-    reports = []
-    for pose in ordered:
-        program = programs.operations.get(pose.method)
-        targets: tuple[Any, ...] = ()
-        if program is not None and aborted is None:
-            prefix = f"{pose.method}:" if config.operations.per_method else ""
-            targets = tuple(
-                replace(t, name=t.name.removeprefix(prefix))
-                for t in evaluator.targets(touch_offset, virtual, program.T_base_object, prefix)
-            )
-        predicted: tuple[float, ...] = ()
-        if pose.localization is not None:
-            holes = np.array([h.p_entry for h in virtual.burr_holes])
-            tre = pose.localization.result.predicted_tre(holes).tre
-            by_name = dict(zip((h.name for h in virtual.burr_holes), tre, strict=True))
-            predicted = tuple(float(by_name[t.name]) for t in targets)
-        reports.append(
-            MethodReport(
-                pose.method,
-                pose.accepted,
-                pose.reason,
-                pose_errors.get(pose.method),
-                targets,
-                predicted,
-                None if pose.probe is None else pose.probe.readings,
-            )
+    reports = [
+        method_report(
+            pose,
+            None if aborted is not None else programs.operations.get(pose.method),
+            evaluator,
+            virtual,
+            touch_offset,
+            f"{pose.method}:" if config.operations.per_method else "",
+            pose_errors.get(pose.method),
         )
+        for pose in ordered
+    ]
     pick_eval = grasp_error = None
     if programs.pick is not None and config.operations.pick is not None and aborted is None:
         frame = config.operations.pick.frame
@@ -656,6 +641,41 @@ def run_cell_job(
             else None,
         )
     return result
+
+
+def method_report(
+    pose: LocatedPose,
+    program: OfflineProgram | None,
+    evaluator: Evaluator,
+    virtual: ObjectModel,
+    touch_offset_m: float,
+    prefix: str,
+    pose_error: Any,
+) -> MethodReport:
+    """What one localization method's pose gave, against the truth: the achieved tool tips of
+    its `program` (None: it ran none) at the true targets, named without the method's
+    `prefix`, with each target's predicted TRE beside them."""
+    targets: tuple[Any, ...] = ()
+    if program is not None:
+        targets = tuple(
+            replace(t, name=t.name.removeprefix(prefix))
+            for t in evaluator.targets(touch_offset_m, virtual, program.T_base_object, prefix)
+        )
+    predicted: tuple[float, ...] = ()
+    if pose.localization is not None:
+        holes = np.array([h.p_entry for h in virtual.burr_holes])
+        tre = pose.localization.result.predicted_tre(holes).tre
+        by_name = dict(zip((h.name for h in virtual.burr_holes), tre, strict=True))
+        predicted = tuple(float(by_name[t.name]) for t in targets)
+    return MethodReport(
+        pose.method,
+        pose.accepted,
+        pose.reason,
+        pose_error,
+        targets,
+        predicted,
+        None if pose.probe is None else pose.probe.readings,
+    )
 
 
 def program_filter(
