@@ -79,17 +79,13 @@ class SimController(Controller):
 
     @property
     def tool_in_hand(self) -> str | None:
-        """The tool locked on the flange, or None."""
         return self._changer.held
 
     @property
     def time_s(self) -> float:
-        """The controller's clock [s]."""
         return self._sim.time
 
     def read_joints(self) -> np.ndarray:
-        """(6,) encoder readings [rad], each checked against the encoder's second channel:
-        channels that disagree are read again (and logged); twice, the cell stops."""
         for attempt in range(2):
             a, b = self._encoders.read_channels()
             off = np.abs(a - b)
@@ -104,7 +100,6 @@ class SimController(Controller):
     def move_joints(
         self, q_target: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
     ) -> None:
-        """Joint move to `q_target` (6,) [rad], peak joint speeds `speed` x the limits."""
         if not 0.0 < speed <= 1.0:
             raise CellConfigError(f"speed must be a fraction in (0, 1], got {speed!r}")
         q1 = self.kinematics.check_limits(q_target)
@@ -114,12 +109,10 @@ class SimController(Controller):
         sim.settle(settle_s)
 
     def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
-        """Joints that put the current TCP at `T_base_tcp`, seeded from the current joints."""
         seed = self._drives.motor if q_seed is None else q_seed
         return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
 
     def reachable(self, T_base_tcp: np.ndarray) -> bool:
-        """Whether the current TCP can reach `T_base_tcp` within the joint limits."""
         return self.kinematics.reachable(T_base_tcp, self._drives.motor, self.T_flange_tcp())
 
     def move_linear(
@@ -130,10 +123,6 @@ class SimController(Controller):
         settle_s: float = SETTLE_S,
         T_flange_tcp: np.ndarray | None = None,
     ) -> None:
-        """Straight TCP move to `T_base_tcp` at `speed_m_s` (slowed if a joint would exceed its
-        speed limit), the TCP the nominal one of the tool in hand or `T_flange_tcp` (4, 4) (a
-        program's tooldata). Raises UnreachableTargetError if a point of the line has no IK
-        solution."""
         q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, angular_speed_rad_s, T_flange_tcp)
         self._run(q, qd)
         self._sim.settle(settle_s)
@@ -145,16 +134,12 @@ class SimController(Controller):
         period_s: float = 0.01,
         settle_s: float = SETTLE_S,
     ) -> list[LaserReading]:
-        """Straight TCP move with the laser in hand, reading a laser line every `period_s` [s]
-        while moving (each reading stamped with the encoder joints of its instant)."""
         self._require("laser")
         return self._read_along(T_base_tcp, speed_m_s, period_s, settle_s, self.read_laser)
 
     def sweep_beam(
         self, T_base_tcp: np.ndarray, speed_m_s: float = 0.01, settle_s: float = SETTLE_S
     ) -> list[tuple[np.ndarray, bool]]:
-        """Straight TCP move through the TCP check station's beam, reading it at every
-        control step: (encoder joints (6,) [rad], beam broken) at each."""
         return self._read_along(
             T_base_tcp,
             speed_m_s,
@@ -185,7 +170,6 @@ class SimController(Controller):
 
     @property
     def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
-        """The TCP check beam's ends (3,), (3,) [m] in the cell's layout."""
         return self._beam.p_from.copy(), self._beam.p_to.copy()
 
     # -- supervision --------------------------------------------------------------------------
@@ -200,8 +184,6 @@ class SimController(Controller):
 
     @contextmanager
     def supervision_off(self) -> Iterator[None]:
-        """Motion supervision off for what is meant to push (a grasp), as a program
-        switches ABB's collision detection off around a gripping move."""
         self._supervising = False
         try:
             yield
@@ -288,9 +270,6 @@ class SimController(Controller):
 
     # -- tool changer -------------------------------------------------------------------------
     def lock(self) -> str:
-        """Lock the tool seated against the flange; returns its name. The lock sensor must
-        say locked (one retry), and the motors' holding torques must match the tool's
-        tooldata; otherwise SupervisionError."""
         for attempt in range(2):
             name = self._changer.lock()
             if self._changer.held is not None:
@@ -320,15 +299,11 @@ class SimController(Controller):
             raise SupervisionError("load", message)
 
     def unlock(self) -> str:
-        """Release the held tool into its rack slot; returns its name."""
         name = self._changer.unlock()
         self._drives.hold()
         return name
 
     def return_tool(self, T_flange_tool: np.ndarray | None = None) -> None:
-        """Put the tool in hand back into its rack slot (approach from the rack's front,
-        place, unlock, leave); a tool known to sit off its seat on the flange by
-        `T_flange_tool` (4, 4) is placed so that it, not its seat, meets the slot."""
         name = self.tool_in_hand
         if name is None:
             return
@@ -342,8 +317,6 @@ class SimController(Controller):
         self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
 
     def change_tool(self, tool: str) -> None:
-        """Return the tool in hand (if any), then pick `tool` from its rack slot and leave
-        the rack by its front."""
         tool_index(tool)
         if self.tool_in_hand == tool:
             return
@@ -382,7 +355,6 @@ class SimController(Controller):
 
     # -- tools' actuators ---------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:
-        """Command each finger to `opening_m` [m] from the centre (0 = closed), then settle."""
         self._require("gripper")
         if not 0.0 <= opening_m <= FINGER_TRAVEL:
             raise CellConfigError(
@@ -392,7 +364,6 @@ class SimController(Controller):
         self._sim.settle(0.3)
 
     def spin_screwer(self, rad_s: float, seconds: float) -> None:
-        """Run the screwer spindle at `rad_s` [rad/s] for `seconds` [s], then stop it."""
         self._require("screwer")
         sim = self._sim
         sim.data.ctrl[sim.spindle_act] = rad_s
@@ -403,7 +374,6 @@ class SimController(Controller):
     def move_table(
         self, position_m: float, speed_m_s: float = TABLE_SPEED, settle_s: float = SETTLE_S
     ) -> None:
-        """Move the table to `position_m` [m] within its travel."""
         lo, hi = TABLE_TRAVEL
         if not lo <= position_m <= hi:
             raise JointLimitError(
@@ -429,17 +399,14 @@ class SimController(Controller):
         raise SupervisionError("table_in_position", f"{message} after a retry")
 
     def table_position(self) -> float:
-        """The table axis readout [m]."""
         return self._table.read()
 
     # -- sensors ------------------------------------------------------------------------------
     def read_ir(self) -> float | None:
-        """IR distance [m] along the IR tool's axis, None for no return."""
         self._require("ir")
         return self._ir.cast(self._sim.data)
 
     def read_laser(self) -> LaserReading:
-        """One laser line: distances (NaN = no return) and the encoder joints at that instant."""
         self._require("laser")
         sim = self._sim
         return LaserReading(
