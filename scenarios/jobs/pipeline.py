@@ -1,12 +1,13 @@
 """The one pipeline of every cell job: calibrate, scan, localize, program, execute, evaluate,
 export.
 
-The runner (`run_cell_job`) alone holds the real cell's truth: it sets the cell up
-(scenarios.realcell), hands the stages the controller and the virtual model, nothing else,
-and asks the evaluator after each stage what really happened. The stages (scenarios.offline)
-see the cell as a program on a real controller would. What the run records of the truth (the
-evaluator's moments, the rerun recording of the bodies) goes through the hooks the runner
-passes to the stages.
+The job is first planned in its virtual cell (`plan_job`). The runner (`run_cell_job`)
+alone holds the real cell's truth: it sets the cell up (scenarios.realcell), hands the
+stages (scenarios.stages) a context with the controller API, the virtual model and the
+planning settings, nothing else, and asks the evaluator afterwards what really happened.
+The stages see the cell as a program on a real controller would. What the run records of
+the truth (the evaluator's moments, the rerun recording of the bodies) goes through the
+hooks the runner passes to the stages.
 """
 
 from __future__ import annotations
