@@ -324,6 +324,47 @@ def arm_mjcf(
     )
 
 
+def _limit(model: pin.Model, limits: tuple[np.ndarray, np.ndarray], path: str | Path) -> None:
+    """Narrow `model`'s joint ranges to `limits` (lower, upper) (6,) [rad], which must lie
+    within the file's."""
+    lower, upper = (np.asarray(v, dtype=float) for v in limits)
+    if (
+        lower.shape != (6,)
+        or upper.shape != (6,)
+        or (lower >= upper).any()
+        or (lower < model.lowerPositionLimit - 1e-9).any()
+        or (upper > model.upperPositionLimit + 1e-9).any()
+    ):
+        raise CellConfigError(
+            f"{path}: joint ranges {lower.tolist()} .. {upper.tolist()} rad must be six "
+            f"increasing pairs within the arm's {model.lowerPositionLimit.tolist()} .. "
+            f"{model.upperPositionLimit.tolist()}"
+        )
+    model.lowerPositionLimit, model.upperPositionLimit = lower, upper
+
+
+def _speeds_and_efforts(
+    model: pin.Model, speed: np.ndarray | None, effort: np.ndarray | None, path: str | Path
+) -> tuple[np.ndarray, np.ndarray]:
+    """The joints' speed [rad/s] and effort [N m] limits (6,) each: those given, else the
+    file's; every one finite and positive."""
+    speed = np.asarray(model.velocityLimit if speed is None else speed, dtype=float)
+    effort = np.asarray(model.effortLimit if effort is None else effort, dtype=float)
+    if (
+        speed.shape != (6,)
+        or effort.shape != (6,)
+        or not (np.isfinite(speed).all() and np.isfinite(effort).all())
+        or (speed <= 0).any()
+        or (effort <= 0).any()
+    ):
+        raise CellConfigError(
+            f"{path}: every joint needs a finite positive speed and effort limit (got "
+            f"{speed.tolist()} rad/s, {effort.tolist()} N m); give them in the cell "
+            "(cell.robot.speed_deg_s, cell.robot.effort_nm) where the file has none"
+        )
+    return speed, effort
+
+
 def robot_from_file(
     path: str | Path,
     tip_frame: str,
@@ -346,36 +387,10 @@ def robot_from_file(
     safety configuration: e.g. the upper arm kept above the shoulder)."""
     model = load_arm_model(path, tip_frame)
     if limits is not None:
-        lower, upper = (np.asarray(v, dtype=float) for v in limits)
-        if (
-            lower.shape != (6,)
-            or upper.shape != (6,)
-            or (lower >= upper).any()
-            or (lower < model.lowerPositionLimit - 1e-9).any()
-            or (upper > model.upperPositionLimit + 1e-9).any()
-        ):
-            raise CellConfigError(
-                f"{path}: joint ranges {lower.tolist()} .. {upper.tolist()} rad must be six "
-                f"increasing pairs within the arm's {model.lowerPositionLimit.tolist()} .. "
-                f"{model.upperPositionLimit.tolist()}"
-            )
-        model.lowerPositionLimit, model.upperPositionLimit = lower, upper
+        _limit(model, limits, path)
     model.jointPlacements[1] = _mount(mount_xyz, mount_yaw_deg) * model.jointPlacements[1]
     axes = [_motion_axis(model, j) for j in range(1, 7)]
-    speed = np.asarray(model.velocityLimit if speed is None else speed, dtype=float)
-    effort = np.asarray(model.effortLimit if effort is None else effort, dtype=float)
-    if (
-        speed.shape != (6,)
-        or effort.shape != (6,)
-        or not (np.isfinite(speed).all() and np.isfinite(effort).all())
-        or (speed <= 0).any()
-        or (effort <= 0).any()
-    ):
-        raise CellConfigError(
-            f"{path}: every joint needs a finite positive speed and effort limit (got "
-            f"{speed.tolist()} rad/s, {effort.tolist()} N m); give them in the cell "
-            "(cell.robot.speed_deg_s, cell.robot.effort_nm) where the file has none"
-        )
+    speed, effort = _speeds_and_efforts(model, speed, effort, path)
     home = np.zeros(6) if q_home is None else np.asarray(q_home, dtype=float)
     servo = servo or Servo(
         (2e4,) * 3 + (2e3,) * 3, (4e2,) * 3 + (4e1,) * 3, (1.0,) * 3 + (0.1,) * 3

@@ -208,10 +208,15 @@ def arm_document(
 """
 
 
-def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") -> str:
-    """The robot-only MJCF of the arm (no includes; the base is the first worldbody body)."""
-    g = geometry or ArmGeometry()
-    off = g.joint_offsets
+_LinkShape = tuple[tuple[float, float, float], tuple[float, float, float], list[str]]
+
+
+def _irb_links(
+    g: ArmGeometry,
+) -> tuple[tuple[tuple[float, float, float], ...], tuple[_LinkShape, ...]]:
+    """The built-in arm's link positions in their parents' frames, and per link its
+    inertial centre, the half sizes of the box its inertia is taken from, and its collision
+    geoms (the visual ones are their copies), for the geometry `g`."""
     # Child body positions in the parent link frame.
     pos = (
         (0.0, 0.0, 0.0),
@@ -280,6 +285,15 @@ def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") ->
             ],
         ),
     )
+
+    return pos, links
+
+
+def arm_xml(geometry: ArmGeometry | None = None, model_name: str = "irb2400") -> str:
+    """The robot-only MJCF of the arm (no includes; the base is the first worldbody body)."""
+    g = geometry or ArmGeometry()
+    off = g.joint_offsets
+    pos, links = _irb_links(g)
 
     def link(i: int) -> LinkXml:
         com, half, geoms = links[i]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,6 +17,8 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 Rows = list[dict[str, str]]
+#: Labelled groups of rows (scenarios.campaign.rows.group_rows).
+Groups = list[tuple[str, Rows]]
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -48,8 +50,14 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
     ok = [r for r in rows if r.get("status") == "ok"]
     groups = group_rows(ok, keys) if keys else [("all", ok)]
     labels = [label.replace(", ", "\n") for label, _ in groups]
-    paths = []
+    figures = (_target_error, _registration_error, _acceptance, _tre_calibration, _run_time)
+    return [figure(plt, folder, keys, ok, groups, labels) for figure in figures]
 
+
+def _target_error(
+    plt: Any, folder: Path, keys: list[str], ok: Rows, groups: Groups, labels: list[str]
+) -> Path:
+    """Box plots of the accepted registrations' target errors, per group."""
     fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(groups)), 4))
     data = [per_target([r for r in g if _accepted(r)], "err_t", "_m") * 1e3 for _, g in groups]
     ax.boxplot([d if len(d) else [math.nan] for d in data], whis=(5, 95))
@@ -58,8 +66,13 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
     ax.set_yscale("log")
     ax.set_ylabel("target error of accepted registrations [mm]")
     ax.legend(fontsize=8)
-    paths.append(_save(fig, folder / "target_error.png"))
+    return _save(fig, folder / "target_error.png")
 
+
+def _registration_error(
+    plt: Any, folder: Path, keys: list[str], ok: Rows, groups: Groups, labels: list[str]
+) -> Path:
+    """The largest target error against the noise (or residual) and the scanned share."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
     sigma_key = next((k for k in keys if k.endswith("sigma")), None)
     for i, (label, g) in enumerate(groups):
@@ -80,8 +93,13 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
         ax.set_yscale("log")
         ax.axhline(2.0, color="red", lw=1, ls="--")
     axes[0].legend(fontsize=7)
-    paths.append(_save(fig, folder / "registration_error.png"))
+    return _save(fig, folder / "registration_error.png")
 
+
+def _acceptance(
+    plt: Any, folder: Path, keys: list[str], ok: Rows, groups: Groups, labels: list[str]
+) -> Path:
+    """Each group's share of accepted, ambiguous and rejected trials, and its false accepts."""
     fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(groups)), 4))
     bottom = np.zeros(len(groups))
     for verdict, color in (
@@ -101,8 +119,13 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
     ax.set_ylim(0, 1.1)
     ax.set_ylabel("fraction of trials")
     ax.legend(fontsize=8, loc="lower right")
-    paths.append(_save(fig, folder / "acceptance.png"))
+    return _save(fig, folder / "acceptance.png")
 
+
+def _tre_calibration(
+    plt: Any, folder: Path, keys: list[str], ok: Rows, groups: Groups, labels: list[str]
+) -> Path:
+    """The measured over predicted TRE of the accepted registrations of the right object."""
     fig, ax = plt.subplots(figsize=(6, 4))
     right = [r for r in ok if _accepted(r) and r.get("right_object", "") not in ("", "0")]
     ratio = per_target(right, "ratio_t", "")
@@ -115,8 +138,13 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
     ax.set_xlabel("log10 measured / predicted TRE (per target, accepted)")
     ax.set_ylabel("targets")
     ax.legend(fontsize=8)
-    paths.append(_save(fig, folder / "tre_calibration.png"))
+    return _save(fig, folder / "tre_calibration.png")
 
+
+def _run_time(
+    plt: Any, folder: Path, keys: list[str], ok: Rows, groups: Groups, labels: list[str]
+) -> Path:
+    """The trials' run times, per group."""
     fig, ax = plt.subplots(figsize=(6, 4))
     for label, g in groups:
         t = _column(g, "trial_seconds")
@@ -124,5 +152,4 @@ def write_plots(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
     ax.set_xlabel("trial run time [s]")
     ax.set_ylabel("trials")
     ax.legend(fontsize=7)
-    paths.append(_save(fig, folder / "run_time.png"))
-    return paths
+    return _save(fig, folder / "run_time.png")

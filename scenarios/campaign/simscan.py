@@ -151,10 +151,26 @@ def simulate_scan(
         chunks.append(dR.apply(p - centre) + centre + dt)
         labels.append(np.full(share, k))
     points, labels_all = np.concatenate(chunks), np.concatenate(labels)
+    points, labels_all, inlier = _scan_faults(
+        points, labels_all, errors, rng, p_table[seen & (n_table[:, 2] > 0.5)], tilts_deg
+    )
+    return SimulatedScan(points, inlier, labels_all, surface_fraction)
+
+
+def _scan_faults(
+    points: np.ndarray,
+    labels_all: np.ndarray,
+    errors: ScanErrors,
+    rng: np.random.Generator,
+    up_table: np.ndarray,
+    tilts_deg: tuple[float, ...],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scan's faults on its points (N, 3) labelled by pass (N,): a shiny patch around one
+    of the seen upward-facing samples `up_table` (K, 3), a dropout burst, outliers; the
+    points, their labels and which are inliers (N',) after them."""
     inlier = np.ones(len(points), dtype=bool)
     if errors.spurious_m > 0.0:  # a shiny patch: its returns too long along the view
-        up = np.flatnonzero(seen & (n_table[:, 2] > 0.5))
-        centre = p_table[rng.choice(up)]
+        centre = up_table[rng.choice(len(up_table))]
         on = np.linalg.norm(points - centre, axis=1) <= PATCH_RADIUS_M
         views = np.array([view_direction(a) for a in tilts_deg])[labels_all[on]]
         points[on] += errors.spurious_m * views
@@ -174,4 +190,4 @@ def simulate_scan(
         out = rng.choice(len(points), size=n_out, replace=False)
         points[out] = rng.uniform(lo - pad, hi + pad, size=(n_out, 3))
         inlier[out] = False
-    return SimulatedScan(points, inlier, labels_all, surface_fraction)
+    return points, labels_all, inlier

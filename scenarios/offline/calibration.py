@@ -377,6 +377,43 @@ def _fetch_laser(controller: Controller) -> np.ndarray:
     return q_lock
 
 
+def _view_sphere(
+    controller: Controller,
+    sphere: int,
+    q: np.ndarray,
+    lines_per_view: int,
+    centre_base: np.ndarray,
+    artifact: SphereArtifact,
+    viewed: Callable[[], None],
+) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """Move to the view `q` (6,) [rad] of sphere `sphere` (its nominal centre `centre_base`
+    (3,) [m]), tell `viewed()`, and read `lines_per_view` laser lines standing still,
+    averaged ray by ray: the mean measured joints, the table readout [m] and the points
+    (M, 3) in the laser frame within the sphere's radius + 10 mm of its centre and not on
+    its post; None if none is."""
+    try:
+        # Every joint comes to a view from the same side (from below), so that the drives'
+        # lost motion is the same at every view (ISO 9283's unidirectional approach): the
+        # fit sees it as a constant, not as noise.
+        controller.move_joints(q - APPROACH_RAD, settle_s=0.0)
+        controller.move_joints(q, settle_s=0.2)
+    except CellError as exc:
+        raise CalibrationError(f"a calibration view of sphere {sphere + 1} failed: {exc}") from exc
+    viewed()
+    readings = [controller.read_laser() for _ in range(lines_per_view)]
+    ranges = np.array([r.distances for r in readings])
+    index = np.flatnonzero(np.all(np.isfinite(ranges), axis=0))
+    q_view = np.mean([r.q_measured for r in readings], axis=0)
+    p_laser = controller.laser_directions_tcp[index] * ranges[:, index].mean(axis=0)[:, None]
+    T = controller.kinematics.fk(q_view) @ controller.T_flange_tcp()
+    rel = p_laser @ T[:3, :3].T + T[:3, 3] - centre_base
+    margin = artifact.radius_m + 0.01
+    keep = (np.linalg.norm(rel, axis=1) < margin) & (rel[:, 2] > -0.6 * artifact.radius_m)
+    if not np.any(keep):
+        return None
+    return q_view, readings[0].table_position_m, p_laser[keep]
+
+
 def measure_spheres(
     controller: Controller,
     artifact: SphereArtifact,
@@ -401,8 +438,6 @@ def measure_spheres(
         raise CalibrationError("the calibration needs at least one table position")
     q_lock = _fetch_laser(controller)
     kin = controller.kinematics
-    T_laser = controller.T_flange_tcp()
-    dirs = controller.laser_directions_tcp
     per_position = max(2, round(plan.views_per_sphere / len(plan.table_positions_m)))
     q_lines, table_lines, station_lines, lines, spheres, points = [], [], [], [], [], []
     margin = artifact.radius_m + 0.01
@@ -418,34 +453,16 @@ def measure_spheres(
         views = plan_views(kin, centres, sub, controller.q_home, clear)
         n_views += len(views)
         for s, q in views:
-            try:
-                # Every joint comes to a view from the same side (from below), so that the
-                # drives' lost motion is the same at every view (ISO 9283's unidirectional
-                # approach): the fit sees it as a constant, not as noise.
-                controller.move_joints(q - APPROACH_RAD, settle_s=0.0)
-                controller.move_joints(q, settle_s=0.2)
-            except CellError as exc:
-                raise CalibrationError(
-                    f"a calibration view of sphere {s + 1} failed: {exc}"
-                ) from exc
-            viewed()
-            # The arm stands still: the lines of a view are averaged ray by ray.
-            readings = [controller.read_laser() for _ in range(plan.lines_per_view)]
-            ranges = np.array([r.distances for r in readings])
-            index = np.flatnonzero(np.all(np.isfinite(ranges), axis=0))
-            q_view = np.mean([r.q_measured for r in readings], axis=0)
-            p_laser = dirs[index] * ranges[:, index].mean(axis=0)[:, None]
-            T = kin.fk(q_view) @ T_laser
-            rel = p_laser @ T[:3, :3].T + T[:3, 3] - centres[s]
-            keep = (np.linalg.norm(rel, axis=1) < margin) & (rel[:, 2] > -0.6 * artifact.radius_m)
-            if not np.any(keep):
+            seen = _view_sphere(controller, s, q, plan.lines_per_view, centres[s], artifact, viewed)
+            if seen is None:
                 continue
+            q_view, table_position_m, keep_points = seen
             q_lines.append(q_view)
-            table_lines.append(readings[0].table_position_m)
+            table_lines.append(table_position_m)
             station_lines.append(k)
-            lines.append(np.full(int(keep.sum()), len(q_lines) - 1))
-            spheres.append(np.full(int(keep.sum()), s))
-            points.append(p_laser[keep])
+            lines.append(np.full(len(keep_points), len(q_lines) - 1))
+            spheres.append(np.full(len(keep_points), s))
+            points.append(keep_points)
     say(
         f"calibration: {n_views} views of {len(artifact.centres_table)} spheres at "
         f"{len(plan.table_positions_m)} table positions, {len(q_lines)} lines"

@@ -471,6 +471,42 @@ def information_shares(
     return [s / norm for s in shares]
 
 
+def _best_candidate(
+    chosen: list[Candidate],
+    left: list[Candidate],
+    tre: np.ndarray,
+    spent_s: float,
+    budget_s: float,
+    targets_model: np.ndarray,
+    errors: ErrorModel,
+) -> tuple[Candidate | None, np.ndarray, float]:
+    """The candidate among `left` that lowers the worst predicted TRE most per second of
+    cell time added to `chosen` (predicted TRE (K,) [m] now `tre`; while nothing constrains
+    every target, the one that sees most per second), within `budget_s` [s] with `spent_s`
+    spent once a pass is chosen: it (None if none fits), the predicted TRE with it, and the
+    most any one pass lowers the worst predicted TRE [m]."""
+    best, best_gain, best_tre = None, -np.inf, tre
+    worst_now = float(np.max(tre))
+    largest_drop = 0.0
+    for c in left:
+        if chosen and spent_s + c.seconds > budget_s:
+            continue
+        t, _ = predict_tre([*chosen, c], targets_model, errors)
+        worst = float(np.max(t))
+        if np.isfinite(worst) and np.isfinite(worst_now):
+            largest_drop = max(largest_drop, worst_now - worst)
+        if not np.isfinite(worst):
+            gain = -np.inf if np.isfinite(worst_now) else len(c.points_model) / c.seconds
+            gain = gain * 1e-12  # constrains nothing yet: coverage first
+        elif not np.isfinite(worst_now):
+            gain = 1.0 / (worst * c.seconds)
+        else:
+            gain = (worst_now - worst) / c.seconds
+        if gain > best_gain:
+            best, best_gain, best_tre = c, gain, t
+    return best, best_tre, largest_drop
+
+
 def choose_passes(
     found: tuple[Candidate, ...],
     targets_model: np.ndarray,
@@ -503,25 +539,10 @@ def choose_passes(
         return unique
 
     while left and not done():
-        best, best_gain, best_tre = None, -np.inf, tre
         worst_now = float(np.max(tre))
-        largest_drop = 0.0  # the most any one pass lowers the worst predicted TRE [m]
-        for c in left:
-            if chosen and spent + c.seconds > budget_s:
-                continue
-            t, _ = predict_tre([*chosen, c], targets_model, errors)
-            worst = float(np.max(t))
-            if np.isfinite(worst) and np.isfinite(worst_now):
-                largest_drop = max(largest_drop, worst_now - worst)
-            if not np.isfinite(worst):
-                gain = -np.inf if np.isfinite(worst_now) else len(c.points_model) / c.seconds
-                gain = gain * 1e-12  # constrains nothing yet: coverage first
-            elif not np.isfinite(worst_now):
-                gain = 1.0 / (worst * c.seconds)
-            else:
-                gain = (worst_now - worst) / c.seconds
-            if gain > best_gain:
-                best, best_gain, best_tre = c, gain, t
+        best, best_tre, largest_drop = _best_candidate(
+            chosen, left, tre, spent, budget_s, targets_model, errors
+        )
         if best is None:
             break
         if np.isfinite(worst_now) and worst_now > goal_m and largest_drop < min_gain * worst_now:
