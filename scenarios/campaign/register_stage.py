@@ -17,12 +17,12 @@ import numpy as np
 from models.model import ObjectModel
 from models.model_error import ModelErrorSpec
 from models.registry import builtin_model, real_model
-from registration import Acceptance, MeshModel, invert, match
+from registration import Acceptance, MatchResult, MeshModel, invert, match
 from registration.quality import ScanPasses
-from scenarios.campaign.evaluate import evaluate_registration
+from scenarios.campaign.evaluate import TrialEvaluation, evaluate_registration
 from scenarios.campaign.register_config import RegisterConfig, parse_register_config
 from scenarios.campaign.rows import HARM_M
-from scenarios.campaign.simscan import ScanErrors, simulate_scan
+from scenarios.campaign.simscan import ScanErrors, SimulatedScan, simulate_scan
 from scenarios.offline.localization import stray_returns
 from scenarios.realcell.placement import draw_true_pose
 
@@ -56,23 +56,12 @@ def targets_of(model: ObjectModel) -> tuple[tuple[str, ...], np.ndarray]:
     return tuple(f"box{i}" for i in range(8)), (lo + hi) / 2 + 0.25 * signs * (hi - lo)
 
 
-def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
-    """One registration trial of the configuration `config` (a RegisterConfig dict) with
-    `seed`; returns the flat metrics of the row (errors in [m], angles in [rad], times [s])."""
-    t_start = time.perf_counter()
-    cfg: RegisterConfig = parse_register_config(config)
-    rng = np.random.default_rng([int(seed), 0x5CA9])
-    virtual, shape = virtual_model(cfg.model, cfg.model_seed)
-    scanned_name = cfg.scanned_model or cfg.model
-    scanned = (
-        virtual if scanned_name == cfg.model else virtual_model(scanned_name, cfg.model_seed)[0]
-    )
-    spec = ModelErrorSpec(
-        deformation_rms=cfg.model_error.deformation_rms_m, noise_rms=cfg.model_error.noise_rms_m
-    )
-    real, error = real_model(scanned, spec, int(seed))
-    T_table_object = draw_true_pose(cfg.placement, real.mesh.vertices, rng)
-    scan = simulate_scan(
+def _simulated_scan(
+    cfg: RegisterConfig, real: ObjectModel, T_table_object: np.ndarray, rng: np.random.Generator
+) -> SimulatedScan:
+    """The trial's scan of the real entity at its true pose (scenarios.campaign.simscan),
+    with the configuration's laser, arm and scan errors and scan faults."""
+    return simulate_scan(
         np.asarray(real.mesh.vertices),
         np.asarray(real.mesh.faces),
         T_table_object,
@@ -93,6 +82,70 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         cell=cfg.scan.cell_m,
         max_incidence_deg=cfg.scan.max_incidence_deg,
     )
+
+
+def _row(
+    cfg: RegisterConfig,
+    scanned_name: str,
+    scan: SimulatedScan,
+    result: MatchResult,
+    evaluation: TrialEvaluation,
+    names: tuple[str, ...],
+    predicted: np.ndarray,
+) -> dict[str, Any]:
+    """The trial's row: what was scanned, the match's figures, and its errors against the
+    truth (per target too)."""
+    row: dict[str, Any] = {
+        "case": cfg.case,
+        "model": cfg.model,
+        "scanned_model": scanned_name,
+        "n_points": len(scan.points),
+        "surface_fraction": scan.surface_fraction,
+        "outlier_fraction": float(1.0 - scan.inlier.mean()),
+        "verdict": result.verdict,
+        "reason": result.reason,
+        "accepted": int(evaluation.accepted),
+        "ambiguity": result.ambiguity,
+        "rms_m": result.rms,
+        "inlier_fraction": result.inlier_fraction,
+        "worst_predicted_tre_m": result.worst_predicted_tre,
+        "rotation_error_rad": evaluation.rotation_error,
+        "centroid_error_m": evaluation.centroid_error,
+        "target_error_max_m": float(evaluation.target_error.max()),
+        "target_error_mean_m": float(evaluation.target_error.mean()),
+        "target_error_real_max_m": float(evaluation.target_error_real.max()),
+        "predicted_tre_max_m": float(predicted.max()),
+        "right_object": int(evaluation.right_object),
+        "good": int(evaluation.good),
+        "false_accept": int(evaluation.false_accept),
+        "n_targets": len(names),
+        "targets": ";".join(names),
+    }
+    ratio = evaluation.tre_ratio
+    for k in range(min(len(names), MAX_TARGETS)):
+        row[f"err_t{k}_m"] = float(evaluation.target_error[k])
+        row[f"tre_t{k}_m"] = float(predicted[k])
+        row[f"ratio_t{k}"] = float(ratio[k])
+    return row
+
+
+def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
+    """One registration trial of the configuration `config` (a RegisterConfig dict) with
+    `seed`; returns the flat metrics of the row (errors in [m], angles in [rad], times [s])."""
+    t_start = time.perf_counter()
+    cfg: RegisterConfig = parse_register_config(config)
+    rng = np.random.default_rng([int(seed), 0x5CA9])
+    virtual, shape = virtual_model(cfg.model, cfg.model_seed)
+    scanned_name = cfg.scanned_model or cfg.model
+    scanned = (
+        virtual if scanned_name == cfg.model else virtual_model(scanned_name, cfg.model_seed)[0]
+    )
+    spec = ModelErrorSpec(
+        deformation_rms=cfg.model_error.deformation_rms_m, noise_rms=cfg.model_error.noise_rms_m
+    )
+    real, error = real_model(scanned, spec, int(seed))
+    T_table_object = draw_true_pose(cfg.placement, real.mesh.vertices, rng)
+    scan = _simulated_scan(cfg, real, T_table_object, rng)
     acceptance = Acceptance(
         max_rms=cfg.registration.max_rms_m,
         min_inlier_fraction=cfg.registration.min_inlier_fraction,
@@ -127,37 +180,7 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         right_object=scanned_name == cfg.model,
         threshold=cfg.false_accept_m,
     )
-    row: dict[str, Any] = {
-        "case": cfg.case,
-        "model": cfg.model,
-        "scanned_model": scanned_name,
-        "n_points": len(scan.points),
-        "surface_fraction": scan.surface_fraction,
-        "outlier_fraction": float(1.0 - scan.inlier.mean()),
-        "verdict": result.verdict,
-        "reason": result.reason,
-        "accepted": int(evaluation.accepted),
-        "ambiguity": result.ambiguity,
-        "rms_m": result.rms,
-        "inlier_fraction": result.inlier_fraction,
-        "worst_predicted_tre_m": result.worst_predicted_tre,
-        "rotation_error_rad": evaluation.rotation_error,
-        "centroid_error_m": evaluation.centroid_error,
-        "target_error_max_m": float(evaluation.target_error.max()),
-        "target_error_mean_m": float(evaluation.target_error.mean()),
-        "target_error_real_max_m": float(evaluation.target_error_real.max()),
-        "predicted_tre_max_m": float(predicted.max()),
-        "right_object": int(evaluation.right_object),
-        "good": int(evaluation.good),
-        "false_accept": int(evaluation.false_accept),
-        "n_targets": len(names),
-        "targets": ";".join(names),
-    }
-    ratio = evaluation.tre_ratio
-    for k in range(min(len(names), MAX_TARGETS)):
-        row[f"err_t{k}_m"] = float(evaluation.target_error[k])
-        row[f"tre_t{k}_m"] = float(predicted[k])
-        row[f"ratio_t{k}"] = float(ratio[k])
+    row = _row(cfg, scanned_name, scan, result, evaluation, names, predicted)
     row.update(
         scan_fault_columns(
             cfg.faults.active(),

@@ -210,6 +210,58 @@ def register(
         write_result_json(result, json_file, named)
 
 
+# The options of `twincell run` that take a paragraph to explain.
+_FaultOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--fault",
+        help="NAME[=AMOUNT]: inject a fault into the real cell (see --list-faults), "
+        "the amount in SI units; repeatable.",
+    ),
+]
+_ModelOption = Annotated[
+    str | None,
+    typer.Option(
+        "--model",
+        help="Replace the job's object by this mesh (.stl, .obj, .ply) or CT volume (a "
+        "DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr: its bone).",
+    ),
+]
+_TargetsOption = Annotated[
+    str | None,
+    typer.Option(
+        "--targets",
+        help="The object's targets: a targets YAML, or for a CT volume the plan made on "
+        "it (plan.json: entry and target points in the volume's frame, mm).",
+    ),
+]
+_ProgramOption = Annotated[
+    str | None,
+    typer.Option(
+        "--program",
+        help="Your RAPID module (.mod) written for the virtual cell: its work object's "
+        "robtargets become the operations, and the run writes it back corrected.",
+    ),
+]
+_CellOption = Annotated[
+    str | None,
+    typer.Option(
+        "--cell",
+        help="The cell to run the job in: a shipped cell (ur5: the UR5 of "
+        "example-robot-data, the rack placed for its reach) or a cell YAML (robot file, "
+        "flange, mount, rack).",
+    ),
+]
+_SetOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--set",
+        help="KEY=VALUE: set any configuration value by its dotted key (e.g. "
+        "cell.noise.laser_sigma_m=2e-4, calibration.enabled=false); repeatable.",
+    ),
+]
+
+
 @app.command("run")
 def run(
     name: Annotated[
@@ -220,59 +272,16 @@ def run(
         int | None, typer.Option("--seed", min=0, help="Seed of all random draws.")
     ] = None,
     out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
-    fault: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--fault",
-            help="NAME[=AMOUNT]: inject a fault into the real cell (see --list-faults), "
-            "the amount in SI units; repeatable.",
-        ),
-    ] = None,
+    fault: _FaultOption = None,
     list_faults: Annotated[
         bool, typer.Option("--list-faults", help="List the faults and exit.")
     ] = False,
-    model: Annotated[
-        str | None,
-        typer.Option(
-            "--model",
-            help="Replace the job's object by this mesh (.stl, .obj, .ply) or CT volume (a "
-            "DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr: its bone).",
-        ),
-    ] = None,
+    model: _ModelOption = None,
     units: Annotated[str, typer.Option("--units", help="Units of --model: mm or m.")] = "mm",
-    targets: Annotated[
-        str | None,
-        typer.Option(
-            "--targets",
-            help="The object's targets: a targets YAML, or for a CT volume the plan made on "
-            "it (plan.json: entry and target points in the volume's frame, mm).",
-        ),
-    ] = None,
-    program: Annotated[
-        str | None,
-        typer.Option(
-            "--program",
-            help="Your RAPID module (.mod) written for the virtual cell: its work object's "
-            "robtargets become the operations, and the run writes it back corrected.",
-        ),
-    ] = None,
-    cell: Annotated[
-        str | None,
-        typer.Option(
-            "--cell",
-            help="The cell to run the job in: a shipped cell (ur5: the UR5 of "
-            "example-robot-data, the rack placed for its reach) or a cell YAML (robot file, "
-            "flange, mount, rack).",
-        ),
-    ] = None,
-    assign: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--set",
-            help="KEY=VALUE: set any configuration value by its dotted key (e.g. "
-            "cell.noise.laser_sigma_m=2e-4, calibration.enabled=false); repeatable.",
-        ),
-    ] = None,
+    targets: _TargetsOption = None,
+    program: _ProgramOption = None,
+    cell: _CellOption = None,
+    assign: _SetOption = None,
     spawn: Annotated[bool, typer.Option("--spawn", help="Show the run in a rerun viewer.")] = False,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write run.rrd.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
