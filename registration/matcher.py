@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Literal, TypeGuard
 
 import numpy as np
@@ -70,6 +71,8 @@ MODES: tuple[str, ...] = ("auto", "global", "local", "refine")
 def is_mode(name: str) -> TypeGuard[Mode]:
     """Whether `name` is one of the `MODES`."""
     return name in MODES
+
+
 Progress = Callable[[str], None]
 
 #: A scan more than this many times larger or smaller than the model is in other units.
@@ -220,6 +223,60 @@ def match(
         data, shape, mode, T_init, targets, noise, int(seed), variant, kernel,
         acceptance, settings, max_iterations, say, passes, t_start,
     )  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class _Quality:
+    """The quality of a pose from its own residuals: RMS of the inliers' residuals, the
+    inlier fraction, the fraction of the scan's surface points near the model that fit, the
+    residual scale, the pose covariance (6, 6) and the worst predicted TRE over the model."""
+
+    rms: float
+    inlier_fraction: float
+    surface_fit: float
+    sigma: float
+    covariance: Array
+    worst_tre: float
+
+
+def _quality(
+    T_model_data: Array,
+    work: Array,
+    exact: Callable[[Array], Closest],
+    kernel: Kernel,
+    floor: float,
+    strict_surface: Array,
+    reach: float,
+    shape: Shape,
+    seed: int,
+    passes: ScanPasses | None,
+) -> _Quality:
+    """The quality of the pose T_model_data on the points `work` (N, 3) (those of them on a
+    surface: `strict_surface` (N,)), `passes` the passes' labels of those points."""
+    p = transform_points(T_model_data, work)
+    closest = exact(p)
+    residuals = surface_residuals(closest, p)
+    inliers = fits(closest, residuals, floor)
+    weights = closest.weights(residuals, kernel)
+    inlier_fraction = float(inliers.mean())
+    # The scan's surface points near the model (within the reach: clutter beside the object
+    # is no evidence against the pose; a wrong object's surface, a few millimetres off the
+    # model's, is) and the fraction of them that fit.
+    near_surface = strict_surface & (closest.distances < reach)
+    surface_fit = float(inliers[near_surface].mean()) if near_surface.any() else inlier_fraction
+    rms = float(np.sqrt(np.mean(residuals[inliers] ** 2))) if inliers.any() else float("inf")
+    dof = max(int(inliers.sum()) - 6, 1)
+    sigma = float(np.sqrt(np.sum(weights * residuals**2) / max(weights.sum(), 1e-300)))
+    sigma *= np.sqrt(inliers.sum() / dof) if inliers.any() else 1.0
+    sigma = max(sigma, floor)
+    correlation = residual_correlation(p[inliers], residuals[inliers], seed=seed)
+    if correlation.sigma_white < floor:
+        correlation = type(correlation)(floor, correlation.sigma_correlated, correlation.length)
+    covariance = pose_covariance(p, closest.normals, weights, sigma, correlation, passes)
+    worst_tre = float(
+        np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))
+    )
+    return _Quality(rms, inlier_fraction, surface_fit, sigma, covariance, worst_tre)
 
 
 def _match(
@@ -412,32 +469,12 @@ def _match(
 
     # Quality of the best pose, from its own residuals.
     t0 = time.perf_counter()
-    p = transform_points(best.T_model_data, work)
-    closest = exact(p)
-    residuals = surface_residuals(closest, p)
-    inliers = fits(closest, residuals, floor)
-    weights = closest.weights(residuals, kernel)
-    inlier_fraction = float(inliers.mean())
-    # The scan's surface points near the model (within the reach: clutter beside the object
-    # is no evidence against the pose; a wrong object's surface, a few millimetres off the
-    # model's, is) and the fraction of them that fit.
-    near_surface = surface_of.strict & (closest.distances < reach)
-    surface_fit = float(inliers[near_surface].mean()) if near_surface.any() else inlier_fraction
-    rms = float(np.sqrt(np.mean(residuals[inliers] ** 2))) if inliers.any() else float("inf")
-    dof = max(int(inliers.sum()) - 6, 1)
-    sigma = float(np.sqrt(np.sum(weights * residuals**2) / max(weights.sum(), 1e-300)))
-    sigma *= np.sqrt(inliers.sum() / dof) if inliers.any() else 1.0
-    sigma = max(sigma, floor)
-    correlation = residual_correlation(p[inliers], residuals[inliers], seed=seed)
-    if correlation.sigma_white < floor:
-        correlation = type(correlation)(floor, correlation.sigma_correlated, correlation.length)
-    used_passes = None if passes is None else ScanPasses(
-        np.asarray(passes.labels)[used], passes.sigma_offset
-    )  # fmt: skip
-    covariance = pose_covariance(p, closest.normals, weights, sigma, correlation, used_passes)
-    worst_tre = float(
-        np.max(predicted_tre(covariance, shape.samples[:: max(1, len(shape.samples) // 2000)]))
-    )
+    q = _quality(best.T_model_data, work, exact, kernel, floor, surface_of.strict, reach,
+                 shape, seed,
+                 None if passes is None else ScanPasses(np.asarray(passes.labels)[used],
+                                                       passes.sigma_offset))  # fmt: skip
+    rms, inlier_fraction, surface_fit, sigma = q.rms, q.inlier_fraction, q.surface_fit, q.sigma
+    covariance, worst_tre = q.covariance, q.worst_tre
     fit_reason = fit_rejection(rms, inlier_fraction, surface_fit, extent, acceptance)
     prediction = None
     if targets is not None:
