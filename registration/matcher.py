@@ -29,6 +29,7 @@ from registration.icp import IcpResult, Variant, icp
 from registration.judge import (
     Judge,
     Ranked,
+    Ranking,
     fits,
     fitted_fraction,
     floored_ratio,
@@ -279,6 +280,50 @@ def _quality(
     return _Quality(rms, inlier_fraction, surface_fit, sigma, covariance, worst_tre)
 
 
+def _judge_rivals(
+    runs: list[Ranked],
+    ranking: Ranking,
+    converge: Callable[[Array], tuple[IcpResult, list[Array]]],
+    same_pose: Callable[[Array, Array], bool],
+    judge: Judge,
+    max_rivals: int,
+    acceptance: Acceptance,
+    floor: float,
+) -> tuple[IcpResult, list[Array], float, int, list[tuple[Array, float, float]]]:
+    """The best minimum of the ranked `runs`, converged, and up to `max_rivals` rivals
+    judged against it (see the comment in `_match`): the best's refinement and trajectory,
+    its cost and run index (a rival that fits better takes its place), and each rival's
+    pose, cost and ambiguity."""
+    coarse, trajectory = converge(runs[ranking.best].T_model_data)
+    best_cost, best_index = ranking.cost, ranking.best
+    judged: list[tuple[Array, float, float]] = []  # rival pose, its cost, ambiguity
+    for index in ranking.rivals:
+        if len(judged) == max_rivals:
+            break
+        if floored_ratio(ranking.cost, ranking.costs[index], floor) < acceptance.max_ambiguity / 2:
+            break  # this rival and the dearer ones fit far worse: none can be ambiguous
+        other, other_trajectory = converge(runs[index].T_model_data)
+        seen = [coarse.T_model_data, *(T for T, _, _ in judged)]
+        if any(same_pose(T, other.T_model_data) for T in seen):
+            continue
+        # Where it converged, and where the ranking left it if that is apart from the best.
+        poses = [other.T_model_data]
+        if not same_pose(coarse.T_model_data, runs[index].T_model_data):
+            poses.append(runs[index].T_model_data)
+        judgement = judge(coarse.T_model_data, poses)
+        if judgement.rival_wins and judgement.rival == 0:
+            # The rival, refined, fits better: it becomes the best (and the best a rival);
+            # the rivals judged so far are judged against it as they stand.
+            judged = [(coarse.T_model_data, judgement.best_cost, judgement.ambiguity), *judged]
+            best_cost, best_index = judgement.rival_cost, index
+            coarse, trajectory = other, other_trajectory
+            continue
+        # Only where the ranking left it does a rival fit better: a tie at best.
+        ambiguity = 1.0 if judgement.rival_wins else judgement.ambiguity
+        judged.append((poses[judgement.rival], judgement.rival_cost, ambiguity))
+    return coarse, trajectory, best_cost, best_index, judged
+
+
 def _match(
     data: Array,
     shape: Shape,
@@ -418,34 +463,10 @@ def _match(
     # that converges into the best pose is none; each other one makes ambiguous the targets
     # it moves, if it fits almost as well (on a small patch of a smooth surface, poses
     # millimetres apart along a valley do; a wrong object fits in many places, each partly).
-    coarse, trajectory = converge(runs[ranking.best].T_model_data)
-    best_cost, best_index = ranking.cost, ranking.best
     judge = Judge(fit, exact, settings, floor, np.random.default_rng(seed + 1))
-    judged: list[tuple[Array, float, float]] = []  # rival pose, its cost, ambiguity
-    for index in ranking.rivals:
-        if len(judged) == settings.rivals:
-            break
-        if floored_ratio(ranking.cost, ranking.costs[index], floor) < acceptance.max_ambiguity / 2:
-            break  # this rival and the dearer ones fit far worse: none can be ambiguous
-        other, other_trajectory = converge(runs[index].T_model_data)
-        seen = [coarse.T_model_data, *(T for T, _, _ in judged)]
-        if any(same_pose(T, other.T_model_data) for T in seen):
-            continue
-        # Where it converged, and where the ranking left it if that is apart from the best.
-        poses = [other.T_model_data]
-        if not same_pose(coarse.T_model_data, runs[index].T_model_data):
-            poses.append(runs[index].T_model_data)
-        judgement = judge(coarse.T_model_data, poses)
-        if judgement.rival_wins and judgement.rival == 0:
-            # The rival, refined, fits better: it becomes the best (and the best a rival);
-            # the rivals judged so far are judged against it as they stand.
-            judged = [(coarse.T_model_data, judgement.best_cost, judgement.ambiguity), *judged]
-            best_cost, best_index = judgement.rival_cost, index
-            coarse, trajectory = other, other_trajectory
-            continue
-        # Only where the ranking left it does a rival fit better: a tie at best.
-        ambiguity = 1.0 if judgement.rival_wins else judgement.ambiguity
-        judged.append((poses[judgement.rival], judgement.rival_cost, ambiguity))
+    coarse, trajectory, best_cost, best_index, judged = _judge_rivals(
+        runs, ranking, converge, same_pose, judge, settings.rivals, acceptance, floor
+    )
     # Each rival's motion is measured from the best as it was judged: the final refinement
     # may carry the best further along a valley, but the valley is what makes the targets
     # ambiguous.
