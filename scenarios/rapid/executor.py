@@ -512,6 +512,59 @@ def _speed_fraction(
     return float(np.clip(fraction, _MIN_SPEED_FRACTION, 1.0))
 
 
+def _instruction(module: RapidModule, step: Step) -> str:
+    """The move's instruction as the executor names it: "MoveJ", "MoveL" or "MoveAbsJ"."""
+    kind = step.instruction.casefold()
+    if kind not in ("movej", "movel", "moveabsj"):
+        raise program_error(
+            module,
+            step.line,
+            f"{step.instruction} is not executed: the cell's controller runs MoveJ, MoveL and "
+            "MoveAbsJ (no circular moves, no I/O or synchronisation along a move)",
+        )
+    return {"movej": "MoveJ", "movel": "MoveL", "moveabsj": "MoveAbsJ"}[kind]
+
+
+def _move_options(module: RapidModule, step: Step, instruction: str) -> dict[str, str | None]:
+    """The move's optional arguments: name (lower case) -> value as written (None: none);
+    refuses those the executor does not take (MOVE_OPTIONS)."""
+    assert step.move is not None
+    written = [_option(o) for o in step.options]
+    unknown = [name for name, _value in written if name.casefold() not in _MOVE_OPTIONS]
+    if unknown:
+        given = ", ".join(f"\\{u}" for u in unknown)
+        taken = ", ".join(f"\\{o}" for o in MOVE_OPTIONS)
+        raise program_error(
+            module,
+            step.line,
+            f"{instruction} {step.move.target}: the optional argument(s) {given} are not "
+            f"executed (the executor takes {taken})",
+        )
+    return {name.casefold(): value for name, value in written}
+
+
+def _move_tool(
+    module: RapidModule, name: str, tools: Mapping[str, np.ndarray], line: int, state: _State
+) -> ToolData | None:
+    """The move's tooldata `name` (None: tool0), checked to stand for the cell's tool the
+    program's earlier moves use (the first one that uses a tool sets it in `state`)."""
+    tool = _tooldata(module, name, line)
+    if tool is None:
+        return None
+    cell_tool = _match_tool(module, tool, tools, line)
+    if state.cell_tool is not None and cell_tool != state.cell_tool:
+        raise program_error(
+            module,
+            line,
+            f"tooldata {tool.name} is the cell's {cell_tool}, but the move at line "
+            f"{state.cell_tool_line} uses the {state.cell_tool}: the executor changes the "
+            "tool only before the program starts",
+        )
+    if state.cell_tool is None:
+        state.cell_tool, state.cell_tool_line = cell_tool, line
+    return tool
+
+
 def _plan_move(
     module: RapidModule,
     step: Step,
@@ -521,43 +574,15 @@ def _plan_move(
     state: _State,
     seed: int,
 ) -> PlannedMove:
+    """One move resolved for the nominal arm `kin` from the controller's `state` (updated:
+    the joints and the table at its end)."""
     move = step.move
     assert move is not None
-    line, kind = step.line, step.instruction.casefold()
-    if kind not in ("movej", "movel", "moveabsj"):
-        raise program_error(
-            module,
-            line,
-            f"{step.instruction} is not executed: the cell's controller runs MoveJ, MoveL and "
-            "MoveAbsJ (no circular moves, no I/O or synchronisation along a move)",
-        )
-    instruction = {"movej": "MoveJ", "movel": "MoveL", "moveabsj": "MoveAbsJ"}[kind]
-    written = [_option(o) for o in step.options]
-    unknown = [name for name, _value in written if name.casefold() not in _MOVE_OPTIONS]
-    if unknown:
-        given = ", ".join(f"\\{u}" for u in unknown)
-        taken = ", ".join(f"\\{o}" for o in MOVE_OPTIONS)
-        raise program_error(
-            module,
-            line,
-            f"{instruction} {move.target}: the optional argument(s) {given} are not executed "
-            f"(the executor takes {taken})",
-        )
-    options = {name.casefold(): value for name, value in written}
-    tool = _tooldata(module, move.tool, line)
+    line = step.line
+    instruction = _instruction(module, step)
+    options = _move_options(module, step, instruction)
+    tool = _move_tool(module, move.tool, tools, line, state)
     T_tcp = np.eye(4) if tool is None else tool.T_flange_tcp
-    if tool is not None:
-        cell_tool = _match_tool(module, tool, tools, line)
-        if state.cell_tool is not None and cell_tool != state.cell_tool:
-            raise program_error(
-                module,
-                line,
-                f"tooldata {tool.name} is the cell's {cell_tool}, but the move at line "
-                f"{state.cell_tool_line} uses the {state.cell_tool}: the executor changes the "
-                "tool only before the program starts",
-            )
-        if state.cell_tool is None:
-            state.cell_tool, state.cell_tool_line = cell_tool, line
     wobj, T_base_oframe = _object_frame(module, move.wobj, line)
     v_tcp, v_ori = _speed(module, move.speed, options, line, state)
     stop = _stop_point(module, move.zone, options, line)

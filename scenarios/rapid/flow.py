@@ -123,11 +123,25 @@ def program_error(module: RapidModule, line: int, message: str) -> RapidError:
     return RapidError(f"{_label(module)}:{line}: {message}")
 
 
-def execution_order(module: RapidModule, entry: str = "main") -> tuple[Step, ...]:
-    """The instructions of `module` in the order a controller runs them from the routine
-    `entry` (routine calls entered, RETURN and EXIT honoured; see the module's docstring).
-    Raises RapidError naming the file and the line of the first statement it cannot
-    follow, or if `entry` is not a PROC of the module."""
+@dataclass(frozen=True, eq=False)
+class _Program:
+    """A module's routines as the statement parser read them: each PROC's top-level statements
+    (by its name, case-folded), its parameters, its name as declared, and the move each move
+    call is (by the call's identity)."""
+
+    module: RapidModule
+    bodies: dict[str, list[_Statement]]
+    params: dict[str, frozenset[str]]
+    names: dict[str, str]
+    moves: dict[int, Move]
+
+    def text(self, arg: _Arg) -> str:
+        """An argument as written."""
+        return self.module.text[arg.start : arg.end]
+
+
+def _read_program(module: RapidModule) -> _Program:
+    """The routines of `module`, read again by the statement parser."""
     parser = _StatementParser(module.text, _label(module))
     parser.module()
     move_calls = [c for c in parser.calls if c.name.casefold() in MOVES]
@@ -143,77 +157,93 @@ def execution_order(module: RapidModule, entry: str = "main") -> tuple[Step, ...
     for tok, name in zip(parser.tokens, parser.tokens[1:], strict=False):
         if tok.word() == "PROC" and name.kind == "name":
             names[name.text.casefold()] = name.text
-    if entry.casefold() not in bodies:
-        declared = ", ".join(names.values()) or "none"
+    return _Program(module, bodies, parser.params, names, moves)
+
+
+def execution_order(module: RapidModule, entry: str = "main") -> tuple[Step, ...]:
+    """The instructions of `module` in the order a controller runs them from the routine
+    `entry` (routine calls entered, RETURN and EXIT honoured; see the module's docstring).
+    Raises RapidError naming the file and the line of the first statement it cannot
+    follow, or if `entry` is not a PROC of the module."""
+    program = _read_program(module)
+    if entry.casefold() not in program.bodies:
+        declared = ", ".join(program.names.values()) or "none"
         raise RapidError(
             f"{_label(module)}: no PROC {entry} to start the program from (routines: {declared})"
         )
-
     steps: list[Step] = []
-
-    def text(arg: _Arg) -> str:
-        return module.text[arg.start : arg.end]
-
-    def run(routine: str, chain: tuple[str, ...]) -> bool:
-        """Run `routine`'s body; False if the program ended (EXIT)."""
-        for s in bodies[routine.casefold()]:
-            if s.kind in (_DECLARATION, _LABEL):
-                continue
-            if s.kind == "RETURN":
-                return True
-            if s.kind == "EXIT":
-                return False
-            if s.kind != _CALL or s.call is None:
-                raise program_error(
-                    module,
-                    s.line,
-                    f"{s.kind} in PROC {names.get(routine.casefold(), routine)}: the executor "
-                    "runs straight sequences of instructions and calls of routines without "
-                    "arguments (no IF, FOR, WHILE, TEST, GOTO, assignment or late-bound call)",
-                )
-            call = s.call
-            key = call.name.casefold()
-            if key in names:
-                callee = names[key]
-                if call.args:
-                    raise program_error(
-                        module,
-                        s.line,
-                        f"the call of PROC {callee} passes arguments; the executor calls "
-                        "routines without arguments only",
-                    )
-                if parser.params.get(key):
-                    raise program_error(
-                        module,
-                        s.line,
-                        f"PROC {callee} takes parameters "
-                        f"({', '.join(sorted(parser.params[key]))}); the executor calls "
-                        "routines without arguments only",
-                    )
-                if key in (c.casefold() for c in chain):
-                    raise program_error(
-                        module,
-                        s.line,
-                        f"PROC {callee} calls itself through {' -> '.join(chain)} -> {callee}: "
-                        "recursion is not executed",
-                    )
-                if not run(callee, (*chain, callee)):
-                    return False
-                continue
-            optional = tuple(text(a) for a in call.args if a.optional)
-            positional = tuple(text(a) for a in call.args if not a.optional)
-            steps.append(
-                Step(
-                    call.name,
-                    s.routine,
-                    chain,
-                    s.line,
-                    optional,
-                    positional,
-                    moves.get(id(call)),
-                )
-            )
-        return True
-
-    run(names[entry.casefold()], (names[entry.casefold()],))
+    start = program.names[entry.casefold()]
+    _run(program, start, (start,), steps)
     return tuple(steps)
+
+
+def _run(program: _Program, routine: str, chain: tuple[str, ...], steps: list[Step]) -> bool:
+    """Run `routine`'s body, called through `chain`, appending its instructions to `steps`;
+    False if the program ended (EXIT)."""
+    for s in program.bodies[routine.casefold()]:
+        if s.kind in (_DECLARATION, _LABEL):
+            continue
+        if s.kind == "RETURN":
+            return True
+        if s.kind == "EXIT":
+            return False
+        if s.kind != _CALL or s.call is None:
+            raise program_error(
+                program.module,
+                s.line,
+                f"{s.kind} in PROC {program.names.get(routine.casefold(), routine)}: the "
+                "executor runs straight sequences of instructions and calls of routines without "
+                "arguments (no IF, FOR, WHILE, TEST, GOTO, assignment or late-bound call)",
+            )
+        call = s.call
+        key = call.name.casefold()
+        if key not in program.names:
+            steps.append(_step(program, s, call, chain))
+            continue
+        callee = program.names[key]
+        _check_call(program, s, call, chain)
+        if not _run(program, callee, (*chain, callee), steps):
+            return False
+    return True
+
+
+def _check_call(program: _Program, s: _Statement, call: _Call, chain: tuple[str, ...]) -> None:
+    """Refuse a call of a routine of the module (statement `s`, through `chain`) that passes
+    arguments, calls a routine with parameters, or recurses."""
+    key = call.name.casefold()
+    callee = program.names[key]
+    if call.args:
+        raise program_error(
+            program.module,
+            s.line,
+            f"the call of PROC {callee} passes arguments; the executor calls "
+            "routines without arguments only",
+        )
+    if program.params.get(key):
+        raise program_error(
+            program.module,
+            s.line,
+            f"PROC {callee} takes parameters "
+            f"({', '.join(sorted(program.params[key]))}); the executor calls "
+            "routines without arguments only",
+        )
+    if key in (c.casefold() for c in chain):
+        raise program_error(
+            program.module,
+            s.line,
+            f"PROC {callee} calls itself through {' -> '.join(chain)} -> {callee}: "
+            "recursion is not executed",
+        )
+
+
+def _step(program: _Program, s: _Statement, call: _Call, chain: tuple[str, ...]) -> Step:
+    """The instruction `call` of statement `s`, reached through `chain`."""
+    return Step(
+        call.name,
+        s.routine,
+        chain,
+        s.line,
+        tuple(program.text(a) for a in call.args if a.optional),
+        tuple(program.text(a) for a in call.args if not a.optional),
+        program.moves.get(id(call)),
+    )

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import operator
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -534,74 +535,92 @@ class _Parser:
             self.statement()
 
     def statement(self) -> None:
+        """One statement: a keyword's (see _STATEMENTS), a label, an assignment, a late-bound
+        call or an instruction."""
         tok = self.peek()
         word = tok.word()
-        if tok.text == "%":  # late binding: %"name"% arguments;
-            self.next()
-            self.expression()
-            self.expect("%", "after the late-bound procedure name")
-            self.arguments()
-            self.end_statement(f"the late-bound call at line {tok.line}")
+        if tok.text == "%":
+            self.late_bound_call()
         elif tok.kind != "name":
             raise self.error(tok.line, f"expected an instruction, found {tok.describe()}")
-        elif word == "IF":
-            self.if_statement()
-        elif word == "FOR":
-            self.next()
-            var = self.identifier("after FOR")
-            self.expect("FROM", f"after FOR {var.text}")
-            self.expression()
-            self.expect("TO", "in the FOR statement")
-            self.expression()
-            if self.at("STEP"):
-                self.next()
-                self.expression()
-            self.expect("DO", "in the FOR statement")
-            self.loop_vars.append(var.text.casefold())
-            self.block(("ENDFOR",), f"FOR (line {tok.line})")
-            self.loop_vars.pop()
-            self.next()
-        elif word == "WHILE":
-            self.next()
-            self.expression()
-            self.expect("DO", "after the WHILE condition")
-            self.block(("ENDWHILE",), f"WHILE (line {tok.line})")
-            self.next()
-        elif word == "TEST":
-            self.test_statement()
-        elif word in ("RETURN", "RAISE"):
-            self.next()
-            if not self.at(";"):
-                self.expression()
-            self.end_statement(word)
-        elif word in ("EXIT", "RETRY", "TRYNEXT"):
-            self.next()
-            self.end_statement(word)
-        elif word == "GOTO":
-            self.next()
-            self.identifier("after GOTO")
-            self.end_statement("GOTO")
-        elif word == "CONNECT":
-            self.next()
-            self.expression()
-            self.expect("WITH", "in CONNECT")
-            self.identifier("after WITH")
-            self.end_statement("CONNECT")
-        elif word in ("PERS", "CONST", "VAR", "LOCAL", "TASK"):
-            scope = self.next().word() if word in ("LOCAL", "TASK") else ""
-            self.declaration(scope)
+        elif word in self._STATEMENTS:
+            self._STATEMENTS[word](self)
         elif word in _RESERVED:
             raise self.error(tok.line, f"unexpected {tok.describe()}")
         elif self.peek(1).text == ":":  # a label
             self.next()
             self.next()
         elif self.peek(1).text in (":=", ".", "{"):
-            self.primary()  # the assigned data, with any .field / {index}
-            self.expect(":=", f"in the assignment at line {tok.line}")
-            self.expression()
-            self.end_statement(f"the assignment to {tok.text}")
+            self.assignment()
         else:
             self.instruction()
+
+    def late_bound_call(self) -> None:
+        """%"name"% arguments;"""
+        start = self.next()
+        self.expression()
+        self.expect("%", "after the late-bound procedure name")
+        self.arguments()
+        self.end_statement(f"the late-bound call at line {start.line}")
+
+    def assignment(self) -> None:
+        """target := expr; with any .field / {index} of the assigned data."""
+        start = self.peek()
+        self.primary()
+        self.expect(":=", f"in the assignment at line {start.line}")
+        self.expression()
+        self.end_statement(f"the assignment to {start.text}")
+
+    def local_declaration(self) -> None:
+        """A routine's data: [LOCAL | TASK] (PERS | CONST | VAR) ..."""
+        scope = self.next().word() if self.at("LOCAL", "TASK") else ""
+        self.declaration(scope)
+
+    def for_statement(self) -> None:
+        start = self.next()
+        var = self.identifier("after FOR")
+        self.expect("FROM", f"after FOR {var.text}")
+        self.expression()
+        self.expect("TO", "in the FOR statement")
+        self.expression()
+        if self.at("STEP"):
+            self.next()
+            self.expression()
+        self.expect("DO", "in the FOR statement")
+        self.loop_vars.append(var.text.casefold())
+        self.block(("ENDFOR",), f"FOR (line {start.line})")
+        self.loop_vars.pop()
+        self.next()
+
+    def while_statement(self) -> None:
+        start = self.next()
+        self.expression()
+        self.expect("DO", "after the WHILE condition")
+        self.block(("ENDWHILE",), f"WHILE (line {start.line})")
+        self.next()
+
+    def return_statement(self) -> None:
+        """RETURN or RAISE, with an optional value."""
+        word = self.next().word()
+        if not self.at(";"):
+            self.expression()
+        self.end_statement(word)
+
+    def bare_statement(self) -> None:
+        """EXIT, RETRY or TRYNEXT."""
+        self.end_statement(self.next().word())
+
+    def goto_statement(self) -> None:
+        self.next()
+        self.identifier("after GOTO")
+        self.end_statement("GOTO")
+
+    def connect_statement(self) -> None:
+        self.next()
+        self.expression()
+        self.expect("WITH", "in CONNECT")
+        self.identifier("after WITH")
+        self.end_statement("CONNECT")
 
     def if_statement(self) -> None:
         start = self.next()
@@ -654,6 +673,22 @@ class _Parser:
         self.calls.append(
             _Call(name.text, tuple(args), name.line, self.routine, frozenset(self.loop_vars))
         )
+
+    # The statements that start with a keyword, by keyword.
+    _STATEMENTS: ClassVar[dict[str, Callable[[_Parser], None]]] = {
+        "IF": if_statement,
+        "FOR": for_statement,
+        "WHILE": while_statement,
+        "TEST": test_statement,
+        "RETURN": return_statement,
+        "RAISE": return_statement,
+        "EXIT": bare_statement,
+        "RETRY": bare_statement,
+        "TRYNEXT": bare_statement,
+        "GOTO": goto_statement,
+        "CONNECT": connect_statement,
+        **dict.fromkeys(("PERS", "CONST", "VAR", "LOCAL", "TASK"), local_declaration),
+    }
 
     def arguments(self, closer: str = ";") -> list[_Arg]:
         args: list[_Arg] = []
@@ -982,54 +1017,65 @@ class _Builder:
     def target_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
         """T_wobj_tcp (4, 4) [m] of a move's target: a robtarget's name, an inline robtarget,
         Offs(...) or RelTool(...); None if known only at run time."""
-        where = _where(self.source, node.line)
         if node.kind == "agg":
             value = _literal(node)
             if value is None:
                 return None
+            where = _where(self.source, node.line)
             return _robtarget("(inline)", value, where, node.line).T_wobj_tcp
         if node.kind == "name":
-            self.check_declared(node, "robtarget", "target", call)
-            found = self.lookup(str(node.value), scope)  # None: an element or a field
-            if not isinstance(found, _Decl) or found.array:
-                return None
-            if found.routine is None:
-                target = self.targets.get(found.name)
-                return None if target is None else target.T_wobj_tcp.copy()
-            value = _literal(found.value)  # a robtarget declared in the routine
-            if value is None:
-                return None
-            return _robtarget(found.name, value, where, node.line).T_wobj_tcp
+            return self.named_pose(node, scope, call)
         if node.kind == "call" and str(node.value).casefold() in ("offs", "reltool"):
-            function = str(node.value)
-            positional = [a.value for a in node.args if not a.optional and a.value is not None]
-            if len(positional) != 4:
-                raise self.error(node.line, f"{function} needs a target and three distances")
-            T_p = self.target_pose(positional[0], scope, call)
-            d = [self.number(arg, scope, call) for arg in positional[1:]]
-            angles = {
-                a.name.casefold(): self.number(a.value, scope, call)
-                for a in node.args
-                if a.optional and a.name and a.value is not None
-            }
-            if T_p is None or any(x is None for x in d + list(angles.values())):
-                return None
-            d_m = np.array(d, dtype=float) * 1e-3
-            if function.casefold() == "offs":
-                # Offs: the displacement is along the work object's axes; orientation kept.
-                T_p[:3, 3] += d_m
-                return T_p
-            # RelTool: translation along the target's own (tool) axes first, then rotations
-            # about the tool's x, then the new y, then the new z axis (ABB's RelTool
-            # reference; RoboDK's robomath.RelTool, written to match it, computes
-            # pose * transl(x, y, z) * rotx(rx) * roty(ry) * rotz(rz)).
-            T = T_p @ _translation(d_m)
-            for axis in ("x", "y", "z"):
-                T = T @ _rotation(axis, angles.get(f"r{axis}") or 0.0)
-            return T
+            return self.offset_pose(node, scope, call)
         if node.kind == "call":
             return None  # a function known at run time (CRobT, CalcRobT, ...)
         raise self.error(node.line, f"cannot read the target of {call.name}: {self.slice(node)}")
+
+    def named_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
+        """T_wobj_tcp (4, 4) [m] of a robtarget named in a move (declared in the module or in
+        the routine); None for a parameter, an array element or a field."""
+        self.check_declared(node, "robtarget", "target", call)
+        found = self.lookup(str(node.value), scope)  # None: an element or a field
+        if not isinstance(found, _Decl) or found.array:
+            return None
+        if found.routine is None:
+            target = self.targets.get(found.name)
+            return None if target is None else target.T_wobj_tcp.copy()
+        value = _literal(found.value)  # a robtarget declared in the routine
+        if value is None:
+            return None
+        where = _where(self.source, node.line)
+        return _robtarget(found.name, value, where, node.line).T_wobj_tcp
+
+    def offset_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
+        """T_wobj_tcp (4, 4) [m] of Offs(target, x, y, z) or RelTool(target, x, y, z [\\Rx]
+        [\\Ry] [\\Rz]) (distances [mm], angles [deg]); None if known only at run time."""
+        function = str(node.value)
+        positional = [a.value for a in node.args if not a.optional and a.value is not None]
+        if len(positional) != 4:
+            raise self.error(node.line, f"{function} needs a target and three distances")
+        T_p = self.target_pose(positional[0], scope, call)
+        d = [self.number(arg, scope, call) for arg in positional[1:]]
+        angles = {
+            a.name.casefold(): self.number(a.value, scope, call)
+            for a in node.args
+            if a.optional and a.name and a.value is not None
+        }
+        if T_p is None or any(x is None for x in d + list(angles.values())):
+            return None
+        d_m = np.array(d, dtype=float) * 1e-3
+        if function.casefold() == "offs":
+            # Offs: the displacement is along the work object's axes; orientation kept.
+            T_p[:3, 3] += d_m
+            return T_p
+        # RelTool: translation along the target's own (tool) axes first, then rotations
+        # about the tool's x, then the new y, then the new z axis (ABB's RelTool
+        # reference; RoboDK's robomath.RelTool, written to match it, computes
+        # pose * transl(x, y, z) * rotx(rx) * roty(ry) * rotz(rz)).
+        T = T_p @ _translation(d_m)
+        for axis in ("x", "y", "z"):
+            T = T @ _rotation(axis, angles.get(f"r{axis}") or 0.0)
+        return T
 
     def slice(self, item: _Node | _Arg) -> str:
         return self.text[item.start : item.end]
