@@ -20,8 +20,11 @@ TIMING = ("match_seconds", "trial_seconds")
 
 def test_dask_local_cluster_runs_the_campaign(tmp_path: Path) -> None:
     config = tmp_path / "cheap.yaml"
-    config.write_text("model: housing\nscan:\n  points: 400\n  samples: 20000\n")
-    spec = plan_campaign(str(config), trials=2, vary=["laser.sigma=1e-4,3e-4"])
+    config.write_text(
+        "cell: {object: {model: housing}}\n"
+        "register_trial:\n  scan:\n    points: 400\n    samples: 20000\n"
+    )
+    spec = plan_campaign(str(config), trials=2, vary=["cell.noise.laser_sigma_m=1e-4,3e-4"])
     outcome = run_campaign(spec, tmp_path / "campaign", backend="dask", workers=2, progress=False)
     assert (outcome.ran, outcome.skipped) == (4, 0)
     assert (tmp_path / "campaign" / "report.md").is_file()
@@ -60,7 +63,10 @@ def test_a_dask_worker_killed_mid_trial_loses_no_row_and_counts_none_twice(
     tmp_path: Path,
 ) -> None:
     config = tmp_path / "cheap.yaml"
-    config.write_text("model: housing\nscan:\n  points: 400\n  samples: 20000\n")
+    config.write_text(
+        "cell: {object: {model: housing}}\n"
+        "register_trial:\n  scan:\n    points: 400\n    samples: 20000\n"
+    )
     spec = plan_campaign(str(config), trials=12)
     out = tmp_path / "campaign"
     with (

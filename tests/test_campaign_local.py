@@ -13,7 +13,10 @@ import pytest
 from scenarios.campaign import CampaignError, plan_campaign, run_campaign
 from scenarios.cli.app import main
 
-CHEAP = "model: housing\nscan:\n  points: 400\n  samples: 20000\n"
+CHEAP = (
+    "cell: {object: {model: housing}}\n"
+    "register_trial:\n  scan:\n    points: 400\n    samples: 20000\n"
+)
 
 
 def cheap_config(folder: Path) -> str:
@@ -30,7 +33,8 @@ def read_rows(path: Path) -> list[dict[str, str]]:
 def test_local_campaign_sweep_resume_and_report(tmp_path: Path) -> None:
     config = cheap_config(tmp_path)
     out = tmp_path / "campaign"
-    spec = plan_campaign(config, trials=3, vary=["scan.points=300,500", "case=default,outliers"])
+    vary = ["register_trial.scan.points=300,500", "register_trial.case=default,outliers"]
+    spec = plan_campaign(config, trials=3, vary=vary)
     outcome = run_campaign(spec, out, workers=2, progress=False)
     assert (outcome.ran, outcome.skipped) == (12, 0)
 
@@ -38,8 +42,8 @@ def test_local_campaign_sweep_resume_and_report(tmp_path: Path) -> None:
     assert len(rows) == 12 and len({r["trial_id"] for r in rows}) == 12
     assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
     for r in rows:  # the sweep reached each trial's configuration
-        assert int(r["n_points"]) == int(r["vary.scan.points"])
-        assert r["case"] == r["vary.case"]
+        assert int(r["n_points"]) == int(r["vary.register_trial.scan.points"])
+        assert r["case"] == r["vary.register_trial.case"]
         expected = 0.4 if r["case"] == "outliers" else 0.0
         assert float(r["outlier_fraction"]) == pytest.approx(expected, abs=1.0 / int(r["n_points"]))
     stamps = {p.name: p.stat().st_mtime_ns for p in (out / "trials").glob("*.json")}
@@ -50,12 +54,19 @@ def test_local_campaign_sweep_resume_and_report(tmp_path: Path) -> None:
     assert "register only" in (out / "report.md").read_text()
     groups = {g["label"]: g for g in report["groups"]}
     assert set(groups) == {
-        f"scan.points={p}, case={c}" for p in (300, 500) for c in ("default", "outliers")
+        f"register_trial.scan.points={p}, register_trial.case={c}"
+        for p in (300, 500)
+        for c in ("default", "outliers")
     } | {"all"}
     for label, members in [("all", rows)] + [
         (
-            f"scan.points={p}, case={c}",
-            [r for r in rows if r["vary.scan.points"] == str(p) and r["vary.case"] == c],
+            f"register_trial.scan.points={p}, register_trial.case={c}",
+            [
+                r
+                for r in rows
+                if r["vary.register_trial.scan.points"] == str(p)
+                and r["vary.register_trial.case"] == c
+            ],
         )
         for p in (300, 500)
         for c in ("default", "outliers")
@@ -92,13 +103,13 @@ def test_local_campaign_sweep_resume_and_report(tmp_path: Path) -> None:
     assert read_rows(out / "results.csv") == rows
 
     # More trials: only the new ones run.
-    more = plan_campaign(config, trials=4, vary=["scan.points=300,500", "case=default,outliers"])
+    more = plan_campaign(config, trials=4, vary=vary)
     grown = run_campaign(more, out, workers=1, progress=False)
     assert (grown.ran, grown.skipped) == (4, 12)
     assert len(read_rows(out / "results.csv")) == 16
 
     # Another campaign is refused in this folder.
-    other = plan_campaign(config, trials=3, vary=["scan.points=300"])
+    other = plan_campaign(config, trials=3, vary=["register_trial.scan.points=300"])
     with pytest.raises(CampaignError, match="another campaign"):
         run_campaign(other, out, progress=False)
 
@@ -111,7 +122,8 @@ def test_cli_campaign_runs_and_reports_bad_options(tmp_path: Path, capsys) -> No
     text = capsys.readouterr().out
     assert "false accepts" in text and "2 trials run now" in text
     assert len(read_rows(out / "results.csv")) == 2
-    assert main(["campaign", config, "--vary", "laser.sigmaa=1e-4", "--out", str(out)]) == 2
-    assert "unknown key 'laser.sigmaa'" in capsys.readouterr().err
+    bad = "cell.noise.laser_sigmaa=1e-4"
+    assert main(["campaign", config, "--vary", bad, "--out", str(out)]) == 2
+    assert "unknown key 'cell.noise.laser_sigmaa'" in capsys.readouterr().err
     assert main(["campaign", config, "--backend", "slurm", "--out", str(tmp_path / "x")]) == 2
     assert "unknown backend 'slurm'" in capsys.readouterr().err

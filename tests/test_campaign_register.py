@@ -1,5 +1,6 @@
 """The register-stage trial: the evaluator against analytic errors, the simulated scan
-against the geometry of spheres, and a noiseless trial against the truth."""
+against the geometry of spheres, a noiseless trial against the truth, its job configuration
+(what it reads, what it refuses) and its row's columns."""
 
 from __future__ import annotations
 
@@ -10,8 +11,10 @@ from scipy.spatial.transform import Rotation
 from models.registry import builtin_model
 from registration import invert, make_T
 from registration.synthetic import icosphere
+from scenarios.campaign.errors import CampaignError
 from scenarios.campaign.evaluate import evaluate_registration
-from scenarios.campaign.register_config import default_register_config
+from scenarios.campaign.register_job import ScanFaultAmounts, parse_register_job, register_base
+from scenarios.campaign.register_row import ScanFaultOutcome
 from scenarios.campaign.register_stage import longest_pass_gap, run_register_trial
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
 
@@ -93,17 +96,19 @@ def test_outliers_and_small_patch() -> None:
 
 
 def test_noiseless_skull_trial_finds_the_true_pose() -> None:
-    config = default_register_config()
-    config["laser"]["sigma"] = 0.0
-    config["arm"] = {"pass_sigma": 0.0, "pass_rotation_sigma": 0.0, "jitter_sigma": 0.0}
-    config["model_error"] = {"deformation_rms_m": 0.0, "noise_rms_m": 0.0}
-    config["scan"]["points"] = 1500
+    config = register_base("skull")
+    noise = config["cell"]["noise"]
+    noise["laser_sigma_m"] = noise["model_deformation_rms_m"] = noise["model_noise_rms_m"] = 0.0
+    config["register_trial"]["arm"] = {
+        "pass_sigma_m": 0.0, "pass_rotation_sigma_rad": 0.0, "jitter_sigma_m": 0.0
+    }  # fmt: skip
+    config["register_trial"]["scan"]["points"] = 1500
     row = run_register_trial(config, seed=4)
-    assert row["verdict"] == "accepted"
-    assert row["target_error_max_m"] < 5e-5  # facets of the scanned surface only
-    assert row["rotation_error_rad"] < 1e-3
-    assert row["false_accept"] == 0 and row["good"] == 1
-    assert row["n_targets"] == 4 and len(row["targets"].split(";")) == 4
+    assert row.verdict == "accepted"
+    assert row.target_error_max_m < 5e-5  # facets of the scanned surface only
+    assert row.rotation_error_rad < 1e-3
+    assert not row.false_accept and row.good
+    assert len(row.targets) == 4 and row.n_points == 1500
 
 
 def test_scan_faults_in_a_registration_trial():
@@ -113,12 +118,73 @@ def test_scan_faults_in_a_registration_trial():
     spurious) and the trial's evaluator (the true pose)."""
 
     for name in ("laser_dropout_burst", "laser_spurious"):
-        config = default_register_config()
+        config = register_base("skull")
         config["faults"] = {name: True}
         row = run_register_trial(config, 0)
-        assert row[f"fault.{name}"] == "recovered" and row[f"fault.{name}.stage"] == "register"
-        assert row["verdict"] == "accepted" and row["target_error_max_m"] < 1e-3
-        assert row["harmed"] == 0
+        assert row.faults == (ScanFaultOutcome(name, "recovered", "register"),)
+        assert row.verdict == "accepted" and row.target_error_max_m < 1e-3
+        assert not row.harmed
+
+
+def test_the_row_has_the_tables_columns_in_order():
+    """The row flattens to the results table's columns as the store and the report read them
+    (the names and order of results.csv)."""
+    config = register_base("housing")
+    config["register_trial"]["scan"].update(points=400, samples=20_000)
+    config["faults"] = "laser_dropout_burst,laser_spurious"
+    row = run_register_trial(config, 1)
+    columns = row.columns()
+    targets = [f"{c}{k}{s}" for k in range(len(row.targets))
+               for c, s in (("err_t", "_m"), ("tre_t", "_m"), ("ratio_t", ""))]  # fmt: skip
+    assert list(columns) == [
+        "case", "model", "scanned_model", "n_points", "surface_fraction", "outlier_fraction",
+        "verdict", "reason", "accepted", "ambiguity", "rms_m", "inlier_fraction",
+        "worst_predicted_tre_m", "rotation_error_rad", "centroid_error_m", "target_error_max_m",
+        "target_error_mean_m", "target_error_real_max_m", "predicted_tre_max_m", "right_object",
+        "good", "false_accept", "n_targets", "targets", *targets,
+        "fault.laser_dropout_burst", "fault.laser_dropout_burst.stage", "fault.laser_spurious",
+        "fault.laser_spurious.stage", "harmed", "match_seconds", "trial_seconds",
+    ]  # fmt: skip
+    assert columns["n_targets"] == len(row.targets) > 0
+    assert columns["targets"] == ";".join(t.name for t in row.targets)
+    assert columns["err_t0_m"] == row.targets[0].error_m
+    assert columns["accepted"] in (0, 1) and columns["accepted"] == int(row.accepted)
+    assert (columns["model"], columns["scanned_model"]) == ("housing", "housing")
+
+
+def test_the_trial_reads_the_jobs_sections():
+    """The job's keys reach the trial: its scan faults' amounts in the simulated scan's terms
+    (a burst's seconds at 0.3 of a pass a second; the cell's defaults without an amount),
+    the trial's own section filled in where the job has none."""
+    config = register_base("skull")
+    del config["register_trial"]
+    setup = parse_register_job(config)
+    assert setup.trial.scan.points == 3000 and setup.job.register_trial == setup.trial
+    assert setup.faults == ScanFaultAmounts()
+    config["faults"] = {"laser_dropout_burst": True, "laser_spurious": {"amount": 0.005}}
+    assert parse_register_job(config).faults == ScanFaultAmounts(0.3, 0.005)
+    config["faults"] = {"laser_dropout_burst": 0.5}
+    assert parse_register_job(config).faults == ScanFaultAmounts(dropout_burst=0.15)
+    assert parse_register_job(config).faults.names == ("laser_dropout_burst",)
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("laser", {"sigma": 1e-4}, "unknown key 'laser'"),
+        ("stage", "register", "unknown key 'stage'"),
+        ("faults", {"laser_dropout_burst": {"stage": "execute"}}, "during its scan"),
+        ("faults", {"laser_dropout_burst": 0.0}, "longer than 0 s"),
+        ("register_trial", {"scan": {"cell_m": 0.0}}, "register_trial.scan.cell_m"),
+        ("register_trial", {"arm": {"pass_sigma": 3e-4}}, "unknown key 'register_trial.arm"),
+    ],
+)
+def test_a_bad_trial_configuration_is_named(key, value, message):
+    config = register_base("skull")
+    config[key] = value
+    with pytest.raises(CampaignError, match=message) as info:
+        parse_register_job(config, "mine.yaml")
+    assert str(info.value).startswith("mine.yaml: ")
 
 
 def test_a_whole_scan_has_no_pass_gap():

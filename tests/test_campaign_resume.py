@@ -18,7 +18,10 @@ TRIALS = 10
 
 def test_kill_and_restart_gives_exactly_one_row_per_trial(tmp_path: Path) -> None:
     config = tmp_path / "cheap.yaml"
-    config.write_text("model: housing\nscan:\n  points: 400\n  samples: 20000\n")
+    config.write_text(
+        "cell: {object: {model: housing}}\n"
+        "register_trial:\n  scan:\n    points: 400\n    samples: 20000\n"
+    )
     out = tmp_path / "campaign"
     command = [sys.executable, "-m", "scenarios.cli.app", "campaign", str(config), "--trials",
                str(TRIALS), "--out", str(out), "--quiet"]  # fmt: skip

@@ -1,6 +1,10 @@
-"""Campaign sweeps: parsing, crossing, dotted keys, case presets, trial ids and seeds."""
+"""Campaign sweeps: parsing, crossing, dotted keys, case presets, refusals, trial ids and
+seeds, and a trial's row as it is stored."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, get_args
 
 import pytest
 
@@ -10,24 +14,33 @@ from scenarios.campaign import (
     parse_vary,
     plan_campaign,
     resolve_config,
+    run_trial,
     set_dotted,
     sweep_points,
 )
-from scenarios.campaign.register_config import CASES, default_register_config
+from scenarios.campaign import trials as trials_module
+from scenarios.campaign.register_job import CASES, register_base
+from scenarios.jobs.config import RegisterCase
 
 
 def test_parse_vary_reads_yaml_scalars() -> None:
     sweep = parse_vary(
-        ["laser.sigma=0.05e-3,1e-4", "case=default,outliers", "scan.coverage=none,0.1"]
+        [
+            "cell.noise.laser_sigma_m=0.05e-3,1e-4",
+            "register_trial.case=default,outliers",
+            "register_trial.scan.coverage=none,0.1",
+        ]
     )
     assert sweep == (
-        ("laser.sigma", (0.05e-3, 1e-4)),
-        ("case", ("default", "outliers")),
-        ("scan.coverage", (None, 0.1)),
+        ("cell.noise.laser_sigma_m", (0.05e-3, 1e-4)),
+        ("register_trial.case", ("default", "outliers")),
+        ("register_trial.scan.coverage", (None, 0.1)),
     )
 
 
-@pytest.mark.parametrize("bad", ["laser.sigma", "=1,2", "laser.sigma=", "a=1,,2", "a=[1, 2]"])
+@pytest.mark.parametrize(
+    "bad", ["cell.noise.laser_sigma_m", "=1,2", "cell.noise.laser_sigma_m=", "a=1,,2", "a=[1, 2]"]
+)
 def test_parse_vary_refuses_bad_options(bad: str) -> None:
     with pytest.raises(CampaignError) as info:
         parse_vary([bad])
@@ -50,45 +63,70 @@ def test_sweep_points_cross_every_value_last_key_fastest() -> None:
 
 
 def test_set_dotted_copies_and_names_valid_keys() -> None:
-    config = {"laser": {"sigma": 1e-4}, "case": "default"}
-    out = set_dotted(config, "laser.sigma", 3e-4)
-    assert out == {"laser": {"sigma": 3e-4}, "case": "default"}
-    assert config["laser"]["sigma"] == 1e-4  # the input is left alone
+    config = {"noise": {"laser_sigma_m": 1e-4}, "seed": 0}
+    out = set_dotted(config, "noise.laser_sigma_m", 3e-4)
+    assert out == {"noise": {"laser_sigma_m": 3e-4}, "seed": 0}
+    assert config["noise"]["laser_sigma_m"] == 1e-4  # the input is left alone
     with pytest.raises(
-        CampaignError, match=r"unknown key 'laser\.sigm': the keys of laser are sigma"
+        CampaignError, match=r"unknown key 'noise\.laser_sigm': the keys of noise are laser_sigma_m"
     ):
-        set_dotted(config, "laser.sigm", 1.0)
-    with pytest.raises(CampaignError, match=r"unknown key 'case\.sub'"):
-        set_dotted(config, "case.sub", 1.0)
+        set_dotted(config, "noise.laser_sigm", 1.0)
+    with pytest.raises(CampaignError, match=r"unknown key 'seed\.sub'"):
+        set_dotted(config, "seed.sub", 1.0)
 
 
 def test_case_presets_then_swept_keys() -> None:
-    spec = plan_campaign("skull", trials=2, vary=["case=small_scan,outliers", "scan.points=500"])
-    small = resolve_config(spec, {"case": "small_scan", "scan.points": 500})
-    assert small["case"] == "small_scan"
-    assert small["scan"]["coverage"] == CASES["small_scan"]["scan.coverage"]
-    assert small["scan"]["tilts_deg"] == [0.0]
-    assert small["scan"]["points"] == 500
-    # A swept key goes after the case preset.
-    spec = plan_campaign("skull", trials=1, vary=["case=small_scan", "scan.coverage=0.2"])
-    assert (
-        resolve_config(spec, {"case": "small_scan", "scan.coverage": 0.2})["scan"]["coverage"]
-        == 0.2
+    points = "register_trial.scan.points"
+    coverage = "register_trial.scan.coverage"
+    spec = plan_campaign(
+        "skull", trials=2, vary=["register_trial.case=small_scan,outliers", f"{points}=500"]
     )
-    # Everything else is the default configuration.
-    base = default_register_config()
-    outliers = resolve_config(spec, {"case": "outliers"})
-    assert outliers["scan"]["outliers"] == 0.4
-    assert outliers["laser"] == base["laser"] and outliers["arm"] == base["arm"]
+    small = resolve_config(spec, {"register_trial.case": "small_scan", points: 500})
+    assert small["register_trial"]["case"] == "small_scan"
+    assert small["register_trial"]["scan"]["coverage"] == CASES["small_scan"][coverage]
+    assert small["register_trial"]["scan"]["tilts_deg"] == [0.0]
+    assert small["register_trial"]["scan"]["points"] == 500
+    # A swept key goes after the case preset.
+    spec = plan_campaign(
+        "skull", trials=1, vary=["register_trial.case=small_scan", f"{coverage}=0.2"]
+    )
+    resolved = resolve_config(spec, {"register_trial.case": "small_scan", coverage: 0.2})
+    assert resolved["register_trial"]["scan"]["coverage"] == 0.2
+    # Everything else is the default job on the skull.
+    base = register_base("skull")
+    outliers = resolve_config(spec, {"register_trial.case": "outliers"})
+    assert outliers["register_trial"]["scan"]["outliers"] == 0.4
+    assert outliers["cell"] == base["cell"]
+    assert outliers["register_trial"]["arm"] == base["register_trial"]["arm"]
+    symmetric = resolve_config(spec, {"register_trial.case": "symmetric"})
+    assert symmetric["cell"]["object"]["model"] == "ellipsoid"
+    wrong = resolve_config(spec, {"register_trial.case": "wrong_object"})
+    assert wrong["register_trial"]["scanned_model"] == "bracket"
+
+
+def test_the_cases_are_the_schemas() -> None:
+    """Every case the job schema takes has its preset, and no other."""
+    assert set(CASES) == set(get_args(RegisterCase))
 
 
 @pytest.mark.parametrize(
     ("vary", "message"),
     [
-        (["laser.sigm=1e-4"], "the keys of laser are"),
-        (["laser.sigma=-1"], "laser.sigma"),
-        (["case=round"], "unknown case 'round'"),
-        (["model=teapot"], "model"),
+        (["cell.noise.laser_sigm=1e-4"], "the keys of cell.noise are"),
+        (["laser.sigma=1e-4"], r"unknown key 'laser\.sigma'"),  # the old schema's keys
+        (["cell.noise.laser_sigma_m=-1"], "cell.noise.laser_sigma_m"),
+        (["register_trial.scan.outliers=1.5"], "register_trial.scan.outliers"),
+        (["register_trial.scan.pointz=10"], "the keys of register_trial.scan are"),
+        (["register_trial.case=round"], "unknown case 'round'; valid: default, symmetric"),
+        (["cell.object.model=teapot"], "cell.object.model 'teapot'.*skull, ellipsoid"),
+        (["register_trial.scanned_model=teapot"], "register_trial.scanned_model"),
+        (["localization.registration.mode=refine"], "needs a prior pose"),
+        (["model.source=ct"], "model.source 'ct'"),
+        (["faults=table_stall"], "unknown scan fault 'table_stall'.*laser_dropout_burst"),
+        (["faults.laser_dropout_burst=4"], r"a burst of 4 s loses 1\.2 of a pass"),
+        (["faults.laser_spurious=0.5"], r"range error must be in \(0, 0\.1\] m, got 0\.5"),
+        (["calibration.enabled=false"], "register stage does not read this key"),
+        (["localization.registration.voxel_m=0.002"], "register stage does not read this key"),
     ],
 )
 def test_a_bad_sweep_fails_before_any_trial(vary: list[str], message: str) -> None:
@@ -106,11 +144,35 @@ def test_bad_campaign_options_are_refused() -> None:
 
 
 def test_trials_have_unique_ids_and_common_seeds_across_points() -> None:
-    spec = plan_campaign("skull", trials=4, vary=["laser.sigma=1e-4,2e-4,3e-4"], seed=10)
+    spec = plan_campaign(
+        "skull", trials=4, vary=["cell.noise.laser_sigma_m=1e-4,2e-4,3e-4"], seed=10
+    )
     trials = campaign_trials(spec)
     assert len(trials) == 12
     assert len({t.trial_id for t in trials}) == 12
     for point in range(3):
         mine = [t for t in trials if t.point == point]
         assert [t.seed for t in mine] == [10, 11, 12, 13]
-        assert {t.config["laser"]["sigma"] for t in mine} == {[1e-4, 2e-4, 3e-4][point]}
+        sigmas = {t.config["cell"]["noise"]["laser_sigma_m"] for t in mine}
+        assert sigmas == {[1e-4, 2e-4, 3e-4][point]}
+
+
+@dataclass(frozen=True)
+class _Row:
+    value: float
+
+    def columns(self) -> dict[str, Any]:
+        return {"value": self.value, "doubled": 2 * self.value}
+
+
+@pytest.mark.parametrize(
+    "result", [_Row(1.5), {"value": 1.5, "doubled": 3.0}], ids=["typed", "dict"]
+)
+def test_a_trial_row_is_stored_as_its_columns(monkeypatch, result) -> None:
+    """A trial function returns a typed row (flattened by its `columns()`) or, a stage not yet
+    typed, the columns themselves; the stored row is the same either way."""
+    monkeypatch.setattr(trials_module, "stage_function", lambda stage: lambda config, seed: result)
+    trial = campaign_trials(plan_campaign("skull", trials=1))[0]
+    row = run_trial(trial)
+    assert row["status"] == "ok", row["error"]
+    assert list(row)[-2:] == ["value", "doubled"] and (row["value"], row["doubled"]) == (1.5, 3.0)

@@ -2,7 +2,9 @@
 crossed sweeps of config keys, a local or Dask backend, resumable storage, a report.
 
     >>> from scenarios.campaign import plan_campaign, run_campaign
-    >>> spec = plan_campaign("skull", stage="register", trials=50, vary=["case=default,outliers"])
+    >>> spec = plan_campaign(
+    ...     "skull", stage="register", trials=50, vary=["register_trial.case=default,outliers"]
+    ... )
     >>> outcome = run_campaign(spec, "runs/campaigns/demo", workers=2)
 """
 

@@ -1,6 +1,8 @@
 """A campaign: N seeded trials per sweep point, run on a backend, stored, aggregated.
 
-    >>> spec = plan_campaign("skull", stage="register", trials=200, vary=["case=default,outliers"])
+    >>> spec = plan_campaign(
+    ...     "skull", stage="register", trials=200, vary=["register_trial.case=default,outliers"]
+    ... )
     >>> outcome = run_campaign(spec, out="runs/campaigns/skull-register", workers=2)
 
 The campaign folder holds `campaign.yaml` (the resolved campaign: stage, base configuration,
@@ -21,10 +23,13 @@ import yaml
 
 from models.atomic import write_text
 from scenarios.campaign.errors import CampaignError
-from scenarios.campaign.register_config import (
+from scenarios.campaign.register_job import (
+    CASE_KEY,
     CASES,
-    default_register_config,
-    parse_register_config,
+    MODELS,
+    check_read_keys,
+    parse_register_job,
+    register_base,
 )
 from scenarios.campaign.store import ResultStore
 from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
@@ -33,7 +38,6 @@ from scenarios.jobs.config import read_yaml_mapping
 
 Backend = Literal["local", "dask"]
 BACKENDS: tuple[str, ...] = ("local", "dask")
-_MODELS = ("skull", "ellipsoid", "bracket", "housing", "lid")
 
 
 @dataclass(frozen=True)
@@ -60,21 +64,23 @@ class CampaignSpec:
 
 
 def base_config(name: str, stage: str) -> dict[str, Any]:
-    """The base configuration of a campaign: for the register stage a built-in model name
-    (skull, ellipsoid, bracket, housing, lid) or a YAML file of RegisterConfig keys; for the
-    full stage a shipped scenario (skull, assembly) or a scenario YAML file, run headless."""
+    """The base configuration of a campaign, a job configuration (JobConfig) as a plain dict
+    (every key): for the register stage the default job on a built-in model (skull,
+    ellipsoid, bracket, housing, lid) or a job YAML file (its `register_trial` section the
+    defaults where it has none; scenarios.campaign.register_job); for the full stage a
+    shipped job (skull, assembly) or a job YAML file, run headless."""
     if stage == "register":
-        if name in _MODELS:
-            return {**default_register_config(), "model": name}
+        if name in MODELS:
+            return register_base(name)
         path = Path(name)
         if path.suffix not in (".yaml", ".yml"):
             raise CampaignError(
                 f"unknown campaign {name!r} for the register stage; give a model "
-                f"({', '.join(_MODELS)}) or a .yaml file"
+                f"({', '.join(MODELS)}) or a .yaml file"
             )
         data = read_yaml_mapping(path, CampaignError)
-        data.pop("stage", None)
-        return parse_register_config(data, str(path)).model_dump(mode="json")
+        data.setdefault("name", path.stem)
+        return parse_register_job(data, str(path)).job.model_dump(mode="json")
     if stage == "full":
         from scenarios.jobs.config import load_config
 
@@ -92,39 +98,43 @@ def plan_campaign(
     vary: list[str] | tuple[str, ...] = (),
     seed: int = 0,
 ) -> CampaignSpec:
-    """A campaign of `trials` per point of the `vary` sweep (`KEY=V1,V2,...`); every point's
-    configuration is resolved and validated now, so that a bad key fails before any trial."""
+    """A campaign of `trials` per point of the `vary` sweep (`KEY=V1,V2,...`, the job's
+    dotted keys); every point's configuration is resolved and validated now, so that a bad
+    key fails before any trial (for the register stage, a key its trial does not read
+    too)."""
     if stage not in STAGES:
         raise CampaignError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
     if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
         raise CampaignError(f"trials must be a positive integer, got {trials!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise CampaignError(f"seed must be a non-negative integer, got {seed!r}")
-    spec = CampaignSpec(
-        Path(name).stem, stage, base_config(name, stage), parse_vary(vary), trials, seed
-    )
+    sweep = parse_vary(vary)
+    spec = CampaignSpec(Path(name).stem, stage, base_config(name, stage), sweep, trials, seed)
     for values in sweep_points(spec.sweep):
         resolve_config(spec, values)
+    if stage == "register":
+        check_read_keys(k for k, _ in sweep)
     return spec
 
 
 def resolve_config(spec: CampaignSpec, values: dict[str, Any]) -> dict[str, Any]:
-    """The configuration of one sweep point: the base, then a register case's preset keys,
-    then the other swept keys; validated."""
+    """The configuration of one sweep point: the base, then a register case's preset keys
+    (CASES, when `register_trial.case` is swept), then the other swept keys; validated."""
     config = spec.base_config
-    if spec.stage == "register" and "case" in values:
-        case = values["case"]
+    register = spec.stage == "register"
+    if register and CASE_KEY in values:
+        case = values[CASE_KEY]
         if case not in CASES:
             raise CampaignError(f"unknown case {case!r}; valid: {', '.join(CASES)}")
-        config = set_dotted(config, "case", case)
+        config = set_dotted(config, CASE_KEY, case)
         for key, value in CASES[case].items():
             config = set_dotted(config, key, value)
     for key, value in values.items():
-        if not (spec.stage == "register" and key == "case"):
+        if not (register and key == CASE_KEY):
             config = set_dotted(config, key, value)
     label = ", ".join(f"{k}={v}" for k, v in values.items()) or "base"
-    if spec.stage == "register":
-        return parse_register_config(config, f"sweep point {label}").model_dump(mode="json")
+    if register:
+        return parse_register_job(config, f"sweep point {label}").job.model_dump(mode="json")
     from scenarios.jobs.config import ConfigError, parse_config
 
     try:

@@ -1,6 +1,9 @@
 """The registration stage as a campaign trial: scan the real object (simulated, no cell),
-match the scan to the virtual model, evaluate against the truth. One flat row per trial.
+match the scan to the virtual model, evaluate against the truth. One typed row per trial
+(scenarios.campaign.register_row).
 
+The trial is configured by a cell job (scenarios.jobs.config.JobConfig): what it reads of
+the job's sections and of its `register_trial` section is in scenarios.campaign.register_job.
 The virtual model and its MeshModel (the expensive part) are built once per worker process
 and cached; the real entity (model error) and everything random are drawn from the trial's
 seed.
@@ -15,19 +18,22 @@ from typing import Any
 import numpy as np
 
 from models.model import ObjectModel
-from models.model_error import ModelErrorSpec
 from models.registry import builtin_model, real_model
 from registration import Acceptance, MatchResult, MeshModel, invert, match
 from registration.quality import ScanPasses
 from scenarios.campaign.evaluate import TrialEvaluation, evaluate_registration
-from scenarios.campaign.register_config import RegisterConfig, parse_register_config
+from scenarios.campaign.register_job import RegisterTrialSetup, parse_register_job
+from scenarios.campaign.register_row import (
+    MAX_TARGETS,
+    RegisterRow,
+    ScanFaultOutcome,
+    TargetRecord,
+)
 from scenarios.campaign.rows import HARM_M
 from scenarios.campaign.simscan import ScanErrors, SimulatedScan, simulate_scan
 from scenarios.offline.localization import stray_returns
 from scenarios.realcell.placement import draw_true_pose
-
-MAX_TARGETS = 8
-"""Targets reported per trial (columns err_t0_m ... of the results table)."""
+from scenarios.realcell.setup import model_error
 
 
 @lru_cache(maxsize=8)
@@ -57,114 +63,131 @@ def targets_of(model: ObjectModel) -> tuple[tuple[str, ...], np.ndarray]:
 
 
 def _simulated_scan(
-    cfg: RegisterConfig, real: ObjectModel, T_table_object: np.ndarray, rng: np.random.Generator
+    setup: RegisterTrialSetup,
+    real: ObjectModel,
+    T_table_object: np.ndarray,
+    rng: np.random.Generator,
 ) -> SimulatedScan:
-    """The trial's scan of the real entity at its true pose (scenarios.campaign.simscan),
-    with the configuration's laser, arm and scan errors and scan faults."""
+    """The trial's scan of the real entity at its true pose (scenarios.campaign.simscan):
+    the job's laser noise, the trial's arm and scan, the job's scan faults."""
+    arm, scan = setup.trial.arm, setup.trial.scan
     return simulate_scan(
         np.asarray(real.mesh.vertices),
         np.asarray(real.mesh.faces),
         T_table_object,
-        cfg.scan.tilts_deg,
-        cfg.scan.points,
+        scan.tilts_deg,
+        scan.points,
         ScanErrors(
-            range_sigma=cfg.laser.sigma,
-            pass_sigma=cfg.arm.pass_sigma,
-            pass_rotation_sigma=cfg.arm.pass_rotation_sigma,
-            jitter_sigma=cfg.arm.jitter_sigma,
-            outlier_fraction=cfg.scan.outliers,
-            dropout_burst=cfg.faults.laser_dropout_burst or 0.0,
-            spurious_m=cfg.faults.laser_spurious or 0.0,
+            range_sigma=setup.job.cell.noise.laser_sigma_m,
+            pass_sigma=arm.pass_sigma_m,
+            pass_rotation_sigma=arm.pass_rotation_sigma_rad,
+            jitter_sigma=arm.jitter_sigma_m,
+            outlier_fraction=scan.outliers,
+            dropout_burst=setup.faults.dropout_burst or 0.0,
+            spurious_m=setup.faults.spurious_m or 0.0,
         ),
         rng,
-        coverage=cfg.scan.coverage,
-        samples=cfg.scan.samples,
-        cell=cfg.scan.cell_m,
-        max_incidence_deg=cfg.scan.max_incidence_deg,
+        coverage=scan.coverage,
+        samples=scan.samples,
+        cell=scan.cell_m,
+        max_incidence_deg=scan.max_incidence_deg,
+    )
+
+
+def _match(
+    setup: RegisterTrialSetup, scan: SimulatedScan, shape: MeshModel, targets: np.ndarray
+) -> MatchResult:
+    """The scan matched to the virtual model as the job's registration settings say: its
+    mode, the arm's pass accuracy it is told (per point's pass), its verdict's thresholds.
+    Every point of the simulated scan is matched (no voxel thinning, no subsample)."""
+    settings = setup.job.localization.registration
+    acceptance = Acceptance(
+        max_rms=settings.max_rms_m,
+        min_inlier_fraction=settings.min_inlier_fraction,
+        max_ambiguity=settings.max_ambiguity,
+        max_predicted_tre=settings.max_predicted_tre_m,
+    )
+    passes = None
+    if settings.pass_sigma_m is not None:
+        passes = ScanPasses(scan.pass_index, settings.pass_sigma_m)
+    return match(
+        scan.points,
+        shape,
+        mode=settings.mode,
+        targets=targets,
+        seed=setup.job.seed,
+        acceptance=acceptance,
+        passes=passes,
     )
 
 
 def _row(
-    cfg: RegisterConfig,
+    setup: RegisterTrialSetup,
     scanned_name: str,
     scan: SimulatedScan,
     result: MatchResult,
     evaluation: TrialEvaluation,
     names: tuple[str, ...],
-    predicted: np.ndarray,
-) -> dict[str, Any]:
-    """The trial's row: what was scanned, the match's figures, and its errors against the
-    truth (per target too)."""
-    row: dict[str, Any] = {
-        "case": cfg.case,
-        "model": cfg.model,
-        "scanned_model": scanned_name,
-        "n_points": len(scan.points),
-        "surface_fraction": scan.surface_fraction,
-        "outlier_fraction": float(1.0 - scan.inlier.mean()),
-        "verdict": result.verdict,
-        "reason": result.reason,
-        "accepted": int(evaluation.accepted),
-        "ambiguity": result.ambiguity,
-        "rms_m": result.rms,
-        "inlier_fraction": result.inlier_fraction,
-        "worst_predicted_tre_m": result.worst_predicted_tre,
-        "rotation_error_rad": evaluation.rotation_error,
-        "centroid_error_m": evaluation.centroid_error,
-        "target_error_max_m": float(evaluation.target_error.max()),
-        "target_error_mean_m": float(evaluation.target_error.mean()),
-        "target_error_real_max_m": float(evaluation.target_error_real.max()),
-        "predicted_tre_max_m": float(predicted.max()),
-        "right_object": int(evaluation.right_object),
-        "good": int(evaluation.good),
-        "false_accept": int(evaluation.false_accept),
-        "n_targets": len(names),
-        "targets": ";".join(names),
-    }
-    ratio = evaluation.tre_ratio
-    for k in range(min(len(names), MAX_TARGETS)):
-        row[f"err_t{k}_m"] = float(evaluation.target_error[k])
-        row[f"tre_t{k}_m"] = float(predicted[k])
-        row[f"ratio_t{k}"] = float(ratio[k])
-    return row
+    faults: tuple[ScanFaultOutcome, ...],
+    t_start: float,
+) -> RegisterRow:
+    """The trial's row: what was scanned, the match's figures, its errors against the truth
+    (per target too), the scan faults' outcomes and the times."""
+    target_error_max = float(evaluation.target_error.max())
+    predicted = evaluation.predicted_tre
+    return RegisterRow(
+        case=setup.trial.case,
+        model=setup.job.cell.object.model,
+        scanned_model=scanned_name,
+        n_points=len(scan.points),
+        surface_fraction=scan.surface_fraction,
+        outlier_fraction=float(1.0 - scan.inlier.mean()),
+        verdict=result.verdict,
+        reason=result.reason,
+        accepted=evaluation.accepted,
+        ambiguity=result.ambiguity,
+        rms_m=result.rms,
+        inlier_fraction=result.inlier_fraction,
+        worst_predicted_tre_m=result.worst_predicted_tre,
+        rotation_error_rad=evaluation.rotation_error,
+        centroid_error_m=evaluation.centroid_error,
+        target_error_max_m=target_error_max,
+        target_error_mean_m=float(evaluation.target_error.mean()),
+        target_error_real_max_m=float(evaluation.target_error_real.max()),
+        predicted_tre_max_m=float(predicted.max()),
+        right_object=evaluation.right_object,
+        good=evaluation.good,
+        false_accept=evaluation.false_accept,
+        targets=tuple(
+            TargetRecord(name, float(error), float(tre), float(ratio))
+            for name, error, tre, ratio in zip(
+                names, evaluation.target_error, predicted, evaluation.tre_ratio, strict=True
+            )
+        ),
+        faults=faults,
+        harmed=evaluation.accepted and target_error_max > HARM_M,
+        match_seconds=result.seconds,
+        trial_seconds=time.perf_counter() - t_start,
+    )
 
 
-def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
-    """One registration trial of the configuration `config` (a RegisterConfig dict) with
-    `seed`; returns the flat metrics of the row (errors in [m], angles in [rad], times [s])."""
+def run_register_trial(config: dict[str, Any], seed: int) -> RegisterRow:
+    """One registration trial of the job configuration `config` (a JobConfig dict, read as
+    scenarios.campaign.register_job says) with `seed` (the job's seed); returns its row."""
     t_start = time.perf_counter()
-    cfg: RegisterConfig = parse_register_config(config)
-    rng = np.random.default_rng([int(seed), 0x5CA9])
-    virtual, shape = virtual_model(cfg.model, cfg.model_seed)
-    scanned_name = cfg.scanned_model or cfg.model
+    setup = parse_register_job({**config, "seed": int(seed)})
+    model = setup.job.cell.object.model
+    rng = np.random.default_rng([setup.job.seed, 0x5CA9])
+    virtual, shape = virtual_model(model, setup.trial.model_seed)
+    scanned_name = setup.trial.scanned_model or model
     scanned = (
-        virtual if scanned_name == cfg.model else virtual_model(scanned_name, cfg.model_seed)[0]
+        virtual if scanned_name == model else virtual_model(scanned_name, setup.trial.model_seed)[0]
     )
-    spec = ModelErrorSpec(
-        deformation_rms=cfg.model_error.deformation_rms_m, noise_rms=cfg.model_error.noise_rms_m
-    )
-    real, error = real_model(scanned, spec, int(seed))
-    T_table_object = draw_true_pose(cfg.placement, real.mesh.vertices, rng)
-    scan = _simulated_scan(cfg, real, T_table_object, rng)
-    acceptance = Acceptance(
-        max_rms=cfg.registration.max_rms_m,
-        min_inlier_fraction=cfg.registration.min_inlier_fraction,
-        max_ambiguity=cfg.registration.max_ambiguity,
-        max_predicted_tre=cfg.registration.max_predicted_tre_m,
-    )
-    passes = None
-    if cfg.registration.pass_sigma_m is not None:
-        passes = ScanPasses(scan.pass_index, cfg.registration.pass_sigma_m)
+    real, error = real_model(scanned, model_error(setup.job.cell.noise), setup.job.seed)
+    T_table_object = draw_true_pose(setup.job.cell.object.placement, real.mesh.vertices, rng)
+    scan = _simulated_scan(setup, real, T_table_object, rng)
     names, targets = targets_of(virtual)
-    result = match(
-        scan.points,
-        shape,
-        mode=cfg.registration.mode,
-        targets=targets,
-        seed=seed,
-        acceptance=acceptance,
-        passes=passes,
-    )
+    result = _match(setup, scan, shape, targets)
     predicted = result.predicted_tre(targets).tre
 
     # Truth, read only from here on.
@@ -177,25 +200,19 @@ def run_register_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         np.asarray(virtual.mesh.vertices).mean(axis=0),
         predicted,
         accepted=result.verdict == "accepted",
-        right_object=scanned_name == cfg.model,
-        threshold=cfg.false_accept_m,
+        right_object=scanned_name == model,
+        threshold=setup.trial.false_accept_m,
     )
-    row = _row(cfg, scanned_name, scan, result, evaluation, names, predicted)
-    row.update(
-        scan_fault_columns(
-            cfg.faults.active(),
-            scan.points,
-            scan.pass_index,
-            shape,
-            invert(result.T_model_data),
-            result.rms,
-            evaluation.accepted,
-            float(evaluation.target_error.max()),
-        )
+    faults = scan_fault_outcomes(
+        setup.faults.names,
+        scan.points,
+        scan.pass_index,
+        shape,
+        invert(result.T_model_data),
+        result.rms,
+        evaluation.accepted,
     )
-    row["match_seconds"] = result.seconds
-    row["trial_seconds"] = time.perf_counter() - t_start
-    return row
+    return _row(setup, scanned_name, scan, result, evaluation, names, faults, t_start)
 
 
 #: A pass without a point over this stretch of its sweep (or 20 times its median spacing)
@@ -218,30 +235,29 @@ def longest_pass_gap(points: np.ndarray, pass_index: np.ndarray) -> float:
     return worst
 
 
-def scan_fault_columns(
-    faults: dict[str, float],
+def scan_fault_outcomes(
+    faults: tuple[str, ...],
     points: np.ndarray,
     pass_index: np.ndarray,
     shape: MeshModel,
     T_table_model: np.ndarray,
     rms_m: float,
     accepted: bool,
-    target_error_max_m: float,
-) -> dict[str, Any]:
-    """The row's fault columns (as the full stage's, scenarios.campaign.full_stage): each
-    scan fault's outcome, "register" as the stage that detected it (the pass gap for a
-    dropout burst, the points off the matched model for spurious returns), and `harmed`
-    (accepted with a target error beyond 1 mm)."""
+) -> tuple[ScanFaultOutcome, ...]:
+    """Each scan fault's outcome (as the full stage's, scenarios.campaign.full_stage):
+    "register" as the stage that saw it (the pass gap for a dropout burst, the points off
+    the matched model for spurious returns), recovered if the match was accepted and stopped
+    otherwise; missed if not seen."""
     seen = {
-        "laser_dropout_burst": longest_pass_gap(points, pass_index) > 0.0,
-        "laser_spurious": stray_returns(points, shape, T_table_model, rms_m) > 0,
+        "laser_dropout_burst": lambda: longest_pass_gap(points, pass_index) > 0.0,
+        "laser_spurious": lambda: stray_returns(points, shape, T_table_model, rms_m) > 0,
     }
-    out: dict[str, Any] = {}
+    outcomes = []
     for name in faults:
-        if seen[name]:
-            out[f"fault.{name}"] = "recovered" if accepted else "stopped"
-            out[f"fault.{name}.stage"] = "register"
+        if seen[name]():
+            outcomes.append(
+                ScanFaultOutcome(name, "recovered" if accepted else "stopped", "register")
+            )
         else:
-            out[f"fault.{name}"], out[f"fault.{name}.stage"] = "missed", "missed"
-    out["harmed"] = int(accepted and target_error_max_m > HARM_M)
-    return out
+            outcomes.append(ScanFaultOutcome(name, "missed", "missed"))
+    return tuple(outcomes)

@@ -1,8 +1,8 @@
 """Sweeps: `--vary KEY=V1,V2,...` options parsed, crossed, and applied to nested config dicts.
 
-Keys are dotted paths into the configuration (`laser.sigma`, `scan.coverage`); values are
-numbers when they read as Python numbers (`500`, `1e-4`), None for `none`/`null`, and YAML
-scalars otherwise (`true`, `skull`).
+Keys are dotted paths into the job's configuration (`cell.noise.laser_sigma_m`,
+`register_trial.scan.coverage`); values are numbers when they read as Python numbers (`500`,
+`1e-4`), None for `none`/`null`, and YAML scalars otherwise (`true`, `skull`).
 """
 
 from __future__ import annotations
@@ -51,7 +51,8 @@ def parse_vary(options: list[str] | tuple[str, ...]) -> Sweep:
         parts = [v.strip() for v in values.split(",")]
         if not sep or not key or not values.strip() or any(not p for p in parts):
             raise CampaignError(
-                f"--vary {option!r}: expected KEY=V1,V2,... (e.g. laser.sigma=0.05e-3,0.1e-3)"
+                f"--vary {option!r}: expected KEY=V1,V2,... "
+                "(e.g. cell.noise.laser_sigma_m=0.05e-3,0.1e-3)"
             )
         if any(key == k for k, _ in sweep):
             raise CampaignError(f"--vary: key {key!r} given twice")

@@ -11,12 +11,21 @@ import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from scenarios.campaign.errors import CampaignError
 
-TrialFunction = Callable[[dict[str, Any], int], dict[str, Any]]
-"""(resolved config dict, seed) -> flat metrics of one row."""
+
+class TrialRow(Protocol):
+    """A trial's typed row (e.g. scenarios.campaign.register_row.RegisterRow): `columns()`
+    flattens it to the results table's columns, in the table's order."""
+
+    def columns(self) -> dict[str, Any]: ...
+
+
+TrialFunction = Callable[[dict[str, Any], int], TrialRow | dict[str, Any]]
+"""(resolved config dict, seed) -> the row's metrics: a typed row, or (a stage not yet
+typed) its flat columns as a dict."""
 
 STAGES: dict[str, str] = {
     "register": "scenarios.campaign.register_stage:run_register_trial",
@@ -67,6 +76,7 @@ def run_trial(trial: Trial) -> dict[str, Any]:
     t0 = time.perf_counter()
     try:
         metrics = stage_function(trial.stage)(trial.config, trial.seed)
+        columns = metrics if isinstance(metrics, dict) else metrics.columns()
     except Exception as exc:
         last = traceback.extract_tb(exc.__traceback__)[-1]
         where = f"{last.filename.rsplit('/', 1)[-1]}:{last.lineno}"
@@ -76,4 +86,4 @@ def run_trial(trial: Trial) -> dict[str, Any]:
             "error": f"{type(exc).__name__}: {exc} ({where})",
             "trial_seconds": time.perf_counter() - t0,
         }
-    return {**row, "status": "ok", "error": "", **metrics}
+    return {**row, "status": "ok", "error": "", **columns}
