@@ -20,7 +20,8 @@ from scenarios.rapid.writer import Filter, program_module
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from scenarios.jobs.result import RunResult
+    from registration import MatchResult
+    from scenarios.results.run import RunResult
 
 
 def write_ply(path: Path, points: np.ndarray) -> Path:
@@ -80,62 +81,14 @@ def write_figures(
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     written = []
     located = None if surface is None else surface.localization
-    primary = result.primary
     if located is not None:
-        holes = {h.name: h.p_entry for h in virtual.burr_holes}
-        tre = dict(zip((t.name for t in primary.targets), primary.predicted_tre_m, strict=False))
-        marks = tuple(
-            TargetMark(t.name, holes[t.name], t.error_m, tre.get(t.name, float("nan")))
-            for t in primary.targets
-            if t.name in holes
-        )
-        written.append(
-            write_atomic(
-                folder / "registration.png",
-                lambda tmp: write_registration_figure(
-                    tmp,
-                    located.result,
-                    virtual,
-                    located.points_used if scan_points is None else scan_points,
-                    marks,
-                ),
-            )
-        )
-    if primary.targets:
-        names = [t.name for t in primary.targets]
-        fig, ax = plt.subplots(figsize=(7, 4))
-        x = np.arange(len(names))
-        exported = result.exported_program or {}
-        by_name = {t["name"]: t["error_m"] for t in exported.get("targets", ())}
-        bars = [("the job's touches (calibrated model)", [t.error_m for t in primary.targets])]
-        if exported.get("status") == "complete" and all(n in by_name for n in names):
-            label = f"program.mod ({exported.get('compensation')}), controller w/o abs. acc."
-            bars.append((label, [by_name[n] for n in names]))
-        if primary.predicted_tre_m:
-            bars.append(("predicted TRE", list(primary.predicted_tre_m)))
-        width = 0.8 / len(bars)
-        for k, (label, values) in enumerate(bars):
-            offset = (k - (len(bars) - 1) / 2) * width
-            ax.bar(x + offset, np.array(values) * 1e3, width, label=label)
-        goals = (
-            ("target_error_max_m", "r", "--", "max"),
-            ("target_error_rms_m", "orange", ":", "rms"),
-        )
-        for name, colour, style, label in goals:
-            if name in result.checks:
-                limit = result.checks[name][0] * 1e3
-                ax.axhline(limit, color=colour, ls=style, lw=1, label=f"goal {label} {limit:g} mm")
-        ax.set_xticks(x, names, rotation=20)
-        ax.set_ylabel("[mm]")
-        ax.legend()
-        ax.set_title(f"target errors ({primary.method} pose)")
-        fig.tight_layout()
-        written.append(_save(fig, folder / "targets.png"))
-        plt.close(fig)
+        points = located.points_used if scan_points is None else scan_points
+        written.append(_registration_figure(folder, result, located.result, virtual, points))
+    if result.primary.targets:
+        written.append(_targets_figure(folder, result))
     if scan_plan is not None and T_table_nominal is not None and scan_plan.chosen:
         written.append(
             write_atomic(
@@ -148,6 +101,70 @@ def write_figures(
     if len(result.methods) > 1 and any(r.targets for r in result.methods):
         written.append(_methods_figure(folder, result))
     return written
+
+
+def _registration_figure(
+    folder: Path,
+    result: RunResult,
+    match: MatchResult,
+    virtual: ObjectModel,
+    points: np.ndarray,
+) -> Path:
+    """registration.png: the surface match `match` of the scan's points (N, 3) [m, table
+    frame] on the model, with each target of the primary method that is a burr hole marked
+    with its achieved error and predicted TRE."""
+    primary = result.primary
+    holes = {h.name: h.p_entry for h in virtual.burr_holes}
+    tre = dict(zip((t.name for t in primary.targets), primary.predicted_tre_m, strict=False))
+    marks = tuple(
+        TargetMark(t.name, holes[t.name], t.error_m, tre.get(t.name, float("nan")))
+        for t in primary.targets
+        if t.name in holes
+    )
+    return write_atomic(
+        folder / "registration.png",
+        lambda tmp: write_registration_figure(tmp, match, virtual, points, marks),
+    )
+
+
+def _targets_figure(folder: Path, result: RunResult) -> Path:
+    """targets.png: each target's achieved error [mm] with the primary method's pose, beside
+    the exported program's on a controller without absolute accuracy (when it ran to the
+    end on every target) and the predicted TRE, with the job's goals."""
+    import matplotlib.pyplot as plt
+
+    primary = result.primary
+    names = [t.name for t in primary.targets]
+    fig, ax = plt.subplots(figsize=(7, 4))
+    x = np.arange(len(names))
+    exported = result.exported_program
+    by_name = {} if exported is None else {t.name: t.error_m for t in exported.targets}
+    bars = [("the job's touches (calibrated model)", [t.error_m for t in primary.targets])]
+    if exported is not None and exported.status == "complete" and set(names) <= set(by_name):
+        label = f"program.mod ({exported.compensation}), controller w/o abs. acc."
+        bars.append((label, [by_name[n] for n in names]))
+    if primary.predicted_tre_m:
+        bars.append(("predicted TRE", list(primary.predicted_tre_m)))
+    width = 0.8 / len(bars)
+    for k, (label, values) in enumerate(bars):
+        offset = (k - (len(bars) - 1) / 2) * width
+        ax.bar(x + offset, np.array(values) * 1e3, width, label=label)
+    goals = (
+        ("target_error_max_m", "r", "--", "max"),
+        ("target_error_rms_m", "orange", ":", "rms"),
+    )
+    for name, colour, style, label in goals:
+        if name in result.checks:
+            limit = result.checks[name].limit_m * 1e3
+            ax.axhline(limit, color=colour, ls=style, lw=1, label=f"goal {label} {limit:g} mm")
+    ax.set_xticks(x, names, rotation=20)
+    ax.set_ylabel("[mm]")
+    ax.legend()
+    ax.set_title(f"target errors ({primary.method} pose)")
+    fig.tight_layout()
+    path = _save(fig, folder / "targets.png")
+    plt.close(fig)
+    return path
 
 
 _LABELS = {"surface": "3D surface matching", "probe": "2D IR edge probing"}

@@ -14,6 +14,7 @@ iteration, with its RMS.
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass
 
 import matplotlib
 import numpy as np
@@ -22,6 +23,7 @@ from matplotlib.figure import Figure
 
 from models.model import ObjectModel
 from registration import MatchResult, invert
+from registration.result import SearchTrace
 from scenarios.outputs.residuals import (
     COLOUR_MAP,
     colour_scale,
@@ -79,6 +81,36 @@ def log_registered(
     return residuals
 
 
+@dataclass(frozen=True, eq=False)
+class _Marker:
+    """What marks a candidate pose of the model: its centre p_centre (3,) and a point p_tip
+    (3,) a quarter of its largest extent along its first principal axis [m, model frame]."""
+
+    p_centre: np.ndarray
+    p_tip: np.ndarray
+
+    @staticmethod
+    def of(virtual: ObjectModel) -> _Marker:
+        vertices = virtual.mesh.vertices
+        centre = vertices.mean(axis=0)
+        axis = np.linalg.svd(vertices - centre, full_matrices=False)[2][0]
+        reach = 0.25 * float(np.ptp(vertices, axis=0).max())
+        return _Marker(centre, centre + reach * axis)
+
+    def where(self, T_model_data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The centre and the tip (K, 3) [m, table frame] of the model at the poses
+        T_model_data (K, 4, 4)."""
+        inv = np.linalg.inv(T_model_data)  # (K, 4, 4): model into table
+        c = inv[:, :3, :3] @ self.p_centre + inv[:, :3, 3]
+        return c, inv[:, :3, :3] @ self.p_tip + inv[:, :3, 3]
+
+
+def _shades(costs: np.ndarray) -> np.ndarray:
+    """Colours (K, 4) uint8 by rank of cost: yellow the lowest, purple the highest."""
+    rank = np.argsort(np.argsort(costs)) / max(len(costs) - 1, 1)
+    return (matplotlib.colormaps["viridis"](1.0 - rank) * 255).astype(np.uint8)
+
+
 def log_icp(
     stream: Stream,
     result: MatchResult,
@@ -87,9 +119,6 @@ def log_icp(
     table: str,
 ) -> None:
     """The search and the refinement on the `icp` timeline (see the module's docstring)."""
-    centre = virtual.mesh.vertices.mean(axis=0)
-    axis = np.linalg.svd(virtual.mesh.vertices - centre, full_matrices=False)[2][0]
-    reach = 0.25 * float(np.ptp(virtual.mesh.vertices, axis=0).max())
     stream.at(icp=0)
     stream.log(
         f"{table}/icp/scan",
@@ -97,53 +126,55 @@ def log_icp(
     )
     search = result.search
     if search is not None and len(search.starts):
+        _log_search(stream, search, _Marker.of(virtual), table)
+    _log_refinement(stream, result, table)
 
-        def where(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            inv = np.linalg.inv(T)  # (K, 4, 4): model into table
-            c = inv[:, :3, :3] @ centre + inv[:, :3, 3]
-            return c, inv[:, :3, :3] @ (centre + reach * axis) + inv[:, :3, 3]
 
-        def shades(costs: np.ndarray) -> np.ndarray:
-            rank = np.argsort(np.argsort(costs)) / max(len(costs) - 1, 1)
-            return (matplotlib.colormaps["viridis"](1.0 - rank) * 255).astype(np.uint8)
+def _log_search(stream: Stream, search: SearchTrace, marker: _Marker, table: str) -> None:
+    """Step 0: the search's initial states, coloured by their score; step 1: the minima the
+    ranking refined them to, the best one ringed."""
+    c, _ = marker.where(search.starts)
+    stream.log(
+        f"{table}/icp/starts",
+        rr.Points3D(c, colors=_shades(search.start_costs), radii=0.0008),
+    )
+    stream.log(f"{table}/model", pose(invert(search.starts[np.argmin(search.start_costs)])))
+    stream.log(
+        "log",
+        rr.TextLog(
+            f"search: {len(c)} initial states, where each puts the model's centre "
+            "(yellow: best scored, purple: worst)",
+            level="INFO",
+        ),
+    )
+    stream.at(icp=1)
+    m, tip = marker.where(search.minima)
+    stream.log(f"{table}/icp/starts", rr.Clear(recursive=False))
+    stream.log(
+        f"{table}/icp/minima",
+        rr.Points3D(m, colors=_shades(search.minima_costs), radii=0.0015),
+        rr.LineStrips3D(np.stack([m, tip], axis=1), colors=_shades(search.minima_costs),
+                        radii=0.0003),
+    )  # fmt: skip
+    best, _ = marker.where(search.best[None])
+    stream.log(
+        f"{table}/icp/best",
+        rr.Points3D(best, colors=[[255, 40, 40]], radii=0.004, labels=["best minimum"]),
+    )
+    stream.log(f"{table}/model", pose(invert(search.best)))
+    stream.log(
+        "log",
+        rr.TextLog(
+            f"coarse ICP: {len(m)} minima (a line along the model's first axis each); "
+            "the best one (red) refined next",
+            level="INFO",
+        ),
+    )
 
-        c, _ = where(search.starts)
-        stream.log(
-            f"{table}/icp/starts",
-            rr.Points3D(c, colors=shades(search.start_costs), radii=0.0008),
-        )
-        stream.log(f"{table}/model", pose(invert(search.starts[np.argmin(search.start_costs)])))
-        stream.log(
-            "log",
-            rr.TextLog(
-                f"search: {len(c)} initial states, where each puts the model's centre "
-                "(yellow: best scored, purple: worst)",
-                level="INFO",
-            ),
-        )
-        stream.at(icp=1)
-        m, tip = where(search.minima)
-        stream.log(f"{table}/icp/starts", rr.Clear(recursive=False))
-        stream.log(
-            f"{table}/icp/minima",
-            rr.Points3D(m, colors=shades(search.minima_costs), radii=0.0015),
-            rr.LineStrips3D(np.stack([m, tip], axis=1), colors=shades(search.minima_costs),
-                            radii=0.0003),
-        )  # fmt: skip
-        best, _ = where(search.best[None])
-        stream.log(
-            f"{table}/icp/best",
-            rr.Points3D(best, colors=[[255, 40, 40]], radii=0.004, labels=["best minimum"]),
-        )
-        stream.log(f"{table}/model", pose(invert(search.best)))
-        stream.log(
-            "log",
-            rr.TextLog(
-                f"coarse ICP: {len(m)} minima (a line along the model's first axis each); "
-                "the best one (red) refined next",
-                level="INFO",
-            ),
-        )
+
+def _log_refinement(stream: Stream, result: MatchResult, table: str) -> None:
+    """From step 2: the best minimum's refinement, iteration by iteration, with its RMS;
+    then the registered pose and the verdict."""
     first = 2
     history = np.asarray(result.history) * 1e3
     stream.at(icp=first)
