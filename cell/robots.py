@@ -365,6 +365,23 @@ def _speeds_and_efforts(
     return speed, effort
 
 
+@dataclass(frozen=True, eq=False)
+class JointLimits:
+    """The cell's limits of a file arm's joints, each replacing the file's where given (None:
+    the file's).
+
+    Attributes:
+        ranges_rad: (lower, upper) (6,) each [rad], within the file's: the cell's joint
+            ranges (its safety configuration: e.g. the upper arm kept above the shoulder).
+        speed_rad_s: (6,) the joints' speed limits [rad/s] (an MJCF file has none).
+        effort_nm: (6,) the joints' effort limits [N m] (an MJCF file has none).
+    """
+
+    ranges_rad: tuple[np.ndarray, np.ndarray] | None = None
+    speed_rad_s: np.ndarray | None = None
+    effort_nm: np.ndarray | None = None
+
+
 def robot_from_file(
     path: str | Path,
     tip_frame: str,
@@ -376,21 +393,19 @@ def robot_from_file(
     radius_m: float = 0.05,
     vendor: str = "",
     name: str | None = None,
-    limits: tuple[np.ndarray, np.ndarray] | None = None,
-    speed: np.ndarray | None = None,
-    effort: np.ndarray | None = None,
+    joint_limits: JointLimits | None = None,
 ) -> Robot:
     """A 6-axis arm from a URDF or robot-only MJCF file, its base at `mount_xyz` [m] turned
-    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`; `speed`
-    [rad/s] and `effort` [N m] (6,) replace the file's joint limits (an MJCF file has none).
-    `limits` (lower, upper) (6,) [rad], within the file's, are the cell's joint ranges (its
-    safety configuration: e.g. the upper arm kept above the shoulder)."""
+    `mount_yaw_deg` about the vertical in the cell, the flange at frame `tip_frame`;
+    `joint_limits` replace the file's joint ranges, speed and effort limits (default: the
+    file's)."""
+    limits = joint_limits or JointLimits()
     model = load_arm_model(path, tip_frame)
-    if limits is not None:
-        _limit(model, limits, path)
+    if limits.ranges_rad is not None:
+        _limit(model, limits.ranges_rad, path)
     model.jointPlacements[1] = _mount(mount_xyz, mount_yaw_deg) * model.jointPlacements[1]
     axes = [_motion_axis(model, j) for j in range(1, 7)]
-    speed, effort = _speeds_and_efforts(model, speed, effort, path)
+    speed, effort = _speeds_and_efforts(model, limits.speed_rad_s, limits.effort_nm, path)
     home = np.zeros(6) if q_home is None else np.asarray(q_home, dtype=float)
     servo = servo or Servo(
         (2e4,) * 3 + (2e3,) * 3, (4e2,) * 3 + (4e1,) * 3, (1.0,) * 3 + (0.1,) * 3
@@ -482,7 +497,7 @@ def ur5(
         radius_m=0.045,
         vendor="universal robots",
         name="ur5",
-        limits=UR5_LIMITS,
+        joint_limits=JointLimits(ranges_rad=UR5_LIMITS),
     )
 
 
@@ -541,9 +556,7 @@ def make_robot(
             mount_xyz=(0.0, 0.0, 0.0) if mount_xyz is None else mount_xyz,
             mount_yaw_deg=mount_yaw_deg,
             q_home=q_home,
-            limits=limits,
-            speed=speed,
-            effort=effort,
+            joint_limits=JointLimits(limits, speed, effort),
         )
     if q_home is not None:
         kin = robot.kinematics()

@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 
 from cell.errors import CellConfigError
-from cell.robots import irb2400, load_arm_model, make_robot, robot_from_file, ur5, ur5_urdf
+from cell.robots import (
+    JointLimits,
+    irb2400,
+    load_arm_model,
+    make_robot,
+    robot_from_file,
+    ur5,
+    ur5_urdf,
+)
 from cell.sim import CellConfig, make_cell
 
 #: MuJoCo and Pinocchio agree to rounding on the same kinematic chain [m].
@@ -129,7 +137,8 @@ def test_bad_robot_choices_are_refused() -> None:
     with pytest.raises(CellConfigError, match=r"home .* outside the joint limits"):
         make_robot("ur5", q_home=np.array([0.0, 1.0, 0.0, 0.0, 0.0, 0.0]))
     with pytest.raises(CellConfigError, match=r"joint ranges .* within the arm's"):
-        robot_from_file(ur5_urdf(), "tool0", limits=(np.full(6, -7.0), np.full(6, 7.0)))
+        limits = JointLimits(ranges_rad=(np.full(6, -7.0), np.full(6, 7.0)))
+        robot_from_file(ur5_urdf(), "tool0", joint_limits=limits)
     with pytest.raises(CellConfigError, match="deviations must be 12 finite numbers"):
         irb2400().kinematics(np.zeros(24))
 

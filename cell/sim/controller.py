@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import TypeVar
 
 import numpy as np
@@ -47,6 +48,20 @@ LINEAR_PERIOD_S = 0.01
 BACK_OFF_S = 0.3
 
 
+@dataclass(frozen=True, eq=False)
+class Devices:
+    """The devices of the simulated cell its controller drives and reads: the joints'
+    encoders, the table's axis, the laser scanner, the IR sensor, the arm's drives and the
+    tool changer."""
+
+    encoders: Encoders
+    table: TableAxis
+    laser: LaserScanner
+    ir: IRSensor
+    drives: Drives
+    changer: ToolChanger
+
+
 class SimController(Controller):
     """The controller of the simulated real cell."""
 
@@ -54,27 +69,23 @@ class SimController(Controller):
         self,
         sim: Simulation,
         kinematics: Kinematics,
-        encoders: Encoders,
-        table: TableAxis,
-        laser: LaserScanner,
-        ir: IRSensor,
-        drives: Drives,
-        changer: ToolChanger,
+        devices: Devices,
         robot: Robot | None = None,
         rack_xyz: tuple[float, float, float] = RACK_POS,
         limits: SupervisionLimits | None = None,
     ) -> None:
-        super().__init__(robot or irb2400(), kinematics, rack_xyz, laser.config, limits)
+        changer = devices.changer
+        super().__init__(robot or irb2400(), kinematics, rack_xyz, devices.laser.config, limits)
         self._sim = sim
         self._contacts = ContactSensing(sim, lambda: changer.held)
         self._supervising = True
         self._beam = LightBeam(sim.model, *(np.array(p) for p in beam_line(rack_xyz)))
         sim.guard = self._guard
-        self._encoders = encoders
-        self._table = table
-        self._laser = laser
-        self._ir = ir
-        self._drives = drives
+        self._encoders = devices.encoders
+        self._table = devices.table
+        self._laser = devices.laser
+        self._ir = devices.ir
+        self._drives = devices.drives
         self._changer = changer
 
     @property

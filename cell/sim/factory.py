@@ -9,7 +9,7 @@ import trimesh
 from cell.layout import FixedMesh, LooseMesh
 from cell.scene import T_TABLEBODY_TABLE
 from cell.sim.config import CellConfig
-from cell.sim.controller import SimController
+from cell.sim.controller import Devices, SimController
 from cell.sim.devices import Encoders, TableAxis
 from cell.sim.drives import Drives
 from cell.sim.faults import FaultInjector
@@ -70,12 +70,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTrut
     controller = SimController(
         sim,
         config.robot.kinematics(),
-        encoders,
-        table,
-        laser,
-        ir,
-        drives,
-        changer,
+        Devices(encoders, table, laser, ir, drives, changer),
         config.robot,
         config.rack_xyz,
     )
