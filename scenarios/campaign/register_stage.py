@@ -30,7 +30,7 @@ from scenarios.campaign.register_row import (
     TargetRecord,
 )
 from scenarios.campaign.rows import HARM_M
-from scenarios.campaign.simscan import ScanErrors, SimulatedScan, simulate_scan
+from scenarios.campaign.simscan import DepthBuffer, ScanErrors, SimulatedScan, simulate_scan
 from scenarios.offline.localization import stray_returns
 from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import model_error
@@ -89,8 +89,7 @@ def _simulated_scan(
         rng,
         coverage=scan.coverage,
         samples=scan.samples,
-        cell=scan.cell_m,
-        max_incidence_deg=scan.max_incidence_deg,
+        depth_buffer=DepthBuffer(cell_m=scan.cell_m, max_incidence_deg=scan.max_incidence_deg),
     )
 
 

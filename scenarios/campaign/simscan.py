@@ -1,11 +1,11 @@
 """A simulated laser scan of the real object, without the cell: orthographic line-scan passes.
 
 Each pass looks along one direction at the object in the table frame. Visible points are found
-with an orthographic depth buffer: area-uniform samples of the real surface are binned on the
-plane normal to the view; in each cell only the samples within `depth_tolerance` (plus the
-depth a surface of their slope spans across the cell) of the nearest one are seen
-(self-occlusion), and samples seen at grazing incidence (the angle between
-the surface normal and the view ray beyond `max_incidence`) are dropped, as a laser does.
+with an orthographic depth buffer (`DepthBuffer`): area-uniform samples of the real surface are
+binned on the plane normal to the view; in each cell only the samples within
+`depth_tolerance_m` (plus the depth a surface of their slope spans across the cell) of the
+nearest one are seen (self-occlusion), and samples seen at grazing incidence (the angle between
+the surface normal and the view ray beyond `max_incidence_deg`) are dropped, as a laser does.
 Errors: Gaussian range noise along the view ray, a small rigid offset per pass (the arm's
 absolute accuracy) plus per-point jitter (repeatability, encoders), optional spurious points.
 """
@@ -50,6 +50,24 @@ class ScanErrors:
 
 
 @dataclass(frozen=True)
+class DepthBuffer:
+    """How a pass sees the surface (see the module's docstring).
+
+    Attributes:
+        cell_m: the side of the depth buffer's square cells, on the plane normal to the
+            view [m].
+        depth_tolerance_m: how far behind the nearest sample of its cell a sample is still
+            seen [m] (plus the depth its surface's slope spans across the cell).
+        max_incidence_deg: the largest angle between the surface normal and the view ray at
+            which a sample is seen [deg].
+    """
+
+    cell_m: float = 1.5e-3
+    depth_tolerance_m: float = 1.0e-3
+    max_incidence_deg: float = 75.0
+
+
+@dataclass(frozen=True)
 class SimulatedScan:
     """Scan points (N, 3) in the table frame [m]; `inlier` (N,) marks points on the surface;
     `pass_index` (N,) the pass each point came from (known to the scanner); `surface_fraction`
@@ -72,14 +90,13 @@ def visible_samples(
     p_table: np.ndarray,
     n_table: np.ndarray,
     view: np.ndarray,
-    cell: float,
-    depth_tolerance: float,
-    max_incidence_deg: float,
+    depth_buffer: DepthBuffer,
 ) -> np.ndarray:
     """Boolean mask (N,) of the samples `p_table` (N, 3) with normals `n_table` (N, 3) seen
-    along the unit ray `view` (3,) by an orthographic depth buffer of square cells `cell` [m]."""
+    along the unit ray `view` (3,) by the orthographic `depth_buffer`."""
+    cell = depth_buffer.cell_m
     cosine = -(n_table @ view)
-    facing = cosine >= np.cos(np.deg2rad(max_incidence_deg))
+    facing = cosine >= np.cos(np.deg2rad(depth_buffer.max_incidence_deg))
     u = np.cross(view, [0.0, 1.0, 0.0] if abs(view[1]) < 0.9 else [1.0, 0.0, 0.0])
     u /= np.linalg.norm(u)
     w = np.cross(view, u)
@@ -90,7 +107,8 @@ def visible_samples(
     np.minimum.at(nearest, key, depth)
     # A sloped surface spans cell * tan(incidence) in depth within one cell (diagonal).
     slope = np.sqrt(np.clip(1.0 - cosine**2, 0.0, 1.0)) / np.maximum(cosine, 1e-3)
-    return facing & (depth <= nearest[key] + depth_tolerance + np.sqrt(2.0) * cell * slope)
+    tolerance = depth_buffer.depth_tolerance_m
+    return facing & (depth <= nearest[key] + tolerance + np.sqrt(2.0) * cell * slope)
 
 
 def simulate_scan(
@@ -103,24 +121,20 @@ def simulate_scan(
     rng: np.random.Generator,
     coverage: float | None = None,
     samples: int = 60_000,
-    cell: float = 1.5e-3,
-    depth_tolerance: float = 1.0e-3,
-    max_incidence_deg: float = 75.0,
+    depth_buffer: DepthBuffer = DepthBuffer(),
 ) -> SimulatedScan:
     """Scan the real surface (`vertices_object` (V, 3) [m], `faces` (F, 3)) placed at
     `T_table_object` (4, 4) with one pass per tilt; `count` points in all, spread over the
-    passes in proportion to what each sees. `coverage` (0, 1] keeps only a patch of about that
-    fraction of the object's area around a random seen point (a small scan)."""
+    passes in proportion to what each sees through `depth_buffer` (`samples`: how many
+    area-uniform samples of the surface it sorts). `coverage` (0, 1] keeps only a patch of
+    about that fraction of the object's area around a random seen point (a small scan)."""
     p_object, n_object = sample_surface(
         vertices_object, faces, samples, seed=int(rng.integers(2**31))
     )
     R, t = T_table_object[:3, :3], T_table_object[:3, 3]
     p_table, n_table = p_object @ R.T + t, n_object @ R.T
     seen_by = [
-        visible_samples(
-            p_table, n_table, view_direction(a), cell, depth_tolerance, max_incidence_deg
-        )
-        for a in tilts_deg
+        visible_samples(p_table, n_table, view_direction(a), depth_buffer) for a in tilts_deg
     ]
     seen = np.any(seen_by, axis=0)
     if coverage is not None:
