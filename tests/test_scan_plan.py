@@ -22,7 +22,7 @@ from scenarios.cli import main
 from scenarios.jobs import pipeline
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.scan import ObjectBox
-from scenarios.offline.scan_plan import ErrorModel, ScanPlanError, plan_job_scan
+from scenarios.offline.scan_plan import ErrorModel, PlanningCell, ScanPlanError, plan_job_scan
 from scenarios.offline.settings import Scan
 
 #: The planner's errors for the test parts: the configuration's defaults (laser noise, model
@@ -59,12 +59,13 @@ def _plan(
     robot = irb2400()
     cell = VirtualCell.of(robot, RACK_POS, (FixedMesh("object", V, F, T, (V,)),))
     laser = cell.layout.laser
-    return plan_job_scan(
-        robot.kinematics().for_tool("laser"), cell, ObjectBox.of(V, T), section, ERRORS, T,
-        targets, robot.q_home, robot.joint_speed,
+    where = PlanningCell(
+        robot.kinematics().for_tool("laser"), cell, ObjectBox.of(V, T), T, robot.q_home,
+        robot.joint_speed,
         (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
-         laser.max_incidence_rad), acceptable_tre_m=acceptable,
+         laser.max_incidence_rad),
     )  # fmt: skip
+    return plan_job_scan(where, section, ERRORS, targets, acceptable_tre_m=acceptable)
 
 
 def _d_cylinder(flat_towards: np.ndarray) -> trimesh.Trimesh:
@@ -239,11 +240,12 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
          "planning": {"tilts_deg": [50.0, 70.0], "headings_deg": [0, 90, 180, -90],
                       "extra_standoffs_m": []}}
     )  # fmt: skip
-    found, _ = candidates(
-        kin, cell, ObjectBox.of(V, T), section, T, robot.q_home, robot.joint_speed,
+    where = PlanningCell(
+        kin, cell, ObjectBox.of(V, T), T, robot.q_home, robot.joint_speed,
         (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
          laser.max_incidence_rad),
     )  # fmt: skip
+    found, _ = candidates(where, section)
 
     def touches(q0: np.ndarray, q1: np.ndarray, table_m: float) -> bool:
         cell.set_tool("laser")

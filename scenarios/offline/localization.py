@@ -43,6 +43,13 @@ def voxel_thin(points: np.ndarray, voxel_m: float) -> np.ndarray:
     return np.sort(first)
 
 
+def scan_passes(pass_labels: np.ndarray, pass_sigma_m: float | None) -> ScanPasses | None:
+    """The scan's passes as the match takes them: the pass of each point (N,) and the arm's
+    accuracy `pass_sigma_m` [m] (a pass's rigid offset, per axis); None if that is not
+    given."""
+    return None if pass_sigma_m is None else ScanPasses(pass_labels, pass_sigma_m)
+
+
 def localize(
     points_table: np.ndarray,
     shape: MeshModel,
@@ -52,25 +59,25 @@ def localize(
     voxel_m: float = 0.0,
     mode: Mode = "auto",
     T_table_object_prior: np.ndarray | None = None,
-    pass_labels: np.ndarray | None = None,
-    pass_sigma_m: float | None = None,
+    passes: ScanPasses | None = None,
     targets_model: np.ndarray | None = None,
 ) -> Localization:
     """Match the object points (N, 3) in the table frame to the virtual model: thinned to
     one point per `voxel_m` cube, then a seeded subsample of at most `max_points`, all of
     which the pose is refined on. Mode "auto" (or "local", "global") searches without prior;
-    "refine" starts from `T_table_object_prior` (4, 4). With the scan pass of each point
-    `pass_labels` (N,) and the arm's accuracy `pass_sigma_m` [m] (a pass's rigid offset, per
-    axis), the predicted TRE includes it. With the operation's targets (K, 3) in the model
-    frame, the verdict is per target: accepted only if every target is located."""
+    "refine" starts from `T_table_object_prior` (4, 4). With the scan's `passes` (the pass
+    of each of the N points, and the arm's accuracy: a pass's rigid offset per axis [m];
+    see `scan_passes`), the predicted TRE includes it. With the operation's targets (K, 3)
+    in the model frame, the verdict is per target: accepted only if every target is
+    located."""
     rng = np.random.default_rng(seed)
     index = voxel_thin(points_table, voxel_m)
     if len(index) > max_points:
         index = index[np.sort(rng.choice(len(index), max_points, replace=False))]
     used = points_table[index]
-    passes = None
-    if pass_labels is not None and pass_sigma_m is not None:
-        passes = ScanPasses(np.asarray(pass_labels)[index], pass_sigma_m)
+    used_passes = None
+    if passes is not None:
+        used_passes = ScanPasses(np.asarray(passes.labels)[index], passes.sigma_offset)
     T_init = (
         None if T_table_object_prior is None or mode != "refine" else invert(T_table_object_prior)
     )
@@ -83,7 +90,7 @@ def localize(
         seed=seed,
         acceptance=acceptance,
         settings=SearchSettings(refine_points=max_points),
-        passes=passes,
+        passes=used_passes,
     )
     return Localization(invert(result.T_model_data), result, used, len(points_table))
 

@@ -171,6 +171,35 @@ class ErrorModel:
     max_points: int
 
 
+@dataclass(frozen=True, eq=False)
+class PlanningCell:
+    """Where passes are planned and predicted: the arm's kinematics (the laser its tool), the
+    virtual cell (the nominal model in it at its believed pose, named `object_name`), the
+    object's box and pose T_table_object (4, 4) [m], the arm's home joints (6,) [rad] and
+    joint speed limits (6,) [rad/s], the laser's data sheet (ray directions (n, 3) in the TCP
+    frame, range (min, max) [m], grazing limit [rad]) and the table frame in the arm's base
+    at a table position [m] (4, 4)."""
+
+    kin: Kinematics
+    cell: VirtualCell
+    box: ObjectBox
+    T_table_object: np.ndarray
+    q_home: np.ndarray
+    joint_speed: np.ndarray
+    laser: tuple[np.ndarray, tuple[float, float], float]
+    T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table
+    object_name: str = "object"
+
+    def predict(self, planned: PlannedPass) -> tuple[np.ndarray, np.ndarray]:
+        """Points (M, 3) and normals (M, 3) in the model frame that the pass' laser sees of
+        the object in the virtual cell."""
+        dirs_tcp, range_m, incidence = self.laser
+        return _predict(
+            self.cell, planned, self.T_table_object, dirs_tcp, range_m, incidence,
+            self.object_name,
+        )  # fmt: skip
+
+
 def candidate_specs(box: ObjectBox, section: Scan) -> tuple[ScanPass, ...]:
     """The candidate passes' parameters: from above at three aims across the object, and
     tilted at the planner's tilts from every heading, aimed at the object's centre and at its
@@ -394,37 +423,26 @@ def _clear(
 
 
 def candidates(
-    kin: Kinematics,
-    cell: VirtualCell,
-    box: ObjectBox,
-    section: Scan,
-    T_table_object: np.ndarray,
-    q_home: np.ndarray,
-    joint_speed: np.ndarray,
-    laser: tuple[np.ndarray, tuple[float, float], float],
-    T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table,
-    object_name: str = "object",
-    margin_m: float = 0.01,
+    where: PlanningCell, section: Scan, margin_m: float = 0.01
 ) -> tuple[tuple[Candidate, ...], int]:
-    """The reachable, collision-free candidates with their predicted points, and how many
-    were tried. `laser`: its ray directions (n, 3) in the TCP frame, range [m] and grazing
-    limit [rad], as its data sheet gives them."""
-    dirs_tcp, range_m, incidence = laser
+    """The reachable candidates whose line clears the cell by `margin_m` [m], with their
+    predicted points, and how many were tried."""
+    kin, cell, q_home = where.kin, where.cell, where.q_home
     found = []
-    specs = candidate_specs(box, section)
+    specs = candidate_specs(where.box, section)
     for i, spec in enumerate(specs):
         try:
-            planned = plan_pass(kin, box, section, spec, i, q_home, T_base_table)
+            planned = plan_pass(kin, where.box, section, spec, i, q_home, where.T_base_table)
         except UnreachablePlanError:
             continue
-        if not _clear(cell, kin, planned, T_base_table, margin_m):
+        if not _clear(cell, kin, planned, where.T_base_table, margin_m):
             continue
-        p, n = _predict(cell, planned, T_table_object, dirs_tcp, range_m, incidence, object_name)
+        p, n = where.predict(planned)
         if len(p) < 50:
             continue
         # Its own time and the arm's turn to it from home and back: what adding it costs.
         seconds = pass_seconds(planned, section) + 2.0 * _joint_move_s(
-            q_home, planned.q_start, joint_speed
+            q_home, planned.q_start, where.joint_speed
         )
         found.append(Candidate(spec, planned, p, n, seconds))
     return tuple(found), len(specs)
@@ -593,66 +611,31 @@ def error_model(section: Scan, voxel_m: float, max_points: int, pass_sigma_m: fl
 
 
 def plan_job_scan(
-    kin: Kinematics,
-    cell: VirtualCell,
-    box: ObjectBox,
+    where: PlanningCell,
     section: Scan,
     errors: ErrorModel,
-    T_table_object: np.ndarray,
     targets_model: np.ndarray,
-    q_home: np.ndarray,
-    joint_speed: np.ndarray,
-    laser: tuple[np.ndarray, tuple[float, float], float],
-    T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table,
-    object_name: str = "object",
     say: Progress | None = None,
     unambiguous: Callable[[np.ndarray, np.ndarray], bool] | None = None,
     target_names: tuple[str, ...] | None = None,
     acceptable_tre_m: float | None = None,
 ) -> ScanPlan:
-    """The job's scan plan: in mode "auto" chosen among the candidates for `targets_model`
-    (K, 3, model frame); in mode "fixed" the configuration's passes, with the same
-    prediction. `unambiguous(points_table (N, 3), pass_labels (N,))`: whether the match of
-    such a scan finds one pose. Raises ScanPlanError if "auto" leaves a target (named by
-    `target_names`) unconstrained, or above the goal and above `acceptable_tre_m` [m] (what
-    the match accepts; None: above the goal refuses), or the match ambiguous. A plan short
-    of the goal but within `acceptable_tre_m` is scanned, and said so."""
+    """The job's scan plan in the virtual cell `where`: in mode "auto" chosen among the
+    candidates for `targets_model` (K, 3, model frame); in mode "fixed" the configuration's
+    passes, with the same prediction. `unambiguous(points_table (N, 3), pass_labels (N,))`:
+    whether the match of such a scan finds one pose. Raises ScanPlanError if "auto" leaves a
+    target (named by `target_names`) unconstrained, or above the goal and above
+    `acceptable_tre_m` [m] (what the match accepts; None: above the goal refuses), or the
+    match ambiguous. A plan short of the goal but within `acceptable_tre_m` is scanned, and
+    said so."""
     tell = say or (lambda _m: None)
     if section.plan == "fixed":
-        passes = route_transits(
-            cell, kin, plan_scan_fixed(kin, box, section, q_home, T_base_table), q_home,
-            T_base_table,
-        )  # fmt: skip
-        found = []
-        for spec, planned in zip(section.passes, passes, strict=True):
-            p, n = _predict(
-                cell, planned, T_table_object, laser[0], laser[1], laser[2], object_name
-            )
-            found.append(Candidate(spec, planned, p, n, pass_seconds(planned, section)))
-        tre, _ = predict_tre(found, targets_model, errors)
-        shares = information_shares(found, targets_model, errors)
-        so_far = [float(np.max(predict_tre(found[: k + 1], targets_model, errors)[0]))
-                  for k in range(len(found))]  # fmt: skip
-        chosen = tuple(
-            ChosenPass(
-                c.planned.name, c.spec.tilt_deg, c.spec.heading_deg, c.spec.offset_m,
-                c.spec.standoff_m, c.planned.table_position_m, worst, c.seconds, share,
-            )
-            for c, share, worst in zip(found, shares, so_far, strict=True)
-        )  # fmt: skip
-        seconds = scan_seconds(passes, section, q_home, joint_speed)
-        return ScanPlan(
-            "fixed", passes, seconds, tre, chosen, (), section.speed_m_s,
-            tuple(c.points_model for c in found), section.standoff_m,
-        )  # fmt: skip
+        return _fixed_plan(where, section, errors, targets_model)
     speed = section.planning.sweep_speed_m_s or min(0.5, errors.voxel_m / section.period_s)
     if errors.voxel_m <= 0 and section.planning.sweep_speed_m_s is None:
         speed = section.speed_m_s
     section = section.model_copy(update={"speed_m_s": speed})
-    found_all, tried = candidates(
-        kin, cell, box, section, T_table_object, q_home, joint_speed, laser, T_base_table,
-        object_name,
-    )  # fmt: skip
+    found_all, tried = candidates(where, section)
     tell(
         f"scan plan: {len(found_all)} of {tried} candidate passes reachable, clear and "
         "seeing the object"
@@ -664,7 +647,7 @@ def plan_job_scan(
             return True
         points = np.concatenate([c.points_model for c in passes])
         labels = np.concatenate([np.full(len(c.points_model), k) for k, c in enumerate(passes)])
-        return unambiguous(transform_points(T_table_object, points), labels)
+        return unambiguous(transform_points(where.T_table_object, points), labels)
 
     budget, min_gain = section.planning.budget_s, section.planning.min_gain
     picked, records, tre, unique = choose_passes(
@@ -679,19 +662,7 @@ def plan_job_scan(
             "refuses before any motion"
         )
     if np.max(tre) > goal:
-        over = [f"{names[k]} {tre[k] * 1e3:.3f} mm" for k in np.flatnonzero(tre > goal)]
-        spent = sum(c.seconds for c in picked)
-        rest = [c.seconds for c in found_all if c not in picked]
-        if not rest:
-            why = f"every usable pass is in the plan ({usable})"
-        elif spent + min(rest) > budget:
-            why = f"the {budget:g} s budget is spent"
-        else:
-            why = f"no further pass lowers it by {min_gain:.0%}"
-        over_goal = (
-            f"{', '.join(over)} predicted above the goal {goal * 1e3:.3f} mm "
-            f"(localization.scan.planning.goal_tre_m): {why}"
-        )
+        over_goal = _over_goal(picked, found_all, tre, names, usable, section)
         if acceptable_tre_m is None or np.max(tre) > acceptable_tre_m:
             limit = (
                 ""
@@ -710,20 +681,94 @@ def plan_job_scan(
             f"still ambiguous within the {section.planning.budget_s:g} s budget (a rival "
             "pose or a symmetry fits as well); the job refuses before any motion"
         )
-    # Re-plan the picked passes in scan order (alternating sweeps join without crossing).
+    return _auto_plan(where, section, picked, records, tre, found_all)
+
+
+def _fixed_plan(
+    where: PlanningCell, section: Scan, errors: ErrorModel, targets_model: np.ndarray
+) -> ScanPlan:
+    """The configuration's passes (scan.plan "fixed") routed in the virtual cell, with the
+    predicted TRE at `targets_model` (K, 3, model frame) of the plan and of each pass
+    added in turn, and each pass' share of the information."""
+    kin, q_home, T_base_table = where.kin, where.q_home, where.T_base_table
+    passes = route_transits(
+        where.cell, kin, plan_scan_fixed(kin, where.box, section, q_home, T_base_table),
+        q_home, T_base_table,
+    )  # fmt: skip
+    found = []
+    for spec, planned in zip(section.passes, passes, strict=True):
+        p, n = where.predict(planned)
+        found.append(Candidate(spec, planned, p, n, pass_seconds(planned, section)))
+    tre, _ = predict_tre(found, targets_model, errors)
+    shares = information_shares(found, targets_model, errors)
+    so_far = [float(np.max(predict_tre(found[: k + 1], targets_model, errors)[0]))
+              for k in range(len(found))]  # fmt: skip
+    chosen = tuple(
+        ChosenPass(
+            c.planned.name, c.spec.tilt_deg, c.spec.heading_deg, c.spec.offset_m,
+            c.spec.standoff_m, c.planned.table_position_m, worst, c.seconds, share,
+        )
+        for c, share, worst in zip(found, shares, so_far, strict=True)
+    )  # fmt: skip
+    seconds = scan_seconds(passes, section, q_home, where.joint_speed)
+    return ScanPlan(
+        "fixed", passes, seconds, tre, chosen, (), section.speed_m_s,
+        tuple(c.points_model for c in found), section.standoff_m,
+    )  # fmt: skip
+
+
+def _over_goal(
+    picked: list[Candidate],
+    found_all: tuple[Candidate, ...],
+    tre: np.ndarray,
+    names: tuple[str, ...],
+    usable: str,
+    section: Scan,
+) -> str:
+    """What a plan whose predicted TRE (K,) [m] is above the goal at the targets `names`
+    says of it: which targets, by how much, and why the choice stopped there (every
+    `usable` pass picked, the budget spent, or no pass left gains enough)."""
+    goal, budget = section.planning.goal_tre_m, section.planning.budget_s
+    over = [f"{names[k]} {tre[k] * 1e3:.3f} mm" for k in np.flatnonzero(tre > goal)]
+    spent = sum(c.seconds for c in picked)
+    rest = [c.seconds for c in found_all if c not in picked]
+    if not rest:
+        why = f"every usable pass is in the plan ({usable})"
+    elif spent + min(rest) > budget:
+        why = f"the {budget:g} s budget is spent"
+    else:
+        why = f"no further pass lowers it by {section.planning.min_gain:.0%}"
+    return (
+        f"{', '.join(over)} predicted above the goal {goal * 1e3:.3f} mm "
+        f"(localization.scan.planning.goal_tre_m): {why}"
+    )
+
+
+def _auto_plan(
+    where: PlanningCell,
+    section: Scan,
+    picked: list[Candidate],
+    records: list[ChosenPass],
+    tre: np.ndarray,
+    found_all: tuple[Candidate, ...],
+) -> ScanPlan:
+    """The plan of the `picked` passes (their records, the plan's predicted TRE (K,) [m],
+    every candidate considered), re-planned in scan order (alternating sweeps join without
+    crossing) and routed in the virtual cell."""
+    kin, q_home, T_base_table = where.kin, where.q_home, where.T_base_table
     specs = tuple(c.spec for c in picked)
     passes = route_transits(
-        cell, kin, plan_scan_fixed(kin, box, section, q_home, T_base_table, specs), q_home,
-        T_base_table,
+        where.cell, kin, plan_scan_fixed(kin, where.box, section, q_home, T_base_table, specs),
+        q_home, T_base_table,
     )  # fmt: skip
     return ScanPlan(
         "auto",
         passes,
-        scan_seconds(passes, section, q_home, joint_speed),
+        scan_seconds(passes, section, q_home, where.joint_speed),
         tre,
         tuple(records),
         found_all,
-        speed,
+        section.speed_m_s,
         tuple(c.points_model for c in picked),
         section.standoff_m,
     )

@@ -26,6 +26,7 @@ from cell import Controller
 from models.model import ObjectModel
 from models.robot import LASER
 from registration import Acceptance, MeshModel, invert, transform_points
+from registration.quality import ScanPasses
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.localization import localize
 from scenarios.offline.moves import TABLE_CANDIDATES_M
@@ -130,15 +131,32 @@ def choose_strip(
     return min(spreads, key=lambda k: spreads[k])
 
 
+@dataclass(frozen=True, eq=False)
+class RegisteredTargets:
+    """The registration to verify: the object's pose T_table_object (4, 4) [m] in the nominal
+    table frame, the operation targets (name, point (3,) in the model frame) and the
+    registration's predicted TRE at each (K,) [m]."""
+
+    T_table_object: np.ndarray
+    targets: tuple[tuple[str, np.ndarray], ...]
+    predicted_tre_m: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ScanRecord:
+    """The scan the registration was made on: what the laser measured, which of its points
+    (N,) were kept as the object's, and the passes it ran."""
+
+    scan: ScanData
+    keep: np.ndarray
+    plan: tuple[PlannedPass, ...]
+
+
 def verify_registration(
     controller: Controller,
     virtual: ObjectModel,
-    T_table_object: np.ndarray,
-    predicted_tre_m: np.ndarray,
-    scan: ScanData,
-    keep: np.ndarray,
-    plan: tuple[PlannedPass, ...],
-    targets: tuple[tuple[str, np.ndarray], ...],
+    registered: RegisteredTargets,
+    scanned: ScanRecord,
     box: ObjectBox,
     section: Scan,
     table_position_m: float,
@@ -147,14 +165,52 @@ def verify_registration(
     say: Progress,
 ) -> Verification:
     """Scan a strip of the object again and match it on its own (see the module's
-    docstring), at `table_position_m` [m] (the program's) if the arm follows it there;
-    `predicted_tre_m` (K,) is the registration's at `targets` (name, point in the model
-    frame (3,)), `scan`, `keep` and `plan` the scan the registration was made on, its
-    object points and its passes."""
+    docstring), at `table_position_m` [m] (the program's) if the arm follows it there; the
+    pass of the scan `scanned` whose points alone locate the targets best, scanned again
+    with the cell's `model`, its points matched from the `registered` pose, each target
+    compared; `pass_sigma_m` [m] is the arm's accuracy (a pass's rigid offset, per axis)."""
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
-    targets_model = np.array([p for _, p in targets])
-    k = choose_strip(scan, keep, shape, T_table_object, targets_model)
-    planned = plan[k]
+    targets_model = np.array([p for _, p in registered.targets])
+    T_table_object = registered.T_table_object
+    k = choose_strip(scanned.scan, scanned.keep, shape, T_table_object, targets_model)
+    planned = scanned.plan[k]
+    points = _rescan(controller, planned, box, section, table_position_m, model, say)
+    if len(points) < 100:
+        return Verification(planned.name, len(points), ())
+    located = localize(
+        points,
+        shape,
+        STRIP_POINTS,
+        Acceptance(),
+        0,
+        mode="refine",
+        T_table_object_prior=T_table_object,
+        passes=ScanPasses(np.zeros(len(points), dtype=int), pass_sigma_m),
+    )
+    tre_strip = located.result.predicted_tre(targets_model).tre
+    before = transform_points(T_table_object, targets_model)
+    after = transform_points(located.T_table_object, targets_model)
+    moved = np.linalg.norm(after - before, axis=1)
+    allowed = np.maximum(FLOOR_M, 3.0 * np.hypot(registered.predicted_tre_m, tre_strip))
+    checks = tuple(
+        TargetCheck(name, float(m), float(a))
+        for (name, _), m, a in zip(registered.targets, moved, allowed, strict=True)
+    )
+    return Verification(planned.name, len(points), checks)
+
+
+def _rescan(
+    controller: Controller,
+    planned: PlannedPass,
+    box: ObjectBox,
+    section: Scan,
+    table_position_m: float,
+    model: CellModel,
+    say: Progress,
+) -> np.ndarray:
+    """The pass `planned` scanned again at `table_position_m` [m] if the arm follows it
+    there (else at the first table position it does), the table back where it was after:
+    the points (M, 3) [m] in the table frame within the object's box."""
     order = (table_position_m, *(s for s in TABLE_CANDIDATES_M if s != table_position_m))
     s, q = choose_table_position(
         controller.kinematics.for_tool("laser"),
@@ -175,27 +231,4 @@ def verify_registration(
     # with it there (at the program's position the object can stand in its way).
     if abs(controller.table_position() - table_before) > 1e-6:
         controller.move_table(table_before)
-    points = again.points_table[crop_to_object(again.points_table, box, section.crop_margin_m)]
-    if len(points) < 100:
-        return Verification(planned.name, len(points), ())
-    located = localize(
-        points,
-        shape,
-        STRIP_POINTS,
-        Acceptance(),
-        0,
-        mode="refine",
-        T_table_object_prior=T_table_object,
-        pass_labels=np.zeros(len(points), dtype=int),
-        pass_sigma_m=pass_sigma_m,
-    )
-    tre_strip = located.result.predicted_tre(targets_model).tre
-    before = transform_points(T_table_object, targets_model)
-    after = transform_points(located.T_table_object, targets_model)
-    moved = np.linalg.norm(after - before, axis=1)
-    allowed = np.maximum(FLOOR_M, 3.0 * np.hypot(predicted_tre_m, tre_strip))
-    checks = tuple(
-        TargetCheck(name, float(m), float(a))
-        for (name, _), m, a in zip(targets, moved, allowed, strict=True)
-    )
-    return Verification(planned.name, len(points), checks)
+    return again.points_table[crop_to_object(again.points_table, box, section.crop_margin_m)]

@@ -10,7 +10,7 @@ import numpy as np
 
 from models.model import ObjectModel
 from registration import Acceptance, MeshModel
-from scenarios.offline.localization import Localization, localize, stray_returns
+from scenarios.offline.localization import Localization, localize, scan_passes, stray_returns
 from scenarios.offline.probing import ProbeResult
 from scenarios.offline.settings import PlanningSettings
 
@@ -69,8 +69,7 @@ def surface_pose(
         r.voxel_m,
         r.mode,
         prior,
-        pass_labels,
-        r.pass_sigma_m,
+        scan_passes(pass_labels, r.pass_sigma_m),
         targets_model=np.array([h.p_entry for h in virtual.burr_holes]),
     )
     m = located.result

@@ -12,7 +12,7 @@ from cell.robots import Robot
 from models.model import ObjectModel
 from registration import MeshModel, transform_points
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.localization import localize
+from scenarios.offline.localization import localize, scan_passes
 from scenarios.offline.premotion import job_virtual_cell
 from scenarios.offline.scan import (
     ObjectBox,
@@ -22,7 +22,7 @@ from scenarios.offline.scan import (
     execute_scan,
     plan_scan,
 )
-from scenarios.offline.scan_plan import ScanPlan, error_model, plan_job_scan, replan
+from scenarios.offline.scan_plan import PlanningCell, ScanPlan, error_model, plan_job_scan, replan
 from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.context import StageContext
 from scenarios.stages.register import acceptance
@@ -98,8 +98,8 @@ def job_scan_plan(
         noisy = points_table + rng.normal(0.0, noise, points_table.shape)
         located = localize(
             noisy, shape, registration.max_points, acceptance(settings), settings.seed,
-            registration.voxel_m, registration.mode, pass_labels=labels,
-            pass_sigma_m=registration.pass_sigma_m, targets_model=targets_model,
+            registration.voxel_m, registration.mode,
+            passes=scan_passes(labels, registration.pass_sigma_m), targets_model=targets_model,
         )  # fmt: skip
         moved = transform_points(located.T_table_object, targets_model) - transform_points(
             T_table_object, targets_model
@@ -109,12 +109,15 @@ def job_scan_plan(
         ) < max(1e-3, 10 * noise)
 
     plan = plan_job_scan(
-        kin, cell, ObjectBox.of(virtual.mesh.vertices, T_table_object), section,
-        error_model(section, registration.voxel_m, registration.max_points, pass_sigma),
-        T_table_object, targets_model, robot.q_home, robot.joint_speed,
-        (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
-         laser.max_incidence_rad),
-        object_name=name, say=say, unambiguous=unambiguous, target_names=target_names,
+        PlanningCell(
+            kin, cell, ObjectBox.of(virtual.mesh.vertices, T_table_object), T_table_object,
+            robot.q_home, robot.joint_speed,
+            (laser.directions_tcp(), (laser.range_min_m, laser.range_max_m),
+             laser.max_incidence_rad),
+            object_name=name,
+        ),
+        section, error_model(section, registration.voxel_m, registration.max_points, pass_sigma),
+        targets_model, say=say, unambiguous=unambiguous, target_names=target_names,
         acceptable_tre_m=registration.max_predicted_tre_m,
     )  # fmt: skip
     say(

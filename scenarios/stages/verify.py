@@ -8,7 +8,12 @@ import numpy as np
 
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.settings import Registration
-from scenarios.offline.verify import Verification, verify_registration
+from scenarios.offline.verify import (
+    RegisteredTargets,
+    ScanRecord,
+    Verification,
+    verify_registration,
+)
 from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
 from scenarios.stages.register import LocatedPose
@@ -37,12 +42,12 @@ def verify_stage(
     verdict = verify_registration(
         ctx.controller,
         virtual,
-        pose.T_table_object,
-        pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre,
-        scanned.scan,
-        scanned.keep,
-        scanned.plan,
-        targets,
+        RegisteredTargets(
+            pose.T_table_object,
+            targets,
+            pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre,
+        ),
+        ScanRecord(scanned.scan, scanned.keep, scanned.plan),
         ctx.box,
         settings.localization.scan,
         program.table_position_m,
