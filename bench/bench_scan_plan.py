@@ -14,9 +14,10 @@ import time
 import numpy as np
 
 from scenarios.jobs.config import load_config
-from scenarios.jobs.pipeline import job_robot, job_scan_plan, object_models
+from scenarios.jobs.plan import job_robot, object_models
 from scenarios.offline.operations import target_operations
 from scenarios.offline.placement import nominal_pose
+from scenarios.stages.scan import job_scan_plan
 
 
 def main(jobs: list[str]) -> None:

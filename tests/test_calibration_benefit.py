@@ -16,28 +16,33 @@ from pathlib import Path
 import pytest
 
 from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.results.exported import ExportedRun
+from scenarios.results.run import RunResult
 
 SEEDS = (1, 3)
 #: What every seed must gain [mm]: the measured mean gain less two standard deviations.
 GAIN_FLOOR_MM = 0.39 - 2 * 0.15
 
 
-def _exported(tmp: Path, seed: int, overrides: dict[str, object]) -> dict | None:
+def _exported(tmp: Path, seed: int, overrides: dict[str, object]) -> ExportedRun | None:
     """The run's exported program's figures, or None if the job refused to move."""
-    _, results = run_job(
+    _, result = run_job(
         "skull", seed=seed, out=tmp, overrides=overrides, options=RunOptions(rrd=False)
     )
-    return results["exported_program"]
+    assert isinstance(result, RunResult)
+    return result.exported_program
 
 
 @pytest.mark.parametrize("seed", SEEDS)
 def test_the_exported_program_keeps_the_calibration_s_benefit(tmp_path: Path, seed: int) -> None:
     calibrated = _exported(tmp_path, seed, {})
-    assert calibrated is not None and calibrated["status"] == "complete", calibrated
-    rms = calibrated["target_error_rms_m"] * 1e3
+    assert calibrated is not None and calibrated.status == "complete", calibrated
+    assert calibrated.target_error_rms_m is not None and calibrated.target_error_max_m is not None
+    rms = calibrated.target_error_rms_m * 1e3
     # The job's own goal (RMS <= 0.5 mm, max <= 1 mm) on the program the user gets.
-    assert rms <= 0.5 and calibrated["target_error_max_m"] <= 1.0e-3, (seed, calibrated)
+    assert rms <= 0.5 and calibrated.target_error_max_m <= 1.0e-3, (seed, calibrated)
     off = _exported(tmp_path, seed, {"calibration.enabled": False})
     if off is None:
         return  # without the calibration the job refused the scan's match: the loss is whole
-    assert off["target_error_rms_m"] * 1e3 - rms >= GAIN_FLOOR_MM, (seed, rms, off)
+    assert off.target_error_rms_m is not None
+    assert off.target_error_rms_m * 1e3 - rms >= GAIN_FLOOR_MM, (seed, rms, off)

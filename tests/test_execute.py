@@ -24,7 +24,7 @@ from models.robot import TOOLS
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.jobs.execute import execute_in_cell, job_program, job_targets, rebuild_job_cell
-from scenarios.jobs.pipeline import job_robot, object_models
+from scenarios.jobs.plan import job_robot, object_models
 from scenarios.rapid.executor import ExecutionError, execute_plan, plan_execution
 from scenarios.rapid.module import RapidError, read_module
 from scenarios.rapid.writer import configuration

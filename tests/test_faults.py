@@ -20,27 +20,31 @@ from cell.sim.faults import Fault
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.tcp_check import check_tcp
+from scenarios.results.events import FaultOutcome
+from scenarios.results.run import RunResult
 
 GOAL_MAX_M = 1.0e-3
 
 
-def _run(tmp_path: Path, faults: dict[str, Any], calibrate: bool = True, **sets: Any) -> dict:
+def _run(
+    tmp_path: Path, faults: dict[str, Any], calibrate: bool = True, **sets: Any
+) -> RunResult:
     overrides = {"output.plots": False, "calibration.enabled": calibrate, **sets}
     overrides |= {f"faults.{name}": value for name, value in faults.items()}
-    _, results = run_job("skull", seed=3, out=tmp_path, overrides=overrides,
-                         options=RunOptions(rrd=False))  # fmt: skip
-    return results
+    folder, _ = run_job("skull", seed=3, out=tmp_path, overrides=overrides,
+                        options=RunOptions(rrd=False))  # fmt: skip
+    return RunResult.read(folder)  # as results.json holds it
 
 
-def _fault(results: dict, name: str) -> dict:
-    (entry,) = [f for f in results["faults"] if f["name"] == name]
-    assert entry["injected"] is not None, f"{name} never fired"
+def _fault(results: RunResult, name: str) -> FaultOutcome:
+    (entry,) = [f for f in results.faults if f.name == name]
+    assert entry.injected is not None, f"{name} never fired"
     return entry
 
 
-def _within_goals(results: dict) -> None:
-    assert results["status"] == "complete", results["reason"]
-    errors = np.array([t["error_m"] for t in results["targets"]])
+def _within_goals(results: RunResult) -> None:
+    assert results.status == "complete", results.reason
+    errors = results.primary.errors()
     assert len(errors) == 4
     assert errors.max() <= GOAL_MAX_M, errors
 
@@ -62,8 +66,8 @@ def test_recovered_faults(tmp_path: Path, fault: str, value: float, stage: str, 
     the job still meets its goals."""
     results = _run(tmp_path, {fault: value})
     entry = _fault(results, fault)
-    assert entry["detected_by"] == stage and entry["symptom"] == symptom, entry
-    assert any(s["code"] == symptom and s["action"] != "stopped" for s in results["supervision"])
+    assert entry.detected_by == stage and entry.symptom == symptom, entry
+    assert any(s.code == symptom and s.action != "stopped" for s in results.supervision)
     _within_goals(results)
 
 
@@ -71,9 +75,10 @@ def test_the_verification_is_what_catches_a_bump(tmp_path: Path):
     """The same bump without the verification: the run completes with the targets missed by
     more than the job allows (what the verification prevented)."""
     results = _run(tmp_path, {"object_bump": 0.003}, **{"verify.enabled": False})
-    assert _fault(results, "object_bump")["detected_by"] == "missed"
-    assert results["status"] == "complete"
-    assert results["target_error_max_m"] > 2 * GOAL_MAX_M
+    assert _fault(results, "object_bump").detected_by == "missed"
+    assert results.status == "complete"
+    assert results.target_error_max_m is not None
+    assert results.target_error_max_m > 2 * GOAL_MAX_M
 
 
 @pytest.mark.parametrize(
@@ -85,11 +90,11 @@ def test_stopping_faults(tmp_path: Path, fault: str, value: float, code: str):
     stage and the reason, touches no target and hands out no program."""
     results = _run(tmp_path, {fault: value}, calibrate=False)
     entry = _fault(results, fault)
-    assert entry["detected_by"] == "execute" and entry["symptom"] == code
-    assert results["status"] == "aborted" and results["stage"] == "execute"
-    assert results["supervision"][-1]["code"] == code
-    assert results["supervision"][-1]["action"] == "stopped"
-    assert results["targets"] == [] and results["program_file"] is None
+    assert entry.detected_by == "execute" and entry.symptom == code
+    assert results.status == "aborted" and results.stage == "execute"
+    assert results.supervision[-1].code == code
+    assert results.supervision[-1].action == "stopped"
+    assert results.targets == () and results.program_file is None
 
 
 @pytest.mark.parametrize("seat_m", [0.0, 0.003])

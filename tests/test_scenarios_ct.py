@@ -13,7 +13,7 @@ from models.registry import builtin_model
 from registration import MeshModel
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
-from scenarios.jobs.pipeline import object_models
+from scenarios.jobs.plan import object_models
 
 SHORT_CT = """seed: 3
 model: {source: ct}

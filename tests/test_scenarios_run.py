@@ -16,10 +16,11 @@ from cell import FixedMesh
 from cell.sim import make_cell
 from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
-from scenarios.jobs.pipeline import object_models
+from scenarios.jobs.plan import object_models
 from scenarios.outputs.files import read_ply
 from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
+from scenarios.results.run import RunResult
 
 SHORT = """seed: 11
 localization:
@@ -68,6 +69,17 @@ def test_results_json_has_the_keys_and_consistent_numbers(folder: Path) -> None:
     timings = results["timings_s"]
     assert all(timings[k] > 0 for k in ("scan", "register", "execute", "total"))
     assert np.asarray(read_ply(folder / "scan.ply")).shape == (results["scan_points"], 3)
+
+
+def test_results_json_reads_back_typed_as_written(folder: Path) -> None:
+    """A real run's results.json, read back (scenarios.results.run.RunResult.read), writes
+    the same mapping again; its typed figures are the file's."""
+    results = json.loads((folder / "results.json").read_text())
+    typed = RunResult.read(folder)
+    assert typed.to_json() == results
+    assert typed.target_error_max_m == results["target_error_max_m"]
+    assert [t.name for t in typed.targets] == [t["name"] for t in results["targets"]]
+    assert typed.match is not None and typed.match.starts == results["registration"]["starts"]
 
 
 def test_true_targets_agree_with_an_independent_rebuild_of_the_truth(folder: Path) -> None:

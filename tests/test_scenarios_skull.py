@@ -11,7 +11,7 @@ from cell import FixedMesh, nominal_T_base_table
 from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.jobs.config import JobConfig
-from scenarios.jobs.pipeline import object_models
+from scenarios.jobs.plan import object_models
 from scenarios.offline.localization import localize
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.program import burr_hole_operations, execute_program, plan_program

@@ -14,6 +14,7 @@ from scenarios.jobs.config import load_config
 from scenarios.offline.premotion import placement_uncertainty_m
 from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.context import StageContext
+from scenarios.stages.state import JobState
 
 TRUTH_SWEEP = {
     "cell.object.placement.range_xy_m": 0.12,
@@ -71,6 +72,9 @@ def test_the_planning_settings_have_no_section_of_the_truth() -> None:
 
 
 def test_a_stage_context_holds_the_controller_api_and_its_settings_only() -> None:
+    # ... and the job so far: what the earlier stages found (scenarios.stages.state).
+    state = {f.name for f in dataclasses.fields(JobState)}
+    assert state == {"model", "calibration", "poses", "scanned", "programs", "refused_by"}
     fields = {f.name: f.type for f in dataclasses.fields(StageContext)}
     assert set(fields) == {
         "controller",
@@ -79,7 +83,10 @@ def test_a_stage_context_holds_the_controller_api_and_its_settings_only() -> Non
         "box",
         "settings",
         "hooks",
+        "state",
+        "folder",
         "user",
     }
     assert fields["controller"] == "Controller"
+    assert fields["state"] == "JobState"
     assert fields["settings"] == PlanningSettings.__name__

@@ -17,7 +17,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import yaml
 
@@ -35,6 +35,7 @@ from scenarios.campaign.store import ResultStore
 from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
 from scenarios.campaign.trials import STAGES, Trial, trial_id
 from scenarios.jobs.config import read_yaml_mapping
+from scenarios.results.edge import JsonObject
 
 Backend = Literal["local", "dask"]
 BACKENDS: tuple[str, ...] = ("local", "dask")
@@ -47,12 +48,12 @@ class CampaignSpec:
 
     name: str
     stage: str
-    base_config: dict[str, Any]
+    base_config: JsonObject
     sweep: Sweep
     trials: int
     seed: int = 0
 
-    def identity(self) -> dict[str, Any]:
+    def identity(self) -> JsonObject:
         """What must match for a folder to be resumed (the trial count may grow)."""
         return {
             "name": self.name,
@@ -63,7 +64,7 @@ class CampaignSpec:
         }
 
 
-def base_config(name: str, stage: str) -> dict[str, Any]:
+def base_config(name: str, stage: str) -> JsonObject:
     """The base configuration of a campaign, a job configuration (JobConfig) as a plain dict
     (every key): for the register stage the default job on a built-in model (skull,
     ellipsoid, bracket, housing, lid) or a job YAML file (its `register_trial` section the
@@ -117,7 +118,7 @@ def plan_campaign(
     return spec
 
 
-def resolve_config(spec: CampaignSpec, values: dict[str, Any]) -> dict[str, Any]:
+def resolve_config(spec: CampaignSpec, values: JsonObject) -> JsonObject:
     """The configuration of one sweep point: the base, then a register case's preset keys
     (CASES, when `register_trial.case` is swept), then the other swept keys; validated."""
     config = spec.base_config
@@ -186,7 +187,7 @@ class CampaignOutcome:
     (the others were finished before), and the report's files."""
 
     folder: Path
-    rows: list[dict[str, Any]]
+    rows: list[JsonObject]
     ran: int
     skipped: int
     files: tuple[Path, ...]
@@ -199,7 +200,7 @@ def run_campaign(
     workers: int = 1,
     scheduler: str | None = None,
     progress: bool = True,
-    on_row: Callable[[dict[str, Any]], None] | None = None,
+    on_row: Callable[[JsonObject], None] | None = None,
 ) -> CampaignOutcome:
     """Run the unfinished trials of `spec` into the folder `out` on `backend` ("local": K
     processes; "dask": the scheduler at `scheduler`, or a local cluster of `workers`), then
@@ -233,7 +234,7 @@ def run_campaign(
             f"{spec.name} ({spec.stage})", total=len(trials), completed=len(trials) - len(todo)
         )
 
-        def collect(row: dict[str, Any]) -> None:
+        def collect(row: JsonObject) -> None:
             store.write(row)
             bar.advance(task)
             if on_row is not None:

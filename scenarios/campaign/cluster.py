@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Callable, Sequence
-from typing import Any
 
 from scenarios.campaign.errors import CampaignError
 from scenarios.campaign.trials import Trial, run_trial
+from scenarios.results.edge import JsonObject
 
-OnRow = Callable[[dict[str, Any]], None]
+OnRow = Callable[[JsonObject], None]
 
 
 def run_dask(

@@ -18,19 +18,67 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from typing import Any
+from dataclasses import dataclass
 
 from scenarios.campaign.register_stage import MAX_TARGETS
 from scenarios.campaign.rows import HARM_M
+from scenarios.results.edge import JsonObject
+from scenarios.results.exported import ExportedRun
+from scenarios.results.run import RunResult
+from scenarios.results.scan_plan import ScanPlanSummary
 
 
-def _number(value: Any) -> float:
+def _number(value: float | None) -> float:
     return float("nan") if value is None else float(value)
 
 
-def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
+@dataclass(frozen=True)
+class FullTarget:
+    """One target of a full trial: its name, the registration's share of its error (the
+    virtual target moved by the estimated pose against the true one) and the achieved tool
+    tip's error [m], and the match's predicted TRE there [m] (NaN: none)."""
+
+    name: str
+    registration_error_m: float
+    executed_error_m: float
+    predicted_tre_m: float
+
+    @property
+    def ratio(self) -> float:
+        """Registration error over predicted TRE (NaN where nothing was predicted)."""
+        if self.predicted_tre_m > 0:
+            return self.registration_error_m / self.predicted_tre_m
+        return float("nan")
+
+
+@dataclass(frozen=True, eq=False)
+class FullRow:
+    """The row of one full trial: the run's result (scenarios.results.run.RunResult, as its
+    results.json holds it) and the trial's wall time [s]; `columns()` flattens it to the
+    results table's columns, in the table's order."""
+
+    result: RunResult
+    trial_seconds: float
+
+    @property
+    def targets(self) -> tuple[FullTarget, ...]:
+        primary = self.result.primary
+        return tuple(
+            FullTarget(
+                t.name, t.registration_error_m, t.error_m, _number(primary.predicted(t.name))
+            )
+            for t in self.result.targets[:MAX_TARGETS]
+        )
+
+    def columns(self) -> JsonObject:
+        row = full_row(self.result, self.targets)
+        row["trial_seconds"] = self.trial_seconds
+        return row
+
+
+def run_full_trial(config: JsonObject, seed: int) -> FullRow:
     """Run the scenario `config` (a scenario config dict) with `seed`, without recording or
-    figures; returns the flat metrics of the row ([m], [rad], [s])."""
+    figures; its row, from the run's results.json read back."""
     from scenarios.jobs.config import parse_config
     from scenarios.jobs.runner import RunOptions, run_job
 
@@ -40,29 +88,38 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         data["output"] = {**data["output"], "rrd": False, "plots": False}
     scenario = parse_config(data, "campaign trial")
     with tempfile.TemporaryDirectory(prefix="twincell-trial-") as tmp:
-        _, results = run_job(scenario, out=tmp, options=RunOptions(rrd=False, spawn=False))
-    registration = results.get("registration") or {}
-    targets = list(results.get("targets") or [])[:MAX_TARGETS]
-    verdict = registration.get("verdict") or "rejected"
-    reg_errors = [_number(t.get("registration_error_m", t.get("error_m"))) for t in targets]
-    exec_errors = [_number(t.get("error_m")) for t in targets]
-    threshold = 2.0e-3
-    within = bool(reg_errors) and max(reg_errors + exec_errors) <= threshold
-    accepted = verdict == "accepted"
-    rotation_deg = registration.get("rotation_error_deg")
-    row: dict[str, Any] = {
-        "job": results.get("job"),
-        "model": results.get("model"),
-        "run_status": results.get("status"),
-        "n_points": results.get("scan_points"),
-        "verdict": verdict,
-        "reason": registration.get("reason", results.get("reason", "")),
+        folder, _ = run_job(scenario, out=tmp, options=RunOptions(rrd=False, spawn=False))
+        result = RunResult.read(folder)
+    return FullRow(result, time.perf_counter() - t0)
+
+
+def full_row(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
+    """The columns of a run's result: the match, the errors at the `targets` (the
+    registration's share and the achieved), the exported program's, the scan plan's, the
+    faults', the timings ([m], [rad], [s])."""
+    match = result.match
+    reg_errors = [t.registration_error_m for t in targets]
+    exec_errors = [t.executed_error_m for t in targets]
+    within = bool(reg_errors) and max(reg_errors + exec_errors) <= 2.0e-3
+    accepted = match is not None and match.verdict == "accepted"
+    surface = result.method("surface")
+    pose = None if surface is None else surface.pose
+    reason = result.reason if match is None else match.reason
+    if match is None and surface is not None and not surface.accepted:
+        reason = surface.reason
+    row: JsonObject = {
+        "job": result.job,
+        "model": result.model,
+        "run_status": result.status,
+        "n_points": result.scan_points,
+        "verdict": "rejected" if match is None else match.verdict,
+        "reason": reason,
         "accepted": int(accepted),
-        "ambiguity": registration.get("ambiguity"),
-        "rms_m": registration.get("rms_m"),
-        "inlier_fraction": registration.get("inlier_fraction"),
-        "rotation_error_rad": None if rotation_deg is None else math.radians(float(rotation_deg)),
-        "translation_error_m": registration.get("translation_error_m"),
+        "ambiguity": None if match is None else match.ambiguity,
+        "rms_m": None if match is None else match.rms_m,
+        "inlier_fraction": None if match is None else match.inlier_fraction,
+        "rotation_error_rad": None if pose is None else math.radians(pose.rotation_error_deg),
+        "translation_error_m": None if pose is None else pose.translation_error_m,
         "target_error_max_m": max(reg_errors) if reg_errors else None,
         "executed_error_max_m": max(exec_errors) if exec_errors else None,
         "right_object": 1,
@@ -70,54 +127,68 @@ def run_full_trial(config: dict[str, Any], seed: int) -> dict[str, Any]:
         # A run stopped before its targets (aborted) accepted nothing that moved a tool.
         "false_accept": int(accepted and bool(reg_errors) and not within),
         "n_targets": len(targets),
-        "job_rms_m": results.get("target_error_rms_m"),
-        "job_max_m": results.get("target_error_max_m"),
-        "targets": ";".join(str(t.get("name")) for t in targets),
+        "job_rms_m": result.target_error_rms_m,
+        "job_max_m": result.target_error_max_m,
+        "targets": ";".join(t.name for t in targets),
     }
     for k, target in enumerate(targets):
-        predicted = _number(target.get("predicted_tre_m"))
-        row[f"err_t{k}_m"] = reg_errors[k]
-        row[f"exec_err_t{k}_m"] = exec_errors[k]
-        row[f"tre_t{k}_m"] = predicted
-        row[f"ratio_t{k}"] = reg_errors[k] / predicted if predicted > 0 else float("nan")
-    exported = results.get("exported_program") or {}
-    row["exported_status"] = exported.get("status", "none")
-    row["exported_compensation"] = exported.get("compensation", "")
-    row["exported_rms_m"] = exported.get("target_error_rms_m")
-    row["exported_max_m"] = exported.get("target_error_max_m")
-    row["stage"] = results.get("stage") or ""
-    plan = results.get("scan_plan") or {}
-    row["scan_plan"] = plan.get("mode", "")
-    row["scan_passes"] = plan.get("passes")
-    row["scan_time_s"] = plan.get("scan_time_s")
-    row["scan_through_home"] = sum(bool(c.get("through_home")) for c in plan.get("chosen") or [])
-    row["scan_predicted_time_s"] = plan.get("predicted_scan_time_s")
-    row["scan_predicted_tre_max_m"] = plan.get("predicted_tre_max_m")
-    for k, tre in enumerate((plan.get("predicted_tre_m") or [])[:MAX_TARGETS]):
-        row[f"plan_tre_t{k}_m"] = tre
-    row.update(fault_columns(results))
-    for stage, seconds in (results.get("timings_s") or {}).items():
+        row[f"err_t{k}_m"] = target.registration_error_m
+        row[f"exec_err_t{k}_m"] = target.executed_error_m
+        row[f"tre_t{k}_m"] = target.predicted_tre_m
+        row[f"ratio_t{k}"] = target.ratio
+    row.update(_exported_columns(result.exported_program))
+    row["stage"] = result.stage or ""
+    row.update(_plan_columns(result.scan_plan))
+    row.update(fault_columns(result))
+    for stage, seconds in result.timings.items():
         row[f"{stage}_seconds"] = seconds
-    row["trial_seconds"] = time.perf_counter() - t0
     return row
 
 
-def fault_columns(results: dict[str, Any]) -> dict[str, Any]:
+def _exported_columns(exported: ExportedRun | None) -> JsonObject:
+    if exported is None:
+        return {"exported_status": "none", "exported_compensation": "",
+                "exported_rms_m": None, "exported_max_m": None}  # fmt: skip
+    return {
+        "exported_status": exported.status,
+        "exported_compensation": exported.compensation,
+        "exported_rms_m": exported.target_error_rms_m,
+        "exported_max_m": exported.target_error_max_m,
+    }
+
+
+def _plan_columns(plan: ScanPlanSummary | None) -> JsonObject:
+    if plan is None:
+        return {"scan_plan": "", "scan_passes": None, "scan_time_s": None,
+                "scan_through_home": 0, "scan_predicted_time_s": None,
+                "scan_predicted_tre_max_m": None}  # fmt: skip
+    row: JsonObject = {
+        "scan_plan": plan.mode,
+        "scan_passes": plan.passes,
+        "scan_time_s": plan.scan_time_s,
+        "scan_through_home": plan.through_home,
+        "scan_predicted_time_s": plan.predicted_scan_time_s,
+        "scan_predicted_tre_max_m": plan.predicted_tre_max_m,
+    }
+    for k, tre in enumerate(plan.predicted_tre_m[:MAX_TARGETS]):
+        row[f"plan_tre_t{k}_m"] = tre
+    return row
+
+
+def fault_columns(result: RunResult) -> JsonObject:
     """The row's fault columns: for each fault injected, `fault.<name>` its outcome
     ("recovered": detected and the run complete; "stopped": detected and the run aborted
     or refused; "missed": not detected; "not injected": its occasion never came) and
     `fault.<name>.stage` the stage that detected it; `harmed` 1 if the run is complete with
     a target error beyond HARM_M."""
-    out: dict[str, Any] = {}
-    status = results.get("status")
-    for fault in results.get("faults") or []:
-        by = fault.get("detected_by")
-        if by in ("missed", "not injected"):
-            outcome = by
+    out: JsonObject = {}
+    for fault in result.faults:
+        if not fault.detected:
+            outcome = fault.detected_by
         else:
-            outcome = "recovered" if status == "complete" else "stopped"
-        out[f"fault.{fault['name']}"] = outcome
-        out[f"fault.{fault['name']}.stage"] = by
-    worst = results.get("target_error_max_m")
-    out["harmed"] = int(status == "complete" and worst is not None and worst > HARM_M)
+            outcome = "recovered" if result.status == "complete" else "stopped"
+        out[f"fault.{fault.name}"] = outcome
+        out[f"fault.{fault.name}.stage"] = fault.detected_by
+    worst = result.target_error_max_m
+    out["harmed"] = int(result.status == "complete" and worst is not None and worst > HARM_M)
     return out

@@ -5,11 +5,11 @@ from __future__ import annotations
 import multiprocessing
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from typing import Any
 
 from scenarios.campaign.trials import Trial, run_trial
+from scenarios.results.edge import JsonObject
 
-OnRow = Callable[[dict[str, Any]], None]
+OnRow = Callable[[JsonObject], None]
 
 
 def run_local(trials: Sequence[Trial], workers: int, on_row: OnRow) -> None:
@@ -22,7 +22,7 @@ def run_local(trials: Sequence[Trial], workers: int, on_row: OnRow) -> None:
         return
     context = multiprocessing.get_context("spawn")  # no fork of a threaded parent
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        pending: set[Future[dict[str, Any]]] = set()
+        pending: set[Future[JsonObject]] = set()
         queue = list(reversed(trials))
         try:
             # Keep at most 2 trials per worker queued: an interrupt loses little work.

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, get_args
+from typing import get_args
 
 from pydantic import ValidationError
 
@@ -37,6 +37,7 @@ from scenarios.jobs.config import (
     RegisterTrialSection,
     describe_validation_error,
 )
+from scenarios.results.edge import JsonObject
 
 #: The built-in models a register trial can match and scan.
 MODELS: tuple[str, ...] = get_args(BuiltinModel)
@@ -45,7 +46,7 @@ MODELS: tuple[str, ...] = get_args(BuiltinModel)
 #: before the other swept keys.
 CASE_KEY = "register_trial.case"
 
-CASES: dict[str, dict[str, Any]] = {
+CASES: dict[str, JsonObject] = {
     "default": {},
     # The paper's ellipsoid: three mirror planes, so 180-degree turns fit as well.
     "symmetric": {"cell.object.model": "ellipsoid"},
@@ -108,7 +109,7 @@ class RegisterTrialSetup:
     faults: ScanFaultAmounts
 
 
-def register_base(model: str) -> dict[str, Any]:
+def register_base(model: str) -> JsonObject:
     """The base configuration of a register campaign on the built-in `model`: the default job
     on that object, with the default `register_trial` section, as a plain dict (every key)."""
     if model not in MODELS:
@@ -117,7 +118,7 @@ def register_base(model: str) -> dict[str, Any]:
     return parse_register_job(data, f"model {model}").job.model_dump(mode="json")
 
 
-def parse_register_job(data: dict[str, Any], source: str = "register trial") -> RegisterTrialSetup:
+def parse_register_job(data: JsonObject, source: str = "register trial") -> RegisterTrialSetup:
     """Validate a job configuration (a mapping) as a register trial's; a bad key or value, or
     a setting the trial cannot honour, raises CampaignError naming it and what is valid."""
     try:

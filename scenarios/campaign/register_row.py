@@ -10,9 +10,10 @@ fault's `fault.<name>` and `fault.<name>.stage`, `harmed`, and the times.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Literal
 
 from registration.verdict import Verdict
+from scenarios.results.edge import JsonObject
 
 MAX_TARGETS = 8
 """Targets reported per trial (columns err_t0_m ... of the results table)."""
@@ -80,9 +81,9 @@ class RegisterRow:
     match_seconds: float
     trial_seconds: float
 
-    def columns(self) -> dict[str, Any]:
+    def columns(self) -> JsonObject:
         """The row as the results table's columns (flags as 0/1), in the table's order."""
-        row: dict[str, Any] = {
+        row: JsonObject = {
             "case": self.case,
             "model": self.model,
             "scanned_model": self.scanned_model,

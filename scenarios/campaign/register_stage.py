@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import time
 from functools import lru_cache
-from typing import Any
 
 import numpy as np
 
@@ -34,6 +33,7 @@ from scenarios.campaign.simscan import DepthBuffer, ScanErrors, SimulatedScan, s
 from scenarios.offline.localization import stray_returns
 from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import model_error
+from scenarios.results.edge import JsonObject
 
 
 @lru_cache(maxsize=8)
@@ -170,7 +170,7 @@ def _row(
     )
 
 
-def run_register_trial(config: dict[str, Any], seed: int) -> RegisterRow:
+def run_register_trial(config: JsonObject, seed: int) -> RegisterRow:
     """One registration trial of the job configuration `config` (a JobConfig dict, read as
     scenarios.campaign.register_job says) with `seed` (the job's seed); returns its row."""
     t_start = time.perf_counter()

@@ -20,6 +20,7 @@ from models.atomic import write_text
 from scenarios.campaign.plots import write_plots
 from scenarios.campaign.rows import CALIBRATION_GOAL, group_rows, per_target
 from scenarios.campaign.store import read_csv
+from scenarios.results.edge import JsonObject
 
 STAGE_NOTES = {
     "register": (
@@ -258,7 +259,7 @@ def _json_ready(value: Any) -> Any:
 def write_report(folder: Path, csv_path: Path, stage: str, keys: list[str]) -> list[Path]:
     """Write report.md, report.json and the figures of the campaign in `folder`."""
     summaries = campaign_summaries(csv_path, keys)
-    data: dict[str, Any] = {
+    data: JsonObject = {
         "stage": stage,
         "note": STAGE_NOTES.get(stage, ""),
         "calibration_goal": list(CALIBRATION_GOAL),

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from models.atomic import write_text
+from scenarios.results.edge import JsonObject
 
 
 def _plain(value: Any) -> Any:
@@ -42,19 +43,19 @@ class ResultStore:
             return set()
         return {p.stem for p in self.trials_dir.glob("*.json")}
 
-    def write(self, row: dict[str, Any]) -> Path:
+    def write(self, row: JsonObject) -> Path:
         """Store one row (must hold "trial_id")."""
         return write_text(
             self.path(str(row["trial_id"])),
             json.dumps({k: _plain(v) for k, v in row.items()}, sort_keys=False),
         )
 
-    def rows(self, ids: Iterable[str] | None = None) -> list[dict[str, Any]]:
+    def rows(self, ids: Iterable[str] | None = None) -> list[JsonObject]:
         """The stored rows (only `ids` if given), sorted by trial id."""
         wanted = sorted(self.done() if ids is None else set(ids) & self.done())
         return [json.loads(self.path(i).read_text(encoding="utf-8")) for i in wanted]
 
-    def write_csv(self, path: str | Path, rows: list[dict[str, Any]]) -> Path:
+    def write_csv(self, path: str | Path, rows: list[JsonObject]) -> Path:
         """The rows as a CSV table (columns in first-seen order; missing cells empty)."""
         columns: dict[str, None] = {}
         for row in rows:

@@ -15,6 +15,7 @@ import yaml
 from scenarios.campaign.errors import CampaignError
 from scenarios.jobs.config import ConfigError
 from scenarios.jobs.config import set_dotted as config_set_dotted
+from scenarios.results.edge import JsonObject
 
 Sweep = tuple[tuple[str, tuple[Any, ...]], ...]
 """Ordered (key, values) pairs; the sweep points are their cross product."""
@@ -60,7 +61,7 @@ def parse_vary(options: list[str] | tuple[str, ...]) -> Sweep:
     return tuple(sweep)
 
 
-def sweep_points(sweep: Sweep) -> list[dict[str, Any]]:
+def sweep_points(sweep: Sweep) -> list[JsonObject]:
     """The cross product of the sweep: one {key: value} dict per point (one empty point when
     nothing varies), the last key varying fastest."""
     keys = [k for k, _ in sweep]
@@ -69,7 +70,7 @@ def sweep_points(sweep: Sweep) -> list[dict[str, Any]]:
     ]
 
 
-def set_dotted(config: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+def set_dotted(config: JsonObject, key: str, value: Any) -> JsonObject:
     """A deep copy of `config` with the dotted `key` set to `value` (see
     scenarios.jobs.config.set_dotted); a typo raises CampaignError naming the keys that exist."""
     try:

@@ -11,21 +11,21 @@ import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 
 from scenarios.campaign.errors import CampaignError
+from scenarios.results.edge import JsonObject
 
 
 class TrialRow(Protocol):
     """A trial's typed row (e.g. scenarios.campaign.register_row.RegisterRow): `columns()`
     flattens it to the results table's columns, in the table's order."""
 
-    def columns(self) -> dict[str, Any]: ...
+    def columns(self) -> JsonObject: ...
 
 
-TrialFunction = Callable[[dict[str, Any], int], TrialRow | dict[str, Any]]
-"""(resolved config dict, seed) -> the row's metrics: a typed row, or (a stage not yet
-typed) its flat columns as a dict."""
+TrialFunction = Callable[[JsonObject, int], TrialRow]
+"""(resolved config dict, seed) -> the trial's typed row."""
 
 STAGES: dict[str, str] = {
     "register": "scenarios.campaign.register_stage:run_register_trial",
@@ -44,8 +44,8 @@ class Trial:
     index: int
     seed: int
     stage: str
-    config: dict[str, Any] = field(hash=False)
-    values: dict[str, Any] = field(hash=False)
+    config: JsonObject = field(hash=False)
+    values: JsonObject = field(hash=False)
 
 
 def trial_id(point: int, index: int) -> str:
@@ -61,11 +61,11 @@ def stage_function(stage: str) -> TrialFunction:
     return getattr(importlib.import_module(module), name)
 
 
-def run_trial(trial: Trial) -> dict[str, Any]:
+def run_trial(trial: Trial) -> JsonObject:
     """Run one trial and return its row: ids, sweep values, status ("ok" or "error" with
     the exception in `error`), and the trial function's metrics. Never raises for a failing
     trial: a failure is a result, recorded once like the others."""
-    row: dict[str, Any] = {
+    row: JsonObject = {
         "trial_id": trial.trial_id,
         "point": trial.point,
         "trial": trial.index,
@@ -75,8 +75,7 @@ def run_trial(trial: Trial) -> dict[str, Any]:
     }
     t0 = time.perf_counter()
     try:
-        metrics = stage_function(trial.stage)(trial.config, trial.seed)
-        columns = metrics if isinstance(metrics, dict) else metrics.columns()
+        columns = stage_function(trial.stage)(trial.config, trial.seed).columns()
     except Exception as exc:
         last = traceback.extract_tb(exc.__traceback__)[-1]
         where = f"{last.filename.rsplit('/', 1)[-1]}:{last.lineno}"

@@ -311,7 +311,7 @@ def run(
         overrides["operations.program"] = program
     overrides |= dict(parse_assignment(text) for text in assign or [])
     overrides |= dict(fault_assignment(text) for text in fault or [])
-    folder, results = run_job(
+    folder, result = run_job(
         name,
         seed=seed,
         out=out,
@@ -320,17 +320,19 @@ def run(
         options=RunOptions(rrd=not no_rrd, spawn=spawn),
         cell=cell,
     )
-    if "table" in results:
-        typer.echo(results["table"])
-    else:
-        from scenarios.jobs.result import results_table
+    from scenarios.results.run import RunResult
 
-        Console().print(results_table(results))
+    if not isinstance(result, RunResult):  # the paper's experiments
+        typer.echo(result.table)
+        typer.echo(f"run folder: {folder}")
+        return
+    from scenarios.results.table import results_table
+
+    Console().print(results_table(result))
     typer.echo(f"run folder: {folder}")
-    if results.get("status") in ("refused", "aborted"):
-        stage = results.get("stage")
-        typer.echo(f"twincell: {results['status']} in {stage}: {results.get('reason')}", err=True)
-        raise typer.Exit(3 if results["status"] == "refused" else 4)
+    if result.status in ("refused", "aborted"):
+        typer.echo(f"twincell: {result.status} in {result.stage}: {result.reason}", err=True)
+        raise typer.Exit(3 if result.status == "refused" else 4)
 
 
 def _print_faults() -> None:

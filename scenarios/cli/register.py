@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -12,6 +11,7 @@ from registration import MODES, InputError, MatchResult, load_model, load_points
 from registration.io import load_targets
 from registration.matcher import is_mode
 from scenarios.outputs.run_folder import write_json
+from scenarios.results.edge import JsonObject
 
 
 @dataclass(frozen=True)
@@ -63,10 +63,10 @@ def register_files(
         raise
 
 
-def result_dict(result: MatchResult, targets: Targets | None = None) -> dict[str, Any]:
+def result_dict(result: MatchResult, targets: Targets | None = None) -> JsonObject:
     """The JSON form of a result; T_model_data maps data coordinates into model coordinates
     (lengths in metres)."""
-    out: dict[str, Any] = {
+    out: JsonObject = {
         "T_model_data": result.T_model_data,
         "rotation": result.rotation,
         "translation": result.translation,

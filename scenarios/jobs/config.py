@@ -47,6 +47,7 @@ from scenarios.offline.settings import (
     Section,
     VerifySection,
 )
+from scenarios.results.edge import JsonObject
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 CELL_DIR = CONFIG_DIR / "cells"
@@ -462,7 +463,7 @@ def describe_validation_error(error: ValidationError) -> str:
     return "; ".join(parts)
 
 
-def read_yaml_mapping(path: Path, error: type[Exception] = ConfigError) -> dict[str, Any]:
+def read_yaml_mapping(path: Path, error: type[Exception] = ConfigError) -> JsonObject:
     """The mapping in a YAML file; a missing file, bad YAML or a non-mapping raise `error`."""
     if not path.is_file():
         raise error(f"{path}: no such configuration file")
@@ -475,7 +476,7 @@ def read_yaml_mapping(path: Path, error: type[Exception] = ConfigError) -> dict[
     return data
 
 
-def parse_config(data: dict[str, Any], source: str = "config") -> Config:
+def parse_config(data: JsonObject, source: str = "config") -> Config:
     """Validate a configuration mapping; its `kind` key ("cell" by default) picks the
     schema."""
     if not isinstance(data, dict):
@@ -489,7 +490,7 @@ def parse_config(data: dict[str, Any], source: str = "config") -> Config:
         raise ConfigError(f"{source}: {describe_validation_error(exc)}") from None
 
 
-def set_dotted(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+def set_dotted(data: JsonObject, key: str, value: Any) -> JsonObject:
     """A deep copy of the mapping `data` with the dotted `key` (e.g. "cell.noise.laser_sigma_m")
     set to `value`. Every part of the path but the last must already exist: a typo is refused,
     naming the keys that do."""
@@ -508,7 +509,7 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     return out
 
 
-def with_overrides(config: Config, overrides: dict[str, Any], source: str = "--set") -> Config:
+def with_overrides(config: Config, overrides: JsonObject, source: str = "--set") -> Config:
     """The configuration with each dotted key of `overrides` set to its value, validated as
     the YAML is (a bad key or value raises ConfigError naming it)."""
     data = config.model_dump(mode="json")
@@ -556,8 +557,8 @@ def shipped_cells() -> tuple[str, ...]:
     return tuple(sorted(p.stem for p in CELL_DIR.glob("*.yaml")))
 
 
-def _flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
+def _flatten(data: JsonObject, prefix: str = "") -> JsonObject:
+    out: JsonObject = {}
     for key, value in data.items():
         dotted = f"{prefix}{key}"
         if isinstance(value, dict):
@@ -582,7 +583,7 @@ def _shipped_or_file(
     return path
 
 
-def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
+def cell_overrides(name_or_path: str | Path) -> JsonObject:
     """A cell (`--cell`): a shipped one by name or a YAML file by path, holding the keys of
     a job configuration that make the cell (the `cell` section's robot and rack, and what
     follows from the layout, e.g. `calibration.table_positions_m`); returned as dotted
@@ -599,7 +600,7 @@ def cell_overrides(name_or_path: str | Path) -> dict[str, Any]:
 
 def load_config(
     name_or_path: str | Path,
-    overrides: dict[str, Any] | None = None,
+    overrides: JsonObject | None = None,
     cell: str | Path | None = None,
 ) -> Config:
     """A shipped configuration by name or a YAML file by path, with `overrides` (dotted keys,

@@ -37,10 +37,12 @@ from scenarios.jobs.exported import (
     job_targets,
     read_program,
 )
-from scenarios.jobs.pipeline import job_cell, job_robot, object_models
+from scenarios.jobs.pipeline import job_cell
+from scenarios.jobs.plan import job_robot, object_models
 from scenarios.offline.operations import UserProgram, read_user_program
 from scenarios.rapid.executor import plan_execution
 from scenarios.realcell.setup import JobCell
+from scenarios.results.run import RunNotEndedError, RunResult
 
 Progress = Callable[[str], None]
 
@@ -152,8 +154,11 @@ def _job_figures(folder: Path) -> tuple[float | None, float | None]:
     path = folder / "results.json"
     if not path.is_file():
         return None, None
-    results = json.loads(path.read_text())
-    return results.get("target_error_rms_m"), results.get("target_error_max_m")
+    try:
+        result = RunResult.read(path)
+    except RunNotEndedError:
+        return None, None
+    return result.target_error_rms_m, result.target_error_max_m
 
 
 def _mm(a: float, b: float) -> str:

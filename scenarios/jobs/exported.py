@@ -12,7 +12,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -30,8 +29,10 @@ from scenarios.rapid.executor import (
 )
 from scenarios.rapid.module import RapidError, RapidModule, read_module
 from scenarios.rapid.writer import _identifier
-from scenarios.realcell.evaluation import TargetEvaluation
 from scenarios.realcell.setup import JobCell
+from scenarios.results.edge import JsonObject
+from scenarios.results.evaluations import TargetEvaluation
+from scenarios.results.exported import ExportedRun, TargetError
 
 Progress = Callable[[str], None]
 
@@ -121,20 +122,20 @@ class ExecutionResult:
         e = self.errors()
         return float(e.max()) if len(e) else None
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> ExportedRun:
         """The figures results.json holds under `exported_program`."""
-        return {
-            "status": "complete",
-            "program": self.program,
-            "compensation": self.compensation,
-            "target_error_rms_m": self.rms_m,
-            "target_error_max_m": self.max_m,
-            "targets": [
-                {"name": t.evaluation.name, "error_m": t.evaluation.error_m} for t in self.targets
-            ],
-        }
+        return ExportedRun(
+            "complete",
+            program=self.program,
+            compensation=self.compensation,
+            target_error_rms_m=self.rms_m,
+            target_error_max_m=self.max_m,
+            targets=tuple(
+                TargetError(t.evaluation.name, t.evaluation.error_m) for t in self.targets
+            ),
+        )
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         """The execution.json mapping (plain numbers and lists)."""
         return {
             "status": "complete",

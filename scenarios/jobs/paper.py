@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal
 
@@ -234,3 +234,35 @@ def plot_cases(cases: list[PaperCase], path: str) -> None:
     fig.tight_layout()
     write_atomic(Path(path), lambda tmp: fig.savefig(tmp, dpi=90, format="png"))
     plt.close(fig)
+
+
+@dataclass(frozen=True)
+class PaperResult:
+    """The paper's experiments as a run's result: the tests, their rows and the table; the
+    run's wall time [s] (set by the runner)."""
+
+    job: str
+    seed: int
+    rows: tuple[PaperRow, ...]
+    tests: tuple[PaperTest, ...] = TESTS
+    seconds: float | None = None
+
+    @property
+    def status(self) -> str:
+        return "complete"
+
+    @property
+    def table(self) -> str:
+        return table_text(list(self.rows))
+
+    def to_json(self) -> dict[str, object]:
+        return {
+            "status": self.status,
+            "reason": "",
+            "job": self.job,
+            "seed": self.seed,
+            "tests": [asdict(t) for t in self.tests],
+            "rows": [asdict(r) for r in self.rows],
+            "table": self.table,
+            "seconds": self.seconds,
+        }

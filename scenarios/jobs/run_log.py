@@ -12,6 +12,7 @@ from cell import Controller, ControllerEvent
 from scenarios.jobs.stages import SETUP, StageTracker
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
+from scenarios.results.events import SupervisionEvent
 
 Progress = Callable[[str], None]
 
@@ -43,8 +44,8 @@ class RunLog:
         self._recording = recording
         self.stage = SETUP
         self.transitions: list[tuple[float, str]] = [(0.0, SETUP)]
-        #: The stages' own checks that spoke: stage, time, code, message, action.
-        self.checks: list[dict[str, Any]] = []
+        #: The stages' own checks that spoke.
+        self.checks: list[SupervisionEvent] = []
         controller.on_event = self._event
 
     def say(self, message: str) -> None:
@@ -64,23 +65,21 @@ class RunLog:
         """A stage's own check `code` spoke: it saw `message` and did `action`."""
         self.say(f"warning: {self.stage}: {message}; {action}")
         self.checks.append(
-            {"stage": self.stage, "time_s": self._controller.time_s, "code": code,
-             "message": message, "action": action}
-        )  # fmt: skip
+            SupervisionEvent(self.stage, self._controller.time_s, code, message, action)
+        )
 
     def stage_at(self, time_s: float) -> str:
         """The stage the run was in at `time_s` [s] of the controller's clock."""
         return next(name for t, name in reversed(self.transitions) if t <= time_s + 1e-9)
 
-    def spoke(self) -> tuple[dict[str, Any], ...]:
+    def spoke(self) -> tuple[SupervisionEvent, ...]:
         """What the supervision and the checks saw, each in the stage it spoke in, in time
         order."""
         events = [
-            {"stage": self.stage_at(e.time_s), "time_s": e.time_s, "code": e.code,
-             "message": e.message, "action": e.action}
+            SupervisionEvent(self.stage_at(e.time_s), e.time_s, e.code, e.message, e.action)
             for e in self._controller.events
-        ]  # fmt: skip
-        return tuple(sorted(events + self.checks, key=lambda d: d["time_s"]))
+        ]
+        return tuple(sorted(events + self.checks, key=lambda d: d.time_s))
 
     def _event(self, event: ControllerEvent) -> None:
         self.say(f"warning: {self.stage}: {event.message}; {event.action}")

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,8 +32,11 @@ from scenarios.jobs.config import (
     with_overrides,
 )
 from scenarios.jobs.interrupt import RunInterrupted, SignalGuard
+from scenarios.jobs.paper import PaperResult
 from scenarios.jobs.stages import StageTracker
 from scenarios.outputs.run_folder import RunFolder
+from scenarios.results.edge import JsonObject
+from scenarios.results.run import IncompleteRun, RunResult
 
 Progress = Callable[[str], None]
 
@@ -47,7 +50,8 @@ class RunOptions:
     spawn: bool = False
 
 
-Job = Callable[[Any, RunFolder, Progress, RunOptions, StageTracker], dict[str, Any]]
+JobResult = RunResult | PaperResult
+Job = Callable[[Any, RunFolder, Progress, RunOptions, StageTracker], JobResult]
 
 
 def _paper(
@@ -56,20 +60,16 @@ def _paper(
     progress: Progress,
     options: RunOptions,
     stages: StageTracker,
-) -> dict[str, Any]:
-    from scenarios.jobs.paper import TESTS, plot_cases, run_paper, table_text
+) -> PaperResult:
+    from scenarios.jobs.paper import plot_cases, run_paper
 
     stages.enter("experiments")
     cases = run_paper(config.seed, progress)
     stages.enter("export")
-    rows = [case.row for case in cases]
-    folder.write_text("paper_table.txt", table_text(rows))
+    result = PaperResult(config.name, config.seed, tuple(case.row for case in cases))
+    folder.write_text("paper_table.txt", result.table)
     plot_cases(cases, str(folder.file("paper.png")))
-    return {
-        "tests": [asdict(t) for t in TESTS],
-        "rows": [asdict(r) for r in rows],
-        "table": table_text(rows),
-    }
+    return result
 
 
 def _recording(folder: RunFolder, config: Any, options: RunOptions) -> Any:
@@ -88,7 +88,7 @@ def _cell(
     progress: Progress,
     options: RunOptions,
     stages: StageTracker,
-) -> dict[str, Any]:
+) -> RunResult:
     """A cell job through the pipeline, with its recording: kept only if the run completes,
     discarded (no run.rrd, no partial file) if anything stops it, closing included."""
     from scenarios.jobs.pipeline import run_cell_job
@@ -103,7 +103,7 @@ def _cell(
             recording.close(keep=False)
             folder.file("run.rrd").unlink(missing_ok=True)  # a stop after it was moved in place
         raise
-    return result.to_json()
+    return result
 
 
 JOBS: dict[str, Job] = {"paper": _paper, "cell": _cell}
@@ -114,14 +114,15 @@ def run_job(
     seed: int | None = None,
     out: str | Path = "runs",
     progress: Progress | None = None,
-    overrides: dict[str, Any] | None = None,
+    overrides: JsonObject | None = None,
     options: RunOptions | None = None,
     cell: str | Path | None = None,
-) -> tuple[Path, dict[str, Any]]:
+) -> tuple[Path, JobResult]:
     """Run a shipped job by name, a YAML config by path, or a config object, into a new run
-    folder; returns the folder and the results. `seed` and `overrides` (dotted keys, e.g.
-    {"cell.object.model": "part.stl"}) replace the configuration's values, after those of
-    the `cell` (a shipped cell's name, e.g. "ur5", or a cell YAML) if one is given."""
+    folder; returns the folder and the result (what results.json holds). `seed` and
+    `overrides` (dotted keys, e.g. {"cell.object.model": "part.stl"}) replace the
+    configuration's values, after those of the `cell` (a shipped cell's name, e.g. "ur5", or
+    a cell YAML) if one is given."""
     with SignalGuard() as guard:  # from here on SIGINT and SIGTERM raise RunInterrupted
         return _run(_config(name, seed, overrides, cell), out, progress, options, guard)
 
@@ -129,7 +130,7 @@ def run_job(
 def _config(
     name: str | Path | Config,
     seed: int | None,
-    overrides: dict[str, Any] | None,
+    overrides: JsonObject | None,
     cell: str | Path | None,
 ) -> Config:
     """The job's configuration, with the cell's values, then the seed and overrides."""
@@ -150,41 +151,34 @@ def _run(
     progress: Progress | None,
     options: RunOptions | None,
     guard: SignalGuard,
-) -> tuple[Path, dict[str, Any]]:
+) -> tuple[Path, JobResult]:
     """The run of `config` into a new folder under `out`; `guard` is told when the run
     winds down (an error, a signal) or is done, after which no signal interrupts it."""
     if config.kind not in JOBS:
         raise ScenarioError(f"unknown kind {config.kind!r}; available: {', '.join(sorted(JOBS))}")
     say = progress or (lambda _msg: None)
     stages = StageTracker()
-    results: dict[str, Any] = {
-        "status": "incomplete",
-        "reason": "running",
-        "job": config.name,
-        "seed": config.seed,
-    }
     folder = RunFolder(out, config.name)
     try:
         folder.write_text("config.yaml", config_yaml(config))
-        folder.write_json("results.json", results)
+        running = IncompleteRun(config.name, config.seed, "running")
+        folder.write_json("results.json", running.to_json())
         t0 = time.perf_counter()
-        results.update(JOBS[config.kind](config, folder, say, options or RunOptions(), stages))
+        result = JOBS[config.kind](config, folder, say, options or RunOptions(), stages)
         guard.hold()  # the job is done: a signal from here on does not undo it
     except BaseException as exc:
         guard.hold()  # winding down: a second signal does not interrupt the clean-up
-        results.update(status="incomplete", reason=_reason(exc), stage=stages.current)
-        folder.write_json("results.json", results)
+        stopped = IncompleteRun(config.name, config.seed, _reason(exc), stages.current)
+        folder.write_json("results.json", stopped.to_json())
         folder.link_latest()
         folder.remove_partial()
         if isinstance(exc, RunInterrupted):
             exc.stage, exc.folder = stages.current, str(folder.path)
         raise
-    if results.get("status") == "incomplete":
-        results.update(status="complete", reason="")
-    results["seconds"] = time.perf_counter() - t0
-    folder.write_json("results.json", results)
+    result = replace(result, seconds=time.perf_counter() - t0)
+    folder.write_json("results.json", result.to_json())
     folder.link_latest()
-    return folder.path, results
+    return folder.path, result
 
 
 def _reason(exc: BaseException) -> str:

@@ -12,9 +12,9 @@ import re
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
 
 from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.results.run import MethodReport, RunResult
 
 Progress = Callable[[str], None]
 
@@ -53,51 +53,73 @@ def _mm(x: float | None, digits: int = 2) -> str:
     return "-" if x is None else f"{x * 1e3:.{digits}f}"
 
 
-def _pair(results: dict[str, Any], key: str | None = None) -> str:
-    """RMS / max [mm] of a run's target errors (its own, or those of `key`'s section)."""
-    section = results if key is None else (results.get(key) or {})
-    return f"{_mm(section.get('target_error_rms_m'))} / {_mm(section.get('target_error_max_m'))}"
+def _pair(rms_m: float | None, max_m: float | None) -> str:
+    """RMS / max [mm] of target errors."""
+    return f"{_mm(rms_m)} / {_mm(max_m)}"
 
 
-def skull_row(
-    seed: int, default: dict[str, Any], nominal: dict[str, Any], off: dict[str, Any]
-) -> str:
+def _own(result: RunResult) -> str:
+    """The run's own target errors, RMS / max [mm]."""
+    return _pair(result.target_error_rms_m, result.target_error_max_m)
+
+
+def _exported(result: RunResult) -> str:
+    """The exported program's target errors on the nominal controller, RMS / max [mm]."""
+    e = result.exported_program
+    return "- / -" if e is None else _pair(e.target_error_rms_m, e.target_error_max_m)
+
+
+def _tcp_mean(result: RunResult, calibrated: bool = False) -> float | None:
+    """The arm's true TCP error, mean [m], of the nominal (or calibrated) arm."""
+    c = result.calibration
+    error = c.calibrated if calibrated else c.nominal
+    return None if error is None else error.mean_m
+
+
+def skull_row(seed: int, default: RunResult, nominal: RunResult, off: RunResult) -> str:
     """One seed of the skull table from three runs: the shipped configuration (the program
     exported filtered and executed at the end), the program exported as programmed
     (export.compensation nominal), and the job without its calibration."""
-    c = default["calibration"]
     return (
-        f"| {seed} | {_pair(default, 'exported_program')} | {_pair(nominal, 'exported_program')}"
-        f" | {_pair(default)} | {_pair(off)} | {_mm(c['tcp_error_nominal_mean_m'])} / "
-        f"{_mm(c['tcp_error_calibrated_mean_m'], 3)} |"
+        f"| {seed} | {_exported(default)} | {_exported(nominal)}"
+        f" | {_own(default)} | {_own(off)} | {_mm(_tcp_mean(default))} / "
+        f"{_mm(_tcp_mean(default, calibrated=True), 3)} |"
     )
 
 
-def ur5_row(seed: int, calibrated: dict[str, Any], nominal: dict[str, Any]) -> str:
+def ur5_row(seed: int, calibrated: RunResult, nominal: RunResult) -> str:
     """One seed of the UR5 skull table from the results of a run with the calibration and
     one without (calibration.enabled false)."""
-    c = calibrated["calibration"]
+    c = calibrated.calibration
+    tcp = c.calibrated
     return (
-        f"| {seed:<4d} | {_mm(calibrated['target_error_rms_m'])} / "
-        f"{_mm(calibrated['target_error_max_m'])} | {_mm(nominal['target_error_rms_m'])} / "
-        f"{_mm(nominal['target_error_max_m'])} | {_mm(c['tcp_error_nominal_mean_m'])} / "
-        f"{_mm(c['tcp_error_nominal_max_m'])} | {_mm(c['tcp_error_calibrated_mean_m'], 3)} / "
-        f"{_mm(c['tcp_error_calibrated_max_m'], 3)} |"
+        f"| {seed:<4d} | {_own(calibrated)} | {_own(nominal)} | {_mm(c.nominal.mean_m)} / "
+        f"{_mm(c.nominal.max_m)} | {_mm(None if tcp is None else tcp.mean_m, 3)} / "
+        f"{_mm(None if tcp is None else tcp.max_m, 3)} |"
     )
 
 
-def assembly_row(seed: int, results: dict[str, Any]) -> str:
+def _pose(report: MethodReport | None) -> str:
+    pose = None if report is None else report.pose
+    if pose is None:
+        return "-"
+    return f"{pose.rotation_error_deg:.3f}, {_mm(pose.translation_error_m)}"
+
+
+def _targets(report: MethodReport | None) -> str:
+    return "- / -" if report is None else _pair(report.rms_m, report.max_m)
+
+
+def assembly_row(seed: int, result: RunResult) -> str:
     """One seed of the assembly table from a run's results."""
-    m = results["methods"]
-    a, b, p = m["surface"], m["probe"], results["pick"]
+    a, b, p = result.method("surface"), result.method("probe"), result.pick
+    if p is None:
+        raise ValueError(f"the assembly run of seed {seed} did not pick: {result.reason}")
     return (
-        f"| {seed} | {a['rotation_error_deg']:.3f}, {_mm(a['translation_error_m'])} | "
-        f"{b['rotation_error_deg']:.3f}, {_mm(b['translation_error_m'])} | "
-        f"{_mm(a['target_error_rms_m'])} / {_mm(a['target_error_max_m'])} | "
-        f"{_mm(b['target_error_rms_m'])} / {_mm(b['target_error_max_m'])} | "
-        f"{_pair(results, 'exported_program')} | {_mm(p['lifted_m'])} | {_mm(p['slip_m'])} | "
-        f"{_mm(p['placed_displacement_m'])} / "
-        f"{p['placed_rotation_deg']:.3f} | {results['seconds']:.1f} |"
+        f"| {seed} | {_pose(a)} | {_pose(b)} | {_targets(a)} | {_targets(b)} | "
+        f"{_exported(result)} | {_mm(p.lifted_m)} | {_mm(p.slip_m)} | "
+        f"{_mm(p.placed_displacement_m)} / {p.placed_rotation_deg:.3f} | "
+        f"{result.seconds or 0.0:.1f} |"
     )
 
 
@@ -105,12 +127,13 @@ def _run(
     name: str,
     seed: int,
     out: Path,
-    overrides: dict[str, Any] | None = None,
+    overrides: dict[str, object] | None = None,
     cell: str | None = None,
-) -> dict:
-    _, results = run_job(name, seed=seed, out=out, overrides=overrides,
-                         options=RunOptions(rrd=False), cell=cell)  # fmt: skip
-    return results
+) -> RunResult:
+    """A run of the job `name`, its result read back from its results.json."""
+    folder, _ = run_job(name, seed=seed, out=out, overrides=overrides,
+                        options=RunOptions(rrd=False), cell=cell)  # fmt: skip
+    return RunResult.read(folder)
 
 
 def skull_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
@@ -148,10 +171,7 @@ def groups_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
     with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
         for seed in seeds:
             cells = [
-                _pair(
-                    _run("skull", seed, Path(tmp), {"calibration.identify": list(step)}),
-                    "exported_program",
-                )
+                _exported(_run("skull", seed, Path(tmp), {"calibration.identify": list(step)}))
                 for step in GROUP_STEPS
             ]
             rows.append(f"| {seed} | " + " | ".join(cells) + " |")

@@ -50,6 +50,7 @@ from models.robot import LASER
 from registration.rigid import make_T
 from scenarios.errors import ScenarioError
 from scenarios.offline.cell_model import CellModel, CompliantKinematics, TableModel
+from scenarios.results.evaluations import CalibrationSummary
 
 Progress = Callable[[str], None]
 #: Finite-difference step of the numeric Jacobian, per prior sigma.
@@ -281,26 +282,28 @@ class CalibrationResult:
     def kinematics(self) -> Kinematics:
         return self.model.kinematics
 
-    def summary(self) -> dict[str, object]:
-        """The figures for results.json (SI units)."""
-        return {
-            "residual_rms_before_m": self.residual_rms_before_m,
-            "residual_rms_after_m": self.residual_rms_after_m,
-            "seconds": self.seconds,
-            "points": self.points,
-            "views": self.views,
-            "table_positions": self.table_positions,
-            "iterations": self.iterations,
-            "groups": list(self.groups),
-            "deviations": {
+    def summary(self) -> CalibrationSummary:
+        """The figures results.json keeps (SI units)."""
+        return CalibrationSummary(
+            residual_rms_before_m=self.residual_rms_before_m,
+            residual_rms_after_m=self.residual_rms_after_m,
+            seconds=self.seconds,
+            points=self.points,
+            views=self.views,
+            table_positions=self.table_positions,
+            iterations=self.iterations,
+            groups=tuple(self.groups),
+            deviations={
                 n: float(v) for n, v in zip(self.parameters, self.deviations, strict=True)
             },
-            "stiffness_nm_rad": [float(v) for v in self.stiffness_nm_rad],
-            "laser_mount_m": [float(v) for v in self.laser_mount[:3]],
-            "laser_mount_rad": [float(v) for v in self.laser_mount[3:]],
-            "laser_scale": self.laser_scale,
-            "table_coefficients": self.table_coefficients.tolist(),
-        }
+            stiffness_nm_rad=tuple(float(v) for v in self.stiffness_nm_rad),
+            laser_mount_m=tuple(float(v) for v in self.laser_mount[:3]),
+            laser_mount_rad=tuple(float(v) for v in self.laser_mount[3:]),
+            laser_scale=float(self.laser_scale),
+            table_coefficients=tuple(
+                tuple(float(v) for v in row) for row in self.table_coefficients
+            ),
+        )
 
 
 # -- measurement ------------------------------------------------------------------------------

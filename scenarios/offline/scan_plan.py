@@ -47,6 +47,7 @@ from scenarios.offline.scan import (
 )
 from scenarios.offline.scan import plan_scan as plan_scan_fixed
 from scenarios.offline.settings import Scan, ScanPass
+from scenarios.results.scan_plan import PassSummary, ScanPlanSummary
 
 Progress = Callable[[str], None]
 
@@ -122,35 +123,36 @@ class ScanPlan:
             for c in self.chosen
         )  # fmt: skip
 
-    def to_json(self, scan_time_s: float | None) -> dict[str, object]:
-        """results.json's "scan_plan": `scan_time_s` is the cell time the scan took [s]."""
-        return {
-            "mode": self.mode,
-            "passes": len(self.passes),
-            "sweep_speed_m_s": self.speed_m_s,
-            "scan_time_s": scan_time_s,
-            "predicted_scan_time_s": self.predicted_time_s,
-            "predicted_tre_max_m": self.predicted_tre_max_m,
-            "predicted_tre_m": [float(t) for t in self.predicted_tre_m],
-            "candidates": len(self.candidates),
-            "chosen": [
-                {
-                    "name": c.name,
-                    "tilt_deg": c.tilt_deg,
-                    "heading_deg": c.heading_deg,
-                    "offset_m": c.offset_m,
-                    "standoff_m": self.standoff_m if c.standoff_m is None else c.standoff_m,
-                    "table_position_m": c.table_position_m,
-                    "predicted_tre_max_m": None
+    def summary(self, scan_time_s: float | None) -> ScanPlanSummary:
+        """What results.json keeps of the plan: `scan_time_s` is the cell time the scan took
+        [s] (None: it did not run)."""
+        return ScanPlanSummary(
+            mode=self.mode,
+            passes=len(self.passes),
+            sweep_speed_m_s=self.speed_m_s,
+            scan_time_s=scan_time_s,
+            predicted_scan_time_s=self.predicted_time_s,
+            predicted_tre_max_m=self.predicted_tre_max_m,
+            predicted_tre_m=tuple(float(t) for t in self.predicted_tre_m),
+            candidates=len(self.candidates),
+            chosen=tuple(
+                PassSummary(
+                    name=c.name,
+                    tilt_deg=c.tilt_deg,
+                    heading_deg=c.heading_deg,
+                    offset_m=c.offset_m,
+                    standoff_m=self.standoff_m if c.standoff_m is None else c.standoff_m,
+                    table_position_m=c.table_position_m,
+                    predicted_tre_max_m=None
                     if not np.isfinite(c.predicted_tre_max_m)
                     else c.predicted_tre_max_m,
-                    "seconds": c.seconds,
-                    "information_share": c.information_share,
-                    "through_home": bool(p.q_via),
-                }
+                    seconds=c.seconds,
+                    information_share=c.information_share,
+                    through_home=bool(p.q_via),
+                )
                 for c, p in zip(self.chosen, self.passes, strict=True)
-            ],
-        }
+            ),
+        )
 
     @property
     def predicted_tre_max_m(self) -> float:

@@ -21,68 +21,20 @@ from models.model import ObjectModel
 from models.robot import TOOLS
 from registration import pose_error, transform_points
 from scenarios.offline.calibration import CalibrationResult
-
-
-@dataclass(frozen=True)
-class TargetEvaluation:
-    """One target: achieved tool tip against the true point on the real object.
-
-    Attributes:
-        error_m: distance of the achieved tip from the true touch point [m].
-        axis_error_deg: angle between the tool axis and the true trajectory [deg].
-        depth_error_m: distance of the tool axis, extended to the target depth, from the true
-            deep target [m].
-        registration_error_m: distance of the corrected target (the virtual target moved by
-            the estimated pose) from the true one [m]: the registration's share of the error;
-            the rest is the arm's positioning.
-        p_true_base, p_achieved_base: (3,) the two points in the robot base frame [m].
-    """
-
-    name: str
-    error_m: float
-    axis_error_deg: float
-    depth_error_m: float
-    registration_error_m: float
-    p_true_base: np.ndarray
-    p_achieved_base: np.ndarray
-
-
-@dataclass(frozen=True)
-class PoseEvaluation:
-    """Registration error in the base frame: rotation [deg] and translation [m] of the
-    estimated object pose from the true one, and the true pose (4, 4)."""
-
-    rotation_error_deg: float
-    translation_error_m: float
-    T_base_object_true: np.ndarray
-
-
-@dataclass(frozen=True)
-class PickEvaluation:
-    """A pick and put-down measured on the true part.
-
-    Attributes:
-        lifted_m: rise of the part's frame origin from its rest pose to the lifted pose [m].
-        slip_m: displacement of the part's grip point (its grasp frame's origin) in the
-            gripper's true TCP frame from the closing of the fingers to the end of the lift
-            and hold [m].
-        placed_displacement_m: translation of the part's true pose from its rest before the
-            pick to its rest after the put-down [m].
-        placed_rotation_deg: rotation between the same two poses [deg].
-    """
-
-    lifted_m: float
-    slip_m: float
-    placed_displacement_m: float
-    placed_rotation_deg: float
-
-    def to_json(self) -> dict[str, float]:
-        return {
-            "lifted_m": self.lifted_m,
-            "slip_m": self.slip_m,
-            "placed_displacement_m": self.placed_displacement_m,
-            "placed_rotation_deg": self.placed_rotation_deg,
-        }
+from scenarios.results.evaluations import (
+    CalibrationFigures,
+    PickEvaluation,
+    PoseEvaluation,
+    TargetEvaluation,
+    TcpError,
+)
+from scenarios.results.events import (
+    MISSED,
+    NOT_INJECTED,
+    FaultOutcome,
+    Injection,
+    SupervisionEvent,
+)
 
 
 @dataclass(frozen=True)
@@ -145,7 +97,7 @@ class Evaluator:
         """Error of an estimated object pose (4, 4) in the base frame, against the truth now."""
         T_true = self._truth.T_base_object(self._name)
         rot, trans = pose_error(T_base_object_estimate, T_true)
-        return PoseEvaluation(float(np.rad2deg(rot)), trans, T_true.copy())
+        return PoseEvaluation(float(np.rad2deg(rot)), float(trans))
 
     def pick(
         self, rest: str, closed: str, lifted: str, placed: str, grip_frame: str = "grasp"
@@ -249,43 +201,38 @@ class Evaluator:
         """The run enters `stage`: the real cell's faults due then happen (cell.sim.faults)."""
         self._truth.faults.enter(stage)
 
-    def faults(self, detections: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    def faults(self, detections: tuple[SupervisionEvent, ...]) -> tuple[FaultOutcome, ...]:
         """Each fault of the run: what was injected and when, and the stage whose
         supervision or check saw it first (a detection of a symptom the fault can cause,
         at or after its injection), or "missed"; "not injected" if its occasion never came."""
         out = []
         for name, fault in self._truth.faults.faults.items():
             fired = self._truth.faults.fired.get(name)
-            entry: dict[str, Any] = {
-                "name": name,
-                "amount": fault.amount,
-                "stage": fault.stage,
-                "option": fault.option,
-            }
             if fired is None:
-                out.append(entry | {"injected": None, "detected_by": "not injected"})
+                out.append(
+                    FaultOutcome(name, fault.amount, fault.stage, fault.option, None, NOT_INJECTED)
+                )
                 continue
             seen = next(
                 (
                     d
                     for d in detections
-                    if d["code"] in SYMPTOMS[name] and d["time_s"] >= fired.time_s - 1e-9
+                    if d.code in SYMPTOMS[name] and d.time_s >= fired.time_s - 1e-9
                 ),
                 None,
             )
             out.append(
-                entry
-                | {
-                    "injected": {
-                        "stage": fired.stage,
-                        "time_s": fired.time_s,
-                        "what": fired.detail,
-                    },
-                    "detected_by": "missed" if seen is None else seen["stage"],
-                    "symptom": None if seen is None else seen["code"],
-                }
+                FaultOutcome(
+                    name,
+                    fault.amount,
+                    fault.stage,
+                    fault.option,
+                    Injection(fired.stage, fired.time_s, fired.detail),
+                    MISSED if seen is None else seen.stage,
+                    None if seen is None else seen.code,
+                )
             )
-        return out
+        return tuple(out)
 
     def watch(self, bodies: Any, laser: Any, ir: Any = None) -> None:
         """Let a recording witness the real cell: `bodies(data)` while it moves, `laser(data,
@@ -332,39 +279,23 @@ class Evaluator:
         )
 
 
-@dataclass(frozen=True, eq=False)
-class CalibrationReport:
-    """The calibration's figures (None if the job did not calibrate) and, from the truth, the
-    tool's TCP error of the nominal and the calibrated arm at the job's configurations."""
-
-    calibration: CalibrationResult | None
-    nominal: KinematicsEvaluation
-    calibrated: KinematicsEvaluation | None
-
-    def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"enabled": self.calibration is not None}
-        if self.calibration is not None:
-            out.update(self.calibration.summary())
-        for label, e in (("nominal", self.nominal), ("calibrated", self.calibrated)):
-            if e is not None:
-                out[f"tcp_error_{label}_mean_m"] = e.mean_m
-                out[f"tcp_error_{label}_max_m"] = e.max_m
-        out["tcp_error_configurations"] = self.nominal.configurations
-        return out
-
-
 def calibration_report(
     evaluator: Evaluator,
     nominal: Kinematics,
     calibration: CalibrationResult | None,
     q_job: np.ndarray,
     tool: str,
-) -> CalibrationReport:
+) -> CalibrationFigures:
     """The calibration's figures and, from the truth, the TCP error of `tool` on the nominal
     and the calibrated arm at the job's configurations `q_job` (K, 6)."""
+    nominal_error = evaluator.kinematics_error(nominal, q_job, tool)
     calibrated = None
     if calibration is not None:
-        calibrated = evaluator.kinematics_error(calibration.kinematics, q_job, tool)
-    return CalibrationReport(
-        calibration, evaluator.kinematics_error(nominal, q_job, tool), calibrated
+        e = evaluator.kinematics_error(calibration.kinematics, q_job, tool)
+        calibrated = TcpError(e.mean_m, e.max_m)
+    return CalibrationFigures(
+        None if calibration is None else calibration.summary(),
+        TcpError(nominal_error.mean_m, nominal_error.max_m),
+        calibrated,
+        nominal_error.configurations,
     )

@@ -26,12 +26,11 @@ from cell.sim.faults import Fault
 from models.model import ObjectModel
 from models.model_error import ModelErrorSpec
 from models.robot import RACK_POS
-from scenarios.jobs.config import Noise, Placement
+from scenarios.jobs.config import JobConfig, Noise
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.scan import ObjectBox
-from scenarios.offline.settings import Calibration
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.placement import draw_true_pose
@@ -97,27 +96,26 @@ def artifact_fixtures(seed: int) -> tuple[FixedPrimitive, ...]:
 
 
 def build_job_cell(
+    config: JobConfig,
     virtual: ObjectModel,
     real: ObjectModel,
-    placement: Placement,
-    noise: Noise,
-    calibration: Calibration,
-    seed: int,
-    stream: int,
-    crop_margin_m: float,
+    robot: Robot,
     recording: Any | None = None,
-    name: str = "object",
-    loose: bool = False,
-    rgba: tuple[float, float, float, float] = (0.9, 0.85, 0.75, 1.0),
-    robot: Robot | None = None,
-    rack_xyz: tuple[float, float, float] = RACK_POS,
     faults: tuple[Fault, ...] = (),
 ) -> JobCell:
-    """Place the real entity at a true pose drawn around the nominal one (random stream
-    `stream` of `seed`), fixed on the table or `loose`; add the calibration spheres if the
-    job calibrates (they must stand clear of the object's footprint plus `crop_margin_m`
-    [m]); build the cell and start the recording (cell geometry, the virtual model at its
-    nominal pose, the bodies)."""
+    """The job's real cell: the real entity placed at a true pose drawn around the nominal
+    one from the job's seed (its own random stream: fixed or loose on the table), the
+    calibration spheres if the job calibrates (they must stand clear of the object's
+    footprint plus the scan's crop margin), the job's arm and rack, the cell's errors and
+    `faults`; the recording started (cell geometry, the virtual model at its nominal pose,
+    the bodies)."""
+    obj = config.cell.object
+    placement, name, seed = obj.placement, config.object_name, config.seed
+    loose = obj.fixing == "loose"
+    stream = 6 if loose else 5  # the true placement's random stream
+    rgba = (0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0)
+    crop_margin_m = config.localization.scan.crop_margin_m
+    noise, rack_xyz = config.cell.noise, config.cell.rack_xyz
     rng = np.random.default_rng(np.random.SeedSequence([seed, stream]))
     T_table_nominal = nominal_pose(placement, virtual.mesh.vertices)
     T_table_true = draw_true_pose(placement, real.mesh.vertices, rng)
@@ -125,20 +123,22 @@ def build_job_cell(
     mesh = real.mesh
     box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
     spheres: tuple[FixedPrimitive, ...] = ()
-    if calibration.enabled:
+    if config.calibration.enabled:
         check_artifact_clearance(box, crop_margin_m)
         spheres = artifact_fixtures(seed)
     if loose:
         part = LooseMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = replace(cell_config(noise, seed, spheres, robot, rack_xyz, faults), parts=(part,))
+        real_cell = replace(
+            cell_config(noise, seed, spheres, robot, rack_xyz, faults), parts=(part,)
+        )
     else:
         fixed = FixedMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        config = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz, faults)
-    controller, truth = make_cell(config)
+        real_cell = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz, faults)
+    controller, truth = make_cell(real_cell)
     evaluator = Evaluator(truth, real, name)
     log = CellLog(recording, controller, evaluator, name, virtual.name)
     if recording is not None:

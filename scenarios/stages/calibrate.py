@@ -4,10 +4,17 @@ object by the fixture's tolerance."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.premotion import clear_of, job_virtual_cell, placement_uncertainty_m
 from scenarios.stages.context import StageContext
+from scenarios.stages.stage import Outcome
+
+if TYPE_CHECKING:
+    from scenarios.stages.state import JobState
 
 
 def calibrate_stage(ctx: StageContext) -> CalibrationResult:
@@ -29,3 +36,27 @@ def calibrate_stage(ctx: StageContext) -> CalibrationResult:
         lambda: ctx.hooks.moved("view"),
         clear_of(cell, "laser", name, margin),
     )
+
+
+@dataclass(frozen=True)
+class Calibrated(Outcome):
+    """The calibration; from here on the stages believe its cell model."""
+
+    calibration: CalibrationResult
+
+    def advance(self, state: JobState) -> JobState:
+        return replace(state, calibration=self.calibration, model=self.calibration.model)
+
+
+@dataclass(frozen=True)
+class Calibrate:
+    """The stage "calibrate": every later stage uses the calibrated arm."""
+
+    name: str = "calibrate"
+    title: str = "the arm, the laser and the table, on the spheres"
+
+    def due(self, ctx: StageContext) -> bool:
+        return True
+
+    def run(self, ctx: StageContext) -> Calibrated:
+        return Calibrated(calibrate_stage(ctx))

@@ -1,4 +1,5 @@
-"""What a stage is handed: the controller, the virtual model, its planning settings.
+"""What a stage is handed: the controller, the virtual model, its planning settings, the job
+so far.
 
 A stage sees the real cell as a program on a real controller would, through the controller
 API (cell.controller), and knows of the job what its planning settings tell
@@ -10,6 +11,8 @@ ranges its placement is drawn from. The runner builds it once the real cell stan
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,13 +23,17 @@ from scenarios.offline.operations import UserProgram
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.settings import PlanningSettings
 
+if TYPE_CHECKING:
+    from scenarios.stages.state import JobState
+
 
 @dataclass(frozen=True, eq=False)
 class StageContext:
     """A stage's view of the job: the `controller` (the real cell's API), the `virtual`
     model with its targets, where the planner believes it sits (`T_table_nominal` (4, 4),
     its footprint `box`), the user's program if the job runs one, the planning `settings`,
-    and the `hooks` into the run."""
+    the `hooks` into the run, the folder the job's outputs go to, and the `state` of the job
+    so far (what the earlier stages found)."""
 
     controller: Controller
     virtual: ObjectModel
@@ -34,4 +41,6 @@ class StageContext:
     box: ObjectBox
     settings: PlanningSettings
     hooks: StageHooks
+    state: JobState
+    folder: Path
     user: UserProgram | None = None

@@ -3,11 +3,14 @@ with its tool checked at the beam first (scenarios.offline.tcp_check)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.program import execute_program
 from scenarios.offline.tcp_check import checked_tool
 from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
+from scenarios.stages.stage import Outcome
 
 
 def execute_stage(ctx: StageContext, programs: ProgramStage) -> None:
@@ -31,3 +34,28 @@ def execute_stage(ctx: StageContext, programs: ProgramStage) -> None:
         hooks.say(
             f"{method}: {len(program.operations)} operations at table {program.table_position_m} m"
         )
+
+
+@dataclass(frozen=True)
+class Executed(Outcome):
+    """The corrected programs ran on the real cell (what they achieved is the evaluator's
+    to say)."""
+
+
+@dataclass(frozen=True)
+class Execute:
+    """The stage "execute": due if the pose that drives the programs is accepted and there
+    are programs to run."""
+
+    title: str = "the corrected program"
+    name: str = "execute"
+
+    def due(self, ctx: StageContext) -> bool:
+        state = ctx.state
+        return state.primary(ctx.settings.localization.methods).accepted and bool(
+            state.programs.operations
+        )
+
+    def run(self, ctx: StageContext) -> Executed:
+        execute_stage(ctx, ctx.state.programs)
+        return Executed()

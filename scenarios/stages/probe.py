@@ -3,9 +3,16 @@ pose of the part in the nominal table frame."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
 from scenarios.offline.probing import probe_part
 from scenarios.stages.context import StageContext
 from scenarios.stages.register import LocatedPose
+from scenarios.stages.stage import Outcome
+
+if TYPE_CHECKING:
+    from scenarios.stages.state import JobState
 
 
 def probe_stage(ctx: StageContext) -> LocatedPose:
@@ -18,3 +25,27 @@ def probe_stage(ctx: StageContext) -> LocatedPose:
         progress=ctx.hooks.say,
     )
     return LocatedPose("probe", probed.T_table_object, True, "", probe=probed)
+
+
+@dataclass(frozen=True)
+class Probed(Outcome):
+    """The probing's pose."""
+
+    pose: LocatedPose
+
+    def advance(self, state: JobState) -> JobState:
+        return state.with_pose(self.pose)
+
+
+@dataclass(frozen=True)
+class Probe:
+    """The stage "probe": quick, and the prior of a surface match in mode "refine"."""
+
+    name: str = "probe"
+    title: str = "the part's edges with the IR sensor"
+
+    def due(self, ctx: StageContext) -> bool:
+        return True
+
+    def run(self, ctx: StageContext) -> Probed:
+        return Probed(probe_stage(ctx))

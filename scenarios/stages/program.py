@@ -4,6 +4,7 @@ with the controller's kinematics, and checked in the virtual cell before they mo
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.operations import grasp_operation, program_operations, target_operations
@@ -16,6 +17,10 @@ from scenarios.offline.premotion import (
 from scenarios.offline.program import OfflineProgram, plan_program
 from scenarios.stages.context import StageContext
 from scenarios.stages.register import LocatedPose
+from scenarios.stages.stage import Outcome
+
+if TYPE_CHECKING:
+    from scenarios.stages.state import JobState
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,3 +103,40 @@ def check_stage(ctx: StageContext, programs: ProgramStage) -> PremotionCheck | N
         if not check.ok:
             return check
     return None
+
+
+@dataclass(frozen=True)
+class Checked(Outcome):
+    """The corrected programs, or the check that refused them (then the pose of `method`
+    is no longer accepted)."""
+
+    programs: ProgramStage
+    method: str
+    refusal: PremotionCheck | None = None
+
+    def advance(self, state: JobState) -> JobState:
+        if self.refusal is not None:
+            return state.refused(self.method, self.refusal.summary, "check")
+        return replace(state, programs=self.programs)
+
+
+@dataclass(frozen=True)
+class Check:
+    """The stage "check": the programs corrected with the accepted pose, each followed in
+    the virtual cell before it moves; due only if the pose that drives them is accepted."""
+
+    name: str = "check"
+    title: str = "the corrected program, planned and followed in the virtual cell"
+
+    def due(self, ctx: StageContext) -> bool:
+        return ctx.state.primary(ctx.settings.localization.methods).accepted
+
+    def run(self, ctx: StageContext) -> Checked:
+        methods = ctx.settings.localization.methods
+        programs = program_stage(ctx, ctx.state.ordered(methods), ctx.state.model)
+        check = check_stage(ctx, programs)
+        if check is None:
+            ctx.hooks.say("check: the corrected program passes in the virtual cell")
+            return Checked(programs, methods[0])
+        ctx.hooks.detect("premotion", check.summary, "refused")
+        return Checked(programs, methods[0], check)

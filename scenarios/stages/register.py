@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -13,6 +14,11 @@ from registration import Acceptance, MeshModel
 from scenarios.offline.localization import Localization, localize, scan_passes, stray_returns
 from scenarios.offline.probing import ProbeResult
 from scenarios.offline.settings import PlanningSettings
+from scenarios.stages.stage import Outcome
+
+if TYPE_CHECKING:
+    from scenarios.stages.context import StageContext
+    from scenarios.stages.state import JobState
 
 Progress = Callable[[str], None]
 
@@ -94,3 +100,43 @@ def stray_message(points_table: np.ndarray, virtual: ObjectModel, located: Local
         f"{stray} scan points ({100 * stray / len(points_table):.2f} %) lie off the matched "
         "model: spurious returns or something else on the table"
     )
+
+
+@dataclass(frozen=True)
+class Registered(Outcome):
+    """The surface match's pose; the programs corrected with an earlier one are dropped."""
+
+    pose: LocatedPose
+
+    def advance(self, state: JobState) -> JobState:
+        return state.with_pose(self.pose).without_programs()
+
+
+@dataclass(frozen=True)
+class Register:
+    """The stage "register": the latest scan matched to the virtual model (from the
+    probing's pose in mode "refine"); a refusal and the returns off the model are checks
+    that speak."""
+
+    name: str = "register"
+    title: str = "the scan to the virtual model (its steps on the timeline icp)"
+
+    def due(self, ctx: StageContext) -> bool:
+        return ctx.state.scanned is not None
+
+    def run(self, ctx: StageContext) -> Registered:
+        scanned, hooks = ctx.state.scanned, ctx.hooks
+        assert scanned is not None
+        probed = ctx.state.pose("probe")
+        prior = None if probed is None else probed.T_table_object
+        labels = scanned.scan.line_pass[scanned.scan.line_index][scanned.keep]
+        pose = surface_pose(
+            scanned.points_table, labels, ctx.virtual, ctx.settings, prior, hooks.say
+        )
+        if not pose.accepted:
+            hooks.detect("match_refused", pose.reason, "refused")
+        if pose.localization is not None:
+            stray = stray_message(scanned.points_table, ctx.virtual, pose.localization)
+            if stray:
+                hooks.detect("scan_outliers", stray, "left out by the match")
+        return Registered(pose)

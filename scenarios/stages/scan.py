@@ -4,7 +4,8 @@ ones predicted), run on the real cell, the points kept within the object's footp
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,6 +27,10 @@ from scenarios.offline.scan_plan import PlanningCell, ScanPlan, error_model, pla
 from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.context import StageContext
 from scenarios.stages.register import acceptance
+from scenarios.stages.stage import Outcome
+
+if TYPE_CHECKING:
+    from scenarios.stages.state import JobState
 
 Progress = Callable[[str], None]
 
@@ -125,3 +130,30 @@ def job_scan_plan(
         f", worst predicted TRE {plan.predicted_tre_max_m * 1e3:.3f} mm"
     )
     return plan
+
+
+@dataclass(frozen=True)
+class Scanned(Outcome):
+    """The scan, the latest of the job's."""
+
+    scan: ScanStage
+
+    def advance(self, state: JobState) -> JobState:
+        return replace(state, scanned=self.scan)
+
+
+@dataclass(frozen=True, eq=False)
+class Scan:
+    """The stage "scan": the passes of the job's `plan` (chosen in its virtual cell before
+    the real one was built; None: the fixed passes, planned now) run with the cell model the
+    job believes."""
+
+    plan: ScanPlan | None = None
+    name: str = "scan"
+    title: str = "the laser's passes over the object"
+
+    def due(self, ctx: StageContext) -> bool:
+        return True
+
+    def run(self, ctx: StageContext) -> Scanned:
+        return Scanned(scan_stage(ctx, ctx.state.model, self.plan))

@@ -1,0 +1,157 @@
+"""A job in its virtual cell, before the real one is built (`plan_job`): its planning
+settings, its arm, the user's program, the object's virtual model (and the real entity the
+real cell's set-up will place), whether the arm reaches what the job needs, and the scan's
+passes. A job that cannot be done refuses here, before anything moves."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from cell import nominal_T_base_table
+from cell.errors import CellConfigError
+from cell.robots import Robot, make_robot
+from models.model import ObjectModel
+from models.registry import real_model
+from scenarios.errors import ScenarioError
+from scenarios.jobs.config import JobConfig, RobotSection
+from scenarios.offline.operations import (
+    UserProgram,
+    check_program_frame,
+    grasp_operation,
+    program_operations,
+    program_targets,
+    read_user_program,
+    target_operations,
+    virtual_model,
+)
+from scenarios.offline.placement import nominal_pose
+from scenarios.offline.reach import check_reach
+from scenarios.offline.scan import ObjectBox
+from scenarios.offline.scan_plan import ScanPlan
+from scenarios.offline.settings import PlanningSettings
+from scenarios.realcell.ct import ct_virtual_model
+from scenarios.realcell.setup import model_error
+from scenarios.stages.scan import job_scan_plan
+
+Progress = Callable[[str], None]
+
+
+def object_models(
+    config: JobConfig, user: UserProgram | None = None
+) -> tuple[ObjectModel, ObjectModel]:
+    """The job's object: its virtual model with the operations' targets (from the model, or
+    the touches of the user's program; what the planner knows) and its real entity (the
+    model error drawn from the seed, or with `model.source: ct` the design itself, the
+    virtual model being meshed from its simulated CT: the truth)."""
+    obj = config.cell.object
+    virtual = virtual_model(
+        obj.model,
+        obj.units,
+        obj.targets_file,
+        config.operations.kind,
+        config.seed,
+        config.model.ct.iso_hu,
+    )
+    if user is not None:
+        virtual = replace(virtual, burr_holes=program_targets(user))
+    if config.model.source == "ct":  # the design is the real object; the model is its CT's
+        return ct_virtual_model(virtual, config.model.ct, config.seed), virtual
+    real, _ = real_model(virtual, model_error(config.cell.noise), seed=config.seed)
+    return virtual, real
+
+
+def job_robot(section: RobotSection) -> Robot:
+    """The cell's arm as the job's configuration names it (cell.robots)."""
+    home = None if section.home_deg is None else np.deg2rad(section.home_deg)
+    limits = None
+    if section.limits_deg is not None:
+        limits = (np.deg2rad(section.limits_deg[0]), np.deg2rad(section.limits_deg[1]))
+    try:
+        return make_robot(
+            section.model,
+            section.flange,
+            section.mount_xyz,
+            section.mount_yaw_deg,
+            home,
+            section.vendor,
+            limits,
+            None if section.speed_deg_s is None else np.deg2rad(section.speed_deg_s),
+            None if section.effort_nm is None else np.asarray(section.effort_nm, dtype=float),
+        )
+    except CellConfigError as exc:
+        raise ScenarioError(f"cell.robot: {exc}") from None
+
+
+@dataclass(frozen=True, eq=False)
+class JobPlan:
+    """What a job is before its real cell is built: its planning settings, its arm, the
+    user's program (if any), the virtual model and the real entity (the truth: for the real
+    cell's set-up only), the nominal pose T_table_object (4, 4), and the scan plan."""
+
+    settings: PlanningSettings
+    robot: Robot
+    user: UserProgram | None
+    virtual: ObjectModel
+    real: ObjectModel
+    T_table_nominal: np.ndarray
+    scan_plan: ScanPlan | None
+
+
+def plan_job(config: JobConfig, say: Progress) -> JobPlan:
+    """The job in its virtual cell, before the real one: the models, whether the arm reaches
+    the rack slots, the scan and the operations, and the scan's passes (chosen, or for a
+    fixed plan predicted): a job that cannot be done refuses here."""
+    obj = config.cell.object
+    settings = config.planning()  # all that the stages are told of the job
+    say(f"model {obj.model!r}: virtual and real entity")
+    if config.model.source == "ct":
+        ct = config.model.ct
+        say(
+            f"model: CT-scanning the real {obj.model} in simulation ("
+            + " x ".join(f"{v:g}" for v in ct.voxel_mm)
+            + f" mm voxels), meshing its bone at {ct.iso_hu:g} HU"
+        )
+    robot = job_robot(config.cell.robot)
+    if config.operations.program is not None and not robot.rapid:
+        raise ScenarioError(
+            f"--program takes a RAPID module, which only an ABB arm runs; this cell's arm is "
+            f"the {robot.name} ({robot.vendor or 'vendor unknown'})"
+        )
+    user = None if config.operations.program is None else read_user_program(config.operations)
+    virtual, real = object_models(config, user)
+    T_table_nominal = nominal_pose(settings.placement, virtual.mesh.vertices)
+    if user is not None:
+        check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
+        say(f"program {config.operations.program}: {len(user.operations)} touches")
+    # Can this arm do this job here at all? Asked of the virtual cell, before the real one.
+    operations = (
+        target_operations(virtual, config.operations) if user is None else program_operations(user)
+    )
+    reach = check_reach(
+        robot,
+        settings,
+        ObjectBox.of(virtual.mesh.vertices, T_table_nominal),
+        T_table_nominal,
+        operations,
+        None
+        if config.operations.pick is None
+        else grasp_operation(virtual, config.operations.pick),
+        None if user is None else (user.table_position_m,),
+    )
+    say(
+        f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
+        "the operations in the virtual cell"
+    )
+    scan_plan = None
+    if "surface" in config.localization.methods:
+        # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
+        # before the real one moves: a target no pass constrains refuses the job here.
+        scan_plan = job_scan_plan(
+            robot, settings, virtual, T_table_nominal,
+            np.array([op.T_object_touch[:3, 3] for op in operations]), say,
+            tuple(op.name for op in operations),
+        )  # fmt: skip
+    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan)

@@ -1,0 +1,15 @@
+"""The typed results of a run, from the stage that makes them to results.json and back.
+
+- `scenarios.results.run`: `RunResult` (the whole cell job; `to_json`, `from_json`,
+  `read`), with its method and match reports, and the schema version of results.json;
+- `scenarios.results.evaluations`: what the evaluator measured against the truth (targets,
+  poses, the pick) and the calibration's figures;
+- `scenarios.results.events`: what the supervision and the stages' checks saw, and each
+  injected fault with what detected it;
+- `scenarios.results.exported`: the exported program as run by a controller without
+  absolute accuracy; `scenarios.results.scan_plan`: the scan's plan;
+- `scenarios.results.table`: a run's results as a table for the terminal.
+
+Nothing here reads the simulation: these are values, written by the runner and read back by
+anyone (`twincell execute`, the campaigns, the README's tables).
+"""

@@ -1,0 +1,220 @@
+"""What the evaluator measured against the truth, as values: each target's error, a pose's
+error, the pick, and the calibration's figures with the arm's true TCP error. Lengths [m],
+angles [deg] where the name says so."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from scenarios.results.edge import JsonObject
+
+
+@dataclass(frozen=True, eq=False)
+class TargetEvaluation:
+    """One target: achieved tool tip against the true point on the real object.
+
+    Attributes:
+        error_m: distance of the achieved tip from the true touch point [m].
+        axis_error_deg: angle between the tool axis and the true trajectory [deg].
+        depth_error_m: distance of the tool axis, extended to the target depth, from the true
+            deep target [m].
+        registration_error_m: distance of the corrected target (the virtual target moved by
+            the estimated pose) from the true one [m]: the registration's share of the error;
+            the rest is the arm's positioning.
+        p_true_base, p_achieved_base: (3,) the two points in the robot base frame [m].
+    """
+
+    name: str
+    error_m: float
+    axis_error_deg: float
+    depth_error_m: float
+    registration_error_m: float
+    p_true_base: np.ndarray
+    p_achieved_base: np.ndarray
+
+    def to_json(self) -> JsonObject:
+        return {
+            "name": self.name,
+            "error_m": self.error_m,
+            "axis_error_deg": self.axis_error_deg,
+            "depth_error_m": self.depth_error_m,
+            "registration_error_m": self.registration_error_m,
+            "p_true_base_m": [float(v) for v in self.p_true_base],
+            "p_achieved_base_m": [float(v) for v in self.p_achieved_base],
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> TargetEvaluation:
+        return cls(
+            str(data["name"]),
+            float(data["error_m"]),
+            float(data["axis_error_deg"]),
+            float(data["depth_error_m"]),
+            float(data["registration_error_m"]),
+            np.array(data["p_true_base_m"], dtype=float),
+            np.array(data["p_achieved_base_m"], dtype=float),
+        )
+
+
+@dataclass(frozen=True)
+class PoseEvaluation:
+    """An estimated pose against the true one, in the base frame: rotation [deg] and
+    translation [m]."""
+
+    rotation_error_deg: float
+    translation_error_m: float
+
+
+@dataclass(frozen=True)
+class PickEvaluation:
+    """A pick and put-down measured on the true part.
+
+    Attributes:
+        lifted_m: rise of the part's frame origin from its rest pose to the lifted pose [m].
+        slip_m: displacement of the part's grip point (its grasp frame's origin) in the
+            gripper's true TCP frame from the closing of the fingers to the end of the lift
+            and hold [m].
+        placed_displacement_m: translation of the part's true pose from its rest before the
+            pick to its rest after the put-down [m].
+        placed_rotation_deg: rotation between the same two poses [deg].
+    """
+
+    lifted_m: float
+    slip_m: float
+    placed_displacement_m: float
+    placed_rotation_deg: float
+
+    def to_json(self) -> dict[str, float]:
+        return {
+            "lifted_m": self.lifted_m,
+            "slip_m": self.slip_m,
+            "placed_displacement_m": self.placed_displacement_m,
+            "placed_rotation_deg": self.placed_rotation_deg,
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> PickEvaluation:
+        return cls(
+            float(data["lifted_m"]),
+            float(data["slip_m"]),
+            float(data["placed_displacement_m"]),
+            float(data["placed_rotation_deg"]),
+        )
+
+
+@dataclass(frozen=True)
+class TcpError:
+    """A kinematic model's TCP error against the real arm at the job's configurations:
+    mean and max distance of the real TCP from the model's [m]."""
+
+    mean_m: float
+    max_m: float
+
+
+@dataclass(frozen=True)
+class CalibrationSummary:
+    """The calibration's own figures (scenarios.offline.calibration.CalibrationResult): the
+    residual RMS of the sphere fits before and after [m], its wall time [s], the points,
+    views, table positions and iterations it used, the parameter groups it identified, and
+    what it found: each kinematic parameter's deviation ([m] or [rad]), the joints'
+    stiffness [N m/rad], the laser's mounting ([m], [rad]) and range scale, and the table's
+    coefficients."""
+
+    residual_rms_before_m: float
+    residual_rms_after_m: float
+    seconds: float
+    points: int
+    views: int
+    table_positions: int
+    iterations: int
+    groups: tuple[str, ...]
+    deviations: dict[str, float]
+    stiffness_nm_rad: tuple[float, ...]
+    laser_mount_m: tuple[float, ...]
+    laser_mount_rad: tuple[float, ...]
+    laser_scale: float
+    table_coefficients: tuple[tuple[float, ...], ...]
+
+    def to_json(self) -> JsonObject:
+        return {
+            "residual_rms_before_m": self.residual_rms_before_m,
+            "residual_rms_after_m": self.residual_rms_after_m,
+            "seconds": self.seconds,
+            "points": self.points,
+            "views": self.views,
+            "table_positions": self.table_positions,
+            "iterations": self.iterations,
+            "groups": list(self.groups),
+            "deviations": dict(self.deviations),
+            "stiffness_nm_rad": list(self.stiffness_nm_rad),
+            "laser_mount_m": list(self.laser_mount_m),
+            "laser_mount_rad": list(self.laser_mount_rad),
+            "laser_scale": self.laser_scale,
+            "table_coefficients": [list(row) for row in self.table_coefficients],
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> CalibrationSummary:
+        return cls(
+            float(data["residual_rms_before_m"]),
+            float(data["residual_rms_after_m"]),
+            float(data["seconds"]),
+            int(data["points"]),
+            int(data["views"]),
+            int(data["table_positions"]),
+            int(data["iterations"]),
+            tuple(data["groups"]),
+            {str(k): float(v) for k, v in data["deviations"].items()},
+            tuple(float(v) for v in data["stiffness_nm_rad"]),
+            tuple(float(v) for v in data["laser_mount_m"]),
+            tuple(float(v) for v in data["laser_mount_rad"]),
+            float(data["laser_scale"]),
+            tuple(tuple(float(v) for v in row) for row in data["table_coefficients"]),
+        )
+
+
+@dataclass(frozen=True)
+class CalibrationFigures:
+    """The calibration's figures (None if the job did not calibrate) and, from the truth,
+    the tool's TCP error of the nominal and the calibrated arm at `configurations` of the
+    job's."""
+
+    summary: CalibrationSummary | None
+    nominal: TcpError
+    calibrated: TcpError | None
+    configurations: int
+
+    @property
+    def enabled(self) -> bool:
+        return self.summary is not None
+
+    def to_json(self) -> JsonObject:
+        out: JsonObject = {"enabled": self.enabled}
+        if self.summary is not None:
+            out.update(self.summary.to_json())
+        for label, e in (("nominal", self.nominal), ("calibrated", self.calibrated)):
+            if e is not None:
+                out[f"tcp_error_{label}_mean_m"] = e.mean_m
+                out[f"tcp_error_{label}_max_m"] = e.max_m
+        out["tcp_error_configurations"] = self.configurations
+        return out
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> CalibrationFigures:
+        def error(label: str) -> TcpError | None:
+            mean = data.get(f"tcp_error_{label}_mean_m")
+            if mean is None:
+                return None
+            return TcpError(float(mean), float(data[f"tcp_error_{label}_max_m"]))
+
+        nominal = error("nominal")
+        if nominal is None:
+            raise KeyError("calibration.tcp_error_nominal_mean_m")
+        return cls(
+            CalibrationSummary.from_json(data) if data["enabled"] else None,
+            nominal,
+            error("calibrated"),
+            int(data["tcp_error_configurations"]),
+        )

@@ -1,0 +1,407 @@
+"""The result of a cell job: one typed value built by the runner from the stages' results and
+the evaluator's, written to results.json in one place (`RunResult.to_json`) and read back
+from it (`RunResult.read`, `RunResult.from_json`).
+
+Lengths [m], angles [deg] where the name says so, times [s]. "status" is "complete" when the
+program ran, "refused" when the localization or its verification was not accepted (no
+motion towards the object), "aborted" when the controller's supervision stopped the cell.
+A run that failed or was interrupted leaves an `IncompleteRun` instead.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from scenarios.errors import ScenarioError
+from scenarios.results.edge import JsonObject
+from scenarios.results.evaluations import (
+    CalibrationFigures,
+    PickEvaluation,
+    PoseEvaluation,
+    TargetEvaluation,
+)
+from scenarios.results.events import FaultOutcome, SupervisionEvent
+from scenarios.results.exported import ExportedRun
+from scenarios.results.scan_plan import ScanPlanSummary
+
+#: The version of results.json's layout that this module writes and reads.
+SCHEMA_VERSION = 1
+
+RunStatus = Literal["complete", "refused", "aborted"]
+
+
+class ResultsError(ScenarioError, ValueError):
+    """A results.json that cannot be read as a run's result."""
+
+
+class RunNotEndedError(ResultsError):
+    """The results.json of a run that failed or was interrupted (status "incomplete")."""
+
+
+@dataclass(frozen=True, eq=False)
+class MatchReport:
+    """The surface match: its figures (registration.MatchResult) and the pose it gave,
+    T_table_object (4, 4)."""
+
+    rms_m: float
+    ambiguity: float
+    verdict: str
+    reason: str
+    seconds: float
+    points_used: int
+    inlier_fraction: float
+    T_table_object: np.ndarray
+    starts: int = 1
+
+    def to_json(self) -> JsonObject:
+        return {
+            "rms_m": self.rms_m,
+            "ambiguity": self.ambiguity,
+            "verdict": self.verdict,
+            "reason": self.reason,
+            "seconds": self.seconds,
+            "points_used": self.points_used,
+            "inlier_fraction": self.inlier_fraction,
+            "T_table_object": self.T_table_object.tolist(),
+            "starts": self.starts,
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> MatchReport:
+        return cls(
+            float(data["rms_m"]),
+            float(data["ambiguity"]),
+            str(data["verdict"]),
+            str(data["reason"]),
+            float(data["seconds"]),
+            int(data["points_used"]),
+            float(data["inlier_fraction"]),
+            np.array(data["T_table_object"], dtype=float),
+            int(data["starts"]),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class MethodReport:
+    """One localization method: its pose against the truth (None if it found none), whether
+    its pose was accepted and why not, the targets executed with its pose, the predicted TRE
+    at each target [m] (surface matching only), and the IR readings (probing only)."""
+
+    method: str
+    accepted: bool
+    reason: str
+    pose: PoseEvaluation | None
+    targets: tuple[TargetEvaluation, ...] = ()
+    predicted_tre_m: tuple[float, ...] = ()
+    readings: int | None = None
+
+    def errors(self) -> np.ndarray:
+        """Achieved tip errors of the method's targets (K,) [m]."""
+        return np.array([t.error_m for t in self.targets])
+
+    @property
+    def rms_m(self) -> float | None:
+        return _rms(self.errors())
+
+    @property
+    def max_m(self) -> float | None:
+        errors = self.errors()
+        return float(errors.max()) if len(errors) else None
+
+    def predicted(self, name: str) -> float | None:
+        """The predicted TRE at the target `name` [m], or None."""
+        by_name = dict(zip((t.name for t in self.targets), self.predicted_tre_m, strict=False))
+        return by_name.get(name)
+
+    def to_json(self) -> JsonObject:
+        out: JsonObject = {
+            "accepted": self.accepted,
+            "reason": self.reason,
+            "rotation_error_deg": None if self.pose is None else self.pose.rotation_error_deg,
+            "translation_error_m": None if self.pose is None else self.pose.translation_error_m,
+            "targets": [t.to_json() for t in self.targets],
+            "predicted_tre_m": list(self.predicted_tre_m),
+            "target_error_rms_m": self.rms_m,
+            "target_error_max_m": self.max_m,
+        }
+        if self.readings is not None:
+            out["ir_readings"] = self.readings
+        return out
+
+    @classmethod
+    def from_json(cls, method: str, data: JsonObject) -> MethodReport:
+        rotation = data["rotation_error_deg"]
+        pose = None
+        if rotation is not None:
+            pose = PoseEvaluation(float(rotation), float(data["translation_error_m"]))
+        return cls(
+            method,
+            bool(data["accepted"]),
+            str(data["reason"]),
+            pose,
+            tuple(TargetEvaluation.from_json(t) for t in data["targets"]),
+            tuple(float(t) for t in data["predicted_tre_m"]),
+            data.get("ir_readings"),
+        )
+
+
+@dataclass(frozen=True)
+class GoalCheck:
+    """A goal of the job on its target errors: the limit [m] and whether it was met."""
+
+    limit_m: float
+    met: bool
+
+
+@dataclass(frozen=True, eq=False)
+class RunResult:
+    """The whole run.
+
+    Attributes:
+        status, reason: "complete", "refused" or "aborted", and why.
+        job, seed, model: the configuration's name, its seed, the object's model.
+        scan_points: object points of the scan (0 without a scan).
+        match: the surface match, or None (no scan, too few points, or probing only).
+        methods: each localization method, in the configuration's order (the first one's
+            pose drives the program).
+        checks: the goals, by name (target_error_rms_m, target_error_max_m).
+        pick, grasp_error_m: the pick measured on the true part, and the gripper's distance
+            from the true grasp frame [m], if the job picks.
+        calibration: the calibration's figures and the arm's true TCP error.
+        timings: wall time per stage [s].
+        motion_after_match_s: controller time spent moving after the verdict [s].
+        tool_in_hand: the tool at the end of the run.
+        table_position_m: the table position of the program, if one ran.
+        robot: the cell's arm; program_file: the robot program written for its controller
+            (program.mod for an ABB arm), or None (the targets are in targets.csv/json).
+        exported_program: that program run on the real cell by a controller without
+            absolute accuracy, or None.
+        stage: the stage that refused the run or in which the supervision aborted it.
+        faults: each fault injected into the real cell, and what detected it; supervision:
+            what the controller's supervision and the stages' checks saw, in order.
+        scan_plan: the scan's plan, None without a scan.
+        seconds: the run's wall time [s], set by the runner (None before).
+    """
+
+    status: RunStatus
+    reason: str
+    job: str
+    seed: int
+    model: str
+    scan_points: int
+    match: MatchReport | None
+    methods: tuple[MethodReport, ...]
+    checks: dict[str, GoalCheck]
+    pick: PickEvaluation | None
+    grasp_error_m: float | None
+    calibration: CalibrationFigures
+    timings: dict[str, float]
+    motion_after_match_s: float
+    tool_in_hand: str | None
+    table_position_m: float | None
+    robot: str = "irb2400"
+    program_file: str | None = None
+    exported_program: ExportedRun | None = None
+    stage: str | None = None
+    faults: tuple[FaultOutcome, ...] = ()
+    supervision: tuple[SupervisionEvent, ...] = ()
+    scan_plan: ScanPlanSummary | None = None
+    seconds: float | None = None
+    schema_version: int = field(default=SCHEMA_VERSION)
+
+    @property
+    def primary(self) -> MethodReport:
+        """The method whose pose drove the program."""
+        return self.methods[0]
+
+    def method(self, name: str) -> MethodReport | None:
+        """The report of the localization method `name`, or None."""
+        return next((r for r in self.methods if r.method == name), None)
+
+    @property
+    def targets(self) -> tuple[TargetEvaluation, ...]:
+        """The driving method's targets."""
+        return self.primary.targets
+
+    @property
+    def target_error_rms_m(self) -> float | None:
+        return self.primary.rms_m
+
+    @property
+    def target_error_max_m(self) -> float | None:
+        return self.primary.max_m
+
+    def to_json(self) -> JsonObject:
+        """The results.json mapping (plain numbers and lists, None for missing)."""
+        primary = self.primary
+        return {
+            "schema_version": self.schema_version,
+            "status": self.status,
+            "reason": self.reason,
+            "job": self.job,
+            "seed": self.seed,
+            "model": self.model,
+            "scan_points": self.scan_points,
+            "registration": self._registration_json(),
+            "methods": {r.method: r.to_json() for r in self.methods},
+            "targets": [
+                {**t.to_json(), "predicted_tre_m": primary.predicted(t.name)}
+                for t in primary.targets
+            ],
+            "target_error_rms_m": self.target_error_rms_m,
+            "target_error_max_m": self.target_error_max_m,
+            "checks": {
+                name: {"limit_m": c.limit_m, "met": c.met} for name, c in self.checks.items()
+            },
+            "pick": None if self.pick is None else self.pick.to_json(),
+            "grasp_error_m": self.grasp_error_m,
+            "calibration": self.calibration.to_json(),
+            "timings_s": dict(self.timings),
+            "motion_after_match_s": self.motion_after_match_s,
+            "tool_in_hand": self.tool_in_hand,
+            "table_position_m": self.table_position_m,
+            "robot": self.robot,
+            "program_file": self.program_file,
+            "exported_program": None
+            if self.exported_program is None
+            else self.exported_program.to_json(),
+            "stage": self.stage,
+            "faults": [f.to_json() for f in self.faults],
+            "supervision": [e.to_json() for e in self.supervision],
+            "scan_plan": None if self.scan_plan is None else self.scan_plan.to_json(),
+            "seconds": self.seconds,
+        }
+
+    def _registration_json(self) -> JsonObject:
+        """results.json's "registration": the driving method, the match's figures, and the
+        surface pose's error against the truth."""
+        out: JsonObject = {"method": self.primary.method, "verdict": "rejected"}
+        if self.match is not None:
+            out.update(self.match.to_json())
+        surface = self.method("surface")
+        if surface is not None and surface.pose is not None:
+            out.update(
+                rotation_error_deg=surface.pose.rotation_error_deg,
+                translation_error_m=surface.pose.translation_error_m,
+            )
+        if surface is not None and not surface.accepted:
+            out.setdefault("reason", surface.reason)
+        return out
+
+    @classmethod
+    def from_json(cls, data: JsonObject | str | Path) -> RunResult:
+        """The result of a results.json mapping (`to_json`), or of the file at a path (see
+        `read`); a mapping of another layout or of a run that did not end raises
+        ResultsError naming what it found."""
+        if isinstance(data, str | Path):
+            return cls.read(data)
+        _check_layout(data)
+        try:
+            return cls._from_json(data)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ResultsError(
+                f"results.json (schema {SCHEMA_VERSION}) of job {data.get('job')!r}: missing or "
+                f"bad {exc}"
+            ) from None
+
+    @classmethod
+    def _from_json(cls, data: JsonObject) -> RunResult:
+        registration = data["registration"]
+        exported, pick, plan = data["exported_program"], data["pick"], data["scan_plan"]
+        return cls(
+            status=data["status"],
+            reason=str(data["reason"]),
+            job=str(data["job"]),
+            seed=int(data["seed"]),
+            model=str(data["model"]),
+            scan_points=int(data["scan_points"]),
+            match=MatchReport.from_json(registration) if "rms_m" in registration else None,
+            methods=tuple(MethodReport.from_json(m, d) for m, d in data["methods"].items()),
+            checks={
+                name: GoalCheck(float(c["limit_m"]), bool(c["met"]))
+                for name, c in data["checks"].items()
+            },
+            pick=None if pick is None else PickEvaluation.from_json(pick),
+            grasp_error_m=data["grasp_error_m"],
+            calibration=CalibrationFigures.from_json(data["calibration"]),
+            timings={str(k): float(v) for k, v in data["timings_s"].items()},
+            motion_after_match_s=float(data["motion_after_match_s"]),
+            tool_in_hand=data["tool_in_hand"],
+            table_position_m=data["table_position_m"],
+            robot=str(data["robot"]),
+            program_file=data["program_file"],
+            exported_program=None if exported is None else ExportedRun.from_json(exported),
+            stage=data["stage"],
+            faults=tuple(FaultOutcome.from_json(f) for f in data["faults"]),
+            supervision=tuple(SupervisionEvent.from_json(e) for e in data["supervision"]),
+            scan_plan=None if plan is None else ScanPlanSummary.from_json(plan),
+            seconds=data["seconds"],
+            schema_version=int(data["schema_version"]),
+        )
+
+    @classmethod
+    def read(cls, path: str | Path) -> RunResult:
+        """The result in a run folder's results.json (`path`: the file or its folder)."""
+        path = Path(path)
+        if path.is_dir():
+            path = path / "results.json"
+        try:
+            data = json.loads(path.read_text())
+        except FileNotFoundError:
+            raise ResultsError(f"no results.json at {path}") from None
+        except json.JSONDecodeError as exc:
+            raise ResultsError(f"{path} is not JSON: {exc}") from None
+        if not isinstance(data, dict):
+            raise ResultsError(f"{path} holds a {type(data).__name__}, not a run's results")
+        try:
+            return cls.from_json(data)
+        except ResultsError as exc:
+            raise type(exc)(f"{path}: {exc}") from None
+
+
+def _check_layout(data: JsonObject) -> None:
+    """Refuse a results.json that is not a finished cell job's of this schema."""
+    version = data.get("schema_version")
+    if data.get("status") == "incomplete":
+        raise RunNotEndedError(
+            f"the run of job {data.get('job')!r} did not end (stage {data.get('stage')}): "
+            f"{data.get('reason')}"
+        )
+    if version != SCHEMA_VERSION:
+        raise ResultsError(
+            f"results.json of schema version {version!r}; this twincell reads version "
+            f"{SCHEMA_VERSION} (a cell job's results: run the job again to write them)"
+        )
+
+
+@dataclass(frozen=True)
+class IncompleteRun:
+    """A run that did not end: a failure or an interruption (`reason`) in `stage`."""
+
+    job: str
+    seed: int
+    reason: str
+    stage: str | None = None
+    seconds: float | None = None
+
+    status: Literal["incomplete"] = "incomplete"
+
+    def to_json(self) -> JsonObject:
+        return {
+            "schema_version": SCHEMA_VERSION,
+            "status": self.status,
+            "reason": self.reason,
+            "job": self.job,
+            "seed": self.seed,
+            "stage": self.stage,
+            "seconds": self.seconds,
+        }
+
+
+def _rms(errors: np.ndarray) -> float | None:
+    return float(np.sqrt(np.mean(errors**2))) if len(errors) else None
