@@ -58,7 +58,8 @@ def main() -> None:
 
     # 1. Time breakdown, recording on and off.
     wall, with_rrd = _cli_run(out, 0)
-    _, without = run_job("skull", seed=0, out=out, options=RunOptions(rrd=False))
+    plain, _ = run_job("skull", seed=0, out=out, options=RunOptions(rrd=False))
+    without = json.loads((plain / "results.json").read_text())
     table = Table(title="skull job, seed 0: time \\[s] (2 cores)")
     table.add_column("stage")
     table.add_column("rerun on", justify="right")
@@ -127,7 +128,8 @@ def main() -> None:
         table.add_column(col, justify="right")
     met = 0
     for seed in range(args.seeds):
-        _, r = run_job("skull", seed=seed, out=out, options=RunOptions(rrd=False))
+        folder, _ = run_job("skull", seed=seed, out=out, options=RunOptions(rrd=False))
+        r = json.loads((folder / "results.json").read_text())
         reg = r["registration"]
         if r["status"] != "complete":
             table.add_row(
