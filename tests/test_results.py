@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from scenarios.outputs.run_folder import RunFolder
 from scenarios.results.evaluations import (
     CalibrationFigures,
     CalibrationSummary,
@@ -47,7 +48,7 @@ def _result() -> RunResult:
     )  # fmt: skip
     probe = MethodReport("probe", True, "", PoseEvaluation(0.2, 8e-4), (), (), 6)
     summary = CalibrationSummary(
-        3e-4, 3e-5, 6.5, 8000, 100, 3, 7, ("arm", "table"), {"x1": 1e-4}, (1.5e6, 1e6),
+        3e-4, 3e-5, 6.5, 8000, 100, 3, 7, ("arm", "table"), {"x1": 1e-4}, (1.5e6, np.inf),
         (1e-4, 0.0, -1e-4), (1e-3, 0.0, 0.0), 4e-4, ((0.0, 1e-5), (2e-5, 0.0)),
     )  # fmt: skip
     plan = ScanPlanSummary(
@@ -78,10 +79,12 @@ def _result() -> RunResult:
 
 
 def test_a_result_reads_back_as_written(tmp_path: Path) -> None:
-    written = _result().to_json()
-    (tmp_path / "results.json").write_text(json.dumps(written))
-    read = RunResult.read(tmp_path)
-    assert read.to_json() == json.loads(json.dumps(written))
+    folder = RunFolder(tmp_path, "skull")
+    folder.write_json("results.json", _result().to_json())  # as the runner writes it
+    written = json.loads(folder.file("results.json").read_text())
+    read = RunResult.read(folder.path)
+    folder.write_json("again.json", read.to_json())
+    assert json.loads(folder.file("again.json").read_text()) == written
     assert read.schema_version == SCHEMA_VERSION
     assert read.method("probe") is not None and read.method("probe").readings == 6
     assert read.primary.predicted("b") == 2.5e-4
@@ -91,6 +94,9 @@ def test_a_result_reads_back_as_written(tmp_path: Path) -> None:
     assert read.scan_plan is not None and read.scan_plan.through_home == 0
     assert read.calibration.summary is not None
     assert read.calibration.summary.table_coefficients == ((0.0, 1e-5), (2e-5, 0.0))
+    # A joint not modelled is infinitely stiff: null in the file, inf again when read.
+    assert written["calibration"]["stiffness_nm_rad"] == [1.5e6, None]
+    assert read.calibration.summary.stiffness_nm_rad == (1.5e6, np.inf)
 
 
 def test_the_registration_section_is_the_match_and_the_surface_pose() -> None:

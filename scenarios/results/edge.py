@@ -6,3 +6,10 @@ from typing import Any
 
 JsonObject = dict[str, Any]
 """A JSON or YAML object, as read from a file or about to be written to one."""
+
+
+def unbounded(value: float | None) -> float:
+    """A bound read back from a file: null (how a non-finite number is written, e.g. the
+    predicted TRE of a target no pass constrains, or a joint not modelled as compliant) is
+    inf."""
+    return float("inf") if value is None else float(value)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenarios.results.edge import JsonObject
+from scenarios.results.edge import JsonObject, unbounded
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,8 +119,8 @@ class CalibrationSummary:
     residual RMS of the sphere fits before and after [m], its wall time [s], the points,
     views, table positions and iterations it used, the parameter groups it identified, and
     what it found: each kinematic parameter's deviation ([m] or [rad]), the joints'
-    stiffness [N m/rad], the laser's mounting ([m], [rad]) and range scale, and the table's
-    coefficients."""
+    stiffness [N m/rad] (inf: not modelled), the laser's mounting ([m], [rad]) and range
+    scale, and the table's coefficients."""
 
     residual_rms_before_m: float
     residual_rms_after_m: float
@@ -167,7 +167,7 @@ class CalibrationSummary:
             int(data["iterations"]),
             tuple(data["groups"]),
             {str(k): float(v) for k, v in data["deviations"].items()},
-            tuple(float(v) for v in data["stiffness_nm_rad"]),
+            tuple(unbounded(v) for v in data["stiffness_nm_rad"]),
             tuple(float(v) for v in data["laser_mount_m"]),
             tuple(float(v) for v in data["laser_mount_rad"]),
             float(data["laser_scale"]),

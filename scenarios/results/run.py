@@ -18,7 +18,7 @@ from typing import Literal
 import numpy as np
 
 from scenarios.errors import ScenarioError
-from scenarios.results.edge import JsonObject
+from scenarios.results.edge import JsonObject, unbounded
 from scenarios.results.evaluations import (
     CalibrationFigures,
     PickEvaluation,
@@ -145,7 +145,7 @@ class MethodReport:
             str(data["reason"]),
             pose,
             tuple(TargetEvaluation.from_json(t) for t in data["targets"]),
-            tuple(float(t) for t in data["predicted_tre_m"]),
+            tuple(unbounded(t) for t in data["predicted_tre_m"]),
             data.get("ir_readings"),
         )
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.results.edge import JsonObject
+from scenarios.results.edge import JsonObject, unbounded
 
 
 @dataclass(frozen=True)
@@ -64,8 +64,10 @@ class ScanPlanSummary:
 
     @classmethod
     def from_json(cls, data: JsonObject) -> ScanPlanSummary:
+        skip = ("predicted_tre_m", "chosen", "predicted_tre_max_m")
         return cls(
-            **{k: v for k, v in data.items() if k not in ("predicted_tre_m", "chosen")},
-            predicted_tre_m=tuple(float(t) for t in data["predicted_tre_m"]),
+            **{k: v for k, v in data.items() if k not in skip},
+            predicted_tre_max_m=unbounded(data["predicted_tre_max_m"]),
+            predicted_tre_m=tuple(unbounded(t) for t in data["predicted_tre_m"]),
             chosen=tuple(PassSummary.from_json(c) for c in data["chosen"]),
         )
