@@ -16,6 +16,7 @@ import numpy as np
 import trimesh
 
 from models import ellipsoid
+from models.cache import cached
 from models.convex import convex_pieces
 from models.errors import ModelParameterError, UnknownModelError
 from models.mesh import TriangleMesh
@@ -70,7 +71,7 @@ def _ellipsoid(seed: int) -> ObjectModel:
 
 
 _BUILDERS: dict[str, Callable[[int], ObjectModel]] = {
-    "skull": _skull,
+    "skull": lambda seed: cached("skull", seed, _skull),  # seconds to build: kept on disk
     "bracket": _part(make_bracket),
     "housing": _part(make_housing),
     "lid": _part(make_lid),

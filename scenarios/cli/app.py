@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from typing import Annotated, Any
 
@@ -284,6 +285,14 @@ def run(
     assign: _SetOption = None,
     spawn: Annotated[bool, typer.Option("--spawn", help="Show the run in a rerun viewer.")] = False,
     no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write run.rrd.")] = False,
+    no_cache: Annotated[
+        bool,
+        typer.Option(
+            "--no-cache",
+            help="Build the skull phantom anew instead of reading it from the user's cache "
+            "folder (TWINCELL_NO_CACHE=1 does the same).",
+        ),
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
 ) -> None:
     """Run a job headless and write a run folder (results, table, figures, recording)."""
@@ -297,6 +306,8 @@ def run(
         return
     if name is None:
         raise typer.BadParameter("give a job (skull, assembly, paper) or a CONFIG.yaml")
+    if no_cache:
+        os.environ["TWINCELL_NO_CACHE"] = "1"  # models.cache; campaign workers inherit it
 
     def progress(message: str) -> None:
         if not quiet:

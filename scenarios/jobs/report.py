@@ -17,6 +17,7 @@ import numpy as np
 
 from cell.errors import SupervisionError
 from models.atomic import write_text
+from models.cache import used_key
 from models.model import ObjectModel
 from scenarios.jobs.config import JobConfig
 from scenarios.jobs.exported import (
@@ -116,6 +117,7 @@ def finish_job(
         scan_plan=None
         if plan.scan_plan is None
         else plan.scan_plan.summary(None if state.scanned is None else state.scanned.scan_time_s),
+        model_cache=used_key(config.cell.object.model, config.seed),
     )
     if config.output.plots:
         _figures(config, plan, job.folder, result, state)

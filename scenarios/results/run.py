@@ -185,6 +185,8 @@ class RunResult:
         faults: each fault injected into the real cell, and what detected it; supervision:
             what the controller's supervision and the stages' checks saw, in order.
         scan_plan: the scan's plan, None without a scan.
+        model_cache: the key of the built model read from (or written to) the disk cache
+            (models.cache), or None (not a cached model, or the cache turned off).
         seconds: the run's wall time [s], set by the runner (None before).
     """
 
@@ -211,6 +213,7 @@ class RunResult:
     faults: tuple[FaultOutcome, ...] = ()
     supervision: tuple[SupervisionEvent, ...] = ()
     scan_plan: ScanPlanSummary | None = None
+    model_cache: str | None = None
     seconds: float | None = None
     schema_version: int = field(default=SCHEMA_VERSION)
 
@@ -274,6 +277,7 @@ class RunResult:
             "faults": [f.to_json() for f in self.faults],
             "supervision": [e.to_json() for e in self.supervision],
             "scan_plan": None if self.scan_plan is None else self.scan_plan.to_json(),
+            "model_cache": self.model_cache,
             "seconds": self.seconds,
         }
 
@@ -340,6 +344,7 @@ class RunResult:
             faults=tuple(FaultOutcome.from_json(f) for f in data["faults"]),
             supervision=tuple(SupervisionEvent.from_json(e) for e in data["supervision"]),
             scan_plan=None if plan is None else ScanPlanSummary.from_json(plan),
+            model_cache=data["model_cache"],
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),
         )
