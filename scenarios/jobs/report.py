@@ -85,7 +85,8 @@ def finish_job(
     calibration_figures = _calibration_figures(config, job, state)
     checks = goal_checks(config, reports[0])
     spoke = job.run.spoke()
-    for fault in evaluator.faults(spoke):
+    faults = evaluator.faults(spoke)
+    for fault in faults:
         say(f"fault {fault.name}: {'detected in ' if fault.detected else ''}{fault.detected_by}")
     status, reason, stopped_in = run_status(aborted, ran.stopped_in, primary, state)
     job.cell.log.phase("end", _ending(status, reason, stopped_in, reports[0]))
@@ -112,7 +113,7 @@ def finish_job(
         program_file=job.exported.program_file,
         exported_program=exported,
         stage=stopped_in,
-        faults=evaluator.faults(spoke),
+        faults=faults,
         supervision=spoke,
         scan_plan=None
         if plan.scan_plan is None
