@@ -1,4 +1,5 @@
-"""Meshes and PLY files, by trimesh: .stl, .obj, .off, and .ply (points or triangles)."""
+"""Meshes and PLY files: .stl, .obj, .off by trimesh, .ply (points or triangles) by numpy
+(registration.io.ply) and by trimesh where that reader leaves a file to it."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from registration.errors import FormatError, first_line
+from registration.io.ply import read_ply
 from registration.rigid import Array
 
 MESH_FORMATS: tuple[str, ...] = (".stl", ".obj", ".ply", ".off")
@@ -30,14 +32,10 @@ def _ply_vertex_count(p: Path) -> int | None:
     return None
 
 
-def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
-    """Vertices (V, 3) and faces (F, 3) (None for a point cloud) of a mesh or PLY file.
-
-    With `points_only`, a PLY range-scan mesh gives its vertices as the points.
-    """
+def _read_trimesh(p: Path) -> tuple[Array, Array | None]:
+    """Vertices and faces (None for a point cloud) as trimesh reads them."""
     import trimesh
 
-    declared = _ply_vertex_count(p) if p.suffix.lower() == ".ply" else None
     try:
         loaded = trimesh.load(p, process=False)
     except Exception as exc:  # trimesh raises many kinds on corrupt files
@@ -50,6 +48,19 @@ def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
             raise FormatError(f"{p}: the file is empty: no geometry")
         loaded = trimesh.util.concatenate(list(geometries.values()))
     vertices = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=float)
+    faces = getattr(loaded, "faces", None)
+    return vertices, None if faces is None else np.asarray(faces)
+
+
+def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
+    """Vertices (V, 3) and faces (F, 3) (None for a point cloud) of a mesh or PLY file.
+
+    With `points_only`, a PLY range-scan mesh gives its vertices as the points.
+    """
+    is_ply = p.suffix.lower() == ".ply"
+    declared = _ply_vertex_count(p) if is_ply else None
+    read = read_ply(p) if is_ply else None
+    vertices, faces = read if read is not None else _read_trimesh(p)
     if declared is not None and len(vertices) != declared:
         raise FormatError(
             f"{p}: its header declares {declared} vertices but {len(vertices)} were read "
@@ -57,9 +68,8 @@ def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
         )
     if len(vertices) == 0:
         raise FormatError(f"{p}: the file is empty: no vertices")
-    faces = getattr(loaded, "faces", None)
     if points_only or faces is None or len(faces) == 0:
-        if not points_only and p.suffix.lower() != ".ply":
+        if not points_only and not is_ply:
             raise FormatError(f"{p}: the mesh is empty: {len(vertices)} vertices and no faces")
         return vertices, None
-    return vertices, np.asarray(faces)
+    return vertices, faces

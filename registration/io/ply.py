@@ -1,0 +1,226 @@
+"""PLY files read by numpy: the vertices' x, y, z and the triangles, ascii or binary (either
+byte order), in one array operation per element.
+
+This covers what scanners and mesh tools write: a vertex element of scalar properties
+(x, y, z among them, any others ignored) and an optional face element whose one list
+property (vertex_indices or vertex_index) holds three indices per face. A file beyond that
+(polygons other than triangles, list properties elsewhere, a header this reader does not
+know, faces cut short) is left to trimesh (`read_ply` returns None), which reads every PLY
+the project accepted before and says what is wrong with the others.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from registration.errors import FormatError
+from registration.rigid import Array
+
+#: PLY's scalar types and their numpy codes (both the classic and the sized names).
+SCALAR_TYPES: dict[str, str] = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}  # fmt: skip
+_FORMATS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+_FACE_LISTS = ("vertex_indices", "vertex_index")
+
+
+@dataclass(frozen=True)
+class PlyProperty:
+    """One property of an element: a scalar, or a list (`count_type` set) of `type`."""
+
+    name: str
+    type: str
+    count_type: str | None = None
+
+
+@dataclass(frozen=True)
+class PlyElement:
+    name: str
+    count: int
+    properties: tuple[PlyProperty, ...]
+
+
+@dataclass(frozen=True)
+class PlyHeader:
+    """The header's format ("ascii", "binary_little_endian", "binary_big_endian"), its
+    elements in file order, and the byte offset where their data start."""
+
+    format: str
+    elements: tuple[PlyElement, ...]
+    data_start: int
+
+
+class _BeyondError(Exception):
+    """A file this reader leaves to trimesh."""
+
+
+def _property(parts: list[str]) -> PlyProperty:
+    if len(parts) == 3 and parts[1] in SCALAR_TYPES:
+        return PlyProperty(parts[2], SCALAR_TYPES[parts[1]])
+    if (
+        len(parts) == 5
+        and parts[1] == "list"
+        and parts[2] in SCALAR_TYPES
+        and parts[3] in SCALAR_TYPES
+    ):
+        return PlyProperty(parts[4], SCALAR_TYPES[parts[3]], SCALAR_TYPES[parts[2]])
+    raise _BeyondError(f"property line {' '.join(parts)!r}")
+
+
+def parse_header(data: bytes) -> PlyHeader:
+    """The header at the start of `data` (raises _BeyondError if this reader does not know it)."""
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        raise _BeyondError("no PLY header")
+    stop = data.find(b"\n", end)
+    if stop < 0:
+        raise _BeyondError("no data after the header")
+    lines = data[:end].decode("ascii", "replace").splitlines()[1:]
+    fmt = ""
+    elements: list[PlyElement] = []
+    for line in lines:
+        parts = line.split()
+        if not parts or parts[0] in ("comment", "obj_info"):
+            continue
+        if parts[0] == "format" and len(parts) == 3 and parts[1] in _FORMATS:
+            fmt = parts[1]
+        elif parts[0] == "element" and len(parts) == 3 and parts[2].isdigit():
+            elements.append(PlyElement(parts[1], int(parts[2]), ()))
+        elif parts[0] == "property" and elements:
+            last = elements[-1]
+            elements[-1] = PlyElement(last.name, last.count, (*last.properties, _property(parts)))
+        else:
+            raise _BeyondError(f"header line {line!r}")
+    if not fmt:
+        raise _BeyondError("no format line")
+    return PlyHeader(fmt, tuple(elements), stop + 1)
+
+
+def _record(element: PlyElement, order: str) -> np.dtype:
+    """The binary record of an element; a face's list as exactly three indices."""
+    fields: list[tuple[str, str] | tuple[str, str, tuple[int]]] = []
+    for k, prop in enumerate(element.properties):
+        if prop.count_type is None:
+            fields.append((f"p{k}", order + prop.type))
+            continue
+        if element.name != "face" or prop.name not in _FACE_LISTS:
+            raise _BeyondError(f"a list property {prop.name!r} of element {element.name!r}")
+        fields.append(("count", order + prop.count_type))
+        fields.append(("corners", order + prop.type, (3,)))
+    return np.dtype(fields)
+
+
+def _vertices(element: PlyElement, table: np.ndarray, column: str) -> Array:
+    """x, y, z (V, 3) as float64 from a vertex element's records or columns."""
+    names = [prop.name for prop in element.properties]
+    if any(axis not in names for axis in "xyz"):
+        raise _BeyondError("a vertex element without x, y and z")
+    index = [names.index(axis) for axis in "xyz"]
+    if column == "fields":
+        return np.stack([table[f"p{k}"] for k in index], axis=1).astype(float)
+    # Text read as float64, rounded to the type the header declares (as trimesh reads it).
+    types = [element.properties[k].type for k in index]
+    return np.stack([table[:, k].astype(t) for k, t in zip(index, types, strict=True)], 1).astype(
+        float
+    )
+
+
+def _truncated(p: Path, element: PlyElement, read: int) -> FormatError:
+    what = "vertices" if element.name == "vertex" else f"{element.name} elements"
+    return FormatError(
+        f"{p}: its header declares {element.count} {what} but {read} were read (a truncated file?)"
+    )
+
+
+def _binary(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | None]:
+    order = _FORMATS[header.format]
+    offset = header.data_start
+    vertices: Array | None = None
+    faces: Array | None = None
+    for element in header.elements:
+        if element.name not in ("vertex", "face"):
+            if vertices is not None and faces is not None:
+                break
+            raise _BeyondError(f"element {element.name!r} before the vertices or faces")
+        record = _record(element, order)
+        available = (len(data) - offset) // record.itemsize
+        if available < element.count:
+            if element.name == "vertex":
+                raise _truncated(p, element, available)
+            raise _BeyondError("faces cut short, or faces other than triangles")
+        table = np.frombuffer(data, record, element.count, offset)
+        offset += element.count * record.itemsize
+        if element.name == "vertex":
+            vertices = _vertices(element, table, "fields")
+        else:
+            if "corners" not in (table.dtype.names or ()) or not (table["count"] == 3).all():
+                raise _BeyondError("faces other than triangles")
+            faces = table["corners"].astype(np.int64)
+    if vertices is None:
+        raise _BeyondError("no vertex element")
+    return vertices, faces
+
+
+def _ascii(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | None]:
+    """An ascii PLY: one line per vertex, then one per face (three indices after the
+    count)."""
+    names = [element.name for element in header.elements]
+    if names[:1] != ["vertex"] or names[1:2] not in ([], ["face"]):
+        raise _BeyondError(f"elements {names}")
+    text = data[header.data_start :].decode("ascii", "replace")
+    lines = text.splitlines()
+    vertex = header.elements[0]
+    if vertex.count == 0:
+        return np.zeros((0, 3)), None
+    if len(lines) < vertex.count:
+        raise _truncated(p, vertex, len(lines))
+    if any(prop.count_type is not None for prop in vertex.properties):
+        raise _BeyondError("a list property of the vertices")
+    table = _table(lines[: vertex.count], len(vertex.properties))
+    vertices = _vertices(vertex, table, "columns")
+    if len(header.elements) == 1 or header.elements[1].count == 0:
+        return vertices, None
+    face = header.elements[1]
+    props = face.properties
+    if len(props) != 1 or props[0].count_type is None or props[0].name not in _FACE_LISTS:
+        raise _BeyondError("face properties other than one list of indices")
+    rows = lines[vertex.count : vertex.count + face.count]
+    if len(rows) < face.count:
+        raise _BeyondError("faces cut short")
+    table = _table(rows, 4)
+    if not (table[:, 0] == 3).all() or not (table == np.round(table)).all():
+        raise _BeyondError("faces other than triangles")
+    return vertices, table[:, 1:].astype(np.int64)
+
+
+def _table(lines: list[str], columns: int) -> np.ndarray:
+    try:
+        table = np.loadtxt(io.StringIO("\n".join(lines)), ndmin=2, comments=None)
+    except ValueError as exc:
+        raise _BeyondError(f"rows that are not {columns} numbers") from exc
+    if table.shape != (len(lines), columns):
+        raise _BeyondError(f"rows that are not {columns} numbers")
+    return table
+
+
+def read_ply(p: Path) -> tuple[Array, Array | None] | None:
+    """Vertices (V, 3) [file units] and triangles (F, 3) (None without faces) of a PLY file;
+    None if the file is beyond this reader (see the module's docstring: trimesh reads it).
+
+    Raises FormatError if the vertices stop before the count the header declares.
+    """
+    data = p.read_bytes()
+    try:
+        header = parse_header(data)
+        if header.format == "ascii":
+            return _ascii(p, data, header)
+        return _binary(p, data, header)
+    except _BeyondError:
+        return None
