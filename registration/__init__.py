@@ -11,7 +11,8 @@ TRE, ambiguity, verdict per target).
     >>> result.T_model_data, result.verdict, result.predicted_tre(targets).verdict
 
 One call, one result: `match` returns a `MatchResult`; `prepare(model)` builds once what many
-matches against one model share. The building blocks and the search's internals stay in
+matches against one model share, and `save_prepared` / `load_prepared` (registration.prepared)
+keep it in a .twm file for other processes. The building blocks and the search's internals stay in
 their modules (registration.icp, registration.horn, registration.haralick,
 registration.search with its `SearchSettings`, registration.result's `Minimum` and
 `SearchTrace`, registration.quality's `ScanPasses`, registration.symmetry, ...) for those who
@@ -23,6 +24,7 @@ from registration.io import load_model, load_points
 from registration.kernels import L2, Kernel, Trimmed, Tukey
 from registration.matcher import MODES, match
 from registration.prepare import prepare
+from registration.prepared import load_prepared, save_prepared
 from registration.result import MatchResult
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
 from registration.shapes import (
@@ -56,10 +58,12 @@ __all__ = [
     "invert",
     "load_model",
     "load_points",
+    "load_prepared",
     "make_T",
     "match",
     "pose_error",
     "prepare",
     "rotation_angle",
+    "save_prepared",
     "transform_points",
 ]

@@ -10,10 +10,23 @@ operator takes over in the refinement.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
-from scipy import ndimage
 
 from registration.rigid import Array
+
+
+@dataclass(frozen=True)
+class VoxelGrid:
+    """Where a lookup's voxels lie: the corner `origin` (3,) of voxel (0, 0, 0), the voxel
+    side `h`, the voxel counts `shape` (3,) and the `reach` beyond which no sample is a
+    neighbour [length units]."""
+
+    origin: Array
+    h: float
+    shape: Array
+    reach: float
 
 
 class VoxelLookup:
@@ -27,6 +40,8 @@ class VoxelLookup:
     """
 
     def __init__(self, samples: Array, cells: int = 64, pad: float = 0.15) -> None:
+        from scipy import ndimage  # here: a restored lookup does not need it
+
         lo, hi = samples.min(axis=0), samples.max(axis=0)
         extent = float(np.linalg.norm(hi - lo))
         self.reach = pad * extent
@@ -50,12 +65,37 @@ class VoxelLookup:
         border[1:-1, 1:-1, 1:-1] = False
         far = (gap > self.reach) | border
         index[far.ravel()] = -1
-        self.index = index.astype(np.int32)
+        grid = VoxelGrid(self.origin, self.h, self.shape, self.reach)
         # Distance from each voxel to the nearest voxel holding a sample, for scoring.
-        self.gap = np.where(far, np.inf, gap).astype(np.float32).ravel()
+        self._set(samples, grid, index, np.where(far, np.inf, gap).ravel())
+
+    def _set(self, samples: Array, grid: VoxelGrid, index: Array, gap: Array) -> None:
+        self.origin, self.h, self.shape, self.reach = grid.origin, grid.h, grid.shape, grid.reach
+        self.index = np.ascontiguousarray(index, dtype=np.int32)
+        self.gap = np.ascontiguousarray(gap, dtype=np.float32)
         self.samples = samples
         self._last = (self.shape - 1).astype(np.int32)
         self._strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], np.int32)
+
+    @classmethod
+    def restore(cls, samples: Array, grid: VoxelGrid, index: Array, gap: Array) -> VoxelLookup:
+        """The lookup that was built over `samples` (M, 3), from its grid and its voxels'
+        sample indices and gaps (registration.prepared stores them): no distance transform.
+        """
+        size = int(np.prod(grid.shape))
+        if index.shape != (size,) or gap.shape != (size,):
+            raise ValueError(
+                f"a lookup grid of {tuple(grid.shape)} voxels needs {size} indices and gaps; "
+                f"got {index.shape} and {gap.shape}"
+            )
+        lookup = cls.__new__(cls)
+        lookup._set(samples, grid, index, gap)  # noqa: SLF001 - the class's own constructor
+        return lookup
+
+    @property
+    def grid(self) -> VoxelGrid:
+        """The grid's placement, voxel size and reach."""
+        return VoxelGrid(self.origin, self.h, self.shape, self.reach)
 
     def _flat(self, points: Array) -> Array:
         """Flat voxel index (...) of points (..., 3); points outside the box fall on the

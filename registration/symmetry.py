@@ -157,13 +157,21 @@ def find_symmetries(shape: Shape, floor: float, seed: int = 0) -> tuple[Symmetry
             symmetry.
         seed: seed of the surface subsample used.
     """
-    cache: dict[tuple[float, int], tuple[Symmetry, ...]] = shape.__dict__.setdefault(
-        "_symmetry_cache", {}
-    )
+    cache = symmetry_cache(shape)
     key = (float(f"{floor:.6g}"), seed)
     if key not in cache:
         cache[key] = _find(shape, symmetry_tolerance(shape, floor), seed)
     return cache[key]
+
+
+def symmetry_cache(shape: Shape) -> dict[tuple[float, int], tuple[Symmetry, ...]]:
+    """The symmetries found so far on `shape`, by (floor to 6 significant digits, seed):
+    what `find_symmetries` returns again, and what a prepared-model file stores
+    (registration.prepared)."""
+    cache: dict[tuple[float, int], tuple[Symmetry, ...]] = shape.__dict__.setdefault(
+        "_symmetry_cache", {}
+    )
+    return cache
 
 
 def _hint_rotations(samples: Array) -> Array:

@@ -143,9 +143,7 @@ class Shape:
         The frames' third column is the surface normal by PCA within `radius` (see
         registration.starts.local_frame).
         """
-        cache: dict[tuple[int, float], tuple[Array, Array]] = self.__dict__.setdefault(
-            "_anchor_cache", {}
-        )
+        cache = self.anchor_cache()
         key = (count, radius)
         if key not in cache:
             # Thinnings of the sample: 4,000 points give as good normals and 2,000 as well
@@ -155,6 +153,14 @@ class Shape:
             anchors = spread[farthest_point_sample(spread, count)]
             cache[key] = (anchors, local_frame(pool, anchors, radius))
         return cache[key]
+
+    def anchor_cache(self) -> dict[tuple[int, float], tuple[Array, Array]]:
+        """The anchors and frames computed so far, by (count, radius): what `anchor_frames`
+        returns again, and what a prepared-model file stores (registration.prepared)."""
+        cache: dict[tuple[int, float], tuple[Array, Array]] = self.__dict__.setdefault(
+            "_anchor_cache", {}
+        )
+        return cache
 
     @cached_property
     def sample_lookup(self) -> VoxelLookup:

@@ -75,6 +75,24 @@ class MeshModel(Shape):
         )
 
     @classmethod
+    def restore(
+        cls,
+        vertices: Array,
+        faces: Array,
+        face_normals: Array,
+        samples: Array,
+        sample_normals: Array,
+    ) -> MeshModel:
+        """The model that a previous one computed these arrays for (registration.prepared
+        stores them): vertices (V, 3), faces (F, 3) int64, unit face normals (F, 3), surface
+        samples and their normals (M, 3). Neither checked nor recomputed: the caller has
+        checked their shapes and values."""
+        model = cls.__new__(cls)
+        model.vertices, model.faces, model.face_normals = vertices, faces, face_normals
+        model.samples, model.sample_normals = samples, sample_normals
+        return model
+
+    @classmethod
     def from_trimesh(cls, mesh: Any, sample_count: int = 20000) -> MeshModel:
         """Build from any object with `vertices` and `faces` (e.g. a trimesh.Trimesh)."""
         return cls(mesh.vertices, mesh.faces, sample_count)

@@ -24,19 +24,32 @@ class PointModel(Shape):
         workers: int = -1,
         dense: int = 2000,
     ) -> None:
-        self.points = check_points(points, "model points", minimum=3)
+        points = check_points(points, "model points", minimum=3)
+        if normals is None:
+            if len(points) >= dense:
+                normals = estimate_normals(points)
+        else:
+            normals = check_points(normals, "model normals")
+            normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+        self._set(points, normals, workers)
+
+    def _set(self, points: Array, normals: Array | None, workers: int) -> None:
+        self.points = points
         self.samples = self.points
         self.workers = workers
         self._tree = cKDTree(self.points)
         self.sample_tree = self._tree
-        if normals is None:
-            if len(self.points) >= dense:
-                normals = estimate_normals(self.points)
-        else:
-            normals = check_points(normals, "model normals")
-            normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
         self.sample_normals = normals
         self.has_normals = normals is not None
+
+    @classmethod
+    def restore(cls, points: Array, normals: Array | None, workers: int = -1) -> PointModel:
+        """The model that a previous one built from these points (N, 3) with these unit
+        normals (N, 3) or None (registration.prepared stores them): the normals are neither
+        estimated nor normalised again, the points not checked again."""
+        model = cls.__new__(cls)
+        model._set(points, normals, workers)  # noqa: SLF001 - the class's own constructor
+        return model
 
     def closest(self, points: Array) -> Closest:
         # Threads pay off only for large batches: their start-up costs about a millisecond.
