@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+
+if TYPE_CHECKING:
+    from scenarios.cli.register import MatchOptions
 
 app = typer.Typer(
     name="twincell",
@@ -145,13 +148,18 @@ def model(
 @app.command("register")
 def register(
     data: Annotated[
-        str,
+        list[str],
         typer.Argument(
-            help="Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz."
+            help="Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz. "
+            "Several files: each is registered to the one model, one JSON line per file."
         ),
     ],
     model: Annotated[
-        str, typer.Argument(help="Model: a mesh (.stl, .obj, .ply, .off) or a point file.")
+        str,
+        typer.Argument(
+            help="Model: a mesh (.stl, .obj, .ply, .off), a point file, or a prepared model "
+            "(.twm, from `twincell prepare`)."
+        ),
     ],
     mode: Annotated[
         str,
@@ -190,25 +198,105 @@ def register(
     ] = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the search.")] = 0,
     json_file: Annotated[
-        str | None, typer.Option("--json", help="Write the result to this JSON file.")
+        str | None,
+        typer.Option(
+            "--json",
+            help="Write the result to this JSON file (several data files: their JSON Lines, "
+            "one per file, instead of standard output).",
+        ),
     ] = None,
+    batch: Annotated[
+        bool,
+        typer.Option("--batch", help="JSON Lines output even for one data file."),
+    ] = False,
 ) -> None:
-    """Register data points to a model surface and print the transform and its quality."""
-    from registration.io import load_pose, unit_scale
-    from scenarios.cli.register import (
-        load_named_targets,
-        register_files,
-        render_result,
-        write_result_json,
-    )
+    """Register data points to a model surface and print the transform and its quality.
 
-    named = None if targets is None else load_named_targets(targets, model_units or units)
+    With several data files, every file is registered to the one model in this process and
+    each gives one JSON line (its result's fields, or its error): on standard output, or in
+    the --json file with a summary line per file on standard output. A file that fails does
+    not stop the others; the exit status is then 2.
+    """
+    from registration.io import load_pose, unit_scale
+    from scenarios.cli.register import MatchOptions, load_named_targets, model_units_of
+
+    named = None
+    if targets is not None:
+        named = load_named_targets(targets, model_units_of(model, units, model_units))
     noise_m = None if noise is None or noise == 0 else noise * unit_scale(units)
     T_init = None if init is None else load_pose(init, units)
-    result = register_files(data, model, mode, units, model_units, seed, named, noise_m, T_init)
-    render_result(result, named)
+    options = MatchOptions(mode, units, seed, named, noise_m, T_init)
+    if len(data) == 1 and not batch:
+        _register_one(data[0], model, options, model_units, json_file)
+    else:
+        _register_many(data, model, options, model_units, json_file)
+
+
+def _register_one(
+    data: str, model: str, options: MatchOptions, model_units: str | None, json_file: str | None
+) -> None:
+    """`twincell register DATA MODEL`: the result as a table, and as JSON with --json."""
+    from scenarios.cli.register import register_files, render_result, write_result_json
+
+    result = register_files(data, model, options, model_units)
+    render_result(result, options.targets)
     if json_file is not None:
-        write_result_json(result, json_file, named)
+        write_result_json(result, json_file, options.targets)
+
+
+def _register_many(
+    data: list[str],
+    model: str,
+    options: MatchOptions,
+    model_units: str | None,
+    json_file: str | None,
+) -> None:
+    """`twincell register DATA... MODEL`: one JSON line per data file, the model read once."""
+    from scenarios.cli.register import load_model_file, register_batch, write_batch
+
+    options.check()
+    shape = load_model_file(model, options.units, model_units)
+    outcomes = register_batch(data, shape, model, options)
+    if json_file is None:
+        count = write_batch(outcomes, model, options.targets, sys.stdout)
+    else:
+        with open(json_file, "w") as lines:
+            count = write_batch(outcomes, model, options.targets, lines, typer.echo)
+    if count.failed or count.internal:
+        typer.echo(
+            f"twincell: error: {count.failed + count.internal} of {len(data)} data files "
+            f"failed (their lines say why)",
+            err=True,
+        )
+        raise typer.Exit(1 if count.internal else 2)
+
+
+@app.command("prepare")
+def prepare(
+    model: Annotated[
+        str,
+        typer.Argument(help="Model: a mesh (.stl, .obj, .ply, .off) or a point file."),
+    ],
+    out: Annotated[
+        str | None,
+        typer.Option(
+            "--out", help="The prepared model file (.twm); default: MODEL with the suffix .twm."
+        ),
+    ] = None,
+    units: Annotated[str, typer.Option("--units", help="Units of the model: m or mm.")] = "m",
+) -> None:
+    """Prepare a model once for many `twincell register` calls: its surface sample, voxel
+    lookup, anchors and symmetries, written to a .twm file that `register` reads back."""
+    import time
+
+    from scenarios.cli.register import model_summary, prepare_file
+
+    t0 = time.perf_counter()
+    written, shape = prepare_file(model, out, units)
+    typer.echo(
+        f"wrote {written} ({model_summary(shape)}; from {model} in {units}; "
+        f"{written.stat().st_size / 1e6:.1f} MB; {time.perf_counter() - t0:.2f} s)"
+    )
 
 
 # The options of `twincell run` that take a paragraph to explain.
@@ -457,13 +545,27 @@ def campaign(
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    """The root exceptions of the project's packages: bad input a user can fix."""
-    from cell.errors import CellError, SupervisionError
-    from models.errors import ModelError
-    from registration.errors import RegistrationError
-    from scenarios.errors import ScenarioError
+    """The root exceptions of the project's packages: bad input a user can fix. Only those of
+    the packages this call has imported: the others cannot have raised (importing the cell
+    to check would cost a register call a second)."""
+    errors: list[type[BaseException]] = []
+    if "registration.errors" in sys.modules:
+        from registration.errors import RegistrationError
 
-    return (RegistrationError, CellError, ModelError, ScenarioError, SupervisionError)
+        errors.append(RegistrationError)
+    if "cell.errors" in sys.modules:
+        from cell.errors import CellError, SupervisionError
+
+        errors += [CellError, SupervisionError]
+    if "models.errors" in sys.modules:
+        from models.errors import ModelError
+
+        errors.append(ModelError)
+    if "scenarios.errors" in sys.modules:
+        from scenarios.errors import ScenarioError
+
+        errors.append(ScenarioError)
+    return tuple(errors)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -502,6 +604,8 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         raise
     except BaseException as exc:
+        if "scenarios.jobs.interrupt" not in sys.modules:  # no run: nothing to interrupt
+            raise
         from scenarios.jobs.interrupt import RunInterrupted
 
         if not isinstance(exc, RunInterrupted):
