@@ -1,11 +1,13 @@
 """What the recording costs: the skull job with and without run.rrd, and the file itself.
 
-    python bench/bench_recording.py [--seeds 3] [--out /tmp/twincell_bench_rec]
+    python bench/bench_recording.py [--seeds 3] [--out /tmp/twincell_bench_rec] [--short]
 
 For each seed, `twincell run skull` in a fresh process with the recording and without it
 (the order alternates from seed to seed), wall time; then run.rrd's size and chunk count,
 beside the peer: the same file compacted by rerun's own `rerun rrd optimize`. Goals: the run
 with the recording at most 1.5x the run without, run.rrd under 20 MB.
+
+--short: one seed (two runs of the skull job).
 """
 
 from __future__ import annotations
@@ -24,7 +26,9 @@ BIN = Path(sys.executable).parent
 
 
 def _run(out: Path, seed: int, rrd: bool) -> float:
-    command = [str(BIN / "twincell"), "run", "skull", "--seed", str(seed), "--out", str(out)]
+    """Wall time [s] of the run, into `out`/with or `out`/without."""
+    folder = out / ("with" if rrd else "without")
+    command = [str(BIN / "twincell"), "run", "skull", "--seed", str(seed), "--out", str(folder)]
     command += ["--quiet"] + ([] if rrd else ["--no-rrd"])
     t0 = time.perf_counter()
     subprocess.run(command, check=True, capture_output=True)
@@ -43,10 +47,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--out", default="/tmp/twincell_bench_rec")
+    parser.add_argument("--short", action="store_true", help="one seed")
     args = parser.parse_args()
+    if args.short:
+        args.seeds = 1
     out = Path(args.out)
     console = Console()
-    table = Table(title="skull job: wall time [s] of the whole command (2 cores)")
+    table = Table(title="skull job: wall time \\[s] of the whole command (2 cores)")
     for col in ("seed", "with run.rrd", "without", "ratio", "run.rrd [MB]", "chunks"):
         table.add_column(col, justify="right")
     ratios, sizes = [], []
@@ -54,12 +61,7 @@ def main() -> None:
     for seed in range(args.seeds):
         order = (True, False) if seed % 2 == 0 else (False, True)
         wall = {rrd: _run(out, seed, rrd) for rrd in order}
-        if order[-1]:
-            last = (out / "latest" / "run.rrd").resolve()
-        else:
-            last = None
-            _run(out, seed, True)  # the file of this seed, for its size
-            last = (out / "latest" / "run.rrd").resolve()
+        last = (out / "with" / "latest" / "run.rrd").resolve()
         size = last.stat().st_size / 1e6
         ratio = wall[True] / wall[False]
         ratios.append(ratio)
