@@ -22,21 +22,6 @@
     True
 """
 
-from __future__ import annotations
-
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from scenarios.results.run import RunResult
+from scenarios.results.run import RunResult
 
 __all__ = ["RunResult"]
-
-
-def __getattr__(name: str) -> object:
-    # RunResult is imported on first use: the command line's commands that never read a run
-    # (twincell register, prepare) do not pay for the results' modules.
-    if name == "RunResult":
-        from scenarios.results.run import RunResult
-
-        return RunResult
-    raise AttributeError(f"module 'scenarios' has no attribute {name!r}")
