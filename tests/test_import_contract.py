@@ -80,3 +80,18 @@ def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: 
     assert "the planning, RAPID and the stages never see the truth" in run.stdout.replace("\n", " ")
     for i in range(len(PROBES)):
         assert f"probe_{i}" in out, (i, out)
+
+
+def test_no_module_hides_an_import_behind_getattr() -> None:
+    """A module-level __getattr__ would export names that static analysis (the contracts)
+    cannot see: none of the four packages has one."""
+    import ast
+
+    found = [
+        f"{path.relative_to(ROOT)}:{node.lineno}"
+        for package in ("cell", "models", "registration", "scenarios")
+        for path in sorted((ROOT / package).rglob("*.py"))
+        for node in ast.parse(path.read_text()).body
+        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__"
+    ]
+    assert found == []
