@@ -19,13 +19,17 @@
 3. Exact closest-point queries per second on the 109k-triangle skull phantom: twincell's
    MeshModel against libigl's AABB called directly and trimesh.proximity.
 
-Needs the bench extra: pip install -e ".[bench]" (Open3D needs the system libusb-1.0-0).
-Usage: python bench/bench_registration.py [--trials 4] [--synthetic 10]
+The peers come with the bench extra: pip install -e ".[bench]" (Open3D needs the system
+libusb-1.0-0); a peer not installed is left out of its table, with a note saying so.
+Usage: python bench/bench_registration.py [--trials 4] [--synthetic 10] [--short]
+--short: one orientation of one view of each object, two synthetic trials, one round of
+closest-point queries (seconds).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import itertools
 import json
 import time
@@ -50,6 +54,18 @@ from registration.synthetic import asymmetric_blob, partial_scan
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "stanford"
 RIGHT_M = 1e-3
+#: The peers' packages (the bench extra) and what each is needed for.
+PEERS = {"open3d": "Open3D", "kiss_matcher": "KISS-Matcher", "rtree": "rtree"}
+
+
+def installed(*modules: str) -> bool:
+    """Whether every one of `modules` can be imported; the first missing one is noted."""
+    for module in modules:
+        if importlib.util.find_spec(module) is None:
+            print(f"note: {PEERS[module]} is not installed (pip install -e \".[bench]\"): "
+                  "the peers that need it are left out")  # fmt: skip
+            return False
+    return True
 
 
 def cube_group() -> np.ndarray:
@@ -141,9 +157,10 @@ def kiss_matcher_icp(
     return np.asarray(r.transformation), bool(solution.valid)
 
 
-def _real_objects() -> list[
-    tuple[str, np.ndarray, np.ndarray, list[tuple[str, np.ndarray, np.ndarray]]]
-]:
+def _real_objects(
+    views: int | None,
+) -> list[tuple[str, np.ndarray, np.ndarray, list[tuple[str, np.ndarray, np.ndarray]]]]:
+    """Each object's name, mesh and its first `views` scans (None: all) with their poses."""
     out = []
     for name in ("dragon", "happy"):
         poses = json.loads((DATA / name / "poses.json").read_text())["scans"]
@@ -151,14 +168,14 @@ def _real_objects() -> list[
         assert faces is not None
         scans = [
             (file, load_points(DATA / name / file), np.array(entry["T_model_scan"]))
-            for file, entry in poses.items()
+            for file, entry in list(poses.items())[:views]
         ]
         out.append((name, vertices, faces, scans))
     return out
 
 
-def real_scan_table(trials: int) -> None:
-    objects = _real_objects()
+def real_scan_table(trials: int, views: int | None = None) -> None:
+    objects = _real_objects(views)
     prepared = {name: prepare(MeshModel(v, f)) for name, v, f, _ in objects}
     rng = np.random.default_rng(2025)
     rows: dict[str, list[tuple[float, bool, bool | None]]] = {}
@@ -177,14 +194,20 @@ def real_scan_table(trials: int) -> None:
         "twincell global": ours("global", False),
         "twincell local": ours("local", False),
         "twincell auto, prepared": ours("auto", True),
+    }
+    if installed("open3d"):
         # ICP from centroid-aligned starts needs a wide correspondence distance: 10 % of the
         # model's size, as for the synthetic case.
-        "Open3D ICP x24": lambda data, name, v, f: open3d_multistart(data, v, f, _tenth(v)),
-        "KISS-Matcher 3 mm + ICP": lambda data, name, v, f: kiss_matcher_icp(data, v, f, 0.005),
-        "KISS-Matcher 2 mm + ICP": lambda data, name, v, f: kiss_matcher_icp(
-            data, v, f, 0.005, voxel=0.002
-        ),
-    }
+        methods["Open3D ICP x24"] = lambda data, name, v, f: open3d_multistart(
+            data, v, f, _tenth(v)
+        )
+        if installed("kiss_matcher"):
+            methods["KISS-Matcher 3 mm + ICP"] = lambda data, name, v, f: kiss_matcher_icp(
+                data, v, f, 0.005
+            )
+            methods["KISS-Matcher 2 mm + ICP"] = lambda data, name, v, f: kiss_matcher_icp(
+                data, v, f, 0.005, voxel=0.002
+            )
     n_points = []
     for _ in range(trials):
         for name, v, f, scans in objects:
@@ -203,8 +226,9 @@ def real_scan_table(trials: int) -> None:
                     right = float(np.sqrt(np.mean(np.sum(diff**2, axis=1)))) < RIGHT_M
                     rows.setdefault(label, []).append((dt, right, flagged))
     total = len(n_points)
+    n_views = sum(len(scans) for *_, scans in objects)
     print(
-        f"\nReal range scans: 9 views ({min(n_points):,}-{max(n_points):,} points) of the "
+        f"\nReal range scans: {n_views} views ({min(n_points):,}-{max(n_points):,} points) of the "
         f"Stanford dragon and Happy Buddha vs their meshes (32-35k vertices), {trials} random "
         f"orientations each, {total} registrations per method; right: within 1 mm RMS of the "
         "truth; time in process per registration, model preparation included unless prepared"
@@ -225,26 +249,28 @@ def real_scan_table(trials: int) -> None:
             f"{label:26s} {right:5d}/{len(r):<3d} {accepted:>9s} {false:>11s} "
             f"{np.median(times):9.3f} {times.max():8.3f}"
         )
-    print("* KISS-Matcher's `valid` flag; Open3D's ICP has no verdict")
+    if any(label.startswith("KISS") for label in rows):
+        print("* KISS-Matcher's `valid` flag; Open3D's ICP has no verdict")
 
 
 def synthetic_table(trials: int) -> None:
-    import open3d as o3d
-
+    peer = installed("open3d")
     vertices, faces = asymmetric_blob(size=0.2, subdivisions=6, seed=3)
     model_points, model_normals = sample_surface(vertices, faces, 35000, seed=1)
     extent = float(np.linalg.norm(np.ptp(model_points, axis=0)))
     model = PointModel(model_points, model_normals)
     prepare(model)
     surface = MeshModel(vertices, faces)  # the yardstick, not used by any method
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(model_points))
-    pcd.normals = o3d.utility.Vector3dVector(model_normals)
-    reg = o3d.pipelines.registration
     rows: dict[str, list[tuple[float, bool, float]]] = {}
     for k in range(trials):
         scan = partial_scan(vertices, faces, 1000, noise=2e-4, seed=100 + k)
 
         def o3d_run(points: np.ndarray) -> np.ndarray:
+            import open3d as o3d
+
+            pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(model_points))
+            pcd.normals = o3d.utility.Vector3dVector(model_normals)
+            reg = o3d.pipelines.registration
             source = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
             best = None
             centre = model_points.mean(axis=0)
@@ -259,10 +285,9 @@ def synthetic_table(trials: int) -> None:
             assert best is not None
             return np.asarray(best[1].transformation)
 
-        runs = {
-            "twincell auto (prepared)": lambda s=scan: match(s.points, model).T_model_data,
-            "open3d p2plane x24": lambda s=scan: o3d_run(s.points),
-        }
+        runs = {"twincell auto (prepared)": lambda s=scan: match(s.points, model).T_model_data}
+        if peer:
+            runs["open3d p2plane x24"] = lambda s=scan: o3d_run(s.points)
         for name, run in runs.items():
             t = time.perf_counter()
             T = run()
@@ -283,7 +308,7 @@ def synthetic_table(trials: int) -> None:
         )
 
 
-def closest_point_table() -> None:
+def closest_point_table(reps: int = 5) -> None:
     import igl
     import trimesh
 
@@ -299,21 +324,21 @@ def closest_point_table() -> None:
     tree = igl.AABB()
     tree.init(v, f)
     mesh = trimesh.Trimesh(v, f, process=False)
-    cases = {
+    cases: dict[str, tuple[Callable, int]] = {
         "twincell MeshModel.closest": (lambda: model.closest(queries), len(queries)),
         "libigl AABB.squared_distance": (
             lambda: tree.squared_distance(v, f, queries),
             len(queries),
         ),
-        "trimesh.proximity": (lambda: mesh.nearest.on_surface(queries[:1000]), 1000),
     }
+    if installed("rtree"):
+        cases["trimesh.proximity"] = (lambda: mesh.nearest.on_surface(queries[:1000]), 1000)
     print(f"\nExact closest point on the skull phantom ({len(f):,} triangles), 20,000 queries")
     print("within ~2 mm of the surface (as in ICP), one process")
     print(f"{'method':30s} {'queries/s':>12s}")
     rate = {}
     for name, (fn, n) in cases.items():
         fn()
-        reps = 5
         t = time.perf_counter()
         for _ in range(reps):
             fn()
@@ -327,7 +352,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=4, help="orientations per real view")
     parser.add_argument("--synthetic", type=int, default=10, help="synthetic trials (0: none)")
+    parser.add_argument("--short", action="store_true", help="one view of each object, ...")
     args = parser.parse_args()
+    if args.short:
+        real_scan_table(1, views=1)
+        synthetic_table(2)
+        closest_point_table(reps=1)
+        return
     real_scan_table(args.trials)
     if args.synthetic:
         synthetic_table(args.synthetic)
