@@ -1,16 +1,21 @@
 """The README's per-seed tables of the skull job (built-in cell, the calibration's gains by
 group, UR5 cell) and the assembly job, rerun.
 
-Usage: python bench/readme_tables.py [--seeds 8] [--group-seeds 4] [--write]
-Prints the four tables (each seed as it finishes); with --write, puts them into README.md
-between their `<!-- table:skull -->`, `<!-- table:groups -->`, `<!-- table:ur5 -->` and
-`<!-- table:assembly -->` markers. The run time column is the wall time of each assembly run
-on this machine.
+Usage: python bench/readme_tables.py [--seeds 8] [--group-seeds 4] [--tables NAME ...]
+       [--write] [--short]
+Prints the tables (each seed as it finishes; all four unless --tables names some); with
+--write, puts them into README.md between their `<!-- table:skull -->`,
+`<!-- table:groups -->`, `<!-- table:ur5 -->` and `<!-- table:assembly -->` markers. The run
+time column is the wall time of each assembly run on this machine.
+
+--short: seed 0 of the assembly table alone (one run; tests/test_readme_tables.py reruns
+seed 0 of every table against the README's rows); it writes nothing.
 """
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from scenarios.jobs.tables import (
@@ -18,6 +23,7 @@ from scenarios.jobs.tables import (
     GROUPS_HEADER,
     SKULL_HEADER,
     UR5_HEADER,
+    Progress,
     assembly_rows,
     groups_rows,
     replace_table,
@@ -26,32 +32,40 @@ from scenarios.jobs.tables import (
 )
 
 README = Path(__file__).resolve().parent.parent / "README.md"
+Rows = Callable[[Iterable[int], Progress | None], list[str]]
+#: Each table: its header and the function that makes its rows, in the README's order.
+TABLES: dict[str, tuple[str, Rows]] = {
+    "skull": (SKULL_HEADER, skull_rows),
+    "groups": (GROUPS_HEADER, groups_rows),
+    "ur5": (UR5_HEADER, ur5_rows),
+    "assembly": (ASSEMBLY_HEADER, assembly_rows),
+}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=8, help="seeds 0 .. N-1")
     parser.add_argument("--group-seeds", type=int, default=4, help="seeds of the gains table")
+    parser.add_argument("--tables", nargs="+", choices=list(TABLES), default=list(TABLES))
     parser.add_argument("--write", action="store_true", help="write the tables into README.md")
+    parser.add_argument("--short", action="store_true", help="seed 0 of the assembly table")
     args = parser.parse_args()
-    seeds = range(args.seeds)
-    print(SKULL_HEADER)
-    skull = skull_rows(seeds, say=print)
-    print()
-    print(GROUPS_HEADER)
-    groups = groups_rows(range(args.group_seeds), say=print)
-    print()
-    print(UR5_HEADER)
-    ur5 = ur5_rows(seeds, say=print)
-    print()
-    print(ASSEMBLY_HEADER)
-    assembly = assembly_rows(seeds, say=print)
+    if args.short:
+        if args.write:
+            parser.error("--short writes nothing: leave out --write")
+        args.seeds, args.tables = 1, ["assembly"]
+    made = {}
+    for name in args.tables:
+        header, rows = TABLES[name]
+        seeds = range(args.group_seeds if name == "groups" else args.seeds)
+        if made:
+            print()
+        print(header)
+        made[name] = rows(seeds, print)
     if args.write:
         text = README.read_text()
-        text = replace_table(text, "skull", SKULL_HEADER, skull)
-        text = replace_table(text, "groups", GROUPS_HEADER, groups)
-        text = replace_table(text, "ur5", UR5_HEADER, ur5)
-        text = replace_table(text, "assembly", ASSEMBLY_HEADER, assembly)
+        for name, rows_made in made.items():
+            text = replace_table(text, name, TABLES[name][0], rows_made)
         README.write_text(text)
         print(f"written into {README}")
 
