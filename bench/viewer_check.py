@@ -3,10 +3,16 @@ display, screenshots of its views during the scan's last pass, at the end of the
 the ICP's timeline, and their pixels checked.
 
     python bench/viewer_check.py RUN_FOLDER [--shots DIR]
+    python bench/viewer_check.py --short [--out DIR]
 
 Needs what the viewer needs without a display: Xvfb and Mesa's software Vulkan driver
 (Debian: xvfb mesa-vulkan-drivers libvulkan1 libegl1 libgl1 libxkbcommon-x11-0). Not part
-of the test command for that reason.
+of the default test command for that reason (the slow tier runs --short, skipped without
+Xvfb).
+
+--short: runs `twincell run skull --seed 0` into DIR (default: a temporary folder) and checks
+its recording, taking only the screenshots that are checked (five, not eight; kept in
+DIR/shots unless --shots).
 
 The viewer is driven through rerun's ViewerClient (open the file, set the time, take a
 screenshot of one view), so no click depends on where the panels are. Each check counts
@@ -31,7 +37,6 @@ import numpy as np
 import rerun.chunk as rc
 from PIL import Image
 
-DISPLAY = ":99"
 CLOSE_UP = "object: scan, registered model, targets"
 CELL = "cell"
 BARS = "target error [mm]"
@@ -75,14 +80,50 @@ def count(path: Path, colour: str) -> int:
     return int(masks[colour].sum())
 
 
+def make_run(out: Path) -> Path:
+    """The run folder of `twincell run skull --seed 0` into `out`."""
+    twincell = Path(sys.executable).with_name("twincell")
+    command = [str(twincell), "run", "skull", "--seed", "0", "--out", str(out), "--quiet"]
+    subprocess.run(command, check=True, capture_output=True)
+    return (out / "latest").resolve()
+
+
+def start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
+    """A virtual display on a free display number (Xvfb picks it) and its name."""
+    read, write = os.pipe()
+    xvfb = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1600x1000x24", "-nolisten", "tcp",
+         "-extension", "Composite"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, pass_fds=(write,),
+    )  # fmt: skip
+    os.close(write)
+    with os.fdopen(read) as answer:
+        number = answer.readline().strip()
+    if not number:
+        xvfb.kill()
+        raise RuntimeError("Xvfb did not start")
+    return xvfb, f":{number}"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("run_folder", type=Path)
+    parser.add_argument("run_folder", type=Path, nargs="?", default=None)
     parser.add_argument("--shots", type=Path, default=None, help="keep the screenshots here")
+    parser.add_argument("--short", action="store_true", help="make a run, checked shots only")
+    parser.add_argument("--out", type=Path, default=None, help="--short's run goes here")
     args = parser.parse_args()
+    if (args.run_folder is None) != args.short:
+        parser.error("give a RUN_FOLDER, or --short (which makes its own run)")
+    if shutil.which("Xvfb") is None:
+        print("cannot check: no Xvfb")
+        return 2
+    if args.short:
+        out = args.out or Path(tempfile.mkdtemp(prefix="viewer-run-"))
+        args.run_folder = make_run(out)
+        args.shots = args.shots or out / "shots"
     rrd = (args.run_folder / "run.rrd").resolve()
-    if shutil.which("Xvfb") is None or not rrd.is_file():
-        print(f"cannot check: {'no Xvfb' if rrd.is_file() else f'no {rrd}'}")
+    if not rrd.is_file():
+        print(f"cannot check: no {rrd}")
         return 2
     from rerun.experimental import ViewerClient
 
@@ -90,19 +131,14 @@ def main() -> int:
     shots = args.shots or Path(tempfile.mkdtemp(prefix="viewer-"))
     shots.mkdir(parents=True, exist_ok=True)
     state = tempfile.TemporaryDirectory(prefix="rerun-state-")  # a fresh viewer each time
+    xvfb, display = start_xvfb()
     os.environ.update(
-        DISPLAY=DISPLAY,
+        DISPLAY=display,
         WGPU_BACKEND="vulkan",
         XDG_DATA_HOME=f"{state.name}/data",
         XDG_CONFIG_HOME=f"{state.name}/config",
         XDG_CACHE_HOME=f"{state.name}/cache",
     )
-    xvfb = subprocess.Popen(
-        ["Xvfb", DISPLAY, "-screen", "0", "1600x1000x24", "-nolisten", "tcp",
-         "-extension", "Composite"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    time.sleep(1.0)
     checks: list[tuple[str, str, str, int, int]] = []
     viewer = ViewerClient.spawn(port=9879, hide_welcome_screen=True)
     try:
@@ -119,15 +155,17 @@ def main() -> int:
 
         viewer.set_time("sim_time", duration=times["last pass"], play_state="paused")
         close = shot("scan", CLOSE_UP)
-        shot("scan", CELL)
+        if not args.short:
+            shot("scan", CELL)
         # The chosen passes lay their lines a registration voxel (3 mm) apart: a few
         # hundred yellow pixels a pass in the close-up.
         checks += [("scan", CLOSE_UP, "yellow", count(close, "yellow"), 500),
                    ("scan", CLOSE_UP, "red", count(close, "red"), 200)]  # fmt: skip
         viewer.set_time("sim_time", duration=times["last"], play_state="paused")
         close, bars = shot("end", CLOSE_UP), shot("end", BARS)
-        shot("end", CELL)
-        viewer.save_screenshot(str(shots / "end_window.png"))
+        if not args.short:
+            shot("end", CELL)
+            viewer.save_screenshot(str(shots / "end_window.png"))
         checks += [("end", CLOSE_UP, "rainbow", count(close, "rainbow"), 5000),
                    ("end", CLOSE_UP, "magenta", count(close, "magenta"), 100),
                    ("end", BARS, "magenta", count(bars, "magenta"), 2000)]  # fmt: skip
@@ -137,8 +175,10 @@ def main() -> int:
     finally:
         viewer.quit()
         xvfb.terminate()
+        xvfb.wait()
         state.cleanup()
     failed = 0
+    print(f"{'moment':6s} {'view':24s} {'colour':8s} {'pixels':>10s} {'least':>9s} result")
     for moment, view, colour, n, least in checks:
         ok = n >= least
         failed += not ok
