@@ -9,20 +9,24 @@ xyz text file (written once into a temporary folder); the model as its PLY file 
 prepared model (.twm, written by `twincell prepare`).
 
 Forms, each timed as a fresh process (the same launcher for all: `python -c "from
-scenarios.cli import main; ..."`), best of --repeats:
+scenarios.cli import main; ..."`), best of --repeats, the cases taken in turn within each
+repeat so that on a loaded machine they share its ups and downs:
 - before: `register SCAN model.ply` run by the code of --before (default: the last commit
   before the fast path), exported with `git archive` into a temporary folder;
 - one scan: `register SCAN model.ply` run by this checkout;
 - .twm: `register SCAN model.twm`;
 - batch: `register SCAN x5 model.twm` (the same scan five times, so that a line compares
-  with one call): its wall time and match time per scan.
-"wall" is the command's wall time, "match" its `seconds` (the match inside `match()`; with a
+  with one call): its times per scan;
+- and, for reference, the imports that any register call needs, alone (numpy, scipy.spatial,
+  libigl, typer with the pydantic it imports to parse options, rich for the table).
+"wall" is the command's wall time, "match" its `seconds` (the time inside `match()`; with a
 model file it includes building the model's structures, which `match` does on its first call
 with a model; with a .twm they were built by `prepare`), "overhead" the difference: starting
-Python, imports, reading the files, writing the output.
+Python, imports, reading the files, writing the output; "CPU" the command's user + system
+time (all threads: the match's KD-tree queries use both cores).
 
 Usage: python bench/bench_register_cli.py [--repeats 5] [--before REF] [--short]
---short runs one case once (the .twm form on the xyz file) and checks its output.
+--short runs one case (the .twm form on the xyz file, twice) and checks its output.
 """
 
 from __future__ import annotations
@@ -47,17 +51,31 @@ MODEL = DATA / "model.ply"
 #: The last commit before the fast register path: what "before" runs.
 BASELINE = "76126ff"
 LAUNCH = "import sys; from scenarios.cli import main; sys.exit(main(sys.argv[1:]))"
+#: Where the timed calls keep their compiled bytecode (out of the checkout).
+PYCACHE = Path(tempfile.gettempdir()) / "twincell-bench-pycache"
 BATCH = 5
 
 
 @dataclass(frozen=True)
-class Timing:
-    """One form on one input: the best wall time [s] of the runs and its match time [s] (per
-    scan for a batch)."""
+class Case:
+    """One form on one input: the code that runs it, the command's arguments, and how many
+    scans one call registers."""
 
-    form: str
     input: str
+    form: str
+    code: Path
+    args: tuple[str, ...]
+    scans: int = 1
+
+
+@dataclass(frozen=True)
+class Timing:
+    """A case's best run (least wall time) per scan: wall and CPU time of the command [s]
+    and the match's own `seconds` (mean over a batch's scans)."""
+
+    case: Case
     wall: float
+    cpu: float
     match: float
 
     @property
@@ -65,17 +83,30 @@ class Timing:
         return self.wall - self.match
 
 
-def run(code: Path, args: list[str]) -> float:
-    """The wall time [s] of one `twincell` call run by the code in `code`."""
-    env = dict(os.environ, PYTHONPATH=str(code))
-    t0 = time.perf_counter()
-    done = subprocess.run(
-        [sys.executable, "-c", LAUNCH, *args], env=env, capture_output=True, text=True
-    )
-    wall = time.perf_counter() - t0
-    if done.returncode != 0:
-        raise RuntimeError(f"twincell {' '.join(args)} failed: {done.stderr.strip()}")
-    return wall
+def run(code: Path, args: list[str] | tuple[str, ...]) -> tuple[float, float]:
+    """Wall and CPU time [s] (user + system, all threads) of one call of the code in `code`:
+    `twincell ARGS`, or a Python statement if ARGS is ("-c", STATEMENT).
+
+    The compiled bytecode is cached between calls, as an installed package has it, in a
+    folder of its own (PYCACHE), even where PYTHONDONTWRITEBYTECODE is set: the first call
+    compiles, the others do not.
+    """
+    env = dict(os.environ, PYTHONPATH=str(code), PYTHONPYCACHEPREFIX=str(PYCACHE))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    command = [sys.executable, *args] if args[0] == "-c" else [sys.executable, "-c", LAUNCH, *args]
+    with tempfile.TemporaryFile() as err:
+        t0 = time.perf_counter()
+        # Not from the checkout: Python puts the working directory before PYTHONPATH.
+        process = subprocess.Popen(
+            command, env=env, cwd=tempfile.gettempdir(), stdout=subprocess.DEVNULL, stderr=err
+        )
+        _, status, usage = os.wait4(process.pid, 0)
+        wall = time.perf_counter() - t0
+        process.returncode = os.waitstatus_to_exitcode(status)
+        if process.returncode != 0:
+            err.seek(0)
+            raise RuntimeError(f"{' '.join(args)} failed: {err.read().decode().strip()}")
+    return wall, usage.ru_utime + usage.ru_stime
 
 
 def seconds_of(out: Path) -> list[float]:
@@ -87,15 +118,21 @@ def seconds_of(out: Path) -> list[float]:
         return [float(json.loads(line)["seconds"]) for line in text.splitlines()]
 
 
-def best_of(code: Path, args: list[str], out: Path, repeats: int, per: int = 1) -> tuple:
-    """The best wall time of `repeats` runs and the mean match seconds of that run, both per
-    scan (`per` scans in a call)."""
-    best = (float("inf"), 0.0)
-    for _ in range(repeats):
-        wall = run(code, [*args, "--json", str(out)])
-        if wall < best[0]:
-            best = (wall, statistics.fmean(seconds_of(out)))
-    return best[0] / per, best[1]
+def timings(cases: list[Case], out: Path, repeats: int) -> list[Timing]:
+    """Each case's best of `repeats` runs, the cases taken in turn within each repeat (on a
+    loaded machine they then share its ups and downs)."""
+    best: dict[Case, Timing] = {}
+    for k in range(repeats):
+        for case in cases:
+            measured = case.args[0] != "-c"
+            args = [*case.args, "--json", str(out)] if measured else list(case.args)
+            wall, cpu = run(case.code, args)
+            match = statistics.fmean(seconds_of(out)) if measured else 0.0
+            n = case.scans
+            if case not in best or wall / n < best[case].wall:
+                best[case] = Timing(case, wall / n, cpu / n, match)
+        print(f"  repeat {k + 1} of {repeats} done", flush=True)
+    return [best[case] for case in cases]
 
 
 def inputs(folder: Path) -> dict[str, Path]:
@@ -124,54 +161,62 @@ def export(ref: str, folder: Path) -> Path:
         capture_output=True,
         check=True,
     )
+    folder.mkdir(parents=True, exist_ok=True)
     subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
     return folder
+
+
+#: The imports any register call needs, whatever the code around them.
+FLOOR = "import numpy, scipy.spatial, igl, typer, typer._adapters, rich.console, rich.table"
+
+
+def cases(files: dict[str, Path], twm: Path, before: Path | None) -> list[Case]:
+    out = [Case("-", "imports alone (numpy, scipy, libigl, typer, rich)", ROOT, ("-c", FLOOR))]
+    for name, scan in files.items():
+        if before is not None:
+            out.append(Case(name, "before, model.ply", before, ("register", str(scan), str(MODEL))))
+        out += [
+            Case(name, "one scan, model.ply", ROOT, ("register", str(scan), str(MODEL))),
+            Case(name, "one scan, model.twm", ROOT, ("register", str(scan), str(twm))),
+            Case(name, f"batch of {BATCH}, model.twm, per scan", ROOT,
+                 ("register", *[str(scan)] * BATCH, str(twm)), BATCH),
+        ]  # fmt: skip
+    return out
 
 
 def measure(args: argparse.Namespace, folder: Path) -> list[Timing]:
     files = inputs(folder)
     twm = folder / "model.twm"
     run(ROOT, ["prepare", str(MODEL), "--out", str(twm)])
-    out = folder / "out.json"
     before = None if args.before == "none" else export(args.before, folder / "before")
-    rows: list[Timing] = []
-    for name, scan in files.items():
-        forms = [("one scan, model.ply", [str(scan), str(MODEL)], ROOT, 1)]
-        if before is not None:
-            forms.insert(0, ("before, model.ply", [str(scan), str(MODEL)], before, 1))
-        forms += [
-            ("one scan, model.twm", [str(scan), str(twm)], ROOT, 1),
-            (f"batch of {BATCH}, model.twm, per scan", [str(scan)] * BATCH + [str(twm)], ROOT,
-             BATCH),
-        ]  # fmt: skip
-        for form, call, code, per in forms:
-            wall, match = best_of(code, ["register", *call], out, args.repeats, per)
-            rows.append(Timing(form, name, wall, match))
-            print(f"  {name:13s} {form:38s} wall {wall:.3f} s, match {match:.3f} s", flush=True)
-    return rows
+    return timings(cases(files, twm, before), folder / "out.json", args.repeats)
 
 
 def table(rows: list[Timing]) -> str:
     lines = [
-        "| input | form | wall s | match s | overhead s |",
-        "|---|---|---|---|---|",
+        "| input | form | wall s | match s | overhead s | CPU s |",
+        "|---|---|---|---|---|---|",
     ]
     for r in rows:
-        lines.append(f"| {r.input} | {r.form} | {r.wall:.3f} | {r.match:.3f} | {r.overhead:.3f} |")
+        c = r.case
+        lines.append(
+            f"| {c.input} | {c.form} | {r.wall:.3f} | {r.match:.3f} | {r.overhead:.3f} | "
+            f"{r.cpu:.3f} |"
+        )
     return "\n".join(lines)
 
 
 def short(folder: Path) -> None:
-    """One case, once: the .twm form on the xyz file; its output must be a result."""
+    """One case: the .twm form on the xyz file (twice, the second with the bytecode
+    cached); its output must be a result."""
     files = inputs(folder)
     twm = folder / "model.twm"
     run(ROOT, ["prepare", str(MODEL), "--out", str(twm)])
-    out = folder / "out.json"
-    wall = run(ROOT, ["register", str(files["xyz"]), str(twm), "--json", str(out)])
-    result = json.loads(out.read_text())
+    case = Case("xyz", "one scan, model.twm", ROOT, ("register", str(files["xyz"]), str(twm)))
+    (timing,) = timings([case], folder / "out.json", 2)  # the first compiles
+    result = json.loads((folder / "out.json").read_text())
     assert result["verdict"] == "accepted", result["verdict"]
-    match = float(result["seconds"])
-    print(table([Timing("one scan, model.twm", "xyz", wall, match)]))
+    print(table([timing]))
 
 
 def main() -> None:

@@ -18,6 +18,7 @@ import trimesh
 from registration import FormatError, load_model, load_points, match
 from registration.io.mesh import read_mesh
 from registration.io.ply import read_ply
+from registration.io.stl import read_binary_stl
 from registration.io.text import read_csv, read_xyz
 from registration.prepared import FORMAT_VERSION, load_prepared
 from scenarios.cli.app import main
@@ -28,7 +29,7 @@ PLY_FILES = sorted(STANFORD.glob("*/*.ply"))
 DRAGON = STANFORD / "dragon"
 
 
-def _reference_ply(p: Path) -> tuple[np.ndarray, np.ndarray | None]:
+def _reference_mesh(p: Path) -> tuple[np.ndarray, np.ndarray | None]:
     """Vertices and faces (None without faces) as trimesh reads them."""
     loaded = trimesh.load(p, process=False)
     faces = getattr(loaded, "faces", None)
@@ -40,7 +41,7 @@ def _reference_ply(p: Path) -> tuple[np.ndarray, np.ndarray | None]:
 def test_the_ply_reader_reads_the_shipped_scans_and_models_as_trimesh(path: Path) -> None:
     read = read_ply(path)
     assert read is not None, "a shipped file left to trimesh"
-    vertices, faces = _reference_ply(path)
+    vertices, faces = _reference_mesh(path)
     np.testing.assert_array_equal(read[0], vertices)
     assert (read[1] is None) == (faces is None)
     if faces is not None:
@@ -72,7 +73,7 @@ def test_the_ply_reader_reads_ascii_big_endian_and_extra_properties(tmp_path) ->
     for path in files:
         read = read_ply(path)
         assert read is not None, path.name
-        vertices, faces = _reference_ply(path)
+        vertices, faces = _reference_mesh(path)
         np.testing.assert_array_equal(read[0], vertices, err_msg=path.name)
         if faces is not None:
             np.testing.assert_array_equal(read[1], faces, err_msg=path.name)
@@ -88,6 +89,22 @@ def test_polygons_other_than_triangles_are_left_to_trimesh(tmp_path) -> None:
     assert read_ply(quad) is None
     _, faces = read_mesh(quad, points_only=False)
     assert faces is not None and faces.shape == (2, 3)  # trimesh splits the quad
+
+
+def test_the_stl_reader_reads_binary_stl_as_trimesh_and_leaves_ascii_to_it(tmp_path) -> None:
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
+    mesh.export(tmp_path / "binary.stl")
+    read = read_binary_stl(tmp_path / "binary.stl")
+    assert read is not None
+    vertices, faces = _reference_mesh(tmp_path / "binary.stl")  # trimesh, unprocessed
+    np.testing.assert_array_equal(read[0], vertices)
+    np.testing.assert_array_equal(read[1], faces)
+    (tmp_path / "ascii.stl").write_text(trimesh.exchange.stl.export_stl_ascii(mesh))
+    assert read_binary_stl(tmp_path / "ascii.stl") is None
+    np.testing.assert_allclose(read_mesh(tmp_path / "ascii.stl", False)[0], vertices, atol=1e-6)
+    data = (tmp_path / "binary.stl").read_bytes()
+    (tmp_path / "cut.stl").write_bytes(data[: len(data) - 30])
+    assert read_binary_stl(tmp_path / "cut.stl") is None  # trimesh says what is wrong
 
 
 def test_a_truncated_binary_ply_is_named_with_its_counts(tmp_path) -> None:

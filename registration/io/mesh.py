@@ -1,5 +1,6 @@
-"""Meshes and PLY files: .stl, .obj, .off by trimesh, .ply (points or triangles) by numpy
-(registration.io.ply) and by trimesh where that reader leaves a file to it."""
+"""Meshes and PLY files: .ply (points or triangles) and binary .stl by numpy
+(registration.io.ply, registration.io.stl), .obj, .off and the files those readers leave
+(ascii STL, polygons other than triangles, ...) by trimesh."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 
 from registration.errors import FormatError, first_line
 from registration.io.ply import read_ply
+from registration.io.stl import read_binary_stl
 from registration.rigid import Array
 
 MESH_FORMATS: tuple[str, ...] = (".stl", ".obj", ".ply", ".off")
@@ -57,9 +59,14 @@ def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
 
     With `points_only`, a PLY range-scan mesh gives its vertices as the points.
     """
-    is_ply = p.suffix.lower() == ".ply"
+    suffix = p.suffix.lower()
+    is_ply = suffix == ".ply"
     declared = _ply_vertex_count(p) if is_ply else None
-    read = read_ply(p) if is_ply else None
+    read: tuple[Array, Array | None] | None = None
+    if is_ply:
+        read = read_ply(p)
+    elif suffix == ".stl":
+        read = read_binary_stl(p)
     vertices, faces = read if read is not None else _read_trimesh(p)
     if declared is not None and len(vertices) != declared:
         raise FormatError(
