@@ -1,8 +1,14 @@
-"""Shared fixtures: the real range scans of tests/data/stanford (see its README)."""
+"""Shared fixtures: the real range scans of tests/data/stanford (see its README) and the
+short skull job that several files inspect, run once per session."""
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
+import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -55,3 +61,48 @@ def load_real(name: str) -> RealObject:
 def real_objects() -> tuple[RealObject, ...]:
     """The dragon and the Happy Buddha: 9 real views with their true poses."""
     return (load_real("dragon"), load_real("happy"))
+
+
+
+# -- one job that several files inspect, run once per session ------------------------------------
+#: The short skull job of tests/test_scenarios_run.py (its folder, results and exports),
+#: tests/test_recording.py (its recording) and tests/test_scan_plan.py (its chosen passes):
+#: seed 11, the passes chosen in the virtual cell for the targets, 20 ms lines.
+SHORT_SKULL = """seed: 11
+localization:
+  scan: {speed_m_s: 0.25, period_s: 0.02, plan: auto}
+"""
+
+
+@contextmanager
+def _exclusive(lock: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the file `lock` (created if missing) while in the block."""
+    with open(lock, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@pytest.fixture(scope="session")
+def short_skull_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The run folder of `twincell run short.yaml` (SHORT_SKULL, with its recording and
+    figures), run once per test session: under pytest-xdist the first worker to need it runs
+    it in the session's common temporary folder while any other waits, then all read it.
+    The tests read the folder and write nothing into it."""
+    from scenarios.cli.app import main
+
+    base = tmp_path_factory.getbasetemp()
+    if "PYTEST_XDIST_WORKER" in os.environ:
+        base = base.parent  # each worker's is one folder of the session's
+    root = base / "short_skull"
+    with _exclusive(base / "short_skull.lock"):
+        if not (root / "complete").is_file():
+            shutil.rmtree(root, ignore_errors=True)  # what a failed attempt left
+            root.mkdir()
+            config = root / "short.yaml"
+            config.write_text(SHORT_SKULL)
+            assert main(["run", str(config), "--out", str(root / "out"), "--quiet"]) == 0
+            (root / "complete").touch()
+    return (root / "out" / "latest").resolve()

@@ -19,6 +19,9 @@ from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.results.exported import ExportedRun
 from scenarios.results.run import RunResult
 
+#: Two skull jobs a seed.
+pytestmark = pytest.mark.slow
+
 SEEDS = (1, 3)
 #: What every seed must gain [mm]: the measured mean gain less two standard deviations.
 GAIN_FLOOR_MM = 0.39 - 2 * 0.15

@@ -10,6 +10,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import pytest
 from dask.distributed import Client, LocalCluster, get_task_stream
 
 from scenarios.campaign import campaign_trials, plan_campaign, run_campaign, run_trial
@@ -59,6 +60,7 @@ def _holders(dask_scheduler: Any, prefix: str) -> list[str]:
     ]
 
 
+@pytest.mark.slow
 def test_a_dask_worker_killed_mid_trial_loses_no_row_and_counts_none_twice(
     tmp_path: Path,
 ) -> None:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from models.registry import builtin_model
 from scenarios.campaign import plan_campaign, run_campaign
 
@@ -33,6 +35,7 @@ def test_one_full_skull_trial(tmp_path: Path) -> None:
     assert not list((tmp_path / "campaign").rglob("*.rrd"))
 
 
+@pytest.mark.slow
 def test_a_fault_campaign_reports_each_fault(tmp_path: Path) -> None:
     """`--vary faults=NAME,...`: each trial injects one fault; the rows carry its outcome and
     the stage that detected it, and the report counts them per fault. Ground truth: the

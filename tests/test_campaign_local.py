@@ -30,6 +30,7 @@ def read_rows(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_local_campaign_sweep_resume_and_report(tmp_path: Path) -> None:
     config = cheap_config(tmp_path)
     out = tmp_path / "campaign"

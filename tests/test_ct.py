@@ -134,6 +134,7 @@ def test_shell_cavity_is_closed() -> None:
     assert r.min() > 13.5  # no vertex on the void's surface (radius 9)
 
 
+@pytest.mark.slow
 def test_simulated_ct_of_the_phantom_errs_like_a_ct() -> None:
     """The skull phantom CT-scanned (0.5 x 0.5 x 1 mm, 0.7 mm blur, 20 HU noise, 300 HU
     threshold): the bone model lies 0.05-0.3 mm from the phantom on average (the threshold's

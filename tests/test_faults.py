@@ -61,6 +61,7 @@ def _within_goals(results: RunResult) -> None:
         ("object_bump", 0.003, "verify", "verification"),
     ],
 )
+@pytest.mark.slow
 def test_recovered_faults(tmp_path: Path, fault: str, value: float, stage: str, symptom: str):
     """Detected in its stage, recovered (a retry, a re-read, a pass or a scan again), and
     the job still meets its goals."""
@@ -71,6 +72,7 @@ def test_recovered_faults(tmp_path: Path, fault: str, value: float, stage: str, 
     _within_goals(results)
 
 
+@pytest.mark.slow
 def test_the_verification_is_what_catches_a_bump(tmp_path: Path):
     """The same bump without the verification: the run completes with the targets missed by
     more than the job allows (what the verification prevented)."""
@@ -85,6 +87,7 @@ def test_the_verification_is_what_catches_a_bump(tmp_path: Path):
     ("fault", "value", "code"),
     [("obstacle", 0.06, "collision"), ("payload", 2.0, "load")],
 )
+@pytest.mark.slow
 def test_stopping_faults(tmp_path: Path, fault: str, value: float, code: str):
     """The supervision stops the cell in the execute stage: the run is aborted, names the
     stage and the reason, touches no target and hands out no program."""

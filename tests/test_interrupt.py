@@ -325,6 +325,7 @@ def _check_complete(path: Path, scan_points: int | None) -> None:
 
 
 @pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.slow
 def test_a_signal_stops_the_run_in_its_stage_and_leaves_only_whole_files(
     name: str, tmp_path: Path
 ) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from scenarios.jobs.tables import (
     assembly_rows,
@@ -17,6 +18,9 @@ from scenarios.jobs.tables import (
     skull_rows,
     ur5_rows,
 )
+
+#: Each test reruns the jobs of a README row: one (assembly) to four (the groups).
+pytestmark = pytest.mark.slow
 
 README = (Path(__file__).resolve().parent.parent / "README.md").read_text()
 

@@ -16,25 +16,17 @@ import pytest
 from rrd_reader import Entity, pose, read_rrd
 
 from registration import MeshModel
-from scenarios.cli.app import main
 
-SHORT = """seed: 5
-localization:
-  scan: {speed_m_s: 0.25, period_s: 0.02}
-"""
 #: A ray ends where the laser measured: 5 sigma of its range noise (20 um) plus a 3 sigma
 #: range scale error (3e-4) at its longest range (0.6 m) [m].
 RAY_TOL_M = 5 * 20e-6 + 3 * 3e-4 * 0.6
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Entity]]:
-    root = tmp_path_factory.mktemp("rec")
-    config = root / "short.yaml"
-    config.write_text(SHORT)
-    assert main(["run", str(config), "--out", str(root / "out"), "--quiet"]) == 0
-    folder = (root / "out" / "latest").resolve()
-    return folder, read_rrd(folder / "run.rrd")
+def run(short_skull_run: Path) -> tuple[Path, dict[str, Entity]]:
+    """The short skull job (tests/conftest.py's SHORT_SKULL, run once a session) and its
+    recording as rerun reads it."""
+    return short_skull_run, read_rrd(short_skull_run / "run.rrd")
 
 
 def _phase(entities: dict[str, Entity], name: str) -> float:

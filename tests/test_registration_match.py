@@ -26,6 +26,7 @@ def _recovered(T, T_truth, deg: float = 0.5, m: float = 0.5e-3) -> bool:
     return bool(np.degrees(rot) < deg and trans < m)
 
 
+@pytest.mark.slow
 def test_200_random_orientations_of_a_partial_scan_are_all_recovered() -> None:
     # One side of the object (about 40 % of its surface), 0.1 mm noise, any pose.
     failures = []

@@ -6,6 +6,7 @@ own alignment (the views fit the model to 0.1 mm median under it)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from registration import make_T, match, transform_points
@@ -24,6 +25,7 @@ def _random_pose(rng: np.random.Generator) -> np.ndarray:
     return make_T(Rotation.random(random_state=rng).as_matrix(), rng.normal(scale=0.3, size=3))
 
 
+@pytest.mark.slow
 def test_auto_mode_finds_every_real_view_from_200_orientations(real_objects) -> None:
     rng = np.random.default_rng(2026)
     views = [(obj, scan) for obj in real_objects for scan in obj.scans]

@@ -18,7 +18,6 @@ from cell.robots import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, TABLE_TOP_POS
 from scenarios.campaign import plan_campaign, run_campaign
-from scenarios.cli import main
 from scenarios.jobs import pipeline
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.scan import ObjectBox
@@ -170,17 +169,17 @@ def test_a_goal_no_plan_meets_refuses_the_job_before_the_cell_is_built(
         run_job("skull", out=tmp_path, overrides=overrides, options=RunOptions(rrd=False))
 
 
-def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(tmp_path: Path) -> None:
+def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(
+    short_skull_run: Path,
+) -> None:
     """scan.plan auto: the passes chosen in the virtual cell predict every target below the
     goal; the job runs them, and its targets, measured against the truth, meet the skull
     goals (RMS <= 0.5 mm, max <= 1 mm).
-    The cell time the planner predicts is within 30 % of what the scan took."""
-    code = main(
-        ["run", "skull", "--set", "localization.scan.plan=auto", "--out", str(tmp_path),
-         "--quiet"]
-    )  # fmt: skip
-    assert code == 0
-    results = json.loads((tmp_path / "latest" / "results.json").read_text())
+    The cell time the planner predicts is within 30 % of what the scan took.
+    The job is the short skull job with `localization.scan.plan: auto` (tests/conftest.py's
+    SHORT_SKULL), run once a session; its run completed (exit status 0)."""
+    folder = short_skull_run
+    results = json.loads((folder / "results.json").read_text())
     plan = results["scan_plan"]
     assert plan["mode"] == "auto" and plan["passes"] == len(plan["chosen"]) >= 2
     assert plan["predicted_tre_max_m"] <= 3.0e-4
@@ -190,14 +189,15 @@ def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(tmp_path: 
     assert results["target_error_rms_m"] <= 0.5e-3
     assert results["target_error_max_m"] <= 1.0e-3
     # The figure and the recording show the plan: every candidate's sweep, the chosen ones.
-    assert (tmp_path / "latest" / "scan_plan.png").stat().st_size > 10_000
+    assert (folder / "scan_plan.png").stat().st_size > 10_000
     plan_path = "/world/cell/table/frame/scan_plan"
-    recorded = read_rrd(tmp_path / "latest" / "run.rrd", (plan_path,))
+    recorded = read_rrd(folder / "run.rrd", (plan_path,))
     (_, candidates), *_ = recorded[f"{plan_path}/candidates"].timed("LineStrips3D:strips")
     (_, chosen), *_ = recorded[f"{plan_path}/chosen"].timed("LineStrips3D:strips")
     assert len(candidates) == plan["candidates"] > len(chosen) == plan["passes"]
 
 
+@pytest.mark.slow
 def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> None:
     """Eight seeds of the skull job scanned with the chosen passes (the phantom's pose, the
     cell's errors and the phantom's deviation from its model drawn from each seed): the
@@ -218,6 +218,7 @@ def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> No
     assert 0.67 <= float(np.median(ratios)) <= 1.5, sorted(ratios)
 
 
+@pytest.mark.slow
 def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_home() -> None:
     """Between two passes the arm turns in joint space; where that turn would bring the
     laser or the arm within 10 mm of the object (found along the move every 0.005 rad, four

@@ -43,6 +43,7 @@ def test_ct_model_error_is_the_scanners(tmp_path: Path) -> None:
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
+@pytest.mark.slow
 def test_skull_job_with_a_ct_model_meets_its_goals(tmp_path: Path) -> None:
     config = tmp_path / "ct.yaml"
     config.write_text(SHORT_CT)
@@ -56,6 +57,7 @@ def test_skull_job_with_a_ct_model_meets_its_goals(tmp_path: Path) -> None:
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
+@pytest.mark.slow
 def test_skull_job_on_a_users_ct_volume_and_plan(tmp_path: Path) -> None:
     """A CT volume (NIfTI, RAS) and a plan made on it (RAS, mm) as the job's object and
     targets: the bone is meshed, the plan lands on it, the job runs within its goals."""

@@ -13,6 +13,7 @@ import trimesh
 from scenarios.cli.app import main
 
 
+@pytest.mark.slow
 def test_a_sphere_is_refused_before_any_motion_towards_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -14,7 +14,6 @@ import yaml
 
 from cell import FixedMesh
 from cell.sim import make_cell
-from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import object_models
 from scenarios.outputs.files import read_ply
@@ -23,19 +22,11 @@ from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 from scenarios.results.run import RunResult
 
-SHORT = """seed: 11
-localization:
-  scan: {speed_m_s: 0.25, period_s: 0.02}
-"""
 
-
-@pytest.fixture(scope="module")
-def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("runs")
-    config = root / "short.yaml"
-    config.write_text(SHORT)
-    assert main(["run", str(config), "--out", str(root / "out"), "--quiet"]) == 0
-    return (root / "out" / "latest").resolve()
+@pytest.fixture
+def folder(short_skull_run: Path) -> Path:
+    """The short skull job (seed 11, tests/conftest.py's SHORT_SKULL), run once a session."""
+    return short_skull_run
 
 
 def test_run_folder_has_every_file(folder: Path) -> None:

@@ -106,6 +106,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return module, (out / "latest").resolve()
 
 
+@pytest.mark.slow
 def test_the_program_s_touches_are_the_operations(run: tuple[Path, Path]) -> None:
     module, folder = run
     assert _rapidcheck(module).returncode == 0  # the input is valid RAPID
@@ -118,6 +119,7 @@ def test_the_program_s_touches_are_the_operations(run: tuple[Path, Path]) -> Non
     assert errors.max() < 1.5e-3
 
 
+@pytest.mark.slow
 def test_the_module_comes_back_with_only_its_oframe_corrected(run: tuple[Path, Path]) -> None:
     module, folder = run
     before = module.read_text().splitlines()
@@ -173,6 +175,7 @@ def test_bad_modules_are_refused_before_the_cell_starts(
         assert "scan_points" not in results  # stopped before the cell moved
 
 
+@pytest.mark.slow
 def test_a_program_into_the_bone_is_refused_before_it_moves(tmp_path: Path) -> None:
     """Touches programmed 2 mm into the bone: the pre-motion check follows the corrected
     program in the virtual cell, finds the pointer in the skull at every touch and refuses
