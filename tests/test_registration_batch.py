@@ -77,6 +77,12 @@ def test_the_ply_reader_reads_ascii_big_endian_and_extra_properties(tmp_path) ->
         np.testing.assert_array_equal(read[0], vertices, err_msg=path.name)
         if faces is not None:
             np.testing.assert_array_equal(read[1], faces, err_msg=path.name)
+        # A range scan stored as a mesh: its vertices are the points, its faces not read.
+        np.testing.assert_array_equal(read_mesh(path, points_only=True)[0], vertices)
+    text = (tmp_path / "mesh_ascii.ply").read_text()
+    (tmp_path / "cut_ascii.ply").write_text(text[: text.index("end_header") + 200])
+    with pytest.raises(FormatError, match=r"cut_ascii.ply: its header declares \d+ vertices"):
+        load_points(tmp_path / "cut_ascii.ply")
 
 
 def test_polygons_other_than_triangles_are_left_to_trimesh(tmp_path) -> None:

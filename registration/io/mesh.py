@@ -64,7 +64,7 @@ def read_mesh(p: Path, points_only: bool) -> tuple[Array, Array | None]:
     declared = _ply_vertex_count(p) if is_ply else None
     read: tuple[Array, Array | None] | None = None
     if is_ply:
-        read = read_ply(p)
+        read = read_ply(p, faces=not points_only)
     elif suffix == ".stl":
         read = read_binary_stl(p)
     vertices, faces = read if read is not None else _read_trimesh(p)

@@ -168,22 +168,26 @@ def _binary(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | Non
     return vertices, faces
 
 
-def _ascii(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | None]:
+def _ascii(p: Path, data: bytes, header: PlyHeader, faces: bool) -> tuple[Array, Array | None]:
     """An ascii PLY: one line per vertex, then one per face (three indices after the
-    count)."""
+    count); without `faces`, the face lines are counted, not read."""
     names = [element.name for element in header.elements]
     if names[:1] != ["vertex"] or names[1:2] not in ([], ["face"]):
         raise _BeyondError(f"elements {names}")
-    text = data[header.data_start :].decode("ascii", "replace")
-    lines = text.splitlines()
     vertex = header.elements[0]
-    if vertex.count == 0:
-        return np.zeros((0, 3)), None
-    if len(lines) < vertex.count:
-        raise _truncated(p, vertex, len(lines))
     if any(prop.count_type is not None for prop in vertex.properties):
         raise _BeyondError("a list property of the vertices")
-    table = _table(lines[: vertex.count], len(vertex.properties))
+    if vertex.count == 0:
+        return np.zeros((0, 3)), None
+    body = data[header.data_start :]
+    # Where each line ends (a last line without its newline ends at the end of the file).
+    ends = np.flatnonzero(np.frombuffer(body, np.uint8) == ord("\n"))
+    if body and not body.endswith(b"\n"):
+        ends = np.append(ends, len(body))
+    if len(ends) < vertex.count:
+        raise _truncated(p, vertex, len(ends))
+    split = int(ends[vertex.count - 1]) + 1
+    table = _table(body[:split], vertex.count, len(vertex.properties))
     vertices = _vertices(vertex, table, "columns")
     if len(header.elements) == 1 or header.elements[1].count == 0:
         return vertices, None
@@ -191,28 +195,33 @@ def _ascii(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | None
     props = face.properties
     if len(props) != 1 or props[0].count_type is None or props[0].name not in _FACE_LISTS:
         raise _BeyondError("face properties other than one list of indices")
-    rows = lines[vertex.count : vertex.count + face.count]
-    if len(rows) < face.count:
+    if len(ends) < vertex.count + face.count:
         raise _BeyondError("faces cut short")
-    table = _table(rows, 4)
+    if not faces:
+        return vertices, None
+    stop = int(ends[vertex.count + face.count - 1]) + 1
+    table = _table(body[split:stop], face.count, 4)
     if not (table[:, 0] == 3).all() or not (table == np.round(table)).all():
         raise _BeyondError("faces other than triangles")
     return vertices, table[:, 1:].astype(np.int64)
 
 
-def _table(lines: list[str], columns: int) -> np.ndarray:
+def _table(block: bytes, rows: int, columns: int) -> np.ndarray:
+    """The numbers (rows, columns) of a block of text lines."""
     try:
-        table = np.loadtxt(io.StringIO("\n".join(lines)), ndmin=2, comments=None)
-    except ValueError as exc:
+        text = io.StringIO(block.decode("ascii"))
+        table = np.loadtxt(text, ndmin=2, comments=None)
+    except (ValueError, UnicodeDecodeError) as exc:
         raise _BeyondError(f"rows that are not {columns} numbers") from exc
-    if table.shape != (len(lines), columns):
+    if table.shape != (rows, columns):
         raise _BeyondError(f"rows that are not {columns} numbers")
     return table
 
 
-def read_ply(p: Path) -> tuple[Array, Array | None] | None:
-    """Vertices (V, 3) [file units] and triangles (F, 3) (None without faces) of a PLY file;
-    None if the file is beyond this reader (see the module's docstring: trimesh reads it).
+def read_ply(p: Path, faces: bool = True) -> tuple[Array, Array | None] | None:
+    """Vertices (V, 3) [file units] and triangles (F, 3) (None without faces, or if `faces`
+    is False) of a PLY file; None if the file is beyond this reader (see the module's
+    docstring: trimesh reads it).
 
     Raises FormatError if the vertices stop before the count the header declares.
     """
@@ -220,7 +229,8 @@ def read_ply(p: Path) -> tuple[Array, Array | None] | None:
     try:
         header = parse_header(data)
         if header.format == "ascii":
-            return _ascii(p, data, header)
-        return _binary(p, data, header)
+            return _ascii(p, data, header, faces)
+        vertices, triangles = _binary(p, data, header)
+        return vertices, triangles if faces else None
     except _BeyondError:
         return None
