@@ -4,9 +4,11 @@ the fast register path (lazy imports, numpy readers, prepared models, batches).
 The case: a real single range view of the Stanford dragon (tests/data/stanford/dragon,
 scan_stand000: 35,000 points, the largest shipped view) against the dragon's reconstructed
 mesh (34,636 vertices, 70,214 faces): the shipped pair closest to a 40,000-point scan against
-a 35,000-vertex mesh. The scan is given as the shipped binary PLY, as an ascii PLY and as an
-xyz text file (written once into a temporary folder); the model as its PLY file or as a
-prepared model (.twm, written by `twincell prepare`).
+a 35,000-vertex mesh. The scan is given as the shipped binary PLY, as an xyz text file, as an
+ascii PLY of its points, and as an ascii PLY as a range scanner writes one (normals, a
+confidence, an intensity and the triangles between neighbouring points), written once into a
+temporary folder; the model as its PLY file or as a prepared model (.twm, written by
+`twincell prepare`).
 
 Forms, each timed as a fresh process (the same launcher for all: `python -c "from
 scenarios.cli import main; ..."`), best of --repeats, the cases taken in turn within each
@@ -136,21 +138,52 @@ def timings(cases: list[Case], out: Path, repeats: int) -> list[Timing]:
 
 
 def inputs(folder: Path) -> dict[str, Path]:
-    """The scan as the shipped binary PLY, as an ascii PLY and as an xyz file."""
+    """The scan as the shipped binary PLY, as an xyz file, as an ascii PLY of its points,
+    and as an ascii PLY as range scanners write one: per vertex its normal, a confidence
+    and an intensity, and the triangles between neighbouring points (a Delaunay
+    triangulation of the points seen along the scanner's z axis)."""
+    from scipy.spatial import Delaunay
+
     from registration.io.mesh import read_mesh
 
     points, _ = read_mesh(SCAN, points_only=True)
     xyz = folder / "scan.xyz"
-    np.savetxt(xyz, points, fmt="%.9g")  # the float32 values, exactly
+    np.savetxt(xyz, points, fmt="%.9g")  # 9 digits: the float32 values to their precision
     ascii_ply = folder / "scan_ascii.ply"
-    header = (
-        f"ply\nformat ascii 1.0\nelement vertex {len(points)}\nproperty float x\n"
-        "property float y\nproperty float z\nend_header\n"
-    )
-    with ascii_ply.open("w") as f:
-        f.write(header)
-        np.savetxt(f, points, fmt="%.9g")
-    return {"xyz": xyz, "PLY (binary)": SCAN, "PLY (ascii)": ascii_ply}
+    _write_ascii_ply(ascii_ply, points)
+    scanner_ply = folder / "scan_scanner.ply"
+    triangles = Delaunay(points[:, :2]).simplices
+    rng = np.random.default_rng(0)
+    normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    extra = np.c_[normals, rng.uniform(0.5, 1.0, len(points)), rng.integers(0, 255, len(points))]
+    _write_ascii_ply(scanner_ply, points, extra, triangles)
+    return {
+        "xyz": xyz,
+        "PLY (binary)": SCAN,
+        "PLY (ascii)": ascii_ply,
+        "PLY (ascii, scanner's)": scanner_ply,
+    }
+
+
+def _write_ascii_ply(
+    path: Path, points: np.ndarray, extra: np.ndarray | None = None, faces: np.ndarray | None = None
+) -> None:
+    """An ascii PLY of points (N, 3), with extra vertex columns (nx, ny, nz, confidence,
+    intensity) and triangles (F, 3) if given."""
+    props = "property float x\nproperty float y\nproperty float z\n"
+    columns, fmt = points, ["%.9g"] * 3
+    if extra is not None:
+        props += "property float nx\nproperty float ny\nproperty float nz\n"
+        props += "property float confidence\nproperty uchar intensity\n"
+        columns, fmt = np.c_[points, extra], fmt + ["%.6g"] * 4 + ["%d"]
+    header = f"ply\nformat ascii 1.0\nelement vertex {len(points)}\n{props}"
+    if faces is not None:
+        header += f"element face {len(faces)}\nproperty list uchar int vertex_indices\n"
+    with path.open("w") as f:
+        f.write(header + "end_header\n")
+        np.savetxt(f, columns, fmt=fmt)
+        if faces is not None:
+            np.savetxt(f, np.c_[np.full(len(faces), 3), faces], fmt="%d")
 
 
 def export(ref: str, folder: Path) -> Path:

@@ -173,7 +173,11 @@ def register(
         str, typer.Option("--units", help="Units of the data (and of the model): m or mm.")
     ] = "m",
     model_units: Annotated[
-        str | None, typer.Option("--model-units", help="Units of the model if not --units.")
+        str | None,
+        typer.Option(
+            "--model-units",
+            help="Units of the model if not --units (a .twm keeps those it was prepared in).",
+        ),
     ] = None,
     targets: Annotated[
         str | None,
