@@ -10,13 +10,14 @@
 2. Versions: register-stage and full-stage trials per minute on 2 worker processes (the local
    backend), before (the code at --before: a commit, exported with `git archive` into a
    temporary folder, or a folder holding a checkout) and after (this checkout as it is, or
-   the code at --after, a commit or a folder likewise). Each campaign
-   runs in a fresh process whose PYTHONPATH puts its version first; the same seeded trials,
-   on the same machine, in the same run, the order of the versions alternating from repeat
-   to repeat. The time is run_campaign's (worker start-up, the models, the trials, the
-   report), not the interpreter's start. Each version's rows are compared with the after's
-   (timings aside). Both read and fill the user's model cache as they find it (the before
-   of 67e7472 has none); --no-cache turns it off for both.
+   the code at --after, a commit or a folder likewise). Each campaign runs in a fresh process
+   whose PYTHONPATH puts its version first; the same seeded trials, on the same machine, in
+   the same run, the order of the versions alternating from repeat to repeat. The time is
+   run_campaign's (worker start-up, the models, the trials, the report), not the
+   interpreter's start; "CPU" is the user + system time of the campaign's process and its
+   workers, which a loaded machine changes less. Each version's rows are compared with the
+   after's (timings aside). Both read and fill the user's model cache as they find it (the
+   before of 67e7472 has none); --no-cache turns it off for both.
 
 --short: 2 register trials per backend, 2 trials per stage and version, one repeat; a
 --before commit missing from this clone (a shallow one) is noted and its rows left out.
@@ -28,6 +29,7 @@ import argparse
 import io
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -73,17 +75,25 @@ def backends_table(trials: int) -> None:
         print(f"{backend:8} {workers:>7} {ran:>6} {seconds:>9.1f} {rate:>9.2f}  {same}")
 
 
+def _cpu_seconds() -> float:
+    """User + system time [s] of this process and its finished children."""
+    own, children = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
+                                                     resource.RUSAGE_CHILDREN))  # fmt: skip
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def child(stage: str, trials: int, out: Path) -> None:
     """One campaign of the skull on WORKERS processes, with the code on PYTHONPATH; prints
-    one JSON line: trials run, seconds, the rows, and where the code came from."""
+    one JSON line: trials run, seconds, CPU seconds (the workers' included: the pool has
+    ended), the rows, and where the code came from."""
     import scenarios
     from scenarios.campaign import plan_campaign, run_campaign
 
     spec = plan_campaign("skull", stage=stage, trials=trials)
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), _cpu_seconds()
     outcome = run_campaign(spec, out, "local", WORKERS, progress=False)
-    seconds = time.perf_counter() - t0
-    found = {"ran": outcome.ran, "seconds": seconds, "rows": outcome.rows,
+    seconds, cpu = time.perf_counter() - t0, _cpu_seconds() - cpu0
+    found = {"ran": outcome.ran, "seconds": seconds, "cpu": cpu, "rows": outcome.rows,
              "code": str(Path(scenarios.__file__).resolve().parent.parent)}  # fmt: skip
     print(json.dumps(found, default=str))
 
@@ -159,21 +169,26 @@ def versions_table(args: argparse.Namespace) -> None:
         f"{args.after or 'this checkout'}; model cache {'off' if args.no_cache else 'as found'}"
     )
     print(f"{'stage':9} {'version':7} {'repeat':>6} {'trials':>6} {'seconds':>8} "
-          f"{'trials/min':>10}  rows vs after's")  # fmt: skip
+          f"{'trials/min':>10} {'CPU s/trial':>11}  rows vs after's")  # fmt: skip
     after_rows = {(s, r): res["rows"] for s, v, r, res in found if v == "after"}
     rates: dict[tuple[str, str], list[float]] = {}
+    cpus: dict[tuple[str, str], list[float]] = {}
     for stage, version, repeat, result in found:
         rate = 60.0 * result["ran"] / result["seconds"]
         rates.setdefault((stage, version), []).append(rate)
         same = _differing(result["rows"], after_rows[(stage, repeat)])
+        cpu = result["cpu"] / result["ran"]
+        cpus.setdefault((stage, version), []).append(cpu)
         print(f"{stage:9} {version:7} {repeat + 1:>6} {result['ran']:>6} "
-              f"{result['seconds']:>8.1f} {rate:>10.2f}  {same}")  # fmt: skip
+              f"{result['seconds']:>8.1f} {rate:>10.2f} {cpu:>11.1f}  {same}")  # fmt: skip
+    versions_order = ("after", "before")
     for stage, _ in stages:
         if (stage, "before") in rates:
-            after = statistics.median(rates[(stage, "after")])
-            before_rate = statistics.median(rates[(stage, "before")])
-            print(f"{stage}: after / before = {after / before_rate:.2f} (median trials/min "
-                  f"{after:.2f} vs {before_rate:.2f})")  # fmt: skip
+            after, before_rate = (statistics.median(rates[(stage, v)]) for v in versions_order)
+            cpu_after, cpu_before = (statistics.median(cpus[(stage, v)]) for v in versions_order)
+            print(f"{stage}: trials/min after / before = {after / before_rate:.2f} (medians "
+                  f"{after:.2f} vs {before_rate:.2f}); CPU s/trial {cpu_after:.1f} vs "
+                  f"{cpu_before:.1f}")  # fmt: skip
 
 
 def main() -> None:
