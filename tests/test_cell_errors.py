@@ -80,6 +80,7 @@ def test_thermal_drift_grows_with_time() -> None:
     np.testing.assert_allclose(dq[1:3], -np.array([1e-6, -2e-6]) * dt, rtol=0.05, atol=2e-8)
 
 
+@pytest.mark.slow
 def test_tools_seat_within_the_changers_repeatability() -> None:
     sigma_m = 5e-6
     tools = replace(ToolErrors.off(), changer_sigma_m=sigma_m)

@@ -72,6 +72,7 @@ def _robtarget(name: str, T: np.ndarray, conf: tuple[int, ...]) -> str:
 
 
 # -- the run's program on the nominal arm --------------------------------------------------------
+@pytest.mark.slow
 def test_execution_json_is_complete_and_consistent(folder: Path) -> None:
     execution = _json(folder / "execution.json")
     results = _json(folder / "results.json")
@@ -98,6 +99,7 @@ def test_execution_json_is_complete_and_consistent(folder: Path) -> None:
     assert all(execution["wall_time_s"][k] > 0 for k in ("plan", "cell", "execute", "total"))
 
 
+@pytest.mark.slow
 def test_the_executed_targets_are_the_run_s_true_targets(folder: Path) -> None:
     """The rebuilt cell is the run's: each true target where the run's evaluator had it (the
     table's per-move repeatability, 0.01 mm sigma, separates the two), and the program
@@ -118,6 +120,7 @@ def test_the_executed_targets_are_the_run_s_true_targets(folder: Path) -> None:
         assert t["registration_error_m"] == pytest.approx(gap, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_the_nominal_arm_misses_its_commanded_points_by_its_absolute_error(folder: Path) -> None:
     """The controller believes it put the TCP on each commanded point (its nominal FK of the
     encoders, within 0.1 mm: encoder noise of 1e-5 rad on a 1.3 m arm, and the servos), while
@@ -147,6 +150,7 @@ def test_the_nominal_arm_misses_its_commanded_points_by_its_absolute_error(folde
     assert apart_rms > 0.2e-3, (nominal_rms, calibrated_rms, apart_rms)
 
 
+@pytest.mark.slow
 def test_a_job_cell_runs_the_program_on_its_nominal_arm_whatever_its_option(folder: Path) -> None:
     """What a job can call at its end with the cell it built: its controller has the
     absolute-accuracy option set (here an arm 1 mm and 1 mrad off in every parameter), yet
@@ -319,6 +323,7 @@ def _cases(module: str) -> dict[str, tuple[str, str, str]]:
     }
 
 
+@pytest.mark.slow
 def test_bad_programs_are_refused_naming_the_line_before_any_motion(
     folder: Path,
     tmp_path: Path,
@@ -343,8 +348,10 @@ def test_bad_programs_are_refused_naming_the_line_before_any_motion(
 
 
 def test_a_folder_without_its_files_is_refused(
-    folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    short_skull_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """Any run's files, one left out: the session's short skull job (tests/conftest.py)."""
+    folder = short_skull_run
     for missing, kept in (("program.mod", "config.yaml"), ("config.yaml", "program.mod")):
         partial = tmp_path / f"without-{missing}"
         partial.mkdir()

@@ -89,6 +89,7 @@ def _view(tilt_deg: float, heading_deg: float) -> np.ndarray:
     return np.array([np.sin(t) * np.cos(h), np.sin(t) * np.sin(h), -np.cos(t)])
 
 
+@pytest.mark.slow
 def test_the_side_that_locates_the_targets_is_the_side_scanned() -> None:
     """A D-shaped cylinder with targets off its axis: its turn about the axis, which moves
     them, shows only on its flat side. The first pass the plan chooses sees the flat (its
@@ -109,6 +110,7 @@ def test_the_side_that_locates_the_targets_is_the_side_scanned() -> None:
         assert first[k] @ normals[1 - k] > -0.1, (k, first[k])  # not the other one's
 
 
+@pytest.mark.slow
 def test_a_target_no_pass_constrains_is_named_and_refused() -> None:
     """A sphere turns about its centre unseen by any scan (a fine icosphere: its facets tell
     the turn by hundredths of a millimetre, far below the laser's noise): a target on it
@@ -118,6 +120,7 @@ def test_a_target_no_pass_constrains_is_named_and_refused() -> None:
         _plan(sphere, np.array([[0.0, 0.0, 0.08]]), Scan(plan="auto", min_points=100))
 
 
+@pytest.mark.slow
 def test_a_goal_out_of_reach_is_scanned_short_of_it_when_the_match_accepts_that() -> None:
     """Asked for 0.05 mm on the D-cylinder, which its 0.2 mm of model error never allows: the
     plan adds passes while one still lowers the worst predicted TRE by 2 % (no candidate
