@@ -132,10 +132,9 @@ def _vertices(element: PlyElement, table: np.ndarray, column: str) -> Array:
     )
 
 
-def _truncated(p: Path, element: PlyElement, read: int) -> FormatError:
-    what = "vertices" if element.name == "vertex" else f"{element.name} elements"
+def _truncated(p: Path, vertex: PlyElement, read: int) -> FormatError:
     return FormatError(
-        f"{p}: its header declares {element.count} {what} but {read} were read (a truncated file?)"
+        f"{p}: its header declares {vertex.count} vertices but {read} were read (a truncated file?)"
     )
 
 
