@@ -101,12 +101,21 @@ def is_prepared_file(path: str | Path) -> bool:
     return Path(path).suffix.lower() == SUFFIX
 
 
-def save_prepared(shape: Shape, path: str | Path, source: ModelSource) -> Path:
-    """Prepare `shape` (a MeshModel or PointModel, in metres) if it is not yet, and write it
-    with what `prepare` built to `path` (which must end in .twm), atomically."""
+def check_target(path: str | Path) -> Path:
+    """`path` if a prepared model can be written there: its name ends in .twm, its folder
+    exists."""
     p = Path(path)
     if not is_prepared_file(p):
         raise InputError(f"a prepared model file must end in {SUFFIX}; got {p.name!r}")
+    if not p.parent.is_dir():
+        raise InputError(f"cannot write {p}: the folder {p.parent} does not exist")
+    return p
+
+
+def save_prepared(shape: Shape, path: str | Path, source: ModelSource) -> Path:
+    """Prepare `shape` (a MeshModel or PointModel, in metres) if it is not yet, and write it
+    with what `prepare` built to `path` (which must end in .twm), atomically."""
+    p = check_target(path)
     if not isinstance(shape, MeshModel | PointModel):
         raise InputError(
             f"only a mesh or a point model can be stored as a prepared model; got "

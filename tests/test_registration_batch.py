@@ -284,6 +284,21 @@ def test_a_wrong_or_old_prepared_model_is_refused(prepared, tmp_path, capsys) ->
     assert code == 2 and "was prepared from a model in m" in err, err
 
 
+def test_prepare_refuses_what_it_cannot_write(prepared, tmp_path, capsys) -> None:
+    model, twm = prepared
+    cases = {
+        "not .twm": ([str(model), "--out", str(tmp_path / "model.npz")], "must end in .twm"),
+        "no folder": ([str(model), "--out", str(tmp_path / "no" / "m.twm")], "does not exist"),
+        "a .twm": ([str(twm)], "already a prepared model"),
+        "no model": ([str(tmp_path / "nope.stl")], "model file not found"),
+    }
+    for label, (args, message) in cases.items():
+        code = main(["prepare", *args])
+        err = capsys.readouterr().err
+        assert code == 2 and message in err and err.count("\n") == 1, (label, err)
+    assert not list(tmp_path.iterdir())
+
+
 def test_a_batch_writes_one_line_per_scan_and_a_bad_scan_is_a_line(prepared, tmp_path, capsys):
     _, twm = prepared
     good = [str(DRAGON / "scan_stand072.ply"), str(DRAGON / "scan_stand288.ply")]

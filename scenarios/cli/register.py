@@ -32,6 +32,7 @@ from registration.io import load_targets
 from registration.matcher import Mode, is_mode
 from registration.prepared import (
     ModelSource,
+    check_target,
     is_prepared_file,
     load_prepared,
     read_source,
@@ -175,8 +176,8 @@ def prepare_file(model_path: str, out: str | None, units: str) -> tuple[Path, Sh
     model, with the suffix .twm)."""
     if is_prepared_file(model_path):
         raise InputError(f"{model_path} is already a prepared model; give the model file")
+    target = check_target(out if out is not None else Path(model_path).with_suffix(".twm"))
     shape = load_model(model_path, units)
-    target = Path(out) if out is not None else Path(model_path).with_suffix(".twm")
     written = save_prepared(shape, target, ModelSource.of(model_path, units))
     return written, shape
 
