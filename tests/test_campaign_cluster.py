@@ -16,6 +16,9 @@ from dask.distributed import Client, LocalCluster, get_task_stream
 from scenarios.campaign import campaign_trials, plan_campaign, run_campaign, run_trial
 from scenarios.campaign.store import read_csv
 
+#: Each test starts a local Dask cluster of two worker processes.
+pytestmark = pytest.mark.slow
+
 TIMING = ("match_seconds", "trial_seconds")
 
 
@@ -60,7 +63,6 @@ def _holders(dask_scheduler: Any, prefix: str) -> list[str]:
     ]
 
 
-@pytest.mark.slow
 def test_a_dask_worker_killed_mid_trial_loses_no_row_and_counts_none_twice(
     tmp_path: Path,
 ) -> None:

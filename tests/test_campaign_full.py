@@ -9,6 +9,9 @@ import pytest
 from models.registry import builtin_model
 from scenarios.campaign import plan_campaign, run_campaign
 
+#: A short skull job a trial, three in all.
+pytestmark = pytest.mark.slow
+
 SHORT = "name: skull\nlocalization:\n  scan: {speed_m_s: 0.25, period_s: 0.02}\n"
 
 
@@ -35,7 +38,6 @@ def test_one_full_skull_trial(tmp_path: Path) -> None:
     assert not list((tmp_path / "campaign").rglob("*.rrd"))
 
 
-@pytest.mark.slow
 def test_a_fault_campaign_reports_each_fault(tmp_path: Path) -> None:
     """`--vary faults=NAME,...`: each trial injects one fault; the rows carry its outcome and
     the stage that detected it, and the report counts them per fault. Ground truth: the

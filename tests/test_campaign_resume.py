@@ -11,9 +11,13 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from scenarios.campaign import plan_campaign, run_campaign
 
 TRIALS = 10
+#: A campaign in a process of its own, killed, then run to its end.
+pytestmark = pytest.mark.slow
 
 
 def test_kill_and_restart_gives_exactly_one_row_per_trial(tmp_path: Path) -> None:

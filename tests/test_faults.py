@@ -115,6 +115,7 @@ def test_the_tcp_check_measures_the_seat(seat_m: float):
     assert check.ok == (seat_m == 0.0)
 
 
+@pytest.mark.slow
 def test_a_tool_seated_off_goes_back_into_its_slot():
     """Seated 3.5 mm off (beyond the rack's 3 mm capture), the tool is put back where the
     TCP check measured it: it meets its slot and the changer lets it go; put back as its

@@ -15,6 +15,9 @@ from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import object_models
 
+#: Each test meshes simulated CT volumes of the phantom; two of them run the job on the mesh.
+pytestmark = pytest.mark.slow
+
 SHORT_CT = """seed: 3
 model: {source: ct}
 localization:
@@ -43,7 +46,6 @@ def test_ct_model_error_is_the_scanners(tmp_path: Path) -> None:
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
-@pytest.mark.slow
 def test_skull_job_with_a_ct_model_meets_its_goals(tmp_path: Path) -> None:
     config = tmp_path / "ct.yaml"
     config.write_text(SHORT_CT)
@@ -57,7 +59,6 @@ def test_skull_job_with_a_ct_model_meets_its_goals(tmp_path: Path) -> None:
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
-@pytest.mark.slow
 def test_skull_job_on_a_users_ct_volume_and_plan(tmp_path: Path) -> None:
     """A CT volume (NIfTI, RAS) and a plan made on it (RAS, mm) as the job's object and
     targets: the bone is meshed, the plan lands on it, the job runs within its goals."""
