@@ -63,11 +63,11 @@ def real_objects() -> tuple[RealObject, ...]:
     return (load_real("dragon"), load_real("happy"))
 
 
-
 # -- one job that several files inspect, run once per session ------------------------------------
 #: The short skull job of tests/test_scenarios_run.py (its folder, results and exports),
-#: tests/test_recording.py (its recording) and tests/test_scan_plan.py (its chosen passes):
-#: seed 11, the passes chosen in the virtual cell for the targets, 20 ms lines.
+#: tests/test_recording.py (its recording), tests/test_scan_plan.py (its chosen passes) and
+#: tests/test_execute.py (a run folder): seed 11, the passes chosen in the virtual cell for
+#: the targets, 20 ms lines.
 SHORT_SKULL = """seed: 11
 localization:
   scan: {speed_m_s: 0.25, period_s: 0.02, plan: auto}
