@@ -1,0 +1,95 @@
+"""Every benchmark runs: each script in bench/ in its short mode (`--short`), in a fresh
+process as a user runs it, exits 0 and prints its table's header. The README's benchmarks
+are all among them, and a script added to bench/ without a short run here fails."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from scenarios.jobs.tables import ASSEMBLY_HEADER
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parent.parent
+BENCH = ROOT / "bench"
+
+#: Each script, whether its short mode takes an output folder (--out), and its tables'
+#: headers: each the words that one line of its output must hold.
+SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]]] = {
+    "bench_campaign.py": (
+        False,
+        (
+            ("backend", "workers", "trials", "wall [s]", "trials/s", "same rows"),
+            ("stage", "version", "repeat", "trials", "seconds", "trials/min"),
+        ),
+    ),
+    "bench_cell.py": (False, (("measure", "ours", "peer", "ours / peer"),)),
+    "bench_ct.py": (True, (("seconds", "peak GB", "faces", "watertight"),)),
+    "bench_recording.py": (
+        True,
+        (("seed", "with run.rrd", "without", "ratio", "run.rrd [MB]", "chunks"),),
+    ),
+    "bench_register_cli.py": (False, (("input", "form", "wall s", "match s"),)),
+    "bench_registration.py": (
+        False,
+        (
+            ("method", "right", "accepted", "false acc.", "median s"),
+            ("method", "median ms", "right", "rms mm"),
+            ("method", "queries/s"),
+        ),
+    ),
+    "bench_scan_plan.py": (
+        False,
+        (("job", "plan", "passes", "cell time [s]", "worst TRE [mm]", "planner [s]"),),
+    ),
+    "bench_skull.py": (
+        True,
+        (
+            ("stage", "rerun on", "rerun off"),
+            ("points used", "seconds", "verdict", "pose error [deg, mm]"),
+            ("seed", "status", "ambiguity", "RMS", "max", "goal"),
+        ),
+    ),
+    "readme_tables.py": (False, ((ASSEMBLY_HEADER.splitlines()[0],),)),
+    "viewer_check.py": (True, (("moment", "view", "colour", "pixels"),)),
+}
+
+
+def _holds(output: str, words: tuple[str, ...]) -> bool:
+    return any(all(w in line for w in words) for line in output.splitlines())
+
+
+def test_every_script_has_a_short_run() -> None:
+    scripts = {p.name for p in BENCH.glob("*.py")}
+    assert scripts == set(SHORT_RUNS), "give each script in bench/ a --short run here"
+
+
+def test_the_readme_names_only_these_scripts() -> None:
+    named = set(re.findall(r"bench/(\w+\.py)", (ROOT / "README.md").read_text()))
+    assert named, "the README names no benchmark"
+    assert named <= set(SHORT_RUNS), named - set(SHORT_RUNS)
+
+
+@pytest.mark.parametrize("script", sorted(SHORT_RUNS))
+def test_short_run(script: str, tmp_path: Path) -> None:
+    takes_out, headers = SHORT_RUNS[script]
+    if script == "viewer_check.py" and shutil.which("Xvfb") is None:
+        pytest.skip("no Xvfb: the rerun viewer needs a virtual display server on this machine")
+    command = [sys.executable, str(BENCH / script), "--short"]
+    command += ["--out", str(tmp_path / "out")] if takes_out else []
+    # Wide enough that rich's tables keep each header on one line; the scripts' temporary
+    # folders in the test's own.
+    env = {**os.environ, "COLUMNS": "240", "TMPDIR": str(tmp_path)}
+    done = subprocess.run(
+        command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=1800
+    )
+    assert done.returncode == 0, f"{script} --short exited {done.returncode}:\n{done.stderr}"
+    for words in headers:
+        assert _holds(done.stdout, words), f"{script}: no line holds {words}:\n{done.stdout}"
