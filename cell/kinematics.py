@@ -7,6 +7,7 @@ example-robot-data in the tests). Configurations `q` are (nq,) arrays [rad or m]
 
 from __future__ import annotations
 
+import math
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -190,14 +191,17 @@ class Kinematics:
             raise UnreachableTargetError(
                 f"a target pose must be a finite (4, 4) array, got {T_target}"
             )
-        T_tip_target = T_target if T_tip_tcp is None else T_target @ np.linalg.inv(T_tip_tcp)
+        T_tip_target = T_target if T_tip_tcp is None else T_target @ _inverse(T_tip_tcp)
         oMdes = pin.SE3(T_tip_target[:3, :3], T_tip_target[:3, 3])
-        rng = rng if rng is not None else np.random.default_rng(0)
         seed = np.clip(np.asarray(q_seed, dtype=float).reshape(self.nq), self.lower, self.upper)
         best: tuple[float, np.ndarray, float, float] | None = None
         total_iterations = 0
         for attempt in range(extra_seeds + 1):
-            q0 = seed if attempt == 0 else self.random_configuration(rng)
+            if attempt == 0:
+                q0 = seed
+            else:  # the random seeds' generator, made only when the first seed failed
+                rng = rng if rng is not None else np.random.default_rng(0)
+                q0 = self.random_configuration(rng)
             q, dp, dr, it = self._dls(oMdes, q0, tol_position_m, tol_rotation_rad, max_iterations)
             total_iterations += it
             score = dp + 0.1 * dr
@@ -228,27 +232,28 @@ class Kinematics:
     ) -> tuple[np.ndarray, float, float, int]:
         model, data, fid = self.model, self.data, self._tip_id
         lower, upper = self.lower, self.upper
-        eye6 = np.eye(6)
-        q = q.copy()
+        local = pin.ReferenceFrame.LOCAL
         dp = dr = np.inf
         history: list[float] = []
         for it in range(1, max_iterations + 1):
             pin.framesForwardKinematics(model, data, q)
             iMd = data.oMf[fid].actInv(oMdes)
             err = pin.log6(iMd).vector
-            dp = float(np.linalg.norm(iMd.translation))
-            dr = float(np.linalg.norm(err[3:]))
+            dp = math.sqrt(float(iMd.translation @ iMd.translation))
+            dr = math.sqrt(float(err[3:] @ err[3:]))
             if dp <= tol_p and dr <= tol_r:
                 return q, dp, dr, it
             # Stalled (typically pinned on a joint limit): give this seed up.
             history.append(dp + dr)
             if it > 15 and history[-1] > 0.5 * history[-6] and history[-1] > 1e-4:
                 return q, dp, dr, it
-            J = pin.computeFrameJacobian(model, data, q, fid, pin.ReferenceFrame.LOCAL)
-            J = -pin.Jlog6(iMd.inverse()) @ J
-            damping = 1e-10 + 1e-3 * float(err @ err)
-            v = -J.T @ np.linalg.solve(J @ J.T + damping * eye6, err)
-            step = float(np.linalg.norm(v))
+            # The frame placements are those of q (just computed): the Jacobian needs no FK.
+            pin.computeJointJacobians(model, data)
+            J = -pin.Jlog6(iMd.inverse()) @ pin.getFrameJacobian(model, data, fid, local)
+            A = J @ J.T
+            A.flat[::7] += 1e-10 + 1e-3 * float(err @ err)
+            v = -J.T @ np.linalg.solve(A, err)
+            step = math.sqrt(float(v @ v))
             if step > 0.5:
                 v *= 0.5 / step
             q = np.clip(pin.integrate(model, q, v), lower, upper)
@@ -277,6 +282,15 @@ class Kinematics:
     ) -> bool:
         """Whether an IK solution within the joint limits exists for the TCP at the target."""
         return self.ik(T_base_target, q_seed, T_tip_tcp).success
+
+
+def _inverse(T: np.ndarray) -> np.ndarray:
+    """The inverse of a rigid transform (4, 4)."""
+    T = np.asarray(T, dtype=float)
+    out = np.eye(4)
+    out[:3, :3] = T[:3, :3].T
+    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return out
 
 
 #: Gravity [m/s^2] in the base frame (z up).

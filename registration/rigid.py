@@ -62,9 +62,44 @@ def quat_wxyz_to_R(q: Array) -> Array:
 
 
 def R_to_quat_wxyz(R: Array) -> Array:
-    """Scalar-first unit quaternion (w, x, y, z) (4,) of a rotation (3, 3), with w >= 0."""
-    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
+    """Scalar-first unit quaternion (w, x, y, z) (4,) of a rotation (3, 3), with w >= 0.
+
+    Shepperd's method, branching on the largest of the trace and the diagonal (the
+    numerically safe one); a hot path (every placement of the virtual cell's tool), where
+    scipy's general-purpose Rotation costs ten times as much."""
+    R = np.asarray(R, dtype=float)
+    m00, m11, m22 = R[0, 0], R[1, 1], R[2, 2]
+    trace = m00 + m11 + m22
+    k = int(np.argmax((trace, m00, m11, m22)))
+    if k == 0:
+        w = 0.5 * np.sqrt(1.0 + trace)
+        f = 0.25 / w
+        q = np.array([w, (R[2, 1] - R[1, 2]) * f, (R[0, 2] - R[2, 0]) * f, (R[1, 0] - R[0, 1]) * f])
+    elif k == 1:
+        x = 0.5 * np.sqrt(1.0 + m00 - m11 - m22)
+        f = 0.25 / x
+        q = np.array([(R[2, 1] - R[1, 2]) * f, x, (R[0, 1] + R[1, 0]) * f, (R[0, 2] + R[2, 0]) * f])
+    elif k == 2:
+        y = 0.5 * np.sqrt(1.0 - m00 + m11 - m22)
+        f = 0.25 / y
+        q = np.array([(R[0, 2] - R[2, 0]) * f, (R[0, 1] + R[1, 0]) * f, y, (R[1, 2] + R[2, 1]) * f])
+    else:
+        z = 0.5 * np.sqrt(1.0 - m00 - m11 + m22)
+        f = 0.25 / z
+        q = np.array([(R[1, 0] - R[0, 1]) * f, (R[0, 2] + R[2, 0]) * f, (R[1, 2] + R[2, 1]) * f, z])
+    q /= np.linalg.norm(q)
     return q if q[0] >= 0 else -q
+
+
+def rotvec_to_R(rotvec: Array) -> Array:
+    """Rotation (3, 3) of a rotation vector (3,) [rad] (Rodrigues' formula; the identity
+    for a zero vector)."""
+    v = np.asarray(rotvec, dtype=float)
+    angle = float(np.sqrt(v @ v))
+    if angle < 1e-12:
+        return np.eye(3) + skew(v)
+    K = skew(v / angle)
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
 
 
 def exp_se3(xi: Array) -> Array:

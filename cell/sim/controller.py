@@ -171,11 +171,7 @@ class SimController(Controller):
         sim = self._sim
         every = max(1, round(period_s / sim.dt))
         q, qd = self._linear_setpoints(T_base_tcp, speed_m_s, 1.0)
-        readings = []
-        for start in range(0, len(q), every):
-            chunk = slice(start, start + every)
-            self._run(q[chunk], qd[chunk], new_move=start == 0, before=q[:start])
-            readings.append(read())
+        readings = self._run(q, qd, read, every)
         sim.settle(settle_s)
         return readings
 
@@ -205,16 +201,16 @@ class SimController(Controller):
         self,
         q: np.ndarray,
         qd: np.ndarray,
-        new_move: bool = True,
-        before: np.ndarray | None = None,
-    ) -> None:
-        """Run motor set-points (K, 6) under motion supervision, `before` (J, 6) the
-        set-points of the same move already run: a stop holds the arm, backs it off along
-        the path it came and raises SupervisionError."""
+        read: Callable[[], Reading] | None = None,
+        every: int = 1,
+    ) -> list[Reading]:
+        """Run motor set-points (K, 6) under motion supervision, `read()` after every
+        `every` steps (and the last) if given: a stop holds the arm, backs it off along the
+        path it came and raises SupervisionError."""
         try:
-            self._drives.run(q, qd, new_move=new_move)
+            return self._drives.run(q, qd, read=read, every=every)
         except MotionStoppedError as stop:
-            done = q[: stop.steps] if before is None else np.vstack([before, q[: stop.steps]])
+            done = q[: stop.steps]
             back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
             self._supervising = False
             try:

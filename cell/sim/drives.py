@@ -14,6 +14,7 @@ none of it.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -21,6 +22,8 @@ import pinocchio as pin
 from cell.kinematics import Kinematics, payload_model
 from cell.sim.config import DriveErrors
 from cell.sim.simulation import MotionStoppedError, Simulation
+
+Reading = TypeVar("Reading")
 
 #: The gravity torques are computed every this many set-points of a move and interpolated.
 _EVERY = 10
@@ -85,25 +88,40 @@ class Drives:
         return np.stack([np.interp(rows, at, sampled[:, j]) for j in range(6)], axis=1)
 
     # -- commands ---------------------------------------------------------------------------
-    def run(self, q: np.ndarray, qd: np.ndarray, new_move: bool = True) -> None:
+    def run(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        read: Callable[[], Reading] | None = None,
+        every: int = 1,
+    ) -> list[Reading]:
         """Run motor set-points `q` (K, 6) [rad] and velocities `qd` (K, 6) [rad/s], one
-        per physics step; the links' servos get them less the offsets. `new_move`: the start
-        of a move (a part of one, e.g. between laser readings, keeps the move's spread)."""
+        per physics step, as one move (its own repeatability draw); the links' servos get them
+        less the offsets. `read()`, if given, is called
+        after every `every` steps and after the last; its readings are returned."""
         q = np.asarray(q, dtype=float)
         if not len(q):
-            return
+            return []
         moved = q[-1] - self.motor
         turned = np.abs(moved) >= _MOVED_RAD
         self.direction = np.where(turned, np.sign(moved), self.direction)
-        if new_move and self.errors.repeat_sigma_rad > 0.0:
+        if self.errors.repeat_sigma_rad > 0.0:
             self.jitter = self._rng.normal(0.0, self.errors.repeat_sigma_rad, 6)
         sim = self.sim
-        try:
-            sim.run(sim.arm_act, q - self.offsets(q) + sim.arm_ff * qd)
-        except MotionStoppedError as stop:  # the motors stand at the last set-point they were given
-            self.motor = q[stop.steps - 1].copy()
-            raise
-        self.motor = q[-1].copy()
+        setpoints = q - self.offsets(q) + sim.arm_ff * qd
+        step = every if read is not None else len(q)
+        readings = []
+        for start in range(0, len(q), step):
+            end = min(start + step, len(q))
+            try:
+                sim.run(sim.arm_act, setpoints[start:end])
+            except MotionStoppedError as stop:  # the motors stand at the last set-point given
+                self.motor = q[start + stop.steps - 1].copy()
+                raise MotionStoppedError(str(stop), start + stop.steps) from None
+            self.motor = q[end - 1].copy()
+            if read is not None:
+                readings.append(read())
+        return readings
 
     def hold(self) -> None:
         """Hold the motors at their set-point (after the payload or the time changed)."""

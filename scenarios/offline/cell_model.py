@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
-from scipy.spatial.transform import Rotation
 
 from cell import Kinematics, nominal_T_base_table
 from cell.kinematics import IKResult, payload_model
 from models.robot import LASER, TABLE_TRAVEL
+from registration.rigid import rotvec_to_R
 
 #: The table model's terms per component: linear and quadratic in u = s / half the travel.
 TABLE_COMPONENTS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
@@ -105,7 +105,7 @@ class TableModel:
         u = (s - (lo + hi) / 2.0) / ((hi - lo) / 2.0)
         d = self.coefficients @ np.array([u, u * u - 1.0 / 3.0])
         T = np.eye(4)
-        T[:3, :3] = Rotation.from_rotvec(d[3:]).as_matrix()
+        T[:3, :3] = rotvec_to_R(d[3:])
         T[:3, 3] = d[:3]
         return T
 
