@@ -91,6 +91,20 @@ def R_to_quat_wxyz(R: Array) -> Array:
     return q if q[0] >= 0 else -q
 
 
+def rotvecs_to_R(rotvecs: Array) -> Array:
+    """Rotations (N, 3, 3) of rotation vectors (N, 3) [rad] (Rodrigues' formula)."""
+    v = np.asarray(rotvecs, dtype=float).reshape(-1, 3)
+    angle = np.linalg.norm(v, axis=1)
+    small = angle < 1e-12
+    safe = np.where(small, 1.0, angle)
+    K = skew(v / safe[:, None])
+    sin = np.where(small, 0.0, np.sin(angle))[:, None, None]
+    cos = np.where(small, 0.0, 1.0 - np.cos(angle))[:, None, None]
+    R = np.eye(3) + sin * K + cos * (K @ K)
+    R[small] = np.eye(3) + skew(v[small])
+    return R
+
+
 def rotvec_to_R(rotvec: Array) -> Array:
     """Rotation (3, 3) of a rotation vector (3,) [rad] (Rodrigues' formula; the identity
     for a zero vector)."""

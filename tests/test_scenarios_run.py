@@ -4,6 +4,7 @@ the RAPID program, the PLY scan and the rerun recording (checked with `rerun rrd
 from __future__ import annotations
 
 import json
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -14,8 +15,10 @@ import yaml
 
 from cell import FixedMesh
 from cell.sim import make_cell
+from models import cache
 from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import object_models
+from scenarios.offline import plan_cache
 from scenarios.outputs.files import read_ply
 from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.placement import draw_true_pose
@@ -61,6 +64,18 @@ def test_results_json_has_the_keys_and_consistent_numbers(folder: Path) -> None:
     timings = results["timings_s"]
     assert all(timings[k] > 0 for k in ("scan", "register", "execute", "total"))
     assert np.asarray(read_ply(folder / "scan.ply")).shape == (results["scan_points"], 3)
+
+
+def test_the_scan_plan_is_the_one_cached_under_the_key_results_json_names(folder: Path) -> None:
+    results = json.loads((folder / "results.json").read_text())
+    key = results["plan_cache"]
+    if not cache.enabled():
+        assert key is None
+        return
+    stored = pickle.loads((plan_cache.folder() / f"{key}.pickle").read_bytes())
+    chosen = [c["name"] for c in results["scan_plan"]["chosen"]]
+    assert [c.name for c in stored.chosen] == chosen
+    assert np.array_equal(stored.predicted_tre_m, results["scan_plan"]["predicted_tre_m"])
 
 
 def test_results_json_reads_back_typed_as_written(folder: Path, tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ import numpy as np
 from cell import nominal_T_base_table
 from cell.errors import CellConfigError
 from cell.robots import Robot, make_robot
+from models.cache import enabled as cache_enabled
 from models.model import ObjectModel
 from models.registry import real_model
 from scenarios.errors import ScenarioError
@@ -28,13 +29,14 @@ from scenarios.offline.operations import (
     virtual_model,
 )
 from scenarios.offline.placement import nominal_pose
+from scenarios.offline.plan_cache import cached_plan, plan_key
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import PlanningSettings
 from scenarios.realcell.ct import ct_virtual_model
 from scenarios.realcell.setup import model_error
-from scenarios.stages.scan import job_scan_plan
+from scenarios.stages.scan import job_scan_plan, plan_summary
 
 Progress = Callable[[str], None]
 
@@ -89,7 +91,8 @@ def job_robot(section: RobotSection) -> Robot:
 class JobPlan:
     """What a job is before its real cell is built: its planning settings, its arm, the
     user's program (if any), the virtual model and the real entity (the truth: for the real
-    cell's set-up only), the nominal pose T_table_object (4, 4), and the scan plan."""
+    cell's set-up only), the nominal pose T_table_object (4, 4), the scan plan, and the
+    key it was cached under (None: the cache is off, or the job does not scan)."""
 
     settings: PlanningSettings
     robot: Robot
@@ -98,6 +101,7 @@ class JobPlan:
     real: ObjectModel
     T_table_nominal: np.ndarray
     scan_plan: ScanPlan | None
+    plan_cache: str | None = None
 
 
 def plan_job(config: JobConfig, say: Progress) -> JobPlan:
@@ -145,13 +149,19 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
         f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
         "the operations in the virtual cell"
     )
-    scan_plan = None
+    scan_plan = plan_cache = None
     if "surface" in config.localization.methods:
         # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
         # before the real one moves: a target no pass constrains refuses the job here.
-        scan_plan = job_scan_plan(
-            robot, settings, virtual, T_table_nominal,
-            np.array([op.T_object_touch[:3, 3] for op in operations]), say,
-            tuple(op.name for op in operations),
-        )  # fmt: skip
-    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan)
+        targets = np.array([op.T_object_touch[:3, 3] for op in operations])
+        names = tuple(op.name for op in operations)
+        key = plan_key(robot, settings, virtual, T_table_nominal, targets, names)
+        scan_plan, stored = cached_plan(
+            key,
+            lambda: job_scan_plan(robot, settings, virtual, T_table_nominal, targets, say, names),
+        )
+        if stored:
+            say(f"scan plan: this virtual cell's plan, from the cache ({key})")
+            say(plan_summary(scan_plan))
+        plan_cache = key if cache_enabled() else None
+    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan, plan_cache)

@@ -119,6 +119,7 @@ def finish_job(
         if plan.scan_plan is None
         else plan.scan_plan.summary(None if state.scanned is None else state.scanned.scan_time_s),
         model_cache=used_key(config.cell.object.model, config.seed),
+        plan_cache=plan.plan_cache,
     )
     if config.output.plots:
         _figures(config, plan, job.folder, result, state)
@@ -286,9 +287,7 @@ def method_report(
     )
 
 
-def target_points(
-    virtual: ObjectModel, targets: tuple[TargetEvaluation, ...]
-) -> np.ndarray | None:
+def target_points(virtual: ObjectModel, targets: tuple[TargetEvaluation, ...]) -> np.ndarray | None:
     """The virtual targets (K, 3) [m] (model frame) of evaluated `targets`, by name, or None
     if a target is not one of the model's burr holes (a user's program)."""
     holes = {h.name: h.p_entry for h in virtual.burr_holes}

@@ -293,9 +293,7 @@ class CalibrationResult:
             table_positions=self.table_positions,
             iterations=self.iterations,
             groups=tuple(self.groups),
-            deviations={
-                n: float(v) for n, v in zip(self.parameters, self.deviations, strict=True)
-            },
+            deviations={n: float(v) for n, v in zip(self.parameters, self.deviations, strict=True)},
             stiffness_nm_rad=tuple(float(v) for v in self.stiffness_nm_rad),
             laser_mount_m=tuple(float(v) for v in self.laser_mount[:3]),
             laser_mount_rad=tuple(float(v) for v in self.laser_mount[3:]),
@@ -583,6 +581,7 @@ class _Model:
 
     def __init__(self, m: SphereMeasurements, robot: Robot, layout: _Layout) -> None:
         self.m, self.robot, self.layout = m, robot, layout
+        self._arms: dict[bytes, Kinematics] = {}
         nominal = robot.kinematics()
         loaded = payload_model(nominal, LASER.name)
         bare = payload_model(nominal, None)
@@ -592,11 +591,21 @@ class _Model:
         )
         self.g_lock = np.asarray(pin.computeGeneralizedGravity(bare, data_b, m.q_lock))
 
+    def _kinematics(self, dev: np.ndarray) -> Kinematics:
+        """The arm with deviations `dev`, built once per distinct vector (a Jacobian's
+        columns other than the arm's own reuse the current arm)."""
+        key = np.asarray(dev, dtype=float).tobytes()
+        if key not in self._arms:
+            if len(self._arms) > 32:
+                self._arms.clear()
+            self._arms[key] = self.robot.kinematics(dev)
+        return self._arms[key]
+
     def points(self, theta: np.ndarray) -> np.ndarray:
         """(N, 3) the measured points in the base frame [m]."""
         m = self.m
         dev, compliance, mount, scale, _ = self.layout.unpack(theta)
-        kin = self.robot.kinematics(dev)
+        kin = self._kinematics(dev)
         c6 = np.zeros(6)
         c6[1:3] = compliance
         q_lock = m.q_lock - c6 * self.g_lock
@@ -611,7 +620,7 @@ class _Model:
         """(L, 4, 4) the table frame at each line's table position (its station's)."""
         table = TableModel(self.layout.unpack(theta)[4])
         offsets = self.layout.station_offsets(theta)
-        out = np.array([table.T_base_table(s) for s in self.m.table_lines])
+        out = table.T_base_tables(self.m.table_lines)
         out[:, :3, 3] += np.einsum("lij,lj->li", out[:, :3, :3], offsets[self.m.station_lines])
         return out
 

@@ -186,7 +186,9 @@ class RunResult:
             what the controller's supervision and the stages' checks saw, in order.
         scan_plan: the scan's plan, None without a scan.
         model_cache: the key of the built model read from (or written to) the disk cache
-            (models.cache), or None (not a cached model, or the cache turned off).
+            (models.cache), or None (not a cached model, or the cache turned off);
+            plan_cache: the key of the scan plan read from (or written to) it
+            (scenarios.offline.plan_cache), or None (no scan, or the cache turned off).
         seconds: the run's wall time [s], set by the runner (None before).
     """
 
@@ -214,6 +216,7 @@ class RunResult:
     supervision: tuple[SupervisionEvent, ...] = ()
     scan_plan: ScanPlanSummary | None = None
     model_cache: str | None = None
+    plan_cache: str | None = None
     seconds: float | None = None
     schema_version: int = field(default=SCHEMA_VERSION)
 
@@ -278,6 +281,7 @@ class RunResult:
             "supervision": [e.to_json() for e in self.supervision],
             "scan_plan": None if self.scan_plan is None else self.scan_plan.to_json(),
             "model_cache": self.model_cache,
+            "plan_cache": self.plan_cache,
             "seconds": self.seconds,
         }
 
@@ -345,6 +349,7 @@ class RunResult:
             supervision=tuple(SupervisionEvent.from_json(e) for e in data["supervision"]),
             scan_plan=None if plan is None else ScanPlanSummary.from_json(plan),
             model_cache=data["model_cache"],
+            plan_cache=data.get("plan_cache"),
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),
         )

@@ -125,11 +125,16 @@ def job_scan_plan(
         targets_model, say=say, unambiguous=unambiguous, target_names=target_names,
         acceptable_tre_m=registration.max_predicted_tre_m,
     )  # fmt: skip
-    say(
+    say(plan_summary(plan))
+    return plan
+
+
+def plan_summary(plan: ScanPlan) -> str:
+    """The scan plan in one line: its mode, passes, time and worst predicted TRE."""
+    return (
         f"scan plan ({plan.mode}): {len(plan.passes)} passes, about {plan.predicted_time_s:.0f} s"
         f", worst predicted TRE {plan.predicted_tre_max_m * 1e3:.3f} mm"
     )
-    return plan
 
 
 @dataclass(frozen=True)
