@@ -19,7 +19,8 @@
    after's (timings aside). Both read and fill the user's model cache as they find it (the
    before of 67e7472 has none); --no-cache turns it off for both.
 
---short: 2 register trials per backend, 2 trials per stage and version, one repeat; a
+--short: 2 register trials per backend, 2 register-stage trials and 1 full-stage trial per
+version, one repeat; a
 --before commit missing from this clone (a shallow one) is noted and its rows left out.
 """
 
@@ -200,14 +201,14 @@ def main() -> None:
     parser.add_argument("--after", default=None, help="default: this checkout as it is")
     parser.add_argument("--only", choices=("backends", "versions"), default=None)
     parser.add_argument("--no-cache", action="store_true", help="TWINCELL_NO_CACHE=1 for both")
-    parser.add_argument("--short", action="store_true", help="2 trials of each, one repeat")
+    parser.add_argument("--short", action="store_true", help="the fewest trials, one repeat")
     parser.add_argument("--child", nargs=3, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         child(args.child[0], int(args.child[1]), Path(args.child[2]))
         return
     if args.short:
-        args.trials, args.full_trials, args.repeats = 2, 2, 1
+        args.trials, args.full_trials, args.repeats = 2, 1, 1
     if args.only in (None, "backends"):
         backends_table(args.trials)
     if args.only is None:

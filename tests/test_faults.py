@@ -26,9 +26,7 @@ from scenarios.results.run import RunResult
 GOAL_MAX_M = 1.0e-3
 
 
-def _run(
-    tmp_path: Path, faults: dict[str, Any], calibrate: bool = True, **sets: Any
-) -> RunResult:
+def _run(tmp_path: Path, faults: dict[str, Any], calibrate: bool = True, **sets: Any) -> RunResult:
     overrides = {"output.plots": False, "calibration.enabled": calibrate, **sets}
     overrides |= {f"faults.{name}": value for name, value in faults.items()}
     folder, _ = run_job("skull", seed=3, out=tmp_path, overrides=overrides,

@@ -253,7 +253,9 @@ class SimController(Controller):
             qs = np.empty((n + 1, 6))
             qs[0] = q0
             for k, T in enumerate(straight_path(T0, T_base_tcp, s)):
-                r = kin.ik(T, qs[k], T_tcp, extra_seeds=0)
+                # Seeded where the joints were heading: one Newton step from there, not two.
+                seed = qs[k] if k == 0 else 2.0 * qs[k] - qs[k - 1]
+                r = kin.ik(T, seed, T_tcp, extra_seeds=0)
                 if not r.success or np.max(np.abs(r.q - qs[k])) > 0.5:
                     p = T[:3, 3]
                     raise UnreachableTargetError(
