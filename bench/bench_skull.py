@@ -1,24 +1,35 @@
-"""Benchmark of the skull job: where the time goes, and accuracy over seeds.
+"""Benchmark of the skull job: where the time goes, before and after, and accuracy over seeds.
 
-    python bench/bench_skull.py [--seeds 5] [--out /tmp/twincell_bench_runs] [--short]
+    python bench/bench_skull.py [--seeds 5] [--repeats 3] [--before 70a6fa0]
+                                [--out /tmp/twincell_bench_runs] [--short]
 
-Prints three tables:
-1. the whole `twincell run skull` command (a fresh process, rerun on) and the job's stages,
-   with the recording on and off (same seed);
-2. matching one scan with the job's thinning (3 mm voxels, 6000 points) against matching
+Prints four tables:
+1. the whole `twincell run skull` command (a fresh process, the recording on), before (the
+   code at --before, exported with `git archive`, first on the process's PYTHONPATH) and
+   after (this checkout), each with an empty cache (the first run on a fresh machine: the
+   phantom built, the scan planned) and with the cache it filled (a run again); the median
+   of --repeats, the versions alternating;
+2. the job's stages, with the recording on and off (same seed);
+3. matching one scan with the job's thinning (3 mm voxels, 6000 points) against matching
    every scan point (the peer), same data: time, pose and target errors;
-3. target errors against the goals (RMS <= 0.5 mm, max <= 1 mm) for several seeds.
+4. target errors against the goals (RMS <= 0.5 mm, max <= 1 mm) for several seeds.
 
-Seed 0 without the recording runs once and serves all three. --short: seed 0 alone, with
-the recording only (one run of the skull job; bench_recording.py compares on and off).
+Seed 0 without the recording runs once and serves tables 3 and 4. --short: this checkout's
+command once, with an empty cache, serving every table (the recording on only;
+bench_recording.py compares on and off).
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import json
+import os
+import statistics
 import subprocess
 import sys
+import tarfile
+import tempfile
 import time
 from pathlib import Path
 
@@ -37,35 +48,102 @@ from scenarios.outputs.files import read_ply
 from scenarios.realcell.placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("cell", "models", "registration", "scenarios")
+#: The code before the fast-feedback work (the main job's speed, the plan cache).
+BEFORE = "70a6fa0"
 
-def _cli_run(out: Path, seed: int) -> tuple[float, dict]:
-    exe = Path(sys.executable).with_name("twincell")
+
+def _cli_run(
+    out: Path, seed: int, code: Path | None = None, cache: Path | None = None
+) -> tuple[float, dict]:
+    """`twincell run skull` in a fresh process: wall time [s] and results.json. `code`: a
+    version's packages, first on the PYTHONPATH; `cache`: the cache folder."""
+    env = dict(os.environ)
+    if code is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(code), *filter(None, [env.get("PYTHONPATH")])])
+    if cache is not None:
+        env["TWINCELL_CACHE_DIR"] = str(cache)
+    command = [sys.executable, "-c", "from scenarios.cli import main; main()"]
     t0 = time.perf_counter()
-    subprocess.run(
-        [str(exe), "run", "skull", "--seed", str(seed), "--out", str(out), "--quiet"],
-        check=False,
-        capture_output=True,
-    )
+    done = subprocess.run(
+        [*command, "run", "skull", "--seed", str(seed), "--out", str(out), "--quiet"],
+        check=False, capture_output=True, env=env, cwd=out.parent, text=True,
+    )  # fmt: skip
     wall = time.perf_counter() - t0
-    results = json.loads((out / "latest" / "results.json").read_text())
-    return wall, results
+    if done.returncode != 0:
+        raise SystemExit(f"twincell run skull failed ({code or 'this checkout'}):\n{done.stderr}")
+    return wall, json.loads((out / "latest" / "results.json").read_text())
+
+
+def _export(rev: str, into: Path) -> Path:
+    """The packages at commit `rev`, written into `into`."""
+    done = subprocess.run(
+        ["git", "-C", str(ROOT), "archive", "--format=tar", rev, *PACKAGES], capture_output=True
+    )
+    if done.returncode != 0:
+        raise SystemExit(f"commit {rev} is not in this clone: {done.stderr.decode()}")
+    with tarfile.open(fileobj=io.BytesIO(done.stdout)) as tar:
+        tar.extractall(into, filter="data")
+    return into
+
+
+def command_table(args: argparse.Namespace, out: Path, tmp: Path) -> tuple[Path, dict]:
+    """Table 1: the whole command, before and after, cold and warm; returns this checkout's
+    last run folder and its results."""
+    versions: dict[str, Path | None] = {"after": None}
+    if not args.short:
+        versions["before"] = _export(args.before, tmp / "before")
+    walls: dict[tuple[str, str], list[float]] = {}
+    totals: dict[tuple[str, str], list[float]] = {}
+    last: tuple[Path, dict] | None = None
+    for repeat in range(args.repeats):
+        order = list(versions) if repeat % 2 == 0 else list(reversed(versions))
+        for version in order:
+            cache = tmp / f"cache-{version}-{repeat}"  # empty: the first run on this machine
+            for state in ("empty cache", "cache warm")[: 1 if args.short else 2]:
+                folder = out / f"{version}-{repeat}"
+                wall, results = _cli_run(folder, 0, versions[version], cache)
+                if ("plan_cache" in results) != (version == "after"):  # results.json says
+                    raise SystemExit(f"the {version} run did not run the {version} code")
+                walls.setdefault((version, state), []).append(wall)
+                totals.setdefault((version, state), []).append(results["timings_s"]["total"])
+                if version == "after":
+                    last = ((folder / "latest").resolve(), results)
+    table = Table(title=f"twincell run skull, seed 0: wall time \\[s], median of {args.repeats}")
+    for col in ("version", "cache", "whole command", "job (timings_s.total)"):
+        table.add_column(col, justify="right")
+    for (version, state), values in walls.items():
+        name = "this checkout" if version == "after" else args.before
+        table.add_row(
+            name, state, f"{statistics.median(values):.1f}",
+            f"{statistics.median(totals[(version, state)]):.1f}",
+        )  # fmt: skip
+    Console().print(table)
+    assert last is not None
+    return last
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--out", default="/tmp/twincell_bench_runs")
-    parser.add_argument("--short", action="store_true", help="seed 0 alone")
+    parser.add_argument("--short", action="store_true", help="one run, empty cache")
+    parser.add_argument("--repeats", type=int, default=3, help="of the whole command")
+    parser.add_argument("--before", default=BEFORE, help="the commit to compare with")
     args = parser.parse_args()
     if args.short:
-        args.seeds = 1
+        args.seeds, args.repeats = 1, 1
     out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     console = Console()
 
-    # 1. Time breakdown, recording on and off.
-    wall, with_rrd = _cli_run(out, 0)
-    rrd = (out / "latest").resolve()
-    if args.short:  # the recorded run serves all three tables
+    # 1. The whole command, before and after.
+    with tempfile.TemporaryDirectory(prefix="twincell-skull-") as tmp:
+        rrd, with_rrd = command_table(args, out, Path(tmp))
+
+    # 2. The stages, recording on and off.
+    if args.short:  # the recorded run serves every table
         plain, without = rrd, {"timings_s": {}, "seconds": float("nan")}
     else:
         plain, _ = run_job("skull", seed=0, out=out, options=RunOptions(rrd=False))
@@ -74,13 +152,12 @@ def main() -> None:
     table.add_column("stage")
     table.add_column("rerun on", justify="right")
     table.add_column("rerun off", justify="right")
-    for key in ("setup", "calibrate", "scan", "register", "execute", "total"):
+    stages = ("setup", "calibrate", "scan", "register", "check", "verify", "execute")
+    for key in (*stages, "export_execute", "total"):
         on, off = with_rrd["timings_s"].get(key), without["timings_s"].get(key)
         table.add_row(key, "-" if on is None else f"{on:.1f}", "-" if off is None else f"{off:.1f}")
     table.add_row("job incl. outputs", f"{with_rrd['seconds']:.1f}", f"{without['seconds']:.1f}")
-    table.add_row("whole command (fresh process)", f"{wall:.1f}", "")
     console.print(table)
-    console.print(f"goal: whole run with rerun <= 60 s: {'met' if wall <= 60 else 'NOT met'}")
 
     # 2. Thinning against every point, same scan, both against the truth (rebuilt from the
     # seed: the real phantom's pose and the table follow from it).

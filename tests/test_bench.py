@@ -51,6 +51,7 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
     "bench_skull.py": (
         True,
         (
+            ("version", "cache", "whole command"),
             ("stage", "rerun on", "rerun off"),
             ("points used", "seconds", "verdict", "pose error [deg, mm]"),
             ("seed", "status", "ambiguity", "RMS", "max", "goal"),
