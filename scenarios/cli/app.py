@@ -381,8 +381,8 @@ def run(
         bool,
         typer.Option(
             "--no-cache",
-            help="Build the skull phantom anew instead of reading it from the user's cache "
-            "folder (TWINCELL_NO_CACHE=1 does the same).",
+            help="Build the skull phantom and plan the scan anew instead of reading them from "
+            "the user's cache folder (TWINCELL_NO_CACHE=1 does the same).",
         ),
     ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
