@@ -5,7 +5,7 @@ A model is stored by its inputs: the builder's name, its seed, and a hash of the
 package's own code, so that a changed generator never reads a file an older one wrote. The
 file is a numpy .npz (no pickle) written atomically, so parallel runs may share the folder.
 Other caches of the project (the scan plans') keep their files in subfolders here.
-`TWINCELL_NO_CACHE=1` turns both off (`twincell run --no-cache` sets it);
+`TWINCELL_NO_CACHE=1` turns them all off (`twincell run --no-cache` sets it);
 `TWINCELL_CACHE_DIR` moves it (default: platformdirs' user cache folder, `twincell/models`).
 """
 
