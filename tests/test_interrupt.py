@@ -339,7 +339,8 @@ def test_a_signal_stops_the_run_in_its_stage_and_leaves_only_whole_files(
         f"run folder {stopped.folder}"
     )
     assert stopped.lines[-1] == line, stopped.lines
-    assert not [x for x in stopped.lines if "Traceback" in x or x.startswith("twincell:")][:-1]
+    extra = [x for x in stopped.lines if "Traceback" in x or x.startswith("twincell:")][:-1]
+    assert not extra, "\n".join(stopped.lines)  # all of stderr, to see where it came from
     assert not [x for x in stopped.after[:-1] if x.strip().startswith(LATER)], stopped.after
     assert stopped.seconds_to_exit < 30  # it wound down rather than ran on
 
