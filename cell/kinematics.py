@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from cell.errors import CellConfigError, JointLimitError, UnknownNameError, UnreachableTargetError
+from registration.rigid import invert
 
 if TYPE_CHECKING:
     from models.robot import ArmGeometry
@@ -191,7 +192,9 @@ class Kinematics:
             raise UnreachableTargetError(
                 f"a target pose must be a finite (4, 4) array, got {T_target}"
             )
-        T_tip_target = T_target if T_tip_tcp is None else T_target @ _inverse(T_tip_tcp)
+        T_tip_target = T_target
+        if T_tip_tcp is not None:
+            T_tip_target = T_target @ invert(np.asarray(T_tip_tcp, dtype=float))
         oMdes = pin.SE3(T_tip_target[:3, :3], T_tip_target[:3, 3])
         seed = np.clip(np.asarray(q_seed, dtype=float).reshape(self.nq), self.lower, self.upper)
         best: tuple[float, np.ndarray, float, float] | None = None
@@ -282,15 +285,6 @@ class Kinematics:
     ) -> bool:
         """Whether an IK solution within the joint limits exists for the TCP at the target."""
         return self.ik(T_base_target, q_seed, T_tip_tcp).success
-
-
-def _inverse(T: np.ndarray) -> np.ndarray:
-    """The inverse of a rigid transform (4, 4)."""
-    T = np.asarray(T, dtype=float)
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
 
 
 #: Gravity [m/s^2] in the base frame (z up).

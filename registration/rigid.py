@@ -105,17 +105,6 @@ def rotvecs_to_R(rotvecs: Array) -> Array:
     return R
 
 
-def rotvec_to_R(rotvec: Array) -> Array:
-    """Rotation (3, 3) of a rotation vector (3,) [rad] (Rodrigues' formula; the identity
-    for a zero vector)."""
-    v = np.asarray(rotvec, dtype=float)
-    angle = float(np.sqrt(v @ v))
-    if angle < 1e-12:
-        return np.eye(3) + skew(v)
-    K = skew(v / angle)
-    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
-
-
 def exp_se3(xi: Array) -> Array:
     """Transform (4, 4) from a twist xi = (translation (3,), rotation vector (3,)).
 

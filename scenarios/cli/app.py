@@ -145,30 +145,61 @@ def model(
         typer.echo(f"wrote {written} ({len(loaded.mesh.faces)} triangles, {units})")
 
 
+#: The register command's arguments and longer options (typer reads them from the types).
+RegisterData = Annotated[
+    list[str],
+    typer.Argument(
+        help="Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz. "
+        "Several files: each is registered to the one model, one JSON line per file."
+    ),
+]
+RegisterModel = Annotated[
+    str,
+    typer.Argument(
+        help="Model: a mesh (.stl, .obj, .ply, .off), a point file, or a prepared model "
+        "(.twm, from `twincell prepare`)."
+    ),
+]
+RegisterMode = Annotated[
+    str,
+    typer.Option(
+        "--mode",
+        help="auto (any coverage, the default), global (data cover the whole model), "
+        "local (part of it) or refine (ICP from --init, no search).",
+    ),
+]
+RegisterTargets = Annotated[
+    str | None,
+    typer.Option(
+        "--targets",
+        help="Targets in the model frame (JSON {name: \\[x, y, z]} or a point file, in "
+        "the model's units): the verdict is then per target.",
+    ),
+]
+RegisterInit = Annotated[
+    str | None,
+    typer.Option(
+        "--init",
+        help="A guess of T_model_data (a 4 x 4 in .txt, .csv, .npy, or .json such as "
+        "this command's --json output; translation in --units): the start of refine, "
+        "one more start in the other modes.",
+    ),
+]
+RegisterJson = Annotated[
+    str | None,
+    typer.Option(
+        "--json",
+        help="Write the result to this JSON file (several data files: their JSON Lines, "
+        "one per file, instead of standard output).",
+    ),
+]
+
+
 @app.command("register")
 def register(
-    data: Annotated[
-        list[str],
-        typer.Argument(
-            help="Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz. "
-            "Several files: each is registered to the one model, one JSON line per file."
-        ),
-    ],
-    model: Annotated[
-        str,
-        typer.Argument(
-            help="Model: a mesh (.stl, .obj, .ply, .off), a point file, or a prepared model "
-            "(.twm, from `twincell prepare`)."
-        ),
-    ],
-    mode: Annotated[
-        str,
-        typer.Option(
-            "--mode",
-            help="auto (any coverage, the default), global (data cover the whole model), "
-            "local (part of it) or refine (ICP from --init, no search).",
-        ),
-    ] = "auto",
+    data: RegisterData,
+    model: RegisterModel,
+    mode: RegisterMode = "auto",
     units: Annotated[
         str, typer.Option("--units", help="Units of the data (and of the model): m or mm.")
     ] = "m",
@@ -179,36 +210,14 @@ def register(
             help="Units of the model if not --units (a .twm keeps those it was prepared in).",
         ),
     ] = None,
-    targets: Annotated[
-        str | None,
-        typer.Option(
-            "--targets",
-            help="Targets in the model frame (JSON {name: [x, y, z]} or a point file, in "
-            "the model's units): the verdict is then per target.",
-        ),
-    ] = None,
+    targets: RegisterTargets = None,
     noise: Annotated[
         float | None,
         typer.Option("--noise", min=0.0, help="The sensor's range noise (sigma), in --units."),
     ] = None,
-    init: Annotated[
-        str | None,
-        typer.Option(
-            "--init",
-            help="A guess of T_model_data (a 4 x 4 in .txt, .csv, .npy, or .json such as "
-            "this command's --json output; translation in --units): the start of refine, "
-            "one more start in the other modes.",
-        ),
-    ] = None,
+    init: RegisterInit = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the search.")] = 0,
-    json_file: Annotated[
-        str | None,
-        typer.Option(
-            "--json",
-            help="Write the result to this JSON file (several data files: their JSON Lines, "
-            "one per file, instead of standard output).",
-        ),
-    ] = None,
+    json_file: RegisterJson = None,
     batch: Annotated[
         bool,
         typer.Option("--batch", help="JSON Lines output even for one data file."),

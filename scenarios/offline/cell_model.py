@@ -22,7 +22,7 @@ import pinocchio as pin
 from cell import Kinematics, nominal_T_base_table
 from cell.kinematics import IKResult, payload_model
 from models.robot import LASER, TABLE_TRAVEL
-from registration.rigid import rotvec_to_R, rotvecs_to_R
+from registration.rigid import rotvecs_to_R
 
 #: The table model's terms per component: linear and quadratic in u = s / half the travel.
 TABLE_COMPONENTS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
@@ -101,13 +101,18 @@ class TableModel:
 
     def deviation(self, s: float) -> np.ndarray:
         """(4, 4) D(s): the carriage's deviation from the nominal at table position `s` [m]."""
+        return self.deviations(np.array([s]))[0]
+
+    def deviations(self, s: np.ndarray) -> np.ndarray:
+        """(L, 4, 4) D(s) at each table position of `s` (L,) [m], at once."""
+        s = np.asarray(s, dtype=float).reshape(-1)
         lo, hi = TABLE_TRAVEL
         u = (s - (lo + hi) / 2.0) / ((hi - lo) / 2.0)
-        d = self.coefficients @ np.array([u, u * u - 1.0 / 3.0])
-        T = np.eye(4)
-        T[:3, :3] = rotvec_to_R(d[3:])
-        T[:3, 3] = d[:3]
-        return T
+        d = np.stack([u, u * u - 1.0 / 3.0], axis=1) @ self.coefficients.T  # (L, 6)
+        out = np.broadcast_to(np.eye(4), (len(s), 4, 4)).copy()
+        out[:, :3, :3] = rotvecs_to_R(d[:, 3:])
+        out[:, :3, 3] = d[:, :3]
+        return out
 
     def T_base_table(self, s: float) -> np.ndarray:
         """(4, 4) the table frame in the base frame at table position `s` [m]."""
@@ -116,14 +121,7 @@ class TableModel:
     def T_base_tables(self, s: np.ndarray) -> np.ndarray:
         """(L, 4, 4) `T_base_table` at each table position of `s` (L,) [m], at once."""
         s = np.asarray(s, dtype=float).reshape(-1)
-        lo, hi = TABLE_TRAVEL
-        u = (s - (lo + hi) / 2.0) / ((hi - lo) / 2.0)
-        d = np.stack([u, u * u - 1.0 / 3.0], axis=1) @ self.coefficients.T  # (L, 6)
-        out = np.broadcast_to(nominal_T_base_table(0.0), (len(s), 4, 4)).copy()
-        out[:, 1, 3] += s  # the nominal travel is along the base's y; its rotation is none
-        out[:, :3, :3] = rotvecs_to_R(d[:, 3:])
-        out[:, :3, 3] += d[:, :3]
-        return out
+        return np.array([nominal_T_base_table(x) for x in s]) @ self.deviations(s)
 
 
 @dataclass(frozen=True, eq=False)

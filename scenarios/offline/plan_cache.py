@@ -89,14 +89,20 @@ def cached_plan(key: str, plan: Callable[[], ScanPlan]) -> tuple[ScanPlan, bool]
     if not cache.enabled():
         return plan(), False
     path = folder() / f"{key}.pickle"
-    if path.is_file():
-        try:
-            stored = pickle.loads(path.read_bytes())
-            if isinstance(stored, ScanPlan):
-                return stored, True
-        except Exception:  # a damaged or foreign file: plan anew and replace it
-            pass
+    stored = _read(path)
+    if stored is not None:
+        return stored, True
     made = plan()
     with contextlib.suppress(OSError):  # a read-only cache folder costs time, not results
         write_atomic(path, lambda tmp: tmp.write_bytes(pickle.dumps(made, protocol=5)))
     return made, False
+
+
+def _read(path: Path) -> ScanPlan | None:
+    """The plan stored at `path`, or None: no file, or one that is damaged or not a plan
+    (planned anew and replaced)."""
+    try:
+        stored = pickle.loads(path.read_bytes())
+    except Exception:  # any failure to read it back means: plan anew
+        return None
+    return stored if isinstance(stored, ScanPlan) else None
