@@ -183,7 +183,8 @@ def _mount(xyz: tuple[float, float, float], yaw_deg: float) -> pin.SE3:
 
 
 def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:
-    """The Pinocchio model of a 6-axis arm file (URDF or robot-only MJCF); raises
+    """The Pinocchio model of a 6-axis arm file (URDF or robot-only MJCF), joints that do not
+    move the flange (a gripper's) locked at their neutral value; raises
     CellConfigError for a missing file, another format, a missing tip frame, or other than
     six revolute joints."""
     p = Path(path)
@@ -201,6 +202,8 @@ def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:
             )
     except (RuntimeError, ValueError) as exc:
         raise CellConfigError(f"{p}: cannot be read as a robot: {exc}") from None
+    if model.existFrame(tip_frame) and model.nq != 6:
+        model = _chain_to(model, tip_frame)
     revolute = [
         model.names[j]
         for j in range(1, model.njoints)
@@ -219,6 +222,17 @@ def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:
             f"{p}: no frame {tip_frame!r} for the flange; its frames are {frames}"
         )
     return model
+
+
+def _chain_to(model: pin.Model, tip_frame: str) -> pin.Model:
+    """`model` with the joints that do not move `tip_frame` (a gripper's fingers, say)
+    locked at their neutral value: the arm that carries the flange."""
+    parent = model.frames[model.getFrameId(tip_frame)].parentJoint
+    chain = set(model.supports[parent])
+    locked = [j for j in range(1, model.njoints) if j not in chain]
+    if not locked:
+        return model
+    return pin.buildReducedModel(model, locked, pin.neutral(model))
 
 
 def _motion_axis(model: pin.Model, j: int) -> np.ndarray:
@@ -343,12 +357,23 @@ def _limit(model: pin.Model, limits: tuple[np.ndarray, np.ndarray], path: str | 
     model.lowerPositionLimit, model.upperPositionLimit = lower, upper
 
 
+#: The joints' speed limits [rad/s] a file arm gets where its file has none (an MJCF file):
+#: 90 deg/s for the main axes and 180 deg/s for the wrist, below the data sheets of 6-axis
+#: arms of 0.5-1.3 m reach (a cautious choice: cell.robot.speed_deg_s gives the real ones).
+DEFAULT_SPEED_RAD_S = np.deg2rad([90.0, 90.0, 90.0, 180.0, 180.0, 180.0])
+
+
 def _speeds_and_efforts(
     model: pin.Model, speed: np.ndarray | None, effort: np.ndarray | None, path: str | Path
 ) -> tuple[np.ndarray, np.ndarray]:
     """The joints' speed [rad/s] and effort [N m] limits (6,) each: those given, else the
-    file's; every one finite and positive."""
-    speed = np.asarray(model.velocityLimit if speed is None else speed, dtype=float)
+    file's (a speed the file does not give: DEFAULT_SPEED_RAD_S); every one finite and
+    positive."""
+    if speed is None:
+        file_speed = np.asarray(model.velocityLimit, dtype=float)
+        given = np.isfinite(file_speed) & (file_speed > 0)
+        speed = np.where(given, file_speed, DEFAULT_SPEED_RAD_S)
+    speed = np.asarray(speed, dtype=float)
     effort = np.asarray(model.effortLimit if effort is None else effort, dtype=float)
     if (
         speed.shape != (6,)
@@ -360,9 +385,14 @@ def _speeds_and_efforts(
         raise CellConfigError(
             f"{path}: every joint needs a finite positive speed and effort limit (got "
             f"{speed.tolist()} rad/s, {effort.tolist()} N m); give them in the cell "
-            "(cell.robot.speed_deg_s, cell.robot.effort_nm) where the file has none"
+            "(cell.robot.speed_deg_s, cell.robot.effort_nm) where the file has none or they "
+            "are wrong"
         )
     return speed, effort
+
+
+#: The radius [m] of a file arm's links (capsules from each joint to the next).
+FILE_ARM_RADIUS_M = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -390,7 +420,7 @@ def robot_from_file(
     mount_yaw_deg: float = 0.0,
     q_home: np.ndarray | None = None,
     servo: Servo | None = None,
-    radius_m: float = 0.05,
+    radius_m: float = FILE_ARM_RADIUS_M,
     vendor: str = "",
     name: str | None = None,
     joint_limits: JointLimits | None = None,

@@ -12,12 +12,13 @@ import numpy as np
 
 from cell import nominal_T_base_table
 from cell.errors import CellConfigError
-from cell.robots import Robot, make_robot
+from cell.robots import BUILTIN, FILE_ARM_RADIUS_M, Robot, make_robot
 from models.cache import enabled as cache_enabled
 from models.model import ObjectModel
 from models.registry import real_model
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, RobotSection
+from scenarios.offline.arm_setup import ArmSetupError, choose_arm_setup, joint_window
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -30,6 +31,7 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.plan_cache import cached_plan, plan_key
+from scenarios.offline.premotion import job_virtual_cell
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.scan_plan import ScanPlan
@@ -65,10 +67,15 @@ def object_models(
     return virtual, real
 
 
-def job_robot(section: RobotSection) -> Robot:
-    """The cell's arm as the job's configuration names it (cell.robots)."""
-    home = None if section.home_deg is None else np.deg2rad(section.home_deg)
-    limits = None
+def job_robot(
+    section: RobotSection,
+    home: np.ndarray | None = None,
+    limits: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Robot:
+    """The cell's arm as the job's configuration names it (cell.robots); `home` [rad] and
+    `limits` (lower, upper) [rad] where the section gives none (a file arm's chosen ones)."""
+    if section.home_deg is not None:
+        home = np.deg2rad(section.home_deg)
     if section.limits_deg is not None:
         limits = (np.deg2rad(section.limits_deg[0]), np.deg2rad(section.limits_deg[1]))
     try:
@@ -85,6 +92,45 @@ def job_robot(section: RobotSection) -> Robot:
         )
     except CellConfigError as exc:
         raise ScenarioError(f"cell.robot: {exc}") from None
+
+
+def file_arm(
+    config: JobConfig, virtual: ObjectModel, T_table_nominal: np.ndarray, say: Progress
+) -> Robot:
+    """The arm of a file without a home or joint window in its cell: both chosen in the
+    virtual cell (scenarios.offline.arm_setup), said, and given to the arm."""
+    section = config.cell.robot
+    robot = job_robot(section)
+    file_speed = robot.kinematics().model.velocityLimit
+    if section.model not in BUILTIN and section.speed_deg_s is None:
+        if not (np.isfinite(file_speed) & (file_speed > 0)).all():
+            speeds = ", ".join(f"{v:.0f}" for v in np.rad2deg(robot.joint_speed))
+            say(
+                f"arm: {section.model} gives no joint speed limits; assumed [{speeds}] deg/s "
+                "(cell.robot.speed_deg_s gives the arm's own)"
+            )
+    if section.model in BUILTIN or (
+        section.home_deg is not None and section.limits_deg is not None
+    ):
+        return robot
+    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
+    T_world_table = nominal_T_base_table(0.0)
+    centre = T_world_table[:3, :3] @ box.centre + T_world_table[:3, 3]
+    if section.home_deg is not None:  # the window around the given home
+        lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, FILE_ARM_RADIUS_M)
+        say("arm: joint window chosen around the given home (cell.robot.limits_deg to fix it)")
+        return job_robot(section, None, (lower, upper))
+    cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal)
+    try:
+        setup = choose_arm_setup(
+            robot.kinematics(), cell, centre, float(centre[2] + box.half[2]), FILE_ARM_RADIUS_M
+        )
+    except ArmSetupError as exc:
+        raise ScenarioError(f"cell.robot: {exc}") from None
+    say(f"arm: {setup.describe()} (cell.robot.home_deg, cell.robot.limits_deg to fix them)")
+    return job_robot(
+        section, setup.q_home, None if section.limits_deg else (setup.lower, setup.upper)
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,6 +173,7 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
     user = None if config.operations.program is None else read_user_program(config.operations)
     virtual, real = object_models(config, user)
     T_table_nominal = nominal_pose(settings.placement, virtual.mesh.vertices)
+    robot = file_arm(config, virtual, T_table_nominal, say)
     if user is not None:
         check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
         say(f"program {config.operations.program}: {len(user.operations)} touches")
