@@ -102,13 +102,16 @@ def file_arm(
     section = config.cell.robot
     robot = job_robot(section)
     file_speed = robot.kinematics().model.velocityLimit
-    if section.model not in BUILTIN and section.speed_deg_s is None:
-        if not (np.isfinite(file_speed) & (file_speed > 0)).all():
-            speeds = ", ".join(f"{v:.0f}" for v in np.rad2deg(robot.joint_speed))
-            say(
-                f"arm: {section.model} gives no joint speed limits; assumed [{speeds}] deg/s "
-                "(cell.robot.speed_deg_s gives the arm's own)"
-            )
+    if (
+        section.model not in BUILTIN
+        and section.speed_deg_s is None
+        and not (np.isfinite(file_speed) & (file_speed > 0)).all()
+    ):
+        speeds = ", ".join(f"{v:.0f}" for v in np.rad2deg(robot.joint_speed))
+        say(
+            f"arm: {section.model} gives no joint speed limits; assumed [{speeds}] deg/s "
+            "(cell.robot.speed_deg_s gives the arm's own)"
+        )
     if section.model in BUILTIN or (
         section.home_deg is not None and section.limits_deg is not None
     ):
