@@ -214,14 +214,31 @@ def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:
             f"{p}: the cell needs a 6-axis arm (six revolute joints); this one has {model.nq} "
             f"position variables and revolute joints {revolute}"
         )
+    frames = [
+        f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)
+    ]
     if not model.existFrame(tip_frame):
-        frames = [
-            f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)
-        ]
         raise CellConfigError(
             f"{p}: no frame {tip_frame!r} for the flange; its frames are {frames}"
         )
+    cosine = _flange_axis_cosine(model, tip_frame)
+    if abs(cosine) < np.cos(np.deg2rad(5.0)):
+        raise CellConfigError(
+            f"{p}: the flange frame {tip_frame!r} has its z axis "
+            f"{np.rad2deg(np.arccos(np.clip(abs(cosine), 0.0, 1.0))):.0f} deg off the last "
+            "joint's axis; the tools mount along the flange's z axis, so name a frame whose z "
+            f"axis points out of the wrist (cell.robot.flange; its frames are {frames})"
+        )
     return model
+
+
+def _flange_axis_cosine(model: pin.Model, tip_frame: str) -> float:
+    """Cosine between the flange frame's z axis and the last joint's axis."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    last = model.njoints - 1
+    axis = data.oMi[last].rotation @ _motion_axis(model, last)
+    return float(data.oMf[model.getFrameId(tip_frame)].rotation[:, 2] @ axis)
 
 
 def _chain_to(model: pin.Model, tip_frame: str) -> pin.Model:
@@ -357,6 +374,34 @@ def _limit(model: pin.Model, limits: tuple[np.ndarray, np.ndarray], path: str | 
     model.lowerPositionLimit, model.upperPositionLimit = lower, upper
 
 
+def _mjcf_efforts(path: str | Path, model: pin.Model) -> np.ndarray:
+    """The arm's joints' effort limits [N m] (6,) as its MJCF file states them (inf where
+    it does not): a joint's actuator force range, else the largest force range of the
+    actuators driving it (MuJoCo's own parser, its default classes applied; the meshes are
+    not read)."""
+    import mujoco
+
+    spec = mujoco.MjSpec.from_file(str(path))
+    joints = {j.name: j for j in spec.joints}
+    out = np.full(6, np.inf)
+    for k in range(6):
+        name = model.names[k + 1]
+        joint = joints.get(name)
+        if joint is not None and joint.actfrclimited == mujoco.mjtLimited.mjLIMITED_TRUE:
+            out[k] = float(np.max(np.abs(joint.actfrcrange)))
+            continue
+        ranges = [
+            float(np.max(np.abs(a.forcerange)))
+            for a in spec.actuators
+            if a.target == name
+            and a.forcelimited != mujoco.mjtLimited.mjLIMITED_FALSE
+            and np.any(a.forcerange)
+        ]
+        if ranges:
+            out[k] = max(ranges)
+    return out
+
+
 #: The joints' speed limits [rad/s] a file arm gets where its file has none (an MJCF file):
 #: 90 deg/s for the main axes and 180 deg/s for the wrist, below the data sheets of 6-axis
 #: arms of 0.5-1.3 m reach (a cautious choice: cell.robot.speed_deg_s gives the real ones).
@@ -367,14 +412,18 @@ def _speeds_and_efforts(
     model: pin.Model, speed: np.ndarray | None, effort: np.ndarray | None, path: str | Path
 ) -> tuple[np.ndarray, np.ndarray]:
     """The joints' speed [rad/s] and effort [N m] limits (6,) each: those given, else the
-    file's (a speed the file does not give: DEFAULT_SPEED_RAD_S); every one finite and
-    positive."""
+    file's (a speed the file does not give: DEFAULT_SPEED_RAD_S; an MJCF file's efforts from
+    its joints' and actuators' force ranges); every one finite and positive."""
     if speed is None:
         file_speed = np.asarray(model.velocityLimit, dtype=float)
         given = np.isfinite(file_speed) & (file_speed > 0)
         speed = np.where(given, file_speed, DEFAULT_SPEED_RAD_S)
     speed = np.asarray(speed, dtype=float)
-    effort = np.asarray(model.effortLimit if effort is None else effort, dtype=float)
+    if effort is None:
+        effort = np.asarray(model.effortLimit, dtype=float)
+        if Path(path).suffix.lower() != ".urdf" and not np.isfinite(effort).all():
+            effort = np.where(np.isfinite(effort), effort, _mjcf_efforts(path, model))
+    effort = np.asarray(effort, dtype=float)
     if (
         speed.shape != (6,)
         or effort.shape != (6,)

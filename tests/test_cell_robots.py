@@ -12,6 +12,7 @@ import pytest
 
 from cell.errors import CellConfigError
 from cell.robots import (
+    DEFAULT_SPEED_RAD_S,
     JointLimits,
     irb2400,
     load_arm_model,
@@ -144,12 +145,14 @@ def test_bad_robot_choices_are_refused() -> None:
 
 
 def test_a_robot_only_mjcf_file_is_read_as_the_built_in_arm() -> None:
-    """The built-in arm's own MJCF, given as a file (MJCF carries no speed limits: they
-    are given, and refused when not): the same flange at random joints."""
+    """The built-in arm's own MJCF, given as a file: the efforts are its actuators' force
+    ranges (the data sheet's torques), the speeds (MJCF has none) the cautious defaults
+    unless given; the same flange at random joints."""
     from models.robot import JOINT_SPEED, JOINT_TORQUE, ROBOT_PATH
 
-    with pytest.raises(CellConfigError, match=r"positive speed .*\(cell\.robot\.speed_deg_s"):
-        make_robot(str(ROBOT_PATH), flange="flange")
+    read = make_robot(str(ROBOT_PATH), flange="flange")
+    np.testing.assert_array_equal(read.joint_effort, JOINT_TORQUE)
+    np.testing.assert_array_equal(read.joint_speed, DEFAULT_SPEED_RAD_S)
     speed, effort = np.array(JOINT_SPEED), np.array(JOINT_TORQUE)
     as_file = make_robot(str(ROBOT_PATH), flange="flange", speed=speed, effort=effort)
     assert as_file.name == "irb2400" and len(as_file.parameters) == 24
@@ -158,3 +161,54 @@ def test_a_robot_only_mjcf_file_is_read_as_the_built_in_arm() -> None:
     for _ in range(20):
         q = built_in.random_configuration(rng)
         np.testing.assert_allclose(as_file.kinematics().fk(q), built_in.fk(q), atol=FK_TOL_M)
+
+
+def test_an_mjcf_arm_without_force_ranges_needs_its_efforts(tmp_path: Path) -> None:
+    """Six hinges and no actuators: nothing states the joints' efforts."""
+    bodies = "".join(
+        f'<body name="l{k}" pos="0 0 0.1"><joint name="j{k}" axis="{axis}" range="-3 3"/>'
+        '<inertial pos="0 0 0.05" mass="1" diaginertia="0.01 0.01 0.01"/>'
+        for k, axis in enumerate(("0 0 1", "0 1 0", "0 1 0", "0 0 1", "0 1 0", "0 0 1"))
+    )
+    arm = tmp_path / "bare.xml"
+    arm.write_text(f"<mujoco><worldbody>{bodies}{'</body>' * 6}</worldbody></mujoco>")
+    with pytest.raises(
+        CellConfigError, match=r"bare\.xml: every joint needs .*cell\.robot\.effort_nm"
+    ):
+        make_robot(str(arm), flange="l5")
+
+
+def test_a_gripper_joint_beyond_the_flange_is_locked(tmp_path: Path) -> None:
+    """The UR5 with a finger joint on its flange: seven joints in the file, six that move
+    the flange; the arm is the six, its flange where the file's six put it."""
+    finger = (
+        '<link name="finger"/><joint name="finger_joint" type="prismatic">'
+        '<parent link="tool0"/><child link="finger"/><axis xyz="0 1 0"/>'
+        '<limit lower="0" upper="0.04" effort="10" velocity="0.1"/></joint></robot>'
+    )
+    arm = tmp_path / "ur5_finger.urdf"
+    arm.write_text(_urdf_without_meshes().replace("</robot>", finger))
+    six = load_arm_model(ur5_urdf(), "tool0")
+    seven = load_arm_model(arm, "tool0")
+    assert seven.nq == 6
+    q = np.array([0.3, -1.1, 1.4, -0.7, -1.2, 0.5])
+    d6, d7 = six.createData(), seven.createData()
+    import pinocchio as pin
+
+    pin.framesForwardKinematics(six, d6, q)
+    pin.framesForwardKinematics(seven, d7, q)
+    np.testing.assert_allclose(
+        d7.oMf[seven.getFrameId("tool0")].homogeneous,
+        d6.oMf[six.getFrameId("tool0")].homogeneous,
+        atol=1e-12,
+    )
+
+
+def test_a_flange_frame_off_the_wrist_axis_is_refused(tmp_path: Path) -> None:
+    """The UR5's wrist_3_link frame has its z axis across joint 6's axis: a tool mounted
+    along it would stick out sideways."""
+    arm = tmp_path / "ur5.urdf"
+    arm.write_text(_urdf_without_meshes())
+    with pytest.raises(CellConfigError, match=r"'wrist_3_link' has its z axis 90 deg off the "
+                       r"last joint's axis.*cell\.robot\.flange.*'tool0'"):  # fmt: skip
+        load_arm_model(arm, "wrist_3_link")

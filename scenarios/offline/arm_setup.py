@@ -261,8 +261,8 @@ def _down(p: np.ndarray, yaw: float) -> np.ndarray:
 
 
 def _candidates(arm: _Arm, T: np.ndarray) -> list[np.ndarray]:
-    """IK solutions for the flange at T from random starts, one turn about zero for joints
-    1 and 6, with the elbow up, the upper arm above the shoulder and the wrist well off its
+    """IK solutions for the flange at T from random starts, each joint at its turn nearest
+    zero, with the elbow up, the upper arm above the shoulder and the wrist well off its
     singularity (more than 15 deg)."""
     kin = arm.kin
     rng = np.random.default_rng(0)
@@ -271,9 +271,7 @@ def _candidates(arm: _Arm, T: np.ndarray) -> list[np.ndarray]:
         result = kin.ik(T, kin.random_configuration(rng), extra_seeds=0, max_iterations=80)
         if not result.success:
             continue
-        q = result.q.copy()
-        for k in (0, 5):  # the turn nearest zero that the file allows
-            q[k] = kin.nearest_turns(q, np.zeros(6))[k]
+        q = kin.nearest_turns(result.q, np.zeros(6))  # each joint's turn nearest zero
         if any(np.allclose(q, f, atol=1e-3) for f in found):
             continue
         if (

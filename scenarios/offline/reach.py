@@ -38,8 +38,10 @@ class ReachPlan:
 
 def _what_to_move(robot: Robot) -> str:
     return (
-        f"the {robot.name} cannot do this job in this cell; move the arm (cell.robot.mount_xyz), "
-        "the rack (cell.rack_xyz) or the object (cell.object.placement.xy_m)"
+        f"the {robot.name} cannot do this job in this cell; move the arm nearer what it misses "
+        "(cell.robot.mount_xyz), the rack nearer the arm (cell.rack_xyz) or the object "
+        "(cell.object.placement.xy_m), or widen the joint window the solutions must keep "
+        "(cell.robot.limits_deg; its home, cell.robot.home_deg, picks the branch)"
     )
 
 

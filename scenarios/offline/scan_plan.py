@@ -326,6 +326,29 @@ def _table_travel_clear(
     return all(_pose_clear(cell, q, s, margin_m) for s in np.linspace(s0, s1, steps))
 
 
+def _first_contact(
+    cell: VirtualCell,
+    kin: Kinematics,
+    q0: np.ndarray,
+    q1: np.ndarray,
+    table_m: float,
+    margin_m: float,
+) -> str:
+    """What the joint move q0 -> q1 first comes near (as _joint_path_clear samples it):
+    "link5 within 4 mm of table, at 40 % of the move"."""
+    limits = TRANSIT_LIMITS
+    for s in joint_move_samples(kin, LASER.T_tool_tcp, q0, q1, limits.step_m, limits.step_rad):
+        cell.set_tool("laser")
+        cell.set_table(table_m)
+        cell.set_joints(q0 + s * (q1 - q0))
+        found = cell.contacts(margin_m)
+        if found:
+            c = found[0]
+            how = "into" if c.penetrating else f"within {c.distance_m * 1e3:.0f} mm of"
+            return f"{c.body} {how} {c.other} at {100 * s:.0f} % of the move from home"
+    return "the table's travel"
+
+
 def route_transits(
     cell: VirtualCell,
     kin: Kinematics,
@@ -358,7 +381,12 @@ def route_transits(
             raise ScanPlanError(
                 f"scan plan: no clear way to {planned.name}: the arm's move to its start "
                 f"comes within {margin_m * 1e3:.0f} mm of the cell, directly and through "
-                "home; the job refuses before any motion"
+                f"home ({_first_contact(cell, kin, home, planned.q_start, s, margin_m)}); "
+                "the job refuses before any motion. Give the arm a home above the object "
+                "from which the pass' start is clear (cell.robot.home_deg), a joint window "
+                "that keeps the elbow and wrist on one branch (cell.robot.limits_deg), or "
+                "move the arm (cell.robot.mount_xyz) or the object (cell.object.placement."
+                "xy_m) so that the pass lies within easier reach"
             )
         rose = _retreat_q(kin, planned, T_base_table)
         q_from, s_from = (planned.q_start if rose is None else rose), s
