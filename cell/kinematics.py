@@ -143,6 +143,18 @@ class Kinematics:
             raise JointLimitError(f"joint target outside the joint limits: {detail}")
         return q
 
+    def at_limits(self, q: np.ndarray, tol_rad: float = 1e-6) -> str:
+        """"; joint 4 at its limit -183 deg (cell.robot.limits_deg)" for the joints of q
+        (6,) on a limit, "" for none: what stops a solution that a limit cuts off."""
+        q = np.asarray(q, dtype=float)
+        out = [
+            f"joint {k + 1} at its limit {np.rad2deg(bound):.0f} deg"
+            for k in range(self.nq)
+            for bound in (self.lower[k], self.upper[k])
+            if abs(q[k] - bound) <= tol_rad
+        ]
+        return f"; {', '.join(out)} (cell.robot.limits_deg)" if out else ""
+
     # -- forward kinematics -------------------------------------------------------------------
     def fk(self, q: np.ndarray, frame: str | None = None) -> np.ndarray:
         """(4, 4) pose of `frame` (default: the tip frame) in the base frame at `q`."""

@@ -24,6 +24,7 @@ from cell.robots import (
     make_robot,
     ur5_urdf,
 )
+from cell.virtual import VirtualCell
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import file_arm, object_models
@@ -61,7 +62,8 @@ def test_the_ur5_window_is_its_manufacturers_branch() -> None:
     wrist between its singularities (wrist 2 in (-pi, 0)): each bound where the UR geometry
     puts it, the singular ones moved in by the margin."""
     robot = make_robot(str(ur5_urdf()), "tool0", UR5_MOUNT_XYZ, q_home=UR5_HOME)
-    lower, upper, bounds = joint_window(robot.kinematics(), UR5_HOME, 0.045)
+    cell = VirtualCell.of(robot, (0.2, -0.8, -0.1))
+    lower, upper, bounds = joint_window(robot.kinematics(), UR5_HOME, cell)
     assert abs(lower[1] + np.pi) <= STEP and abs(upper[1]) <= STEP
     assert abs(lower[2] - SINGULAR_MARGIN_RAD) <= STEP
     assert upper[2] == pytest.approx(np.pi)  # the file's end: folded there
@@ -122,7 +124,7 @@ def test_an_arm_that_cannot_reach_over_the_object_names_the_keys() -> None:
     robot = make_robot(str(ur5_urdf()), "tool0", (-1.5, -0.1, 0.45))
     cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_object)
     with pytest.raises(ArmSetupError):
-        choose_arm_setup(robot.kinematics(), cell, np.array([1.0, 0.0, 0.5]), 0.55, 0.05)
+        choose_arm_setup(robot.kinematics(), cell, np.array([1.0, 0.0, 0.5]), 0.55)
 
 
 def test_a_given_home_and_window_are_kept() -> None:

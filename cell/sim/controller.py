@@ -262,6 +262,7 @@ class SimController(Controller):
                         f"linear move to p_base = [{p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}] m fails at "
                         f"{100 * s[k]:.0f}% of the line: residual {r.position_error_m:.3g} m, "
                         f"{r.rotation_error_rad:.3g} rad (or a configuration flip)"
+                        + kin.at_limits(r.q)
                     )
                 qs[k + 1] = r.q
             peak = np.max(np.abs(np.diff(qs, axis=0)) / (duration / n) / self._robot.joint_speed)

@@ -12,7 +12,7 @@ import numpy as np
 
 from cell import nominal_T_base_table
 from cell.errors import CellConfigError
-from cell.robots import BUILTIN, FILE_ARM_RADIUS_M, Robot, make_robot
+from cell.robots import BUILTIN, Robot, make_robot
 from models.cache import enabled as cache_enabled
 from models.model import ObjectModel
 from models.registry import real_model
@@ -119,21 +119,18 @@ def file_arm(
     box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
     T_world_table = nominal_T_base_table(0.0)
     centre = T_world_table[:3, :3] @ box.centre + T_world_table[:3, 3]
+    cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal)
     if section.home_deg is not None:  # the window around the given home
-        lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, FILE_ARM_RADIUS_M)
+        lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, cell)
         say("arm: joint window chosen around the given home (cell.robot.limits_deg to fix it)")
         return job_robot(section, None, (lower, upper))
-    cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal)
     try:
-        setup = choose_arm_setup(
-            robot.kinematics(), cell, centre, float(centre[2] + box.half[2]), FILE_ARM_RADIUS_M
-        )
+        setup = choose_arm_setup(robot.kinematics(), cell, centre, float(centre[2] + box.half[2]))
     except ArmSetupError as exc:
         raise ScenarioError(f"cell.robot: {exc}") from None
     say(f"arm: {setup.describe()} (cell.robot.home_deg, cell.robot.limits_deg to fix them)")
-    return job_robot(
-        section, setup.q_home, None if section.limits_deg else (setup.lower, setup.upper)
-    )
+    window = None if section.limits_deg else (setup.lower, setup.upper)
+    return job_robot(section, setup.q_home, window)
 
 
 @dataclass(frozen=True, eq=False)

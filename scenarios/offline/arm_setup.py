@@ -17,8 +17,12 @@ fixes one branch; this module derives one from the arm's kinematics and the layo
   of the forearm and the upper arm; joint 6 one turn each way. All within the file's ranges.
 
 Each bound is found by sweeping its joint alone (the others at home) through the file's
-range with the arm's own forward kinematics: no table of arm types. A file arm with
-`home_deg` or `limits_deg` in its cell keeps those.
+range with the arm's own forward kinematics and the virtual cell's geometry (the tools'
+bodies, the arm's link capsules): no table of arm types. The window is a box: a pose with
+two joints near their bounds at once may still bring a tool against the forearm, which the
+virtual cell's checks of every planned move (and the real cell's motion supervision) see,
+as they see any other contact. A file arm with `home_deg` or `limits_deg` in its cell keeps
+those.
 """
 
 from __future__ import annotations
@@ -38,10 +42,14 @@ _STEP = np.deg2rad(1.0)
 SINGULAR_MARGIN_RAD = float(np.deg2rad(5.0))
 #: The narrowest joint window [rad] a home may leave a joint.
 MIN_WINDOW_RAD = float(np.deg2rad(20.0))
-#: The tools as the forearm check sees them: a capsule from the flange along its z axis,
-#: as long as the longest tool's TCP [m], with the tools' largest radius [m].
-TOOL_LENGTH_M = 0.2
-TOOL_RADIUS_M = 0.05
+#: The gap [m] a tool in hand keeps from the arm's upper arm and forearm (the cell's own
+#: geometry: the tools' bodies and the file arm's link capsules).
+TOOL_ARM_GAP_M = 0.005
+#: The arm's links a tool in hand must keep clear of (the flange's own links, 5 and 6,
+#: carry it).
+_FOLD_LINKS = frozenset({"link1", "link2", "link3", "link4"})
+#: How high [m] above the object's top the flange sits at home beyond the tools' length.
+TOOLS_LENGTH_M = 0.2
 #: Clearance [m] the arm at home keeps from everything in the virtual cell.
 HOME_CLEARANCE_M = 0.02
 
@@ -83,11 +91,12 @@ class ArmSetupError(ValueError):
 
 # -- the arm's points, as the sweeps see them --------------------------------------------------
 class _Arm:
-    """The arm's kinematics with its joints' local axes, for the sweeps."""
+    """The arm's kinematics with its joints' local axes, and its virtual cell, for the
+    sweeps."""
 
-    def __init__(self, kin: Kinematics, radius_m: float) -> None:
+    def __init__(self, kin: Kinematics, cell: VirtualCell) -> None:
         self.kin = kin
-        self.radius_m = radius_m
+        self.cell = cell
         data = kin.model.createData()
         pin.forwardKinematics(kin.model, data, pin.neutral(kin.model))
         self._axes = [np.zeros(3)] + [
@@ -134,25 +143,19 @@ class _Arm:
         n = float(np.linalg.norm(up))
         return 0.0 if n < 1e-6 else float((o[3] - o[2]) @ up) / n
 
-    def tool_clearance(self, q: np.ndarray) -> float:
-        """Smallest gap [m] between the tools' capsule on the flange and the forearm (joint
-        3 to joint 5) or the upper arm (joint 2 to joint 3), each a capsule of the arm's
-        radius."""
-        o, _ = self.frames(q)
-        T = self.kin.fk(q)
-        start = T[:3, 3] + 0.02 * T[:3, 2]  # the tool's seat on the flange is no contact
-        tip = T[:3, 3] + TOOL_LENGTH_M * T[:3, 2]
-        gap = min(
-            _segment_distance(start, tip, o[3], o[5]), _segment_distance(start, tip, o[2], o[3])
-        )
-        return gap - self.radius_m - TOOL_RADIUS_M
-
-
-def _segment_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> float:
-    """Smallest distance [m] between segments a0-a1 and b0-b1 (sampled: 21 points each)."""
-    s = np.linspace(0.0, 1.0, 21)[:, None]
-    pa, pb = a0 + s * (a1 - a0), b0 + s * (b1 - b0)
-    return float(np.min(np.linalg.norm(pa[:, None, :] - pb[None, :, :], axis=2)))
+    def tools_clear(self, q: np.ndarray) -> bool:
+        """Whether each tool, in hand at q, keeps TOOL_ARM_GAP_M from the arm's upper arm
+        and forearm in the virtual cell."""
+        cell = self.cell
+        cell.set_joints(q)
+        try:
+            for tool in cell.tools:
+                cell.set_tool(tool)
+                if any(c.other in _FOLD_LINKS for c in cell.contacts(TOOL_ARM_GAP_M)):
+                    return False
+        finally:
+            cell.set_tool(None)
+        return True
 
 
 # -- the window -----------------------------------------------------------------------------------
@@ -189,11 +192,12 @@ def _bounded(grid: np.ndarray, lo: int, hi: int, shrink: float) -> tuple[float, 
 
 
 def joint_window(
-    kin: Kinematics, q_home: np.ndarray, radius_m: float
+    kin: Kinematics, q_home: np.ndarray, cell: VirtualCell
 ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     """The joint window (lower, upper (6,) [rad]) around `q_home` that keeps its branch, and
-    what bounds each joint (see the module's docstring); the arm's links of `radius_m` [m]."""
-    arm = _Arm(kin, radius_m)
+    what bounds each joint (see the module's docstring); the tools' clearance from the arm
+    asked of its virtual cell `cell`."""
+    arm = _Arm(kin, cell)
     q = np.asarray(q_home, dtype=float)
     lower, upper = kin.lower.copy(), kin.upper.copy()
     lower[0], upper[0] = max(lower[0], q[0] - np.pi), min(upper[0], q[0] + np.pi)
@@ -210,16 +214,11 @@ def joint_window(
     grid, sine, h = _sweep(arm, q, 4, arm.wrist_sine)
     lower[4], upper[4] = _bounded(grid, *_run(np.sign(sine) == np.sign(sine[h]), h),
                                   SINGULAR_MARGIN_RAD)  # fmt: skip
-    grid, gap, h = _sweep(arm, q, 4, arm.tool_clearance)
-    clear_lo, clear_hi = _bounded(grid, *_run(gap > 0.0, h), 0.0)
+    grid, clear, h = _sweep(arm, q, 4, arm.tools_clear)
+    clear_lo, clear_hi = _bounded(grid, *_run(clear > 0.0, h), 0.0)
     lower[4], upper[4] = max(lower[4], clear_lo), min(upper[4], clear_hi)
-    wrist = np.array([lower[4], q[4], upper[4]])
-
-    def worst_gap(t: np.ndarray) -> float:
-        return min(arm.tool_clearance(np.r_[t[:4], q5, t[5]]) for q5 in wrist)
-
-    grid, gap, h = _sweep(arm, q, 3, worst_gap)
-    lower[3], upper[3] = _bounded(grid, *_run(gap > 0.0, h), 0.0)
+    grid, clear, h = _sweep(arm, q, 3, arm.tools_clear)
+    lower[3], upper[3] = _bounded(grid, *_run(clear > 0.0, h), 0.0)
     narrow = np.flatnonzero(upper - lower < MIN_WINDOW_RAD)
     if narrow.size:
         raise ArmSetupError(
@@ -278,7 +277,7 @@ def _candidates(arm: _Arm, T: np.ndarray) -> list[np.ndarray]:
             arm.elbow_height(q) > 0.02
             and arm.upper_arm_rise(q) >= 0.0
             and abs(arm.wrist_sine(q)) > np.sin(np.deg2rad(15.0))
-            and arm.tool_clearance(q) > 0.0
+            and arm.tools_clear(q)
         ):
             found.append(q)
     return found
@@ -308,7 +307,6 @@ def choose_arm_setup(
     cell: VirtualCell,
     p_world_object: np.ndarray,
     top_z_m: float,
-    radius_m: float,
 ) -> ArmSetup:
     """Home and joint window for the arm of `kin` (the file's ranges) in `cell` (its
     virtual cell, the object at its nominal pose): the flange pointing down above the
@@ -317,20 +315,20 @@ def choose_arm_setup(
     of the branches found there, the one farthest from the elbow's and the wrist's
     singularities. Raises
     ArmSetupError when no place gives a clear home."""
-    arm = _Arm(kin, radius_m)
+    arm = _Arm(kin, cell)
     mount = np.asarray(kin.model.jointPlacements[1].translation, dtype=float)
     tried = []
     for fraction in _HOME_FRACTIONS:
         xy = mount[:2] + fraction * (np.asarray(p_world_object[:2]) - mount[:2])
         for height in _HOME_HEIGHTS_M:
-            p = np.r_[xy, top_z_m + TOOL_LENGTH_M + height]
+            p = np.r_[xy, top_z_m + TOOLS_LENGTH_M + height]
             tried.append(p)
             clear = [
                 q for yaw in _HOME_YAWS for q in _candidates(arm, _down(p, yaw)) if _clear(cell, q)
             ]
             for q in sorted(clear, key=lambda c: -_score(arm, c)):
                 try:
-                    lower, upper, bounds = joint_window(kin, q, radius_m)
+                    lower, upper, bounds = joint_window(kin, q, cell)
                 except ArmSetupError:
                     continue  # a branch with no room for one of its joints
                 return ArmSetup(q, lower, upper, bounds, p)
