@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cell.errors import SupervisionError
+from cell.robots import Robot
 from models.atomic import write_text
 from models.cache import used_key
 from models.model import ObjectModel
@@ -110,6 +111,8 @@ def finish_job(
         tool_in_hand=controller.tool_in_hand,
         table_position_m=None if program is None else program.table_position_m,
         robot=controller.robot.name,
+        home_deg=tuple(np.rad2deg(controller.robot.q_home).round(3).tolist()),
+        limits_deg=_limits_deg(controller.robot),
         program_file=job.exported.program_file,
         exported_program=exported,
         stage=stopped_in,
@@ -124,6 +127,15 @@ def finish_job(
     if config.output.plots:
         _figures(config, plan, job.folder, result, state)
     return result
+
+
+def _limits_deg(robot: Robot) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The arm's joint window (lower, upper) [deg], rounded to 1e-3 deg."""
+    kin = robot.kinematics()
+    return (
+        tuple(np.rad2deg(kin.lower).round(3).tolist()),
+        tuple(np.rad2deg(kin.upper).round(3).tolist()),
+    )
 
 
 def pick_report(

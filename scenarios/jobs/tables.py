@@ -191,6 +191,43 @@ def assembly_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str
     return rows
 
 
+#: The file arms' table: arms given by file, flange and mount alone (the ur5 cell's layout).
+FILE_ARMS_HEADER = (
+    "| arm | seed | home chosen [deg] | target RMS / max [mm] | goals |\n"
+    "|:----|-----:|:------------------|-----------------------:|:------|"
+)
+#: The layout the file arms are tried in: cells/ur5.yaml's.
+FILE_ARM_LAYOUT: dict[str, object] = {
+    "cell.robot.mount_xyz": [0.55, -0.1, 0.45],
+    "cell.rack_xyz": [0.2, -0.8, -0.1],
+    "cell.object.placement.xy_m": [-0.15, 0.0],
+}
+
+
+def file_arm_rows(
+    arms: Iterable[tuple[str, Path, str]], seeds: Iterable[int], say: Progress | None = None
+) -> list[str]:
+    """The file arms' table: for each arm (label, file, flange frame) and seed, the home the
+    cell chose and the skull job's target RMS / max against the true targets."""
+    rows = []
+    seeds = list(seeds)
+    with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
+        for label, path, flange in arms:
+            overrides = FILE_ARM_LAYOUT | {"cell.robot.model": str(path),
+                                           "cell.robot.flange": flange}  # fmt: skip
+            for seed in seeds:
+                result = _run("skull", seed, Path(tmp), overrides)
+                home = ", ".join(f"{v:.0f}" for v in result.home_deg)
+                met = all(check.met for check in result.checks.values())
+                rows.append(
+                    f"| {label} | {seed} | [{home}] | {_own(result)} | "
+                    f"{'met' if met else 'missed'} ({result.status}) |"
+                )
+                if say is not None:
+                    say(rows[-1])
+    return rows
+
+
 def _span(name: str) -> re.Pattern[str]:
     return re.compile(rf"(<!-- table:{name} -->\n)(.*?)(<!-- /table:{name} -->)", re.DOTALL)
 

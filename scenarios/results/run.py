@@ -158,6 +158,14 @@ class GoalCheck:
     met: bool
 
 
+def _limits(value: object) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """results.json's "limits_deg": [lower, upper] lists (both empty in older files)."""
+    if not isinstance(value, list | tuple) or len(value) != 2:
+        raise ValueError(f"limits_deg {value!r}")
+    lower, upper = value
+    return tuple(float(v) for v in lower), tuple(float(v) for v in upper)
+
+
 @dataclass(frozen=True, eq=False)
 class RunResult:
     """The whole run.
@@ -177,7 +185,9 @@ class RunResult:
         motion_after_match_s: controller time spent moving after the verdict [s].
         tool_in_hand: the tool at the end of the run.
         table_position_m: the table position of the program, if one ran.
-        robot: the cell's arm; program_file: the robot program written for its controller
+        robot: the cell's arm; home_deg: its home (6,) [deg]; limits_deg: its joint window
+            (lower, upper) [deg] (a file arm's: chosen by the cell unless given);
+            program_file: the robot program written for its controller
             (program.mod for an ABB arm), or None (the targets are in targets.csv/json).
         exported_program: that program run on the real cell by a controller without
             absolute accuracy, or None.
@@ -209,6 +219,8 @@ class RunResult:
     tool_in_hand: str | None
     table_position_m: float | None
     robot: str = "irb2400"
+    home_deg: tuple[float, ...] = ()
+    limits_deg: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
     program_file: str | None = None
     exported_program: ExportedRun | None = None
     stage: str | None = None
@@ -272,6 +284,8 @@ class RunResult:
             "tool_in_hand": self.tool_in_hand,
             "table_position_m": self.table_position_m,
             "robot": self.robot,
+            "home_deg": list(self.home_deg),
+            "limits_deg": [list(self.limits_deg[0]), list(self.limits_deg[1])],
             "program_file": self.program_file,
             "exported_program": None
             if self.exported_program is None
@@ -342,6 +356,8 @@ class RunResult:
             tool_in_hand=data["tool_in_hand"],
             table_position_m=data["table_position_m"],
             robot=str(data["robot"]),
+            home_deg=tuple(float(v) for v in data.get("home_deg", ())),
+            limits_deg=_limits(data.get("limits_deg", ((), ()))),
             program_file=data["program_file"],
             exported_program=None if exported is None else ExportedRun.from_json(exported),
             stage=data["stage"],
