@@ -143,17 +143,18 @@ def test_a_given_home_and_window_are_kept() -> None:
 
 
 @pytest.mark.slow
-def test_the_skull_job_on_an_arm_given_by_its_file_alone(tmp_path: Path) -> None:
-    """The UR10 of example-robot-data (1.3 m reach), nothing but file, flange and mount in
-    the ur5 cell's layout: the job chooses its home and window, and meets the skull goals
-    against the evaluator's true targets."""
+def test_the_skull_job_on_an_mjcf_arm_given_by_its_file_alone(tmp_path: Path) -> None:
+    """MuJoCo Menagerie's Doosan M1013 (1.3 m reach, MJCF: no speed limits in the file,
+    efforts from its joints' force ranges), nothing but file, flange and mount in the ur5
+    cell's layout: the job chooses its home and window, and meets the skull goals against
+    the evaluator's true targets."""
     from scenarios.cli.app import main
 
-    cell = tmp_path / "ur10.yaml"
+    arm = Path(__file__).resolve().parent.parent / "bench/arms/doosan_robotics_m1013/m1013.xml"
+    cell = tmp_path / "m1013.yaml"
     cell.write_text(
         "cell:\n"
-        f"  robot: {{model: {_ur('ur10_robot.urdf')}, flange: tool0, "
-        "mount_xyz: [0.55, -0.1, 0.45]}\n"
+        f"  robot: {{model: {arm}, flange: link_6, mount_xyz: [0.55, -0.1, 0.45]}}\n"
         "  rack_xyz: [0.2, -0.8, -0.1]\n"
         "  object: {placement: {xy_m: [-0.15, 0.0]}}\n"
     )
@@ -161,6 +162,10 @@ def test_the_skull_job_on_an_arm_given_by_its_file_alone(tmp_path: Path) -> None
                  "--quiet"])  # fmt: skip
     assert code == 0
     results = json.loads((tmp_path / "latest" / "results.json").read_text())
-    assert results["status"] == "complete"
+    assert results["status"] == "complete" and results["robot"] == "m1013"
     assert results["target_error_rms_m"] <= 0.5e-3
     assert results["target_error_max_m"] <= 1.0e-3
+    lower, upper = (np.deg2rad(v) for v in results["limits_deg"])
+    home = np.deg2rad(results["home_deg"])
+    assert np.all(lower <= home) and np.all(upper >= home)
+    assert np.all(upper - lower < 4 * np.pi + 1e-9)
