@@ -168,4 +168,5 @@ def test_the_skull_job_on_an_mjcf_arm_given_by_its_file_alone(tmp_path: Path) ->
     lower, upper = (np.deg2rad(v) for v in results["limits_deg"])
     home = np.deg2rad(results["home_deg"])
     assert np.all(lower <= home) and np.all(upper >= home)
-    assert np.all(upper - lower < 4 * np.pi + 1e-9)
+    # Shoulder, elbow and wrist each kept on one side of their singular poses: half a turn.
+    assert np.all((upper - lower)[[1, 2, 4]] <= np.pi + 1e-4)

@@ -119,7 +119,8 @@ def file_arm(
     box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
     T_world_table = nominal_T_base_table(0.0)
     centre = T_world_table[:3, :3] @ box.centre + T_world_table[:3, 3]
-    cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal)
+    calibrates = config.calibration.enabled  # its spheres on the table
+    cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal, calibrates)
     if section.home_deg is not None:  # the window around the given home
         lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, cell)
         say("arm: joint window chosen around the given home (cell.robot.limits_deg to fix it)")

@@ -296,10 +296,16 @@ def _clear(cell: VirtualCell, q: np.ndarray) -> bool:
     return True
 
 
-def _score(arm: _Arm, q: np.ndarray) -> float:
-    """How far q is from the branch's edges: the smaller of the wrist's sine and the
-    elbow's height over the shoulder-to-wrist distance (each 0 at a singular pose)."""
-    return min(abs(arm.wrist_sine(q)), arm.elbow_height(q) / max(arm.stretch(q), 1e-9))
+def _rank(arm: _Arm, q: np.ndarray) -> tuple[bool, float]:
+    """How a home candidate ranks (larger first): the upper arm leaning towards the flange
+    (the arm faces its work, not reaching back over its shoulder), then how far q is from
+    the branch's edges: the smaller of the wrist's sine and the elbow's height over the
+    shoulder-to-wrist distance (each 0 at a singular pose)."""
+    o, _ = arm.frames(q)
+    towards = (o[3, :2] - o[2, :2]) @ (arm.kin.fk(q)[:2, 3] - o[2, :2]) > 0.0
+    return bool(towards), min(
+        abs(arm.wrist_sine(q)), arm.elbow_height(q) / max(arm.stretch(q), 1e-9)
+    )
 
 
 def choose_arm_setup(
@@ -312,8 +318,8 @@ def choose_arm_setup(
     virtual cell, the object at its nominal pose): the flange pointing down above the
     object's centre `p_world_object` (3,) [m], the tools' length and a clearance above its
     top `top_z_m` [m], tried nearer the arm and at other heights where it does not reach;
-    of the branches found there, the one farthest from the elbow's and the wrist's
-    singularities. Raises
+    of the branches found there, one with the upper arm leaning towards the flange, the
+    farthest from the elbow's and the wrist's singularities. Raises
     ArmSetupError when no place gives a clear home."""
     arm = _Arm(kin, cell)
     mount = np.asarray(kin.model.jointPlacements[1].translation, dtype=float)
@@ -326,7 +332,7 @@ def choose_arm_setup(
             clear = [
                 q for yaw in _HOME_YAWS for q in _candidates(arm, _down(p, yaw)) if _clear(cell, q)
             ]
-            for q in sorted(clear, key=lambda c: -_score(arm, c)):
+            for q in sorted(clear, key=lambda c: _rank(arm, c), reverse=True):
                 try:
                     lower, upper, bounds = joint_window(kin, q, cell)
                 except ArmSetupError:
