@@ -27,27 +27,6 @@ from scipy.spatial.transform import Rotation
 
 from scenarios.errors import ScenarioError
 
-
-def _words(text: str) -> frozenset[str]:
-    return frozenset(text.split())
-
-
-# The instructions the reader recognises and keeps (compared case-insensitively); moves are
-# the MOVES below. A call of a PROC of the module is recognised too.
-INSTRUCTIONS = _words(
-    "AccSet VelSet ConfJ ConfL SingArea PathResol CirPathMode GripLoad MechUnitLoad "
-    "WaitTime WaitDI WaitDO WaitAI WaitAO WaitGI WaitGO WaitUntil WaitRob WaitSyncTask "
-    "Set Reset SetDO SetAO SetGO PulseDO InvertDO "
-    "TPWrite TPErase TPReadFK TPReadNum ErrWrite "
-    "Stop Exit ExitCycle Break Incr Decr Add Clear ProcCall CallByVar "
-    "StopMove StartMove ClearPath StorePath RestoPath "
-    "PDispOn PDispOff PDispSet EOffsOn EOffsOff EOffsSet "
-    "SearchL SearchJ SearchC TriggL TriggJ TriggC TriggIO TriggEquip TriggInt MoveExtJ "
-    "ActUnit DeactUnit SyncMoveOn SyncMoveOff "
-    "IDelete ISignalDI ISignalDO ITimer ISleep IWatch IEnable IDisable "
-    "MoveJ MoveL MoveC MoveAbsJ MoveJDO MoveLDO MoveCDO MoveJSync MoveLSync MoveCSync".casefold()
-)
-
 # Moves whose leading arguments are: target(s), speed, zone, tool [\WObj]: name -> targets.
 MOVES = {
     "movej": 1,
@@ -61,6 +40,11 @@ MOVES = {
     "movelsync": 1,
     "movecsync": 2,
 }
+
+
+def _words(text: str) -> frozenset[str]:
+    return frozenset(text.split())
+
 
 # RAPID's reserved words (not names of data or instructions).
 _RESERVED = _words(
@@ -170,11 +154,41 @@ class Declaration:
     line: int
 
 
+@dataclass(frozen=True)
+class Routine:
+    """A routine of a module: its kind ("PROC", "FUNC" or "TRAP"), its name as declared,
+    whether it is LOCAL (visible in its own module only), its parameters (case-folded) and
+    the line it starts at."""
+
+    kind: str
+    name: str
+    local: bool
+    parameters: frozenset[str]
+    line: int
+
+
+@dataclass(frozen=True)
+class Instruction:
+    """An instruction statement as written (a move, a RAPID instruction or a call of a
+    procedure): its name, its line, the routine it is in."""
+
+    name: str
+    line: int
+    routine: str
+
+
+#: The attributes a MODULE may declare.
+MODULE_ATTRIBUTES = ("SYSMODULE", "NOSTEPIN", "VIEWONLY", "READONLY", "NOVIEW")
+
+
 @dataclass(frozen=True, eq=False)
 class RapidModule:
     """A RAPID module as read: its name, its text (unchanged), the tools, work objects and
     robtargets declared at module level (by name as declared), the moves of all its routines
-    in the order of the text, the file it was read from, and every module-level declaration."""
+    in the order of the text, the file it was read from, and every module-level declaration;
+    its routines, every instruction statement (moves, RAPID instructions and calls, in the
+    order of the text), its RECORD types, its attributes (MODULE_ATTRIBUTES, upper case) and
+    the `%%%` header's fields (e.g. ("VERSION", "1"), ("LANGUAGE", "ENGLISH"))."""
 
     name: str
     text: str
@@ -184,6 +198,16 @@ class RapidModule:
     moves: tuple[Move, ...]
     path: Path | None
     data: dict[str, Declaration] = field(default_factory=dict)
+    routines: tuple[Routine, ...] = ()
+    instructions: tuple[Instruction, ...] = ()
+    records: tuple[str, ...] = ()
+    attributes: tuple[str, ...] = ()
+    header: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def label(self) -> str:
+        """What messages call the module: its file, else "module <name>"."""
+        return str(self.path) if self.path is not None else f"module {self.name}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,7 +249,7 @@ _TOKEN = re.compile(
     r"|(?P<num>0[xX][0-9A-Fa-f]+|0[bB][01]+|0[oO][0-7]+|(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
     r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
     r'|(?P<str>"(?:[^"\\\n]|""|\\.)*")'
-    r"|(?P<op>:=|<>|<=|>=|[\[\](){},;:\\.+\-*/<>=%])"
+    r"|(?P<op>:=|<>|<=|>=|[\[\](){},;:\\.+\-*/<>=%?|])"
 )
 
 
@@ -242,6 +266,13 @@ def _tokenize(text: str, source: str | None) -> list[_Token]:
             raise RapidError(f"{_where(source, line)}: {what}")
         kind = m.lastgroup
         assert kind is not None
+        if kind == "num" and re.match(r"[A-Za-z_]", text[m.end() : m.end() + 1]):
+            word = re.match(r"\w+", text[pos:])
+            assert word is not None
+            raise RapidError(
+                f"{_where(source, line)}: the name {word.group()!r} starts with a digit (a "
+                "RAPID name starts with a letter)"
+            )
         if kind not in ("space", "comment"):
             tokens.append(_Token(kind, m.group(), m.start(), m.end(), line))
         line += m.group().count("\n")
@@ -309,6 +340,10 @@ class _Parsed:
     decls: list[_Decl]
     params: dict[str, frozenset[str]]  # routine (casefold) -> its parameters (casefold)
     calls: list[_Call]
+    routines: list[Routine]
+    records: list[str]
+    attributes: tuple[str, ...]
+    header: tuple[tuple[str, str], ...]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -343,14 +378,20 @@ def _as_float(value: object) -> float:
 class _Parser:
     """Recursive descent over the tokens of one module:
 
-    module      := MODULE name ['(' attributes ')'] {declaration | routine} ENDMODULE
-    declaration := [LOCAL | TASK] (PERS | CONST | VAR) type name ['{' dims '}'] [':=' expr] ';'
+    file        := ['%%%' {KEY ':' value} '%%%'] module
+    module      := MODULE name ['(' attribute {',' attribute} ')'] {item} ENDMODULE
+    item        := [LOCAL | TASK] (declaration | routine | record | alias)
+    declaration := (PERS | CONST | VAR) type name ['{' dims '}'] [':=' expr] ';'
     routine     := PROC name '(' params ')' block {(BACKWARD | ERROR | UNDO) block} ENDPROC
-                 | FUNC ... ENDFUNC | TRAP ... ENDTRAP | RECORD ... ENDRECORD   (skipped)
+                 | FUNC type name '(' params ')' block {(ERROR | UNDO) block} ENDFUNC
+                 | TRAP name block {(ERROR | UNDO) block} ENDTRAP
+    record      := RECORD name {type name ';'} ENDRECORD;  alias := ALIAS type name ';'
     statement   := IF | FOR | WHILE | TEST | RETURN | GOTO | CONNECT | declaration | label ':'
-                 | target ':=' expr ';' | instruction [arguments] ';'
+                 | target ':=' expr ';' | '%' expr '%' [arguments] ';'
+                 | instruction [arguments] ';'   (any name: RAPID's or a procedure's)
     arguments   := argument {',' argument | optional}
-    argument    := optional | [name ':='] expr;  optional := '\\' name [':=' expr]
+    argument    := optional | [name ':='] expr
+    optional    := '\\' name [':=' expr | '?' name]
     expr        := unary {binary-operator expr}   (by precedence)
     primary     := number | string | TRUE | FALSE | '[' expr {',' expr} ']' | '(' expr ')'
                  | name '(' arguments ')' | name {'.' name | '{' expr {',' expr} '}'}
@@ -361,14 +402,11 @@ class _Parser:
         self.source = source
         self.tokens = _tokenize(text, source)
         self.i = 0
-        self.procs = {
-            b.text.casefold()
-            for a, b in zip(self.tokens, self.tokens[1:], strict=False)
-            if a.word() == "PROC" and b.kind == "name"
-        }
         self.decls: list[_Decl] = []
         self.params: dict[str, frozenset[str]] = {}
         self.calls: list[_Call] = []
+        self.routines: list[Routine] = []
+        self.records: list[str] = []
         self.routine: str | None = None
         self.loop_vars: list[str] = []
 
@@ -427,11 +465,11 @@ class _Parser:
     # --- module
 
     def module(self) -> _Parsed:
+        header = self.header()
         self.expect("MODULE", "at the start of the module")
         opener = self.tokens[self.i - 1]
         name = self.identifier("after MODULE").text
-        if self.at("("):
-            self.skip_to(")", self.next(), f"the attribute list of MODULE {name}")
+        attributes = self.attributes(name) if self.at("(") else ()
         while not self.at("ENDMODULE"):
             tok = self.peek()
             if tok.kind == "eof":
@@ -439,22 +477,93 @@ class _Parser:
             scope = self.next().word() if self.at("LOCAL", "TASK") else ""
             if self.at("PERS", "CONST", "VAR"):
                 self.declaration(scope)
-            elif self.at("PROC"):
-                self.proc()
-            elif self.at("FUNC", "TRAP", "RECORD"):
-                start = self.next()
-                self.skip_to(f"END{start.word()}", start, f"{start.word()} at line {start.line}")
+            elif self.at("PROC", "FUNC", "TRAP"):
+                self.routine_declaration(scope == "LOCAL")
+            elif self.at("RECORD"):
+                self.record()
+            elif self.at("ALIAS"):
+                self.alias()
             else:
                 tok = self.peek()
                 raise self.error(
                     tok.line,
-                    f"expected a data declaration (PERS, CONST, VAR) or a routine (PROC, FUNC, "
-                    f"TRAP), found {tok.describe()}",
+                    f"expected a data declaration (PERS, CONST, VAR), a routine (PROC, FUNC, "
+                    f"TRAP), a RECORD or an ALIAS, found {tok.describe()}",
                 )
         end = self.next()
         if self.peek().kind != "eof":
             raise self.error(end.line, f"text after ENDMODULE: {self.peek().describe()}")
-        return _Parsed(name, self.decls, self.params, self.calls)
+        return _Parsed(
+            name,
+            self.decls,
+            self.params,
+            self.calls,
+            self.routines,
+            self.records,
+            attributes,
+            header,
+        )
+
+    def header(self) -> tuple[tuple[str, str], ...]:
+        """The classic file header: '%%%' {KEY ':' value} '%%%' (e.g. VERSION:1,
+        LANGUAGE:ENGLISH), or nothing."""
+        if not self.at("%"):
+            return ()
+        opener = self.peek()
+        for _ in range(3):
+            self.expect("%", "in the '%%%' header")
+        fields: list[tuple[str, str]] = []
+        while not self.at("%"):
+            key = self.identifier("(a header field such as VERSION:1) in the '%%%' header")
+            self.expect(":", f"after {key.text} in the '%%%' header")
+            value = self.next()
+            if value.kind not in ("name", "num"):
+                raise self.error(
+                    value.line, f"expected the value of {key.text}, found {value.describe()}"
+                )
+            fields.append((key.text.upper(), value.text))
+        for _ in range(3):
+            self.expect("%", f"to close the '%%%' header of line {opener.line}")
+        return tuple(fields)
+
+    def attributes(self, module: str) -> tuple[str, ...]:
+        """'(' attribute {',' attribute} ')' after MODULE name."""
+        self.next()
+        found: list[str] = []
+        while True:
+            tok = self.next()
+            if tok.word() not in MODULE_ATTRIBUTES:
+                raise self.error(
+                    tok.line,
+                    f"MODULE {module}: {tok.describe()} is not a module attribute (valid: "
+                    f"{', '.join(MODULE_ATTRIBUTES)})",
+                )
+            found.append(tok.word())
+            if self.at(")"):
+                self.next()
+                return tuple(found)
+            self.expect(",", f"between the attributes of MODULE {module}")
+
+    def record(self) -> None:
+        """RECORD name {type field ';'} ENDRECORD."""
+        start = self.next()
+        name = self.identifier("after RECORD")
+        while not self.at("ENDRECORD"):
+            if self.peek().kind == "eof":
+                raise self.error(start.line, f"RECORD {name.text} has no ENDRECORD")
+            datatype = self.identifier(f"(a component's data type) in RECORD {name.text}")
+            self.identifier(f"(a component's name) after {datatype.text}")
+            self.end_statement(f"a component of RECORD {name.text}")
+        self.next()
+        self.records.append(name.text)
+
+    def alias(self) -> None:
+        """ALIAS type name ';'."""
+        self.next()
+        datatype = self.identifier("(a data type) after ALIAS")
+        name = self.identifier(f"after ALIAS {datatype.text}")
+        self.end_statement(f"ALIAS {datatype.text} {name.text}")
+        self.records.append(name.text)
 
     def declaration(self, scope: str) -> None:
         storage = self.next()
@@ -482,16 +591,24 @@ class _Parser:
             )
         )
 
-    def proc(self) -> None:
+    def routine_declaration(self, local: bool) -> None:
+        """PROC, FUNC or TRAP up to its END word (its handlers included)."""
         start = self.next()
-        name = self.identifier("after PROC")
-        self.expect("(", f"after PROC {name.text}")
-        self.params[name.text.casefold()] = self.parameters()
+        kind = start.word()
+        if kind == "FUNC":
+            self.identifier("(the returned data type) after FUNC")
+        name = self.identifier(f"after {kind}")
+        params: frozenset[str] = frozenset()
+        if kind != "TRAP":
+            self.expect("(", f"after {kind} {name.text}")
+            params = self.parameters()
+        self.params[name.text.casefold()] = params
+        self.routines.append(Routine(kind, name.text, local, params, start.line))
         self.routine = name.text
-        what = f"PROC {name.text} (line {start.line})"
-        ends = ("BACKWARD", "ERROR", "UNDO", "ENDPROC")
+        what = f"{kind} {name.text} (line {start.line})"
+        ends = ("BACKWARD", "ERROR", "UNDO", f"END{kind}")
         self.block(ends, what)
-        while not self.at("ENDPROC"):
+        while not self.at(ends[-1]):
             section = self.next()
             if section.word() == "ERROR" and self.at("("):
                 self.skip_to(")", self.next(), f"the ERROR list of {what}")
@@ -500,8 +617,9 @@ class _Parser:
         self.routine = None
 
     def parameters(self) -> frozenset[str]:
-        """The parameter names up to the closing ')': in each parameter, separated by ',' or
-        '|', the last name before any '{' (after INOUT / VAR / PERS and the type)."""
+        """The parameter names up to the closing ')': in each parameter, separated by ',', '|'
+        or the '\\' of an optional one, the last name before any '{' (after INOUT / VAR /
+        PERS and the type)."""
         names: set[str] = set()
         last: str | None = None
         depth = 0
@@ -513,7 +631,7 @@ class _Parser:
                 depth += 1
             elif tok.text == "}":
                 depth -= 1
-            elif depth == 0 and tok.text in (",", "|"):
+            elif depth == 0 and tok.text in (",", "|", "\\"):
                 if last:
                     names.add(last)
                 last = None
@@ -541,6 +659,9 @@ class _Parser:
         word = tok.word()
         if tok.text == "%":
             self.late_bound_call()
+        elif tok.text == "<":
+            self.next()
+            raise self.placeholder(tok)
         elif tok.kind != "name":
             raise self.error(tok.line, f"expected an instruction, found {tok.describe()}")
         elif word in self._STATEMENTS:
@@ -660,13 +781,9 @@ class _Parser:
         self.expect("ENDTEST", f"to close the {what}")
 
     def instruction(self) -> None:
+        """Any instruction or procedure call, whatever its name (what it is is decided once
+        the task's routines are known: scenarios.rapid.task)."""
         name = self.next()
-        if name.text.casefold() not in INSTRUCTIONS and name.text.casefold() not in self.procs:
-            raise self.error(
-                name.line,
-                f"unknown instruction {name.text!r}: neither a RAPID instruction this reader "
-                "knows nor a PROC of the module",
-            )
         args = self.arguments()
         self.end_statement(f"the {name.text} instruction")
         assert self.routine is not None
@@ -703,6 +820,9 @@ class _Parser:
                 if self.at(":="):
                     self.next()
                     value = self.expression()
+                elif self.at("?"):  # \A?B: passed on only if the caller's B was given
+                    self.next()
+                    value = self.primary()
                 args.append(_Arg(name, True, value, start.start, self.tokens[self.i - 1].end))
             else:
                 name = None
@@ -766,7 +886,22 @@ class _Parser:
                     self.expressions("}", self.tokens[self.i - 1])
             end = self.tokens[self.i - 1].end
             return _Node("name", tok.start, end, tok.line, self.text[tok.start : end])
+        if tok.text == "<":
+            raise self.placeholder(tok)
         raise self.error(tok.line, f"expected a value, found {tok.describe()}")
+
+    def placeholder(self, tok: _Token) -> RapidError:
+        """The error for RobotStudio's placeholders (<SMT>, <EXP>, <ID>, <ARG>...): the
+        program editor's marks of what is not written yet."""
+        word = self.peek()
+        if word.kind == "name" and self.peek(1).text == ">":
+            return self.error(
+                tok.line,
+                f"the placeholder <{word.text}> stands where a "
+                f"{'statement' if word.word() == 'SMT' else 'value or name'} is not written "
+                "yet: the module is unfinished",
+            )
+        return self.error(tok.line, f"unexpected {tok.describe()}")
 
     def expressions(self, closer: str, opener: _Token) -> tuple[_Node, ...]:
         """expr {',' expr} closer."""
@@ -931,10 +1066,13 @@ _RUNTIME = "run-time"  # a name bound only when the program runs (parameter, FOR
 
 
 class _Builder:
-    def __init__(self, parsed: _Parsed, text: str, source: str | None) -> None:
+    def __init__(
+        self, parsed: _Parsed, text: str, source: str | None, outer: dict[str, _Decl]
+    ) -> None:
         self.text = text
         self.source = source
         self.params = parsed.params
+        self.outer = outer
         self.module_decls: dict[str, _Decl] = {}
         self.local_decls: dict[tuple[str, str], _Decl] = {}
         for decl in parsed.decls:
@@ -971,7 +1109,11 @@ class _Builder:
         key = name.casefold()
         if key in scope.loop_vars or key in self.params.get(scope.routine.casefold(), ()):
             return _RUNTIME
-        decl = self.local_decls.get((scope.routine.casefold(), key)) or self.module_decls.get(key)
+        decl = (
+            self.local_decls.get((scope.routine.casefold(), key))
+            or self.module_decls.get(key)
+            or self.outer.get(key)
+        )
         return decl if decl is not None else _PREDEFINED.get(key)
 
     def check_declared(self, node: _Node, datatype: str, role: str, call: _Call) -> None:
@@ -1038,10 +1180,10 @@ class _Builder:
         found = self.lookup(str(node.value), scope)  # None: an element or a field
         if not isinstance(found, _Decl) or found.array:
             return None
-        if found.routine is None:
+        if found.routine is None and self.module_decls.get(found.name.casefold()) is found:
             target = self.targets.get(found.name)
             return None if target is None else target.T_wobj_tcp.copy()
-        value = _literal(found.value)  # a robtarget declared in the routine
+        value = _literal(found.value)  # declared in the routine, or in another module
         if value is None:
             return None
         where = _where(self.source, node.line)
@@ -1133,21 +1275,70 @@ class _Builder:
         )
 
 
+# Characters no RAPID text holds (C0 and C1 controls other than blanks), as Latin-1 decodes
+# the bytes of a binary or encrypted file.
+_CONTROL = re.compile(r"[\x00-\x08\x0e-\x1f\x7f-\x9f]")
+_TEXT_SAMPLE = 4096
+
+
+def _check_text(text: str, label: str | None) -> None:
+    """Refuse a file that is not text: a controller's encrypted module or any binary file
+    (a NUL, more than 1 control character in 200, or a first character that is not printable
+    ASCII, where RAPID starts with MODULE, '%%%' or a comment)."""
+    sample = text[:_TEXT_SAMPLE]
+    first = sample.lstrip(" \t\r\n\f\v\ufeff")[:1]
+    controls = len(_CONTROL.findall(sample))
+    if (
+        "\x00" in sample
+        or controls > max(2, len(sample) // 200)
+        or (first and not (first.isascii() and first.isprintable()))
+    ):
+        raise RapidError(
+            f"{label or 'the module'} is encrypted or binary, not RAPID text (an encrypted "
+            "module can only be loaded by a controller)"
+        )
+
+
 def _read_text(path: Path) -> str:
-    """The file's text as it is (line endings kept): UTF-8, else Latin-1."""
+    """The file's text as it is (line endings kept): UTF-8, else Latin-1; refuses a binary or
+    encrypted file."""
     raw = path.read_bytes()
     try:
-        return raw.decode("utf-8")
+        text = raw.decode("utf-8")
     except UnicodeDecodeError:
-        return raw.decode("latin-1")
+        text = raw.decode("latin-1")
+    _check_text(text, str(path))
+    return text
 
 
-def read_module(source: str | Path, name: str | None = None) -> RapidModule:
-    """Read a RAPID module: `source` is its text (str) or its file (Path); `name` is what
-    error messages call it (default: the file's path). Raises RapidError on a syntax error, an
-    unknown instruction, a move whose target, tool or work object is not declared, or data
-    that are not what their type needs (e.g. a quaternion off unit length by more than
-    1e-3)."""
+@dataclass(frozen=True, eq=False)
+class ModuleText:
+    """A module's text parsed but not yet resolved: its file (None for a text), the label
+    its messages use, the text and the syntax the parser read (scenarios.rapid.task resolves
+    names across the modules of a task before building each)."""
+
+    path: Path | None
+    label: str | None
+    text: str
+    parsed: _Parsed
+
+    @property
+    def name(self) -> str:
+        return self.parsed.name
+
+    def global_data(self) -> dict[str, _Decl]:
+        """Its module-level data visible to other modules (not LOCAL), by case-folded name."""
+        return {
+            d.name.casefold(): d
+            for d in self.parsed.decls
+            if d.routine is None and d.scope != "LOCAL"
+        }
+
+
+def parse_module(source: str | Path, name: str | None = None) -> ModuleText:
+    """Parse a RAPID module (its text, or its file as a Path) without resolving its names;
+    raises RapidError naming the file and line on a syntax error, or a file that is
+    encrypted or binary."""
     if isinstance(source, Path):
         path: Path | None = source
         text = _read_text(source)
@@ -1156,8 +1347,17 @@ def read_module(source: str | Path, name: str | None = None) -> RapidModule:
         raise RapidError(f"{source!r} looks like a file name: pass a Path to read a file")
     else:
         path, text, label = None, source, name
-    parsed = _Parser(text, label).module()
-    builder = _Builder(parsed, text, label)
+        _check_text(text, label)
+    return ModuleText(path, label, text, _Parser(text, label).module())
+
+
+def build_module(source: ModuleText, outer: dict[str, _Decl] | None = None) -> RapidModule:
+    """The typed module of a parsed text, its names resolved in its own module and then in
+    `outer` (the data other modules of its task make visible to it, by case-folded name).
+    Raises RapidError naming the file and line for a move whose target, tool or work object
+    is declared nowhere, or data that are not what their type needs."""
+    parsed, text, label = source.parsed, source.text, source.label
+    builder = _Builder(parsed, text, label, outer or {})
     moves = tuple(builder.move(c) for c in parsed.calls if c.name.casefold() in MOVES)
     return RapidModule(
         parsed.name,
@@ -1166,9 +1366,25 @@ def read_module(source: str | Path, name: str | None = None) -> RapidModule:
         builder.wobjs,
         builder.targets,
         moves,
-        path,
+        source.path,
         {d.name: builder.declaration(d) for d in builder.module_decls.values()},
+        tuple(parsed.routines),
+        tuple(Instruction(c.name, c.line, c.routine) for c in parsed.calls),
+        tuple(parsed.records),
+        parsed.attributes,
+        parsed.header,
     )
+
+
+def read_module(source: str | Path, name: str | None = None) -> RapidModule:
+    """Read one RAPID module: `source` is its text (str) or its file (Path); `name` is what
+    error messages call it (default: the file's path). Every instruction is read whatever its
+    name (scenarios.rapid.task names the procedures defined nowhere). Raises RapidError on a
+    syntax error, an encrypted or binary file, a move whose target, tool or work object is
+    not declared in the module, or data that are not what their type needs (e.g. a
+    quaternion off unit length by more than 1e-3). A task of several modules:
+    scenarios.rapid.task.read_task."""
+    return build_module(parse_module(source, name))
 
 
 # ---------------------------------------------------------------------------------------------

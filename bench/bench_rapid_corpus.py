@@ -1,0 +1,182 @@
+"""How many RAPID modules of public controller backups and programs the reader reads, and why
+it refuses the others: before (a commit's `read_module`, file by file) and after (this
+checkout: each backup task folder read as a task, every other file on its own).
+
+    python bench/bench_rapid_corpus.py FOLDER... [--task NAME=FILE,FILE,...]
+                                       [--task-dir DIR] [--before COMMIT]
+
+Each FOLDER is one source (e.g. a fetched repository); it is not downloaded here. Its files
+ending in .mod, .modx, .sys or .prg are counted. After: every folder named TASKn below it (a
+backup's RAPID/TASKn, with PROGMOD and SYSMOD), the parent of a PROGMOD folder outside one,
+and each --task-dir is read as one task (read_task, strict=False:
+a module that cannot be read is left out and counted as refused, its reason kept); `--task`
+names a task of loose files (e.g. ROS abb_driver's T_ROB1: ROS_common.sys, ROS_socket.sys,
+ROS_messages.sys, ROS_motion.mod); every other file is read on its own (read_module). Before:
+the code of --before (default: the first parent of the commit that added tasks) exported with
+`git archive` to a temporary folder and run in a fresh process on the same files. Reasons are
+grouped with quoted names and numbers blanked.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+import tempfile
+from collections import Counter
+from pathlib import Path
+
+SUFFIXES = (".mod", ".modx", ".sys", ".prg")
+BEFORE = "5c7a0ad"
+
+
+def module_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.rglob("*") if p.is_file() and p.suffix.lower() in SUFFIXES)
+
+
+def reason(message: str, path: Path | None = None) -> str:
+    """A refusal's reason with the file, the line, names and numbers blanked."""
+    text = message.removeprefix("left out: ")
+    if path is not None:
+        text = text.replace(str(path), "FILE")
+    text = (
+        re.sub(r"^.*?(, line \d+)?: ", "", text, count=1)
+        if "is encrypted" not in text
+        else ("is encrypted or binary, not RAPID text")
+    )
+    text = re.sub(r"'[^']*'", "'X'", text)
+    return re.sub(r"\d+", "N", text)[:110]
+
+
+def read_files(files: list[Path]) -> dict[str, str | None]:
+    """file -> None (read) or the error, with `read_module` of whatever code is importable."""
+    from scenarios.rapid.module import RapidError, read_module
+
+    out: dict[str, str | None] = {}
+    for file in files:
+        try:
+            read_module(file)
+            out[str(file)] = None
+        except RapidError as exc:
+            out[str(file)] = str(exc)
+    return out
+
+
+def read_after(
+    folder: Path, tasks: dict[str, list[Path]], task_dirs: list[Path]
+) -> dict[str, str | None]:
+    """file -> None (read) or the reason it was refused, with tasks where there are tasks."""
+    from scenarios.rapid.task import read_task
+
+    out: dict[str, str | None] = {}
+    groups = [
+        d.parent if d.name.upper() == "PROGMOD" else d
+        for d in sorted(folder.rglob("*"))
+        if d.is_dir()
+        and (
+            re.fullmatch(r"TASK\d+", d.name)
+            or (d.name.upper() == "PROGMOD" and not re.fullmatch(r"TASK\d+", d.parent.name))
+        )
+    ]
+    groups += [d for d in task_dirs if d.is_relative_to(folder)]
+    for task_dir in groups:
+        files = module_files(task_dir)
+        if not files:
+            continue
+        _read_group(files, out, read_task)
+    for files in tasks.values():
+        mine = [f for f in files if f.is_relative_to(folder)]
+        if mine:
+            _read_group(mine, out, read_task)
+    rest = [f for f in module_files(folder) if str(f) not in out]
+    out |= read_files(rest)
+    return out
+
+
+def _read_group(files: list[Path], out: dict[str, str | None], read_task: object) -> None:
+    from scenarios.rapid.module import RapidError
+
+    assert callable(read_task)
+    try:
+        task = read_task(files, strict=False)
+    except RapidError as exc:  # the task cannot be read at all
+        out |= {str(f): str(exc) for f in files}
+        return
+    read = {str(m.path) for m in task.modules}
+    left = [w for w in task.warnings if w.startswith("left out: ")]
+    for f in files:
+        why = next((w for w in left if str(f) in w), "left out")
+        out[str(f)] = None if str(f) in read else why
+
+
+def before(files: list[Path], commit: str) -> dict[str, str | None]:
+    """read_files at `commit`, in a fresh process on an exported copy of its code."""
+    root = Path(__file__).resolve().parent.parent
+    with tempfile.TemporaryDirectory() as tmp:
+        archive = subprocess.run(
+            ["git", "-C", str(root), "archive", commit, "scenarios"],
+            capture_output=True,
+            check=True,
+        ).stdout
+        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
+        code = (
+            "import json, sys; from pathlib import Path; "
+            f"sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+            "from bench_rapid_corpus import read_files; "
+            "print(json.dumps(read_files([Path(p) for p in sys.argv[1:]])))"
+        )
+        done = subprocess.run(
+            [sys.executable, "-c", code, *map(str, files)],
+            capture_output=True,
+            text=True,
+            check=True,
+            env={"PYTHONPATH": tmp, "PATH": "/usr/bin:/bin"},
+            cwd=tmp,
+        )
+    result: dict[str, str | None] = json.loads(done.stdout)
+    return result
+
+
+def table(name: str, results: dict[str, str | None]) -> list[str]:
+    refused = Counter(reason(r, Path(f)) for f, r in results.items() if r is not None)
+    n_read = sum(r is None for r in results.values())
+    lines = [f"  {name}: read {n_read}, refused {len(results) - n_read}"]
+    lines += [f"      {n:3d}  {why}" for why, n in refused.most_common()]
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folders", nargs="+", type=Path)
+    parser.add_argument("--task", action="append", default=[], help="NAME=FILE,FILE,...")
+    parser.add_argument(
+        "--task-dir",
+        action="append",
+        default=[],
+        type=Path,
+        help="a folder of loose modules to read as one task",
+    )
+    parser.add_argument("--before", default=BEFORE)
+    args = parser.parse_args()
+    tasks = {
+        spec.partition("=")[0]: [Path(f).resolve() for f in spec.partition("=")[2].split(",")]
+        for spec in args.task
+    }
+    totals = Counter[str]()
+    for folder in (f.resolve() for f in args.folders):
+        files = module_files(folder)
+        old = before(files, args.before)
+        new = read_after(folder, tasks, [d.resolve() for d in args.task_dir])
+        print(f"{folder.name}: {len(files)} files")
+        for line in table("before", old) + table("after ", new):
+            print(line)
+        totals["files"] += len(files)
+        totals["before"] += sum(r is None for r in old.values())
+        totals["after"] += sum(r is None for r in new.values())
+    print(f"all: {totals['files']} files; read before {totals['before']}, after {totals['after']}")
+
+
+if __name__ == "__main__":
+    main()
