@@ -4,6 +4,7 @@ checkout: each backup task folder read as a task, every other file on its own).
 
     python bench/bench_rapid_corpus.py FOLDER... [--task NAME=FILE,FILE,...]
                                        [--task-dir DIR] [--before COMMIT]
+    python bench/bench_rapid_corpus.py --short     (the tests' own files, tests/data/rapid)
 
 Each FOLDER is one source (e.g. a fetched repository); it is not downloaded here. Its files
 ending in .mod, .modx, .sys or .prg are counted. After: every folder named TASKn below it (a
@@ -12,8 +13,9 @@ and each --task-dir is read as one task (read_task, strict=False:
 a module that cannot be read is left out and counted as refused, its reason kept); `--task`
 names a task of loose files (e.g. ROS abb_driver's T_ROB1: ROS_common.sys, ROS_socket.sys,
 ROS_messages.sys, ROS_motion.mod); every other file is read on its own (read_module). Before:
-the code of --before (default: the first parent of the commit that added tasks) exported with
-`git archive` to a temporary folder and run in a fresh process on the same files. Reasons are
+the code of --before (default: the commit before tasks were added) exported with `git
+archive` to a temporary folder and run in a fresh process on the same files ("-" if that
+commit is not in this clone). Reasons are
 grouped with quoted names and numbers blanked.
 """
 
@@ -68,8 +70,6 @@ def read_after(
     folder: Path, tasks: dict[str, list[Path]], task_dirs: list[Path]
 ) -> dict[str, str | None]:
     """file -> None (read) or the reason it was refused, with tasks where there are tasks."""
-    from scenarios.rapid.task import read_task
-
     out: dict[str, str | None] = {}
     groups = [
         d.parent if d.name.upper() == "PROGMOD" else d
@@ -85,20 +85,21 @@ def read_after(
         files = module_files(task_dir)
         if not files:
             continue
-        _read_group(files, out, read_task)
+        _read_group(files, out)
     for files in tasks.values():
         mine = [f for f in files if f.is_relative_to(folder)]
         if mine:
-            _read_group(mine, out, read_task)
+            _read_group(mine, out)
     rest = [f for f in module_files(folder) if str(f) not in out]
     out |= read_files(rest)
     return out
 
 
-def _read_group(files: list[Path], out: dict[str, str | None], read_task: object) -> None:
+def _read_group(files: list[Path], out: dict[str, str | None]) -> None:
+    """Read `files` as one task (strict=False); each file -> None or why it was left out."""
     from scenarios.rapid.module import RapidError
+    from scenarios.rapid.task import read_task
 
-    assert callable(read_task)
     try:
         task = read_task(files, strict=False)
     except RapidError as exc:  # the task cannot be read at all
@@ -111,16 +112,17 @@ def _read_group(files: list[Path], out: dict[str, str | None], read_task: object
         out[str(f)] = None if str(f) in read else why
 
 
-def before(files: list[Path], commit: str) -> dict[str, str | None]:
-    """read_files at `commit`, in a fresh process on an exported copy of its code."""
+def before(files: list[Path], commit: str) -> dict[str, str | None] | None:
+    """read_files at `commit`, in a fresh process on an exported copy of its code; None if
+    the commit is not in this clone (a shallow one)."""
     root = Path(__file__).resolve().parent.parent
+    exported = subprocess.run(
+        ["git", "-C", str(root), "archive", commit, "scenarios"], capture_output=True
+    )
+    if exported.returncode != 0:
+        return None
     with tempfile.TemporaryDirectory() as tmp:
-        archive = subprocess.run(
-            ["git", "-C", str(root), "archive", commit, "scenarios"],
-            capture_output=True,
-            check=True,
-        ).stdout
-        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
+        subprocess.run(["tar", "-x", "-C", tmp], input=exported.stdout, check=True)
         code = (
             "import json, sys; from pathlib import Path; "
             f"sys.path.insert(0, {str(Path(__file__).parent)!r}); "
@@ -139,17 +141,25 @@ def before(files: list[Path], commit: str) -> dict[str, str | None]:
     return result
 
 
-def table(name: str, results: dict[str, str | None]) -> list[str]:
-    refused = Counter(reason(r, Path(f)) for f, r in results.items() if r is not None)
+def counts(results: dict[str, str | None] | None) -> tuple[str, str]:
+    """(read, refused) as text; "-" where there are no results."""
+    if results is None:
+        return "-", "-"
     n_read = sum(r is None for r in results.values())
-    lines = [f"  {name}: read {n_read}, refused {len(results) - n_read}"]
-    lines += [f"      {n:3d}  {why}" for why, n in refused.most_common()]
-    return lines
+    return str(n_read), str(len(results) - n_read)
+
+
+def reasons(results: dict[str, str | None] | None) -> list[str]:
+    """The refusals' reasons, most frequent first, with their counts."""
+    if results is None:
+        return ["     (the commit is not in this clone)"]
+    refused = Counter(reason(r, Path(f)) for f, r in results.items() if r is not None)
+    return [f"{n:5d}  {why}" for why, n in refused.most_common()]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folders", nargs="+", type=Path)
+    parser.add_argument("folders", nargs="*", type=Path)
     parser.add_argument("--task", action="append", default=[], help="NAME=FILE,FILE,...")
     parser.add_argument(
         "--task-dir",
@@ -159,23 +169,37 @@ def main() -> None:
         help="a folder of loose modules to read as one task",
     )
     parser.add_argument("--before", default=BEFORE)
+    parser.add_argument("--short", action="store_true", help="the tests' own RAPID files only")
     args = parser.parse_args()
+    folders, task_dirs = list(args.folders), list(args.task_dir)
+    if args.short:
+        folders = [Path(__file__).resolve().parent.parent / "tests" / "data" / "rapid"]
+        task_dirs = [folders[0] / "abb_driver_t_rob1"]
+    if not folders:
+        parser.error("give the folders of the fetched sources (or --short)")
     tasks = {
         spec.partition("=")[0]: [Path(f).resolve() for f in spec.partition("=")[2].split(",")]
         for spec in args.task
     }
-    totals = Counter[str]()
-    for folder in (f.resolve() for f in args.folders):
+    header = ("source", "files", "read before", "refused before", "read after", "refused after")
+    print(" | ".join(header))
+    details: list[str] = []
+    total = Counter[str]()
+    for folder in (f.resolve() for f in folders):
         files = module_files(folder)
         old = before(files, args.before)
-        new = read_after(folder, tasks, [d.resolve() for d in args.task_dir])
-        print(f"{folder.name}: {len(files)} files")
-        for line in table("before", old) + table("after ", new):
-            print(line)
-        totals["files"] += len(files)
-        totals["before"] += sum(r is None for r in old.values())
-        totals["after"] += sum(r is None for r in new.values())
-    print(f"all: {totals['files']} files; read before {totals['before']}, after {totals['after']}")
+        new = read_after(folder, tasks, [d.resolve() for d in task_dirs])
+        row = (*counts(old), *counts(new))
+        print(" | ".join((folder.name, str(len(files)), *row)))
+        total["files"] += len(files)
+        for key, value in zip(header[2:], row, strict=True):
+            total[key] += int(value) if value != "-" else 0
+        details += [f"{folder.name}, before ({args.before}):", *reasons(old)]
+        details += [f"{folder.name}, after:", *reasons(new)]
+    if len(folders) > 1:
+        print(" | ".join(("all", *(str(total[k]) for k in header[1:]))))
+    print("\nreasons of the refusals (names and numbers blanked):")
+    print("\n".join(details))
 
 
 if __name__ == "__main__":

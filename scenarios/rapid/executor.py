@@ -108,6 +108,7 @@ class PlannedMove:
         v_tcp_m_s, v_ori_rad_s: the programmed speeds after VelSet.
         speed_fraction: the fraction of the joints' speed limits of a joint move.
         stop: a stop point (fine, \\Inpos); touch: a MoveL to a stop point.
+        source: the file (or module) the move is written in.
     """
 
     instruction: str
@@ -127,6 +128,7 @@ class PlannedMove:
     speed_fraction: float
     stop: bool
     touch: bool
+    source: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -609,6 +611,7 @@ def _plan_move(
         fraction,
         stop,
         instruction == "MoveL" and stop,
+        module.label,
     )
     state.q, state.table_m = q, table
     return planned
@@ -831,7 +834,8 @@ def execute_plan(
                 controller.move_joints(move.q, move.speed_fraction, settle)
         except CellError as exc:
             raise ExecutionError(
-                f"{plan.source}:{move.line}: {move.instruction} {move.target} failed on the "
+                f"{move.source or plan.source}:{move.line}: {move.instruction} {move.target} "
+                "failed on the "
                 f"cell: {exc}"
             ) from exc
         moved(f"{move.instruction} {move.target}")

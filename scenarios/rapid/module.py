@@ -648,7 +648,13 @@ class _Parser:
         """Statements up to one of `ends` (not consumed); ends[-1] closes `what`."""
         while not self.at(*ends):
             tok = self.peek()
-            if tok.kind == "eof" or tok.word() in _BLOCK_WORDS:
+            routine_next = tok.word() in ("LOCAL", "TASK") and self.peek(1).word() in (
+                "PROC",
+                "FUNC",
+                "TRAP",
+                "RECORD",
+            )
+            if tok.kind == "eof" or tok.word() in _BLOCK_WORDS or routine_next:
                 raise self.error(tok.line, f"{what} has no {ends[-1]} (found {tok.describe()})")
             self.statement()
 

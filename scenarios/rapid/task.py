@@ -84,9 +84,12 @@ class RapidTask:
 
     @property
     def label(self) -> str:
-        """What messages call the task: its folder, else its first module's label."""
+        """What messages call the task: its folder, else its first module's label (and how
+        many more modules it has)."""
         if self.path is not None:
             return str(self.path)
+        if len(self.modules) > 1:
+            return f"{self.modules[0].label} and {len(self.modules) - 1} more modules"
         return self.modules[0].label if self.modules else "an empty task"
 
     def procedure(self, name: str, caller: RapidModule | None = None) -> RapidModule | None:
