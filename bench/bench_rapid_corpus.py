@@ -6,6 +6,24 @@ checkout: each backup task folder read as a task, every other file on its own).
                                        [--task-dir DIR] [--before COMMIT]
     python bench/bench_rapid_corpus.py --short     (the tests' own files, tests/data/rapid)
 
+The figures in the README came from these public repositories, fetched (a snapshot of each,
+its RAPID files only) into one folder per repository, owner+name:
+ros-industrial/abb_driver, robotics/open_abb, tetov/compas_rcf, SDEBEUL/Kraker1,
+Keen1949/ABB_ROBOT_Socket, PaulaFreudenberger/ABB-Rapid-Git, joseballester/abb-rapidserver,
+EdgarIvanMM/Tamponadora, Fabio-Coder/Robo_ABB_Injetora-Rotinas_de_ajuste,
+panin-anan/abb_SAMXL_Grinding_RAPID, ravenorb/abb-robot-welder; and run as
+
+    D=folder-of-the-sources; A=$D/ros-industrial+abb_driver/rapid; C=$A/ROS_common.sys
+    python bench/bench_rapid_corpus.py $D/* \
+      --task T_ROB1=$C,$A/ROS_socket.sys,$A/ROS_messages.sys,$A/ROS_motion.mod \
+      --task ROS_StateServer=$C,$A/ROS_socket.sys,$A/ROS_messages.sys,$A/ROS_stateServer.mod \
+      --task ROS_MotionServer=$C,$A/ROS_socket.sys,$A/ROS_messages.sys,$A/ROS_motionServer.mod \
+      --task-dir $D/ravenorb+abb-robot-welder/sample \
+      --task-dir $D/panin-anan+abb_SAMXL_Grinding_RAPID/HOME/Projects/BrightSkyGrinder/Loop_grind
+
+(abb_driver's three tasks as its installation loads them; the welder's sample/ and the
+grinder's project folder are folders of one task each).
+
 Each FOLDER is one source (e.g. a fetched repository); it is not downloaded here. Its files
 ending in .mod, .modx, .sys or .prg are counted. After: every folder named TASKn below it (a
 backup's RAPID/TASKn, with PROGMOD and SYSMOD), the parent of a PROGMOD folder outside one,
