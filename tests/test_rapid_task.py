@@ -377,7 +377,8 @@ def test_twincell_rapid_prints_the_task(capsys: pytest.CaptureFixture[str]) -> N
     out = capsys.readouterr().out
     motion = (ABB_DRIVER / "ROS_motion.mod").read_text()
     assert f"task {ABB_DRIVER}: 3 modules" in out
-    assert "MODULE ROS_common (SYSMODULE)" in out and "records: ROS_joint_trajectory_pt" in out
+    assert "MODULE ROS_common (SYSMODULE)" in out
+    assert "records and aliases: ROS_joint_trajectory_pt" in out
     assert (
         "PROC main, LOCAL PROC init_trajectory" in out
         and "LOCAL TRAP new_trajectory_handler" in out

@@ -40,7 +40,8 @@ _MOTION = _words(
     "ArcL ArcC ArcL1 ArcC1 ArcL2 ArcC2 ArcLStart ArcLEnd ArcCStart ArcCEnd ArcMoveJ "
     "ArcMoveL ArcMoveAbsJ ArcRepL ArcMoveExtJ "
     "SpotL SpotJ SpotML SpotMJ CapL CapC PaintL PaintC DispL DispC "
-    "EGMRunJoint EGMRunPose EGMMoveL EGMMoveC ContactL CSSDeactMoveL "
+    "EGMRunJoint EGMRunPose EGMMoveL EGMMoveC ContactL CSSAct CSSDeact CSSDeactMoveL "
+    "SyncToSensor StepBwdPath "
     "SetLeadThrough WaitWObj DropWObj"
 )
 _MOTION_PREFIX = re.compile(r"^(move|search|trigg[jlc]|arc[lc]|spot|cap[lc])", re.IGNORECASE)
@@ -50,6 +51,7 @@ _MOTION_PREFIX = re.compile(r"^(move|search|trigg[jlc]|arc[lc]|spot|cap[lc])", r
 KNOWN = _words(
     # settings of motion the executor honours or that do not change the path
     "AccSet VelSet ConfJ ConfL SingArea PathResol CirPathMode GripLoad MechUnitLoad "
+    "PathAccLim ResetAxisMoveTime ResetAxisDistance "
     "PDispOff EOffsOff TuneReset TuneServo WorldAccLim MotionSup SpeedRefresh SpeedLimAxis "
     "SpeedLimCheckPoint SafetyControllerSyncRequest SetSysData "
     # waits
@@ -57,13 +59,15 @@ KNOWN = _words(
     "WaitLoad WaitTestAndSet WaitAnyDI "
     # I/O
     "Set Reset SetDO SetAO SetGO PulseDO InvertDO IODisable IOEnable IODeactivate IOActivate "
+    "AliasIO BitSet BitClear "
     "SetDataSearch GetDataVal SetDataVal SetAllDataVal GetNextSym "
     # messages and the FlexPendant
     "TPWrite TPErase TPReadFK TPReadNum TPReadDnum TPShow ErrWrite ErrLog UIMsgBox UIShow "
     "TextTabInstall ElogWrite "
     # program flow and data
     "Stop Exit ExitCycle Break Incr Decr Add Clear ProcCall CallByVar SkipWarn RaiseToUser "
-    "ErrRaise BookErrNo ResetRetryCount ReadErrData StepBwdPath ClkReset ClkStart ClkStop "
+    "ErrRaise BookErrNo ResetRetryCount ReadErrData ClkReset ClkStart ClkStop "
+    "ProcerrRecovery GetTrapData MToolRotCalib MToolTCPCalib SToolRotCalib SToolTCPCalib "
     "SpyStart SpyStop SetupCyclicBool RemoveCyclicBool CopyRawBytes ClearRawBytes "
     "PackRawBytes UnpackRawBytes PackDNHeader ReadRawBytes WriteRawBytes StrToVal "
     "TestSignDefine TestSignReset IDelete ISignalDI ISignalDO ISignalAI ISignalAO "
@@ -100,5 +104,4 @@ def is_motion(name: str) -> bool:
 
 def is_instruction(name: str) -> bool:
     """A RAPID instruction this catalogue knows (motion or not)."""
-    key = name.casefold()
-    return key in KNOWN or key in _MOTION or key in MODELLED_MOVES or is_motion(name)
+    return name.casefold() in KNOWN or is_motion(name)

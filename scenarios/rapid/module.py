@@ -187,8 +187,9 @@ class RapidModule:
     robtargets declared at module level (by name as declared), the moves of all its routines
     in the order of the text, the file it was read from, and every module-level declaration;
     its routines, every instruction statement (moves, RAPID instructions and calls, in the
-    order of the text), its RECORD types, its attributes (MODULE_ATTRIBUTES, upper case) and
-    the `%%%` header's fields (e.g. ("VERSION", "1"), ("LANGUAGE", "ENGLISH"))."""
+    order of the text), the data types it declares (RECORD and ALIAS names), its attributes
+    (MODULE_ATTRIBUTES, upper case) and the `%%%` header's fields (e.g. ("VERSION", "1"),
+    ("LANGUAGE", "ENGLISH"))."""
 
     name: str
     text: str

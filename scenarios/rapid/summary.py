@@ -23,7 +23,7 @@ def _module_lines(module: RapidModule) -> list[str]:
     routines = [f"{'LOCAL ' if r.local else ''}{r.kind} {r.name}" for r in module.routines]
     lines.append(f"  routines ({len(routines)}): {_names(routines)}")
     if module.records:
-        lines.append(f"  records: {_names(list(module.records))}")
+        lines.append(f"  records and aliases: {_names(list(module.records))}")
     lines.append(f"  tools: {_names(list(module.tools))}")
     lines.append(f"  work objects: {_names(list(module.wobjs))}")
     lines.append(f"  robtargets: {len(module.targets)}")
