@@ -10,7 +10,8 @@ The figures in the README came from these public repositories, fetched (a snapsh
 its RAPID files only) into one folder per repository, owner+name:
 ros-industrial/abb_driver, robotics/open_abb, tetov/compas_rcf, SDEBEUL/Kraker1,
 Keen1949/ABB_ROBOT_Socket, PaulaFreudenberger/ABB-Rapid-Git, joseballester/abb-rapidserver,
-EdgarIvanMM/Tamponadora, Fabio-Coder/Robo_ABB_Injetora-Rotinas_de_ajuste,
+EdgarIvanMM/Tamponadora, EdgarIvanMM/PaletizadoCajasConFrascos,
+Fabio-Coder/Robo_ABB_Injetora-Rotinas_de_ajuste,
 panin-anan/abb_SAMXL_Grinding_RAPID, ravenorb/abb-robot-welder; and run as
 
     D=folder-of-the-sources; A=$D/ros-industrial+abb_driver/rapid; C=$A/ROS_common.sys

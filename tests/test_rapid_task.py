@@ -291,7 +291,6 @@ def _write(text: str, name: str = "m.mod") -> Path:
             "MODULE Syntax",
             ["FAST", "is not a module attribute", "VIEWONLY"],
         ),
-        ("    Close logfile;", "    <SMT>", "<SMT>", ["placeholder <SMT>", "unfinished"]),
         (
             "ENDMODULE\n",
             "ENDMODULE\nMoveJ p, v10, fine, tool0;\n",
@@ -299,7 +298,7 @@ def _write(text: str, name: str = "m.mod") -> Path:
             ["text after ENDMODULE"],
         ),
     ],
-    ids=["unbalanced-blocks", "syntax", "digit", "attribute", "placeholder", "after-endmodule"],
+    ids=["unbalanced-blocks", "syntax", "digit", "attribute", "after-endmodule"],
 )
 def test_a_broken_module_is_refused_naming_file_and_line(
     old: str, new: str, fragment: str, words: list[str]
@@ -315,6 +314,32 @@ def test_a_broken_module_is_refused_naming_file_and_line(
     for word in words:
         assert word in message, message
     assert "\n" not in message
+
+
+def test_placeholders_are_read_and_stop_the_program_where_reached(three: Path) -> None:
+    """RAPID's placeholders (<SMT>, <EXP>, <DDN>: what the program editor has not written
+    yet) load on a controller, which stops with an error where the program reaches one."""
+    unfinished = (
+        MOTION.replace("  VAR iodev logfile;", "  VAR iodev logfile;\n  <DDN>")
+        .replace("    Frobnicate 2;", "    IF <EXP> THEN\n      <SMT>\n    ENDIF")
+        .replace("    Close logfile;", "    Close logfile;\n    <SMT>")
+    )
+    (three / "Motion.mod").write_text(unfinished)
+    task = read_task(three)
+    motion = task.modules[1]
+    lines = [i for i, line in enumerate(unfinished.splitlines(), 1) if "<" in line]
+    assert [line for _name, line in motion.placeholders] == lines
+    assert [name for name, _line in motion.placeholders] == ["<DDN>", "<SMT>", "<EXP>", "<SMT>"]
+    assert task.warnings[0].startswith(f"{three / 'Motion.mod'}, line {lines[0]}: 4 placeholder")
+    robot = irb2400()
+    tools = {t.name: t.T_tool_tcp for t in TOOLS}
+    with pytest.raises(RapidError) as raised:
+        plan_execution(task, robot.kinematics(), tools, robot.q_home, robot.joint_speed)
+    # main's <SMT>, after Close (the text's second placeholder).
+    assert str(raised.value).startswith(f"{three / 'Motion.mod'}:{lines[1]}: the placeholder")
+    # Where the program does not reach them (Unused), they stop nothing.
+    (three / "Motion.mod").write_text(unfinished.replace("    Close logfile;\n    <SMT>", ""))
+    plan_execution(read_task(three), robot.kinematics(), tools, robot.q_home, robot.joint_speed)
 
 
 # -- encrypted or binary --------------------------------------------------------------------------

@@ -756,6 +756,13 @@ def _set_state(module: ModuleScope, step: Step, state: _State) -> bool:
 def _check_skipped(module: ModuleScope, step: Step) -> None:
     """An instruction that is not a move the executor runs may be skipped only if it is a
     RAPID instruction that does not move the arm (see the module's docstring)."""
+    if step.instruction.startswith("<"):
+        raise program_error(
+            module,
+            step.line,
+            f"the placeholder {step.instruction} stands for a statement not written yet: a "
+            "controller stops here with an error",
+        )
     if is_motion(step.instruction):
         raise program_error(
             module,

@@ -188,8 +188,10 @@ class RapidModule:
     in the order of the text, the file it was read from, and every module-level declaration;
     its routines, every instruction statement (moves, RAPID instructions and calls, in the
     order of the text), the data types it declares (RECORD and ALIAS names), its attributes
-    (MODULE_ATTRIBUTES, upper case) and the `%%%` header's fields (e.g. ("VERSION", "1"),
-    ("LANGUAGE", "ENGLISH"))."""
+    (MODULE_ATTRIBUTES, upper case), the `%%%` header's fields (e.g. ("VERSION", "1"),
+    ("LANGUAGE", "ENGLISH")) and its placeholders with their lines (e.g. ("<SMT>", 12): what
+    the program editor marks as not written yet; a placeholder statement is an instruction
+    named so)."""
 
     name: str
     text: str
@@ -204,6 +206,7 @@ class RapidModule:
     records: tuple[str, ...] = ()
     attributes: tuple[str, ...] = ()
     header: tuple[tuple[str, str], ...] = ()
+    placeholders: tuple[tuple[str, int], ...] = ()
 
     @property
     def label(self) -> str:
@@ -288,7 +291,8 @@ def _tokenize(text: str, source: str | None) -> list[_Token]:
 
 @dataclass(frozen=True)
 class _Node:
-    """An expression: "num", "str", "bool" (value), "name" (value: the text, with any
+    """An expression: "num", "str", "bool" (value), "placeholder" (value: its text, e.g.
+    "<EXP>"), "name" (value: the text, with any
     .field / {index}), "agg" (items), "call" (value: the function, args), "unary" (value: the
     operator, items: the operand) or "binary" (value: the operator, items: both operands).
     start:end is its text."""
@@ -345,6 +349,7 @@ class _Parsed:
     records: list[str]
     attributes: tuple[str, ...]
     header: tuple[tuple[str, str], ...]
+    placeholders: list[tuple[str, int]]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -390,6 +395,8 @@ class _Parser:
     statement   := IF | FOR | WHILE | TEST | RETURN | GOTO | CONNECT | declaration | label ':'
                  | target ':=' expr ';' | '%' expr '%' [arguments] ';'
                  | instruction [arguments] ';'   (any name: RAPID's or a procedure's)
+                 | placeholder
+    placeholder := '<' NAME '>'   (also for an item, a value or a name: <DDN>, <EXP>, ...)
     arguments   := argument {',' argument | optional}
     argument    := optional | [name ':='] expr
     optional    := '\\' name [':=' expr | '?' name]
@@ -408,6 +415,7 @@ class _Parser:
         self.calls: list[_Call] = []
         self.routines: list[Routine] = []
         self.records: list[str] = []
+        self.placeholders: list[tuple[str, int]] = []
         self.routine: str | None = None
         self.loop_vars: list[str] = []
 
@@ -475,6 +483,9 @@ class _Parser:
             tok = self.peek()
             if tok.kind == "eof":
                 raise self.error(opener.line, f"MODULE {name} has no ENDMODULE")
+            if self.at_placeholder():  # <DDN>, <RDN>, <TDN>: a declaration not written yet
+                self.placeholder()
+                continue
             scope = self.next().word() if self.at("LOCAL", "TASK") else ""
             if self.at("PERS", "CONST", "VAR"):
                 self.declaration(scope)
@@ -503,6 +514,7 @@ class _Parser:
             self.records,
             attributes,
             header,
+            self.placeholders,
         )
 
     def header(self) -> tuple[tuple[str, str], ...]:
@@ -666,9 +678,10 @@ class _Parser:
         word = tok.word()
         if tok.text == "%":
             self.late_bound_call()
-        elif tok.text == "<":
-            self.next()
-            raise self.placeholder(tok)
+        elif self.at_placeholder():  # <SMT>: a statement not written yet
+            name = self.placeholder()
+            assert self.routine is not None
+            self.calls.append(_Call(name, (), tok.line, self.routine, frozenset(self.loop_vars)))
         elif tok.kind != "name":
             raise self.error(tok.line, f"expected an instruction, found {tok.describe()}")
         elif word in self._STATEMENTS:
@@ -893,22 +906,26 @@ class _Parser:
                     self.expressions("}", self.tokens[self.i - 1])
             end = self.tokens[self.i - 1].end
             return _Node("name", tok.start, end, tok.line, self.text[tok.start : end])
-        if tok.text == "<":
-            raise self.placeholder(tok)
+        if tok.text == "<" and self.peek().kind == "name" and self.peek(1).text == ">":
+            self.i -= 1  # <EXP>, <VAR>, <ARG>, <ID>: a value or a name not written yet
+            name = self.placeholder()
+            end = self.tokens[self.i - 1].end
+            return _Node("placeholder", tok.start, end, tok.line, name)
         raise self.error(tok.line, f"expected a value, found {tok.describe()}")
 
-    def placeholder(self, tok: _Token) -> RapidError:
-        """The error for RobotStudio's placeholders (<SMT>, <EXP>, <ID>, <ARG>...): the
-        program editor's marks of what is not written yet."""
-        word = self.peek()
-        if word.kind == "name" and self.peek(1).text == ">":
-            return self.error(
-                tok.line,
-                f"the placeholder <{word.text}> stands where a "
-                f"{'statement' if word.word() == 'SMT' else 'value or name'} is not written "
-                "yet: the module is unfinished",
-            )
-        return self.error(tok.line, f"unexpected {tok.describe()}")
+    def at_placeholder(self) -> bool:
+        """The next tokens are a placeholder: '<' NAME '>' (RAPID's marks of what a program
+        does not hold yet: <SMT>, <EXP>, <DDN>, ...)."""
+        return self.at("<") and self.peek(1).kind == "name" and self.peek(2).text == ">"
+
+    def placeholder(self) -> str:
+        """Consume a placeholder; its text ("<SMT>"), recorded with its line. A module with
+        placeholders loads on a controller; reaching one stops the program."""
+        opener = self.next()
+        name = f"<{self.next().text.upper()}>"
+        self.next()
+        self.placeholders.append((name, opener.line))
+        return name
 
     def expressions(self, closer: str, opener: _Token) -> tuple[_Node, ...]:
         """expr {',' expr} closer."""
@@ -1176,8 +1193,8 @@ class _Builder:
             return self.named_pose(node, scope, call)
         if node.kind == "call" and str(node.value).casefold() in ("offs", "reltool"):
             return self.offset_pose(node, scope, call)
-        if node.kind == "call":
-            return None  # a function known at run time (CRobT, CalcRobT, ...)
+        if node.kind in ("call", "placeholder"):
+            return None  # a function known at run time (CRobT, ...), or not written yet
         raise self.error(node.line, f"cannot read the target of {call.name}: {self.slice(node)}")
 
     def named_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
@@ -1380,6 +1397,7 @@ def build_module(source: ModuleText, outer: dict[str, _Decl] | None = None) -> R
         tuple(parsed.records),
         parsed.attributes,
         parsed.header,
+        tuple(parsed.placeholders),
     )
 
 

@@ -8,7 +8,9 @@ or two modules of one name, are refused, as a controller refuses to load them.
 
 An instruction is read whatever its name; once the task's routines are known, a call of a
 procedure that no module defines and that is not a RAPID instruction
-(scenarios.rapid.instructions) is named once in the task's warnings. Motion instructions the
+(scenarios.rapid.instructions) is named once in the task's warnings, and so is each module
+that holds placeholders (<SMT>, <EXP>, ...: the program editor's marks of what is not written
+yet, which a controller loads). Motion instructions the
 executor does not model (SearchL, TriggL, MoveExtJ, ...) are read and listed
 (`RapidTask.unmodelled_motion`); the executor refuses them where the program reaches them.
 """
@@ -144,8 +146,10 @@ class RapidTask:
 
 
 def task_of(module: RapidModule) -> RapidTask:
-    """A task of one module (its warnings: the procedures it calls and does not define)."""
-    return RapidTask((module,), tuple(_undefined(RapidTask((module,)))))
+    """A task of one module (its warnings: its placeholders, the procedures it calls and does
+    not define)."""
+    alone = RapidTask((module,))
+    return RapidTask((module,), (*_placeholders(alone), *_undefined(alone)))
 
 
 def task_files(paths: Iterable[str | Path]) -> list[Path]:
@@ -228,7 +232,7 @@ def read_task(paths: Sequence[str | Path] | str | Path, strict: bool = True) -> 
         except RapidError as exc:
             refuse(exc)
     task = RapidTask(tuple(modules), (), folder)
-    return RapidTask(task.modules, (*warnings, *_undefined(task)), folder)
+    return RapidTask(task.modules, (*warnings, *_placeholders(task), *_undefined(task)), folder)
 
 
 def _unique(texts: list[ModuleText], refuse: Callable[[RapidError], None]) -> list[ModuleText]:
@@ -264,7 +268,7 @@ def _undefined(task: RapidTask) -> list[str]:
     for module in task.modules:
         for call in module.instructions:
             key = call.name.casefold()
-            if key in warned or is_instruction(call.name):
+            if key in warned or is_instruction(call.name) or key.startswith("<"):
                 continue
             if task.procedure(call.name, module) is not None:
                 continue
@@ -272,5 +276,20 @@ def _undefined(task: RapidTask) -> list[str]:
             warnings.append(
                 f"{module.label}, line {call.line}: {call.name} is called but defined nowhere "
                 "in the task (neither a PROC of its modules nor a RAPID instruction)"
+            )
+    return warnings
+
+
+def _placeholders(task: RapidTask) -> list[str]:
+    """One warning per module holding placeholders (<SMT>, <EXP>, ...), at the first."""
+    warnings = []
+    for module in task.modules:
+        if module.placeholders:
+            names = sorted({name for name, _line in module.placeholders})
+            warnings.append(
+                f"{module.label}, line {module.placeholders[0][1]}: "
+                f"{len(module.placeholders)} placeholder(s) {', '.join(names)}: the module is "
+                "unfinished (a controller loads it, and stops with an error where the program "
+                "reaches one)"
             )
     return warnings
