@@ -28,14 +28,13 @@ grinder's project folder are folders of one task each).
 Each FOLDER is one source (e.g. a fetched repository); it is not downloaded here. Its files
 ending in .mod, .modx, .sys or .prg are counted. After: every folder named TASKn below it (a
 backup's RAPID/TASKn, with PROGMOD and SYSMOD), the parent of a PROGMOD folder outside one,
-and each --task-dir is read as one task (read_task, strict=False:
-a module that cannot be read is left out and counted as refused, its reason kept); `--task`
-names a task of loose files (e.g. ROS abb_driver's T_ROB1: ROS_common.sys, ROS_socket.sys,
-ROS_messages.sys, ROS_motion.mod); every other file is read on its own (read_module). Before:
-the code of --before (default: the commit before tasks were added) exported with `git
-archive` to a temporary folder and run in a fresh process on the same files ("-" if that
-commit is not in this clone). Reasons are
-grouped with quoted names and numbers blanked.
+and each --task-dir is read as one task (read_task, strict=False: a module that cannot be
+read is left out and counted as refused, its reason kept); `--task` names a task of loose
+files (e.g. ROS abb_driver's T_ROB1: ROS_common.sys, ROS_socket.sys, ROS_messages.sys,
+ROS_motion.mod); every other file is read on its own (read_module). Before: the code of
+--before (default: the commit before tasks were added) exported with `git archive` to a
+temporary folder and run in a fresh process on the same files ("-" if that commit is not in
+this clone). Reasons are grouped with quoted names and numbers blanked.
 """
 
 from __future__ import annotations
@@ -54,6 +53,7 @@ BEFORE = "5c7a0ad"
 
 
 def module_files(folder: Path) -> list[Path]:
+    """The RAPID files below `folder`, sorted."""
     return sorted(p for p in folder.rglob("*") if p.is_file() and p.suffix.lower() in SUFFIXES)
 
 
@@ -62,11 +62,9 @@ def reason(message: str, path: Path | None = None) -> str:
     text = message.removeprefix("left out: ")
     if path is not None:
         text = text.replace(str(path), "FILE")
-    text = (
-        re.sub(r"^.*?(, line \d+)?: ", "", text, count=1)
-        if "is encrypted" not in text
-        else ("is encrypted or binary, not RAPID text")
-    )
+    if "is encrypted or binary" in text:
+        return "is encrypted or binary, not RAPID text"
+    text = re.sub(r"^.*?(, line \d+)?: ", "", text, count=1)  # the file and the line
     text = re.sub(r"'[^']*'", "'X'", text)
     return re.sub(r"\d+", "N", text)[:110]
 

@@ -9,6 +9,9 @@ tests/data/rapid/abb_driver_t_rob1 is ROS abb_driver's T_ROB1 task, unchanged (B
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -430,3 +433,28 @@ def test_twincell_rapid_names_file_and_line_when_unreadable(
     files = [str(three / n) for n in ("Data.mod", "Motion.mod")]
     assert main(["rapid", *files]) == 0
     assert "Approach is called but defined nowhere" in capsys.readouterr().out
+
+
+def test_twincell_rapid_as_a_user_runs_it(tmp_path: Path) -> None:
+    """The console script in a fresh process (this checkout's code first on the path): exit 0
+    and the summary on stdout; exit 2 and one line on stderr for an encrypted module."""
+    twincell = Path(sys.executable).with_name("twincell")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
+    done = subprocess.run(
+        [str(twincell), "rapid", str(ABB_DRIVER)], capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(f"task {ABB_DRIVER}: 3 modules, 10 routines, 1 moves")
+    secret = tmp_path / "Secret.sys"
+    secret.write_bytes(bytes(range(256)))
+    done = subprocess.run(
+        [str(twincell), "rapid", str(ABB_DRIVER / "ROS_common.sys"), str(secret)],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert done.returncode == 2 and done.stdout == ""
+    assert (
+        done.stderr == f"twincell: error: {secret} is encrypted or binary, not RAPID text "
+        "(an encrypted module can only be loaded by a controller)\n"
+    )
