@@ -1,6 +1,7 @@
 """ABB RAPID, in and out: the one place the project reads, models, writes and runs RAPID.
 
-- `scenarios.rapid.module`: the reader (tokenizer and parser of a module) and the module's
+- `scenarios.rapid.parser`: the tokenizer and parser of a module's text (its syntax);
+- `scenarios.rapid.module`: the reader (names and values resolved) and the module's
   model (`RapidModule`: its data, moves, tools and work objects), and `with_oframe`, which
   writes a module back with one work object's object frame corrected;
 - `scenarios.rapid.task`: a task read as a controller runs it, a set of modules (a folder, a

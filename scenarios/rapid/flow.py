@@ -18,15 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.rapid.module import (
-    MOVES,
-    Move,
-    RapidError,
-    RapidModule,
-    _Arg,
-    _Call,
-    _Parser,
-)
+from scenarios.rapid.module import MOVES, Move, RapidModule
+from scenarios.rapid.parser import RapidError, _Arg, _Call, _Parser
 from scenarios.rapid.task import ModuleScope, RapidTask, task_of
 
 # Statements a sequence of instructions may hold besides instruction calls.

@@ -25,17 +25,13 @@ from scenarios.rapid.instructions import is_instruction, is_motion
 from scenarios.rapid.module import (
     Declaration,
     Instruction,
-    ModuleText,
-    RapidError,
     RapidModule,
     RobTarget,
-    Routine,
     ToolData,
     WobjData,
-    _Decl,
     build_module,
-    parse_module,
 )
+from scenarios.rapid.parser import ModuleText, RapidError, Routine, _Decl, parse_module
 
 #: The file name endings of RAPID modules (compared case-insensitively).
 RAPID_SUFFIXES = (".mod", ".modx", ".sys", ".prg")
