@@ -19,15 +19,15 @@ from __future__ import annotations
 
 import re
 
+from scenarios.rapid.module import MOVES
+
 
 def _words(text: str) -> frozenset[str]:
     return frozenset(text.casefold().split())
 
 
 #: The moves the reader resolves (target, speed, zone, tool, \WObj).
-MODELLED_MOVES = _words(
-    "MoveJ MoveL MoveC MoveAbsJ MoveJDO MoveLDO MoveCDO MoveJSync MoveLSync MoveCSync"
-)
+MODELLED_MOVES = frozenset(MOVES)
 
 # Instructions that move the arm or change its path, besides every Move*, Search* and
 # Trigg[JLC]* (by prefix, below).
