@@ -35,6 +35,10 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
         True,
         (("seed", "with run.rrd", "without", "ratio", "run.rrd [MB]", "chunks"),),
     ),
+    "bench_rapid_corpus.py": (
+        False,
+        (("source", "files", "read before", "refused before", "read after", "refused after"),),
+    ),
     "bench_register_cli.py": (False, (("input", "form", "wall s", "match s"),)),
     "bench_registration.py": (
         False,

@@ -274,7 +274,8 @@ def test_quaternion_slightly_off_unit_length_is_normalised() -> None:
         ("9E9,9E9]];\n  PROC", "9E9,9E9]]];\n  PROC", 6, ["unbalanced brackets", "']'"]),
         ("  ENDPROC\n", "", 11, ["PROC main (line 7)", "no ENDPROC"]),
         ("ENDMODULE\n", "", 1, ["no ENDMODULE"]),
-        ("    MoveL pA, v100", "    Frobnicate 3;\n    MoveL pA, v100", 10, ["'Frobnicate'"]),
+        ("MoveL pT,", "MoveL 1pT,", 9, ["'1pT' starts with a digit"]),
+        ("MODULE Tiny", "MODULE 2Tiny", 1, ["'2Tiny' starts with a digit"]),
         ("MoveL pT,", "MoveL pX,", 9, ["target pX", "not declared"]),
         ("MoveL pT,", "MoveL Offs(pX,0,0,10),", 9, ["target pX", "not declared"]),
         ("fine, tPen", "fine, tPin", 9, ["tool tPin", "not declared"]),
@@ -295,7 +296,8 @@ def test_quaternion_slightly_off_unit_length_is_normalised() -> None:
         "extra-bracket",
         "missing-endproc",
         "missing-endmodule",
-        "unknown-instruction",
+        "digit-name",
+        "digit-module-name",
         "undeclared-target",
         "undeclared-offs-target",
         "undeclared-tool",
@@ -318,8 +320,8 @@ def test_bad_input_names_the_file_and_line(old: str, new: str, line: int, words:
 
 def test_errors_from_a_file_name_the_file(tmp_path: Path) -> None:
     path = tmp_path / "broken.mod"
-    path.write_text(TINY.replace("MoveL pT,", "MoveX pT,"))
-    with pytest.raises(RapidError, match=r"broken\.mod, line 9: unknown instruction 'MoveX'"):
+    path.write_text(TINY.replace("MoveL pT,", "MoveL pT"))
+    with pytest.raises(RapidError, match=r"broken\.mod, line 9: missing ';'"):
         read_module(path)
 
 

@@ -192,3 +192,67 @@ def test_a_program_into_the_bone_is_refused_before_it_moves(tmp_path: Path) -> N
         assert f"pTouch{k}: approach -> touch: tool_screwer touches object" in results["reason"]
     assert results["targets"] == [] and results["program_file"] is None
     assert [s["code"] for s in results["supervision"]] == ["premotion"]
+
+
+def _split(module: str) -> dict[str, str]:
+    """The skull module as a task of three modules, as a controller's backup holds one: a
+    system module with the tool, the work object and the speed; the robtargets and the
+    motion routine in a program module; `main` in another that calls it."""
+    lines = module.splitlines()
+    data = [ln for ln in lines if "tooldata" in ln or "wobjdata" in ln or "speeddata" in ln]
+    targets = [ln for ln in lines if "robtarget" in ln]
+    body = lines[lines.index("  PROC main()") + 1 : lines.index("  ENDPROC")]
+    return {
+        "Data.sys": "\n".join(["MODULE SkullData(SYSMODULE, NOSTEPIN)", *data, "ENDMODULE", ""]),
+        "SkullMotion.mod": "\n".join(
+            ["MODULE SkullMotion", *targets, "  PROC Holes()", *body, "  ENDPROC", "ENDMODULE", ""]
+        ),
+        "SkullMain.mod": "\n".join(
+            ["MODULE SkullMain", "  PROC main()", "    Holes;", "  ENDPROC", "ENDMODULE", ""]
+        ),
+    }
+
+
+@pytest.mark.slow
+def test_a_task_folder_runs_as_its_single_module_does(
+    run: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The same program as a task of three modules: the same operations and the same errors
+    as the single module's run (same seed), the task written back with only the work
+    object's module changed, and `twincell execute` runs the written-back task."""
+    module, single = run
+    task = tmp_path / "TASK1"
+    task.mkdir()
+    for name, text in _split(module.read_text()).items():
+        (task / name).write_text(text)
+    out = tmp_path / "runs"
+    args = ["run", "skull", "--program", str(task), "--out", str(out), "--no-rrd", "--quiet"]
+    assert main([*args, *SHORT]) == 0
+    folder = (out / "latest").resolve()
+    mine = json.loads((folder / "results.json").read_text())
+    theirs = json.loads((single / "results.json").read_text())
+    assert mine["status"] == "complete"
+    assert [t["name"] for t in mine["targets"]] == [t["name"] for t in theirs["targets"]]
+    np.testing.assert_allclose(
+        [t["error_m"] for t in mine["targets"]],
+        [t["error_m"] for t in theirs["targets"]],
+        atol=1e-9,
+    )
+    written = folder / "program"
+    assert sorted(p.name for p in written.iterdir()) == sorted(_split(module.read_text()))
+    for name in ("SkullMotion.mod", "SkullMain.mod"):
+        assert (written / name).read_text() == (task / name).read_text()
+    changed = [
+        line
+        for line in difflib.unified_diff(
+            (task / "Data.sys").read_text().splitlines(),
+            (written / "Data.sys").read_text().splitlines(),
+            lineterm="",
+            n=0,
+        )
+        if line.startswith(("+", "-")) and not line.startswith(("+++", "---"))
+    ]
+    assert len(changed) == 2 and all("wobjdata wobjSkull" in line for line in changed)
+    assert main(["execute", str(folder), "--quiet"]) == 0
+    executed = json.loads((folder / "execution.json").read_text())
+    assert [t["name"] for t in executed["targets"]] == [t["name"] for t in theirs["targets"]]

@@ -341,8 +341,9 @@ _ProgramOption = Annotated[
     str | None,
     typer.Option(
         "--program",
-        help="Your RAPID module (.mod) written for the virtual cell: its work object's "
-        "robtargets become the operations, and the run writes it back corrected.",
+        help="Your RAPID module (.mod) written for the virtual cell, or a folder of the "
+        "task's modules: its work object's robtargets become the operations, and the run "
+        "writes it back corrected.",
     ),
 ]
 _CellOption = Annotated[
@@ -478,7 +479,8 @@ def execute(
         str | None,
         typer.Option(
             "--program",
-            help="The RAPID module (.mod) to run instead of the folder's program.mod.",
+            help="The RAPID module (.mod), or a folder of a task's modules, to run instead "
+            "of the folder's program.",
         ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
@@ -499,6 +501,27 @@ def execute(
     result = execute_run(run_folder, program, progress)
     Console().print(execution_table(result))
     typer.echo(f"wrote {Path(run_folder) / EXECUTION_FILE}")
+
+
+@app.command("rapid")
+def rapid(
+    paths: Annotated[
+        list[str],
+        typer.Argument(
+            help="A RAPID module file, several files of one task, or a folder (a backup's "
+            "RAPID/TASKn with PROGMOD and SYSMOD, or any folder of .mod/.modx/.sys/.prg)."
+        ),
+    ],
+) -> None:
+    """Read a RAPID task as a controller would and print what was read: modules, routines,
+    tools, work objects, robtargets, moves per routine, the motion instructions the executor
+    refuses, and warnings (procedures called but defined nowhere). Exit 2 with one line
+    naming the file and the line when the task cannot be read."""
+    from scenarios.rapid.summary import task_lines
+    from scenarios.rapid.task import read_task
+
+    for line in task_lines(read_task(paths)):
+        typer.echo(line)
 
 
 @app.command("campaign")

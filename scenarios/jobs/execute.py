@@ -43,6 +43,7 @@ from scenarios.offline.operations import UserProgram, read_user_program
 from scenarios.rapid.executor import plan_execution
 from scenarios.realcell.setup import JobCell
 from scenarios.results.run import RunNotEndedError, RunResult
+from scenarios.stages.export import TASK_FOLDER
 
 Progress = Callable[[str], None]
 
@@ -59,8 +60,8 @@ def job_program(config: JobConfig, folder: Path) -> UserProgram | None:
     if section.program is None:
         return None
     path = Path(section.program)
-    if not path.is_file():
-        path = folder / "program.mod"
+    if not path.exists():
+        path = _written_program(folder)
     return read_user_program(section.model_copy(update={"program": str(path)}))
 
 
@@ -73,11 +74,18 @@ def rebuild_job_cell(
     return job_cell(config, virtual, real, robot)
 
 
+def _written_program(folder: Path) -> Path:
+    """The program a run wrote: program.mod, or the folder of a user's task of modules."""
+    module, task = folder / "program.mod", folder / TASK_FOLDER
+    return task if task.is_dir() and not module.exists() else module
+
+
 # -- the program -----------------------------------------------------------------------------------
 def execute_run(
     folder: str | Path, program: str | Path | None = None, progress: Progress | None = None
 ) -> ExecutionResult:
-    """Execute a run folder's program (program.mod, or `program`) on its job's real cell with
+    """Execute a run folder's program (program.mod or its task folder, or `program`: a module
+    file or a folder of modules) on its job's real cell with
     the nominal arm (see the module's docstring) and write execution.json into the folder.
     Raises RunFolderError for a folder without config.yaml or without the program, and
     RapidError `<file>:<line>: <what>` for a program that cannot run; in both cases before
@@ -92,8 +100,8 @@ def execute_run(
             f"{config_file}: no such file: {folder} is not a run folder of `twincell run` "
             "(each holds the config.yaml of its job)"
         )
-    module_file = Path(program) if program is not None else folder / "program.mod"
-    if not module_file.is_file():
+    module_file = Path(program) if program is not None else _written_program(folder)
+    if not module_file.exists():
         why = "" if program is not None else ": the run wrote no RAPID program (see results.json)"
         raise RunFolderError(f"{module_file}: no such file{why}")
     config = load_config(config_file)

@@ -28,6 +28,7 @@ from scenarios.rapid.executor import (
     plan_execution,
 )
 from scenarios.rapid.module import RapidError, RapidModule, read_module
+from scenarios.rapid.task import RapidTask, read_task
 from scenarios.rapid.writer import _identifier
 from scenarios.realcell.setup import JobCell
 from scenarios.results.edge import JsonObject
@@ -196,11 +197,11 @@ def job_targets(config: JobConfig, virtual: ObjectModel, user: UserProgram | Non
     return JobTargets(virtual, offset, names)
 
 
-def read_program(path: Path) -> RapidModule:
-    """Read a RAPID module; its errors say `<file>:<line>: <what>` (the reader's own say
-    `<file>, line <line>: <what>`)."""
+def read_program(path: Path) -> RapidModule | RapidTask:
+    """Read a RAPID module, or a task from a folder of modules; its errors say
+    `<file>:<line>: <what>` (the reader's own say `<file>, line <line>: <what>`)."""
     try:
-        return read_module(path)
+        return read_task([path]) if path.is_dir() else read_module(path)
     except RapidError as exc:
         message = _READER_LINE.sub(r"\g<source>:\g<line>: ", str(exc), count=1)
         raise RapidError(message) from None
@@ -214,7 +215,7 @@ def _nominal_tools() -> dict[str, np.ndarray]:
 # -- execution -------------------------------------------------------------------------------------
 def execute_in_cell(
     cell: JobCell,
-    program: RapidModule | ExecutionPlan,
+    program: RapidModule | RapidTask | ExecutionPlan,
     targets: JobTargets,
     progress: Progress | None = None,
     refetch: bool = False,

@@ -28,9 +28,9 @@ from scenarios.rapid.module import (
     RapidModule,
     TouchOperation,
     WobjData,
-    read_module,
     touch_operations,
 )
+from scenarios.rapid.task import RapidTask, read_task
 
 
 class OperationsError(ScenarioError, ValueError):
@@ -106,34 +106,50 @@ def grasp_operation(model: ObjectModel, pick: Pick) -> Operation:
 
 @dataclass(frozen=True, eq=False)
 class UserProgram:
-    """The user's RAPID module, its work object and the touch operations read from it; the
-    table position its robtargets were taught at [m] (external axis A, 0 if unused)."""
+    """The user's RAPID program: the module whose moves hold the touches (its work object and
+    robtargets as that module sees them in its task), the work object, the touch operations
+    read from it, the table position its robtargets were taught at [m] (external axis A, 0 if
+    unused), the task it belongs to (a task of that one module for a single file) and the
+    module that declares the work object (the one written back corrected)."""
 
     module: RapidModule
     wobj: WobjData
     operations: tuple[TouchOperation, ...]
     table_position_m: float
+    task: RapidTask | None = None
+    wobj_module: RapidModule | None = None
 
 
 def read_user_program(section: OperationsSection) -> UserProgram:
-    """Read the RAPID module of `section.program` and its touch operations; raises
-    RapidError (naming the file and the line) for a module that cannot be used."""
+    """Read the RAPID program of `section.program` (a module file, or a folder holding a
+    task's modules) and its touch operations; raises RapidError (naming the file and the
+    line) for a program that cannot be used: one that calls a procedure defined nowhere in
+    its task (a controller does not load it), or whose touches are spread over modules."""
     assert section.program is not None
     path = Path(section.program)
-    if not path.is_file():
+    if not path.exists():
         raise RapidError(f"RAPID program not found: {path}")
-    module = read_module(path)
+    task = read_task([path])
+    if task.warnings:
+        raise RapidError(
+            f"{task.warnings[0]}; a controller does not load a program that calls a routine "
+            "it does not have"
+        )
+    used = {
+        m.wobj.casefold(): m.wobj
+        for module in task.modules
+        for m in module.moves
+        if m.wobj is not None and m.T_wobj_tcp is not None
+    }
     wobj_name = section.wobj
     if wobj_name is None:
-        used = sorted(
-            {m.wobj for m in module.moves if m.wobj is not None and m.T_wobj_tcp is not None}
-        )
         if len(used) != 1:
             raise RapidError(
-                f"{path}: its moves use the work objects {used or 'none'}; name the one that "
-                "holds the object's targets (operations.wobj)"
+                f"{path}: its moves use the work objects {sorted(used.values()) or 'none'}; "
+                "name the one that holds the object's targets (operations.wobj)"
             )
-        wobj_name = used[0]
+        wobj_name = next(iter(used.values()))
+    module = _touch_module(task, wobj_name, path)
     operations = touch_operations(module, wobj_name, section.pairs)
     wobj = next(w for w in module.wobjs.values() if w.name.casefold() == wobj_name.casefold())
     if wobj.robhold or wobj.ufmec.strip():
@@ -143,7 +159,29 @@ def read_user_program(section: OperationsSection) -> UserProgram:
         )
     eax = [t.eax[0] for t in module.targets.values() if t.eax[0] < 9e8]
     table_position_m = float(eax[0]) * 1e-3 if eax else 0.0
-    return UserProgram(module, wobj, operations, table_position_m)
+    declaring = next(
+        (m for m in task.modules if any(n.casefold() == wobj.name.casefold() for n in m.wobjs)),
+        module,
+    )
+    return UserProgram(module, wobj, operations, table_position_m, task, declaring)
+
+
+def _touch_module(task: RapidTask, wobj: str, path: Path) -> RapidModule:
+    """The module of `task` whose moves use work object `wobj`, with the work objects and
+    robtargets it sees in its task (its own and the other modules' global ones)."""
+    holders = [
+        m
+        for m in task.modules
+        if any(x.wobj is not None and x.wobj.casefold() == wobj.casefold() for x in m.moves)
+    ]
+    if len(holders) > 1:
+        raise RapidError(
+            f"{path}: the moves with work object {wobj} are in the modules "
+            f"{', '.join(m.name for m in holders)}; the run reads the touches of one module"
+        )
+    module = holders[0] if holders else task.modules[0]
+    scope = task.scope(module)
+    return replace(module, wobjs=scope.wobjs, targets=scope.targets)
 
 
 def program_targets(program: UserProgram) -> tuple[BurrHole, ...]:

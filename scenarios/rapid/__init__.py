@@ -1,11 +1,16 @@
 """ABB RAPID, in and out: the one place the project reads, models, writes and runs RAPID.
 
-- `scenarios.rapid.module`: the reader (tokenizer and parser of a module) and the module's
+- `scenarios.rapid.parser`: the tokenizer and parser of a module's text (its syntax);
+- `scenarios.rapid.module`: the reader (names and values resolved) and the module's
   model (`RapidModule`: its data, moves, tools and work objects), and `with_oframe`, which
   writes a module back with one work object's object frame corrected;
+- `scenarios.rapid.task`: a task read as a controller runs it, a set of modules (a folder, a
+  backup's RAPID/TASKn, or several files) whose names resolve across them, LOCAL scope kept;
+- `scenarios.rapid.instructions`: which RAPID instructions move the arm, and which are known;
+- `scenarios.rapid.summary`: what was read, as text (`twincell rapid`);
 - `scenarios.rapid.writer`: the corrected offline program written as a module (program.mod);
-- `scenarios.rapid.flow`: the order in which a controller runs a module's statements;
+- `scenarios.rapid.flow`: the order in which a controller runs a task's statements;
 - `scenarios.rapid.confdata`: a robtarget's configuration data, and the solution it asks for;
-- `scenarios.rapid.executor`: a module run on the cell's controller the way an IRC5 without
-  absolute accuracy runs it (the job's exported program and `twincell execute`).
+- `scenarios.rapid.executor`: a module or a task run on the cell's controller the way an IRC5
+  without absolute accuracy runs it (the job's exported program and `twincell execute`).
 """

@@ -21,10 +21,13 @@ Two steps, so that a program that cannot run is refused before anything moves:
   cell's controller reaches it without blending the corner). At each MoveL to a stop point
   (a touch) it calls `on_touch(target)`.
 
-Instructions that do not move the arm and have no effect in this cell (messages, I/O, load
-and acceleration settings, waits) are listed in the plan as skipped; any other instruction,
-MoveC (the cell's controller has no circular moves) and a tooldata the cell has no tool for
-are refused.
+The program is a module or a task of several modules (scenarios.rapid.task): `main` runs
+wherever it is defined, each statement sees its own module's data and the task's global data.
+RAPID instructions that do not move the arm (messages, I/O, files, sockets, waits, load and
+acceleration settings: scenarios.rapid.instructions) are listed in the plan as skipped; a
+motion instruction other than MoveJ, MoveL and MoveAbsJ (MoveC: the cell's controller has no
+circular moves; searches, triggered and process moves, path and offset control), a procedure
+defined nowhere in the task, and a tooldata the cell has no tool for are refused.
 """
 
 from __future__ import annotations
@@ -45,7 +48,9 @@ from scenarios.errors import ScenarioError
 from scenarios.offline.moves import change_tool_safely
 from scenarios.rapid.confdata import Conf, honours, solve_in_configuration
 from scenarios.rapid.flow import Step, execution_order, program_error
+from scenarios.rapid.instructions import is_instruction, is_motion
 from scenarios.rapid.module import RapidError, RapidModule, ToolData
+from scenarios.rapid.task import ModuleScope, RapidTask, task_of
 from scenarios.rapid.writer import _identifier, configuration
 
 #: Predefined speeddata: name -> (v_tcp [mm/s], v_ori [deg/s]) (v_leax, v_reax unused here).
@@ -61,26 +66,6 @@ SPEEDS: dict[str, tuple[float, float]] = {
 ZONES = frozenset(
     ["fine"] + [f"z{n}" for n in (0, 1, 5, 10, 15, 20, 30, 40, 50, 60, 80, 100, 150, 200)]
 )
-#: Instructions run without an effect on this cell: messages, I/O (the cell has none), load,
-#: acceleration and path settings (its controller has its own profiles), waits.
-NO_EFFECT = (
-    "TPWrite",
-    "TPErase",
-    "AccSet",
-    "SingArea",
-    "PathResol",
-    "CirPathMode",
-    "GripLoad",
-    "WaitTime",
-    "Set",
-    "Reset",
-    "SetDO",
-    "SetAO",
-    "SetGO",
-    "PulseDO",
-    "InvertDO",
-)
-_NO_EFFECT = frozenset(name.casefold() for name in NO_EFFECT)
 #: Optional arguments of a move the executor honours (\WObj, \V, \Inpos) or may ignore
 #: (\Conc: the next instructions run while the arm moves; \Z: the zone's size; \ID;
 #: \NoEOffs: no external-axis offsets are active).
@@ -123,6 +108,7 @@ class PlannedMove:
         v_tcp_m_s, v_ori_rad_s: the programmed speeds after VelSet.
         speed_fraction: the fraction of the joints' speed limits of a joint move.
         stop: a stop point (fine, \\Inpos); touch: a MoveL to a stop point.
+        source: the file (or module) the move is written in.
     """
 
     instruction: str
@@ -142,6 +128,7 @@ class PlannedMove:
     speed_fraction: float
     stop: bool
     touch: bool
+    source: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,7 +203,7 @@ def _numbers(text: str) -> list[float]:
     return [float(x) for x in re.findall(_NUMBER, text)]
 
 
-def _declared(module: RapidModule, name: str, datatype: str, line: int) -> object | None:
+def _declared(module: ModuleScope, name: str, datatype: str, line: int) -> object | None:
     """The literal value of module-level data `name` of `datatype`, None if not declared as
     one; raises (naming `line`, where it is used) if declared without a literal value."""
     for declared, d in module.data.items():
@@ -238,7 +225,7 @@ def _option(text: str) -> tuple[str, str | None]:
     return name.strip(), (value.strip() or None) if assigned else None
 
 
-def _number(module: RapidModule, text: str, line: int, what: str) -> float:
+def _number(module: ModuleScope, text: str, line: int, what: str) -> float:
     """A num argument: a literal or a num declared with a literal value."""
     if re.fullmatch(_NUMBER, text.strip()):
         return float(text)
@@ -267,7 +254,7 @@ class _State:
 
 
 def _match_tool(
-    module: RapidModule, tool: ToolData, tools: Mapping[str, np.ndarray], line: int
+    module: ModuleScope, tool: ToolData, tools: Mapping[str, np.ndarray], line: int
 ) -> str:
     """The cell's tool a tooldata stands for (see TOOL_MATCH_M)."""
     for name in tools:
@@ -301,7 +288,7 @@ def _match_tool(
     )
 
 
-def _tooldata(module: RapidModule, name: str, line: int) -> ToolData | None:
+def _tooldata(module: ModuleScope, name: str, line: int) -> ToolData | None:
     """The tooldata `name` (None: tool0, the flange)."""
     if name.casefold() == _FLANGE:
         return None
@@ -316,10 +303,10 @@ def _tooldata(module: RapidModule, name: str, line: int) -> ToolData | None:
                 )
             return tool
     _declared(module, name, "tooldata", line)  # declared without a literal value
-    raise program_error(module, line, f"tooldata {name} is not declared in the module")
+    raise program_error(module, line, f"tooldata {name} is not declared in the task")
 
 
-def _object_frame(module: RapidModule, name: str | None, line: int) -> tuple[str, np.ndarray]:
+def _object_frame(module: ModuleScope, name: str | None, line: int) -> tuple[str, np.ndarray]:
     """(name, T_base_oframe (4, 4)) of a move's work object (None: wobj0, the base frame)."""
     if name is None or name.casefold() == _BASE:
         return _BASE, np.eye(4)
@@ -343,11 +330,11 @@ def _object_frame(module: RapidModule, name: str | None, line: int) -> tuple[str
                 )
             return w.name, w.T_base_uframe @ w.T_uframe_oframe
     _declared(module, name, "wobjdata", line)
-    raise program_error(module, line, f"work object {name} is not declared in the module")
+    raise program_error(module, line, f"work object {name} is not declared in the task")
 
 
 def _speed(
-    module: RapidModule, text: str, options: dict[str, str | None], line: int, state: _State
+    module: ModuleScope, text: str, options: dict[str, str | None], line: int, state: _State
 ) -> tuple[float, float]:
     """(v_tcp [m/s], v_ori [rad/s]) of a move's speed argument, \\V and VelSet."""
     key = text.strip()
@@ -372,7 +359,7 @@ def _speed(
     return v_tcp_m_s, v_ori_rad_s
 
 
-def _stop_point(module: RapidModule, text: str, options: dict[str, str | None], line: int) -> bool:
+def _stop_point(module: ModuleScope, text: str, options: dict[str, str | None], line: int) -> bool:
     key = text.strip()
     if "inpos" in options or key.casefold() == "fine":
         return True
@@ -388,7 +375,7 @@ def _stop_point(module: RapidModule, text: str, options: dict[str, str | None], 
     )
 
 
-def _table(module: RapidModule, eax_a: float, line: int, state: _State) -> float | None:
+def _table(module: ModuleScope, eax_a: float, line: int, state: _State) -> float | None:
     """The table during a move: external axis A [mm -> m], or where it was if unused."""
     if abs(eax_a) >= _UNUSED_AXIS:
         return state.table_m
@@ -404,7 +391,7 @@ def _table(module: RapidModule, eax_a: float, line: int, state: _State) -> float
     return position
 
 
-def _target_data(module: RapidModule, step: Step) -> tuple[Conf, float]:
+def _target_data(module: ModuleScope, step: Step) -> tuple[Conf, float]:
     """(confdata, eax_a) of a MoveJ / MoveL target: of the robtarget it names (also inside
     Offs / RelTool, which keep them), or of an inline robtarget."""
     assert step.move is not None
@@ -426,7 +413,7 @@ def _target_data(module: RapidModule, step: Step) -> tuple[Conf, float]:
     )
 
 
-def _jointtarget(module: RapidModule, step: Step, kin: Kinematics) -> tuple[np.ndarray, float]:
+def _jointtarget(module: ModuleScope, step: Step, kin: Kinematics) -> tuple[np.ndarray, float]:
     """(q (6,) [rad], eax_a) of a MoveAbsJ's jointtarget, checked against the limits."""
     assert step.move is not None
     text = step.move.target.strip()
@@ -512,7 +499,7 @@ def _speed_fraction(
     return float(np.clip(fraction, _MIN_SPEED_FRACTION, 1.0))
 
 
-def _instruction(module: RapidModule, step: Step) -> str:
+def _instruction(module: ModuleScope, step: Step) -> str:
     """The move's instruction as the executor names it: "MoveJ", "MoveL" or "MoveAbsJ"."""
     kind = step.instruction.casefold()
     if kind not in ("movej", "movel", "moveabsj"):
@@ -525,7 +512,7 @@ def _instruction(module: RapidModule, step: Step) -> str:
     return {"movej": "MoveJ", "movel": "MoveL", "moveabsj": "MoveAbsJ"}[kind]
 
 
-def _move_options(module: RapidModule, step: Step, instruction: str) -> dict[str, str | None]:
+def _move_options(module: ModuleScope, step: Step, instruction: str) -> dict[str, str | None]:
     """The move's optional arguments: name (lower case) -> value as written (None: none);
     refuses those the executor does not take (MOVE_OPTIONS)."""
     assert step.move is not None
@@ -544,7 +531,7 @@ def _move_options(module: RapidModule, step: Step, instruction: str) -> dict[str
 
 
 def _move_tool(
-    module: RapidModule, name: str, tools: Mapping[str, np.ndarray], line: int, state: _State
+    module: ModuleScope, name: str, tools: Mapping[str, np.ndarray], line: int, state: _State
 ) -> ToolData | None:
     """The move's tooldata `name` (None: tool0), checked to stand for the cell's tool the
     program's earlier moves use (the first one that uses a tool sets it in `state`)."""
@@ -566,7 +553,7 @@ def _move_tool(
 
 
 def _plan_move(
-    module: RapidModule,
+    module: ModuleScope,
     step: Step,
     kin: Kinematics,
     tools: Mapping[str, np.ndarray],
@@ -624,13 +611,14 @@ def _plan_move(
         fraction,
         stop,
         instruction == "MoveL" and stop,
+        module.label,
     )
     state.q, state.table_m = q, table
     return planned
 
 
 def _solve(
-    module: RapidModule,
+    module: ModuleScope,
     step: Step,
     kin: Kinematics,
     T_base_tcp: np.ndarray,
@@ -695,7 +683,7 @@ def _solve(
 
 
 def plan_execution(
-    module: RapidModule,
+    program: RapidModule | RapidTask,
     kinematics: Kinematics,
     tools: Mapping[str, np.ndarray],
     q_start: np.ndarray,
@@ -703,62 +691,102 @@ def plan_execution(
     entry: str = "main",
     seed: int = 0,
 ) -> ExecutionPlan:
-    """Plan `module` from its PROC `entry` for an arm with `kinematics` (the controller's
-    nominal kinematics: an IRC5 without absolute accuracy) and joint speed limits
-    `joint_speed_rad_s` (6,), starting at q_start (6,) [rad], in a cell with `tools` (name ->
-    nominal T_flange_tcp (4, 4), see `cell_tools`). `seed`: the IK's random seeds. Raises
-    RapidError `<file>:<line>: <what>` for anything that cannot run (see the module's
-    docstring); nothing moves."""
-    steps = execution_order(module, entry)
+    """Plan a module or a task from its PROC `entry` (in whichever module it is) for an arm
+    with `kinematics` (the controller's nominal kinematics: an IRC5 without absolute
+    accuracy) and joint speed limits `joint_speed_rad_s` (6,), starting at q_start (6,)
+    [rad], in a cell with `tools` (name -> nominal T_flange_tcp (4, 4), see `cell_tools`).
+    `seed`: the IK's random seeds. Raises RapidError `<file>:<line>: <what>` for anything
+    that cannot run (see the module's docstring); nothing moves."""
+    task = program if isinstance(program, RapidTask) else task_of(program)
+    steps = execution_order(task, entry)
     q0 = kinematics.check_limits(np.array(q_start, dtype=float))
     state = _State(q=q0)
     speeds = np.asarray(joint_speed_rad_s, dtype=float)
     moves: list[PlannedMove] = []
     skipped: list[str] = []
+    scopes: dict[int, ModuleScope] = {}
     for step in steps:
-        name = step.instruction.casefold()
+        assert step.module is not None
+        scope = scopes.setdefault(id(step.module), task.scope(step.module))
         if step.move is not None:
-            moves.append(_plan_move(module, step, kinematics, tools, speeds, state, seed))
-        elif name in ("confj", "confl"):
-            switch = {o.lstrip("\\").strip().casefold() for o in step.options}
-            if switch not in ({"on"}, {"off"}):
-                raise program_error(module, step.line, f"{step.instruction} needs \\On or \\Off")
-            if name == "confj":
-                state.conf_j = switch == {"on"}
-            else:
-                state.conf_l = switch == {"on"}
-        elif name == "velset":
-            if len(step.arguments) != 2:
-                raise program_error(module, step.line, "VelSet needs Override [%] and Max [mm/s]")
-            override = _number(module, step.arguments[0], step.line, "the VelSet override")
-            v_max = _number(module, step.arguments[1], step.line, "the VelSet maximum speed")
-            if not (override > 0.0 and v_max > 0.0):
-                raise program_error(module, step.line, "VelSet's override and maximum must be > 0")
-            state.override, state.v_max_m_s = override / 100.0, v_max * 1e-3
-        elif name in _NO_EFFECT:
+            moves.append(_plan_move(scope, step, kinematics, tools, speeds, state, seed))
+        elif not _set_state(scope, step, state):
+            _check_skipped(scope, step)
             skipped.append(f"line {step.line}: {step.instruction}")
-        else:
-            raise program_error(
-                module,
-                step.line,
-                f"{step.instruction} is not executed: the executor runs MoveJ, MoveL, "
-                "MoveAbsJ, ConfJ, ConfL, VelSet and calls of routines; it skips "
-                f"{', '.join(NO_EFFECT)} (no effect in this cell)",
-            )
+    main = task.procedure(entry, task.modules[0])
+    assert main is not None  # execution_order found it
     if not moves:
-        raise RapidError(
-            f"{module.path or module.name}: PROC {entry} runs no MoveJ, MoveL or MoveAbsJ"
-        )
+        raise RapidError(f"{main.label}: PROC {entry} runs no MoveJ, MoveL or MoveAbsJ")
     return ExecutionPlan(
-        str(module.path) if module.path is not None else f"module {module.name}",
-        module.name,
-        compensation(module),
+        main.label if len(task.modules) == 1 else task.label,
+        main.name,
+        _task_compensation(task, main),
         state.cell_tool,
         q0,
         kinematics.fk(q0),
         tuple(moves),
         tuple(skipped),
     )
+
+
+def _set_state(module: ModuleScope, step: Step, state: _State) -> bool:
+    """Apply ConfJ, ConfL or VelSet to `state`; False for any other instruction."""
+    name = step.instruction.casefold()
+    if name in ("confj", "confl"):
+        switch = {o.lstrip("\\").strip().casefold() for o in step.options}
+        if switch not in ({"on"}, {"off"}):
+            raise program_error(module, step.line, f"{step.instruction} needs \\On or \\Off")
+        if name == "confj":
+            state.conf_j = switch == {"on"}
+        else:
+            state.conf_l = switch == {"on"}
+        return True
+    if name == "velset":
+        if len(step.arguments) != 2:
+            raise program_error(module, step.line, "VelSet needs Override [%] and Max [mm/s]")
+        override = _number(module, step.arguments[0], step.line, "the VelSet override")
+        v_max = _number(module, step.arguments[1], step.line, "the VelSet maximum speed")
+        if not (override > 0.0 and v_max > 0.0):
+            raise program_error(module, step.line, "VelSet's override and maximum must be > 0")
+        state.override, state.v_max_m_s = override / 100.0, v_max * 1e-3
+        return True
+    return False
+
+
+def _check_skipped(module: ModuleScope, step: Step) -> None:
+    """An instruction that is not a move the executor runs may be skipped only if it is a
+    RAPID instruction that does not move the arm (see the module's docstring)."""
+    if step.instruction.startswith("<"):
+        raise program_error(
+            module,
+            step.line,
+            f"the placeholder {step.instruction} stands for a statement not written yet: a "
+            "controller stops here with an error",
+        )
+    if is_motion(step.instruction):
+        raise program_error(
+            module,
+            step.line,
+            f"{step.instruction} is not executed: it moves the arm or changes its path, and "
+            "the cell's controller runs MoveJ, MoveL and MoveAbsJ only (no searches, no "
+            "triggered or process moves, no path or offset control)",
+        )
+    if not is_instruction(step.instruction):
+        raise program_error(
+            module,
+            step.line,
+            f"unknown instruction {step.instruction!r}: neither a PROC of the task nor a "
+            "RAPID instruction; the executor cannot tell whether it moves the arm",
+        )
+
+
+def _task_compensation(task: RapidTask, main: RapidModule) -> str:
+    """The compensation the task states: main's module first, then the others in order."""
+    for module in (main, *(m for m in task.modules if m is not main)):
+        stated = compensation(module)
+        if _COMPENSATION.search(module.text):
+            return stated
+    return "nominal"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -813,7 +841,8 @@ def execute_plan(
                 controller.move_joints(move.q, move.speed_fraction, settle)
         except CellError as exc:
             raise ExecutionError(
-                f"{plan.source}:{move.line}: {move.instruction} {move.target} failed on the "
+                f"{move.source or plan.source}:{move.line}: {move.instruction} {move.target} "
+                "failed on the "
                 f"cell: {exc}"
             ) from exc
         moved(f"{move.instruction} {move.target}")

@@ -1,30 +1,26 @@
-"""The order in which a controller runs the statements of a RAPID module, from `main`.
+"""The order in which a controller runs the statements of a RAPID task, from `main`.
 
 `scenarios.rapid.module` reads a module's data and moves but not its control flow:
-its moves come in the order of the text. A controller runs `main` statement by statement and
-enters each routine it calls. This module follows that order for the programs an offline
-cell program is made of: straight sequences of instructions and calls of routines without
-arguments. It records the top-level statements of every routine with the same parser the
-reader uses (so both agree on every line), and refuses what it cannot follow before anything
-moves: IF, FOR, WHILE, TEST, GOTO, assignments (they change data the targets may depend on),
-late-bound calls, calls with arguments and recursion. RETURN ends the routine it is in and
-EXIT the program. A routine's error, backward and undo handlers run only when an error is
-raised, which the executor never does (an error stops the execution): they are not followed.
+its moves come in the order of the text. A controller runs `main` (wherever in the task it is
+defined) statement by statement and enters each routine it calls, in whichever module of the
+task it is (scenarios.rapid.task resolves the names, LOCAL routines in their own module). This
+module follows that order for the programs an offline cell program is made of: straight
+sequences of instructions and calls of routines without arguments. It records the top-level
+statements of every routine with the same parser the reader uses (so both agree on every
+line), and refuses what it cannot follow before anything moves: IF, FOR, WHILE, TEST, GOTO,
+assignments (they change data the targets may depend on), late-bound calls, calls with
+arguments and recursion. RETURN ends the routine it is in and EXIT the program. A routine's
+error, backward and undo handlers run only when an error is raised, which the executor never
+does (an error stops the execution): they are not followed.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.rapid.module import (
-    MOVES,
-    Move,
-    RapidError,
-    RapidModule,
-    _Arg,
-    _Call,
-    _Parser,
-)
+from scenarios.rapid.module import MOVES, Move, RapidModule
+from scenarios.rapid.parser import RapidError, _Arg, _Call, _Parser
+from scenarios.rapid.task import ModuleScope, RapidTask, task_of
 
 # Statements a sequence of instructions may hold besides instruction calls.
 _DECLARATION = "declaration"
@@ -50,7 +46,8 @@ class Step:
     """One instruction as the controller runs it: its name as written, the routine it is
     written in, the chain of routine calls that led there (outermost first, `main` at
     the start), its line, its optional arguments as written (e.g. "\\On"), its positional
-    arguments as written, and the move it is (None for an instruction that is not a move)."""
+    arguments as written, the move it is (None for an instruction that is not a move) and
+    the module it is written in."""
 
     instruction: str
     routine: str
@@ -59,6 +56,7 @@ class Step:
     options: tuple[str, ...]
     arguments: tuple[str, ...]
     move: Move | None
+    module: RapidModule | None = None
 
 
 @dataclass(frozen=True)
@@ -114,13 +112,9 @@ class _StatementParser(_Parser):
         self.statements.append(_Statement(self.routine, tok.line, kind, call))
 
 
-def _label(module: RapidModule) -> str:
-    return str(module.path) if module.path is not None else f"module {module.name}"
-
-
-def program_error(module: RapidModule, line: int, message: str) -> RapidError:
+def program_error(module: RapidModule | ModuleScope, line: int, message: str) -> RapidError:
     """A RapidError `<file>:<line>: <message>` about `module`."""
-    return RapidError(f"{_label(module)}:{line}: {message}")
+    return RapidError(f"{module.label}:{line}: {message}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,44 +136,64 @@ class _Program:
 
 def _read_program(module: RapidModule) -> _Program:
     """The routines of `module`, read again by the statement parser."""
-    parser = _StatementParser(module.text, _label(module))
+    parser = _StatementParser(module.text, module.label)
     parser.module()
     move_calls = [c for c in parser.calls if c.name.casefold() in MOVES]
     if len(move_calls) != len(module.moves):  # the same parser read the same text
-        raise RapidError(f"{_label(module)}: the module changed since it was read")
+        raise RapidError(f"{module.label}: the module changed since it was read")
     moves = {id(c): m for c, m in zip(move_calls, module.moves, strict=True)}
     bodies: dict[str, list[_Statement]] = {}
-    names: dict[str, str] = {}
     for statement in parser.statements:
         bodies.setdefault(statement.routine.casefold(), []).append(statement)
-    for routine in parser.params:
+    names = {r.name.casefold(): r.name for r in parser.routines if r.kind == "PROC"}
+    for routine in names:
         bodies.setdefault(routine, [])
-    for tok, name in zip(parser.tokens, parser.tokens[1:], strict=False):
-        if tok.word() == "PROC" and name.kind == "name":
-            names[name.text.casefold()] = name.text
     return _Program(module, bodies, parser.params, names, moves)
 
 
-def execution_order(module: RapidModule, entry: str = "main") -> tuple[Step, ...]:
-    """The instructions of `module` in the order a controller runs them from the routine
-    `entry` (routine calls entered, RETURN and EXIT honoured; see the module's docstring).
-    Raises RapidError naming the file and the line of the first statement it cannot
-    follow, or if `entry` is not a PROC of the module."""
-    program = _read_program(module)
-    if entry.casefold() not in program.bodies:
-        declared = ", ".join(program.names.values()) or "none"
+@dataclass(frozen=True, eq=False)
+class _TaskProgram:
+    """The task and each of its modules' routines (by the module's identity)."""
+
+    task: RapidTask
+    programs: dict[int, _Program]
+
+    def callee(self, name: str, caller: RapidModule) -> tuple[_Program, str] | None:
+        """The module's routines and the name as declared of the PROC `name` a statement of
+        `caller` calls (see RapidTask.procedure), or None."""
+        module = self.task.procedure(name, caller)
+        if module is None:
+            return None
+        program = self.programs[id(module)]
+        return program, program.names[name.casefold()]
+
+
+def execution_order(program: RapidModule | RapidTask, entry: str = "main") -> tuple[Step, ...]:
+    """The instructions of a module or a task in the order a controller runs them from the
+    routine `entry`, wherever in the task it is defined (routine calls entered across
+    modules, RETURN and EXIT honoured; see the module's docstring). Raises RapidError naming
+    the file and the line of the first statement it cannot follow, or if `entry` is not a
+    PROC of the task."""
+    task = program if isinstance(program, RapidTask) else task_of(program)
+    flow = _TaskProgram(task, {id(m): _read_program(m) for m in task.modules})
+    found = flow.callee(entry, task.modules[0]) if task.modules else None
+    if found is None:
+        routines = [p.names[k] for p in flow.programs.values() for k in p.names]
         raise RapidError(
-            f"{_label(module)}: no PROC {entry} to start the program from (routines: {declared})"
+            f"{task.label}: no PROC {entry} to start the program from (routines: "
+            f"{', '.join(routines) or 'none'})"
         )
+    start, name = found
     steps: list[Step] = []
-    start = program.names[entry.casefold()]
-    _run(program, start, (start,), steps)
+    _run(flow, start, name, (name,), steps)
     return tuple(steps)
 
 
-def _run(program: _Program, routine: str, chain: tuple[str, ...], steps: list[Step]) -> bool:
-    """Run `routine`'s body, called through `chain`, appending its instructions to `steps`;
-    False if the program ended (EXIT)."""
+def _run(
+    flow: _TaskProgram, program: _Program, routine: str, chain: tuple[str, ...], steps: list[Step]
+) -> bool:
+    """Run `routine`'s body (in `program`'s module), called through `chain`, appending its
+    instructions to `steps`; False if the program ended (EXIT)."""
     for s in program.bodies[routine.casefold()]:
         if s.kind in (_DECLARATION, _LABEL):
             continue
@@ -196,22 +210,28 @@ def _run(program: _Program, routine: str, chain: tuple[str, ...], steps: list[St
                 "arguments (no IF, FOR, WHILE, TEST, GOTO, assignment or late-bound call)",
             )
         call = s.call
-        key = call.name.casefold()
-        if key not in program.names:
+        found = flow.callee(call.name, program.module)
+        if found is None:
             steps.append(_step(program, s, call, chain))
             continue
-        callee = program.names[key]
-        _check_call(program, s, call, chain)
-        if not _run(program, callee, (*chain, callee), steps):
+        callee_program, callee = found
+        _check_call(program, callee_program, callee, s, call, chain)
+        if not _run(flow, callee_program, callee, (*chain, callee), steps):
             return False
     return True
 
 
-def _check_call(program: _Program, s: _Statement, call: _Call, chain: tuple[str, ...]) -> None:
-    """Refuse a call of a routine of the module (statement `s`, through `chain`) that passes
-    arguments, calls a routine with parameters, or recurses."""
-    key = call.name.casefold()
-    callee = program.names[key]
+def _check_call(
+    program: _Program,
+    callee_program: _Program,
+    callee: str,
+    s: _Statement,
+    call: _Call,
+    chain: tuple[str, ...],
+) -> None:
+    """Refuse a call (statement `s` of `program`, through `chain`) of the routine `callee` of
+    `callee_program` that passes arguments, calls a routine with parameters, or recurses."""
+    key = callee.casefold()
     if call.args:
         raise program_error(
             program.module,
@@ -219,12 +239,12 @@ def _check_call(program: _Program, s: _Statement, call: _Call, chain: tuple[str,
             f"the call of PROC {callee} passes arguments; the executor calls "
             "routines without arguments only",
         )
-    if program.params.get(key):
+    if callee_program.params.get(key):
         raise program_error(
             program.module,
             s.line,
             f"PROC {callee} takes parameters "
-            f"({', '.join(sorted(program.params[key]))}); the executor calls "
+            f"({', '.join(sorted(callee_program.params[key]))}); the executor calls "
             "routines without arguments only",
         )
     if key in (c.casefold() for c in chain):
@@ -246,4 +266,5 @@ def _step(program: _Program, s: _Statement, call: _Call, chain: tuple[str, ...])
         tuple(program.text(a) for a in call.args if a.optional),
         tuple(program.text(a) for a in call.args if not a.optional),
         program.moves.get(id(call)),
+        program.module,
     )

@@ -7,45 +7,36 @@ converted at this edge to metres and 4 x 4 homogeneous transforms. A robtarget i
 in its work object's object frame, so the controller moves the TCP to
 uframe @ oframe @ robtarget: correcting `oframe` corrects every target of that work object.
 
-The reader is a small tokenizer and a recursive-descent parser of the module, its data
-declarations and its routines. It does not run the program: data are taken at their declared
-values, and a target that depends on run-time values (a routine parameter, a FOR variable, a
-function such as CRobT) is kept with no pose.
+The syntax comes from scenarios.rapid.parser; this module resolves its names and values. It
+does not run the program: data are taken at their declared values, and a target that depends
+on run-time values (a routine parameter, a FOR variable, a function such as CRobT) is kept with
+no pose.
 """
 
 from __future__ import annotations
 
 import operator
 import re
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenarios.errors import ScenarioError
-
-
-def _words(text: str) -> frozenset[str]:
-    return frozenset(text.split())
-
-
-# The instructions the reader recognises and keeps (compared case-insensitively); moves are
-# the MOVES below. A call of a PROC of the module is recognised too.
-INSTRUCTIONS = _words(
-    "AccSet VelSet ConfJ ConfL SingArea PathResol CirPathMode GripLoad MechUnitLoad "
-    "WaitTime WaitDI WaitDO WaitAI WaitAO WaitGI WaitGO WaitUntil WaitRob WaitSyncTask "
-    "Set Reset SetDO SetAO SetGO PulseDO InvertDO "
-    "TPWrite TPErase TPReadFK TPReadNum ErrWrite "
-    "Stop Exit ExitCycle Break Incr Decr Add Clear ProcCall CallByVar "
-    "StopMove StartMove ClearPath StorePath RestoPath "
-    "PDispOn PDispOff PDispSet EOffsOn EOffsOff EOffsSet "
-    "SearchL SearchJ SearchC TriggL TriggJ TriggC TriggIO TriggEquip TriggInt MoveExtJ "
-    "ActUnit DeactUnit SyncMoveOn SyncMoveOff "
-    "IDelete ISignalDI ISignalDO ITimer ISleep IWatch IEnable IDisable "
-    "MoveJ MoveL MoveC MoveAbsJ MoveJDO MoveLDO MoveCDO MoveJSync MoveLSync MoveCSync".casefold()
+from scenarios.rapid.parser import (
+    ModuleText,
+    RapidError,
+    Routine,
+    _Arg,
+    _as_float,
+    _Call,
+    _Decl,
+    _Node,
+    _Parsed,
+    _Parser,
+    _where,
+    parse_module,
 )
 
 # Moves whose leading arguments are: target(s), speed, zone, tool [\WObj]: name -> targets.
@@ -62,28 +53,11 @@ MOVES = {
     "movecsync": 2,
 }
 
-# RAPID's reserved words (not names of data or instructions).
-_RESERVED = _words(
-    "ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR ENDFUNC ENDIF "
-    "ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FALSE FOR FROM FUNC GOTO "
-    "IF INOUT LOCAL MOD MODULE NOSTEPIN NOT NOVIEW OR PERS PROC RAISE READONLY RECORD RETRY "
-    "RETURN STEP SYSMODULE TASK TEST THEN TO TRAP TRUE TRYNEXT UNDO VAR VIEWONLY WHILE WITH "
-    "XOR"
-)
-# Words that open or close a routine or a block: a statement never starts with one.
-_BLOCK_WORDS = _words(
-    "MODULE ENDMODULE PROC ENDPROC FUNC ENDFUNC TRAP ENDTRAP RECORD ENDRECORD ENDIF ELSE "
-    "ELSEIF ENDFOR ENDWHILE ENDTEST CASE DEFAULT BACKWARD ERROR UNDO THEN DO"
-)
+
 # Data every controller declares in its BASE module.
 _PREDEFINED = {"tool0": "tooldata", "wobj0": "wobjdata", "load0": "loaddata"}
 
 _QUATERNION_NORM_TOLERANCE = 1e-3
-
-
-class RapidError(ScenarioError, ValueError):
-    """A RAPID module that cannot be read or used: the message names the file (if any), the
-    line and what is wrong."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -170,11 +144,27 @@ class Declaration:
     line: int
 
 
+@dataclass(frozen=True)
+class Instruction:
+    """An instruction statement as written (a move, a RAPID instruction or a call of a
+    procedure): its name, its line, the routine it is in."""
+
+    name: str
+    line: int
+    routine: str
+
+
 @dataclass(frozen=True, eq=False)
 class RapidModule:
     """A RAPID module as read: its name, its text (unchanged), the tools, work objects and
     robtargets declared at module level (by name as declared), the moves of all its routines
-    in the order of the text, the file it was read from, and every module-level declaration."""
+    in the order of the text, the file it was read from, and every module-level declaration;
+    its routines, every instruction statement (moves, RAPID instructions and calls, in the
+    order of the text), the data types it declares (RECORD and ALIAS names), its attributes
+    (MODULE_ATTRIBUTES, upper case), the `%%%` header's fields (e.g. ("VERSION", "1"),
+    ("LANGUAGE", "ENGLISH")) and its placeholders with their lines (e.g. ("<SMT>", 12): what
+    the program editor marks as not written yet; a placeholder statement is an instruction
+    named so)."""
 
     name: str
     text: str
@@ -184,6 +174,17 @@ class RapidModule:
     moves: tuple[Move, ...]
     path: Path | None
     data: dict[str, Declaration] = field(default_factory=dict)
+    routines: tuple[Routine, ...] = ()
+    instructions: tuple[Instruction, ...] = ()
+    records: tuple[str, ...] = ()
+    attributes: tuple[str, ...] = ()
+    header: tuple[tuple[str, str], ...] = ()
+    placeholders: tuple[tuple[str, int], ...] = ()
+
+    @property
+    def label(self) -> str:
+        """What messages call the module: its file, else "module <name>"."""
+        return str(self.path) if self.path is not None else f"module {self.name}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,607 +198,6 @@ class TouchOperation:
     T_wobj_touch: np.ndarray
     speed_touch: str
     line: int
-
-
-# ---------------------------------------------------------------------------------------------
-# Tokens
-
-
-@dataclass(frozen=True)
-class _Token:
-    kind: str  # "name", "num", "str", "op" or "eof"
-    text: str
-    start: int
-    end: int
-    line: int
-
-    def word(self) -> str:
-        """The upper-case text of a name (RAPID's keywords are case-insensitive), else ""."""
-        return self.text.upper() if self.kind == "name" else ""
-
-    def describe(self) -> str:
-        return "the end of the file" if self.kind == "eof" else f"{self.text!r} at line {self.line}"
-
-
-_TOKEN = re.compile(
-    r"(?P<space>[ \t\r\n\f\v\ufeff]+)"
-    r"|(?P<comment>![^\n]*)"
-    r"|(?P<num>0[xX][0-9A-Fa-f]+|0[bB][01]+|0[oO][0-7]+|(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
-    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
-    r'|(?P<str>"(?:[^"\\\n]|""|\\.)*")'
-    r"|(?P<op>:=|<>|<=|>=|[\[\](){},;:\\.+\-*/<>=%])"
-)
-
-
-def _where(source: str | None, line: int) -> str:
-    return f"{source}, line {line}" if source else f"line {line}"
-
-
-def _tokenize(text: str, source: str | None) -> list[_Token]:
-    tokens, pos, line = [], 0, 1
-    while pos < len(text):
-        m = _TOKEN.match(text, pos)
-        if m is None:
-            what = "unterminated string" if text[pos] == '"' else f"unexpected {text[pos]!r}"
-            raise RapidError(f"{_where(source, line)}: {what}")
-        kind = m.lastgroup
-        assert kind is not None
-        if kind not in ("space", "comment"):
-            tokens.append(_Token(kind, m.group(), m.start(), m.end(), line))
-        line += m.group().count("\n")
-        pos = m.end()
-    tokens.append(_Token("eof", "", len(text), len(text), line))
-    return tokens
-
-
-# ---------------------------------------------------------------------------------------------
-# Syntax tree: expressions, arguments, declarations, instruction calls
-
-
-@dataclass(frozen=True)
-class _Node:
-    """An expression: "num", "str", "bool" (value), "name" (value: the text, with any
-    .field / {index}), "agg" (items), "call" (value: the function, args), "unary" (value: the
-    operator, items: the operand) or "binary" (value: the operator, items: both operands).
-    start:end is its text."""
-
-    kind: str
-    start: int
-    end: int
-    line: int
-    value: object = None
-    items: tuple[_Node, ...] = ()
-    args: tuple[_Arg, ...] = ()
-
-
-@dataclass(frozen=True)
-class _Arg:
-    """An argument: positional (name None), named (Name := value) or optional (\\Name, with
-    or without := value)."""
-
-    name: str | None
-    optional: bool
-    value: _Node | None
-    start: int
-    end: int
-
-
-@dataclass(frozen=True)
-class _Decl:
-    name: str
-    datatype: str
-    storage: str
-    scope: str
-    array: bool
-    value: _Node | None
-    line: int
-    routine: str | None
-
-
-@dataclass(frozen=True)
-class _Call:
-    name: str
-    args: tuple[_Arg, ...]
-    line: int
-    routine: str
-    loop_vars: frozenset[str]
-
-
-@dataclass
-class _Parsed:
-    name: str
-    decls: list[_Decl]
-    params: dict[str, frozenset[str]]  # routine (casefold) -> its parameters (casefold)
-    calls: list[_Call]
-
-
-# ---------------------------------------------------------------------------------------------
-# Parser
-
-
-_BINARY = {
-    "OR": 1,
-    "XOR": 1,
-    "AND": 2,
-    "=": 3,
-    "<>": 3,
-    "<": 3,
-    "<=": 3,
-    ">": 3,
-    ">=": 3,
-    "+": 4,
-    "-": 4,
-    "*": 5,
-    "/": 5,
-    "DIV": 5,
-    "MOD": 5,
-}
-
-
-def _as_float(value: object) -> float:
-    """A number literal's value (the parser stores it as a float)."""
-    assert isinstance(value, int | float), value
-    return float(value)
-
-
-class _Parser:
-    """Recursive descent over the tokens of one module:
-
-    module      := MODULE name ['(' attributes ')'] {declaration | routine} ENDMODULE
-    declaration := [LOCAL | TASK] (PERS | CONST | VAR) type name ['{' dims '}'] [':=' expr] ';'
-    routine     := PROC name '(' params ')' block {(BACKWARD | ERROR | UNDO) block} ENDPROC
-                 | FUNC ... ENDFUNC | TRAP ... ENDTRAP | RECORD ... ENDRECORD   (skipped)
-    statement   := IF | FOR | WHILE | TEST | RETURN | GOTO | CONNECT | declaration | label ':'
-                 | target ':=' expr ';' | instruction [arguments] ';'
-    arguments   := argument {',' argument | optional}
-    argument    := optional | [name ':='] expr;  optional := '\\' name [':=' expr]
-    expr        := unary {binary-operator expr}   (by precedence)
-    primary     := number | string | TRUE | FALSE | '[' expr {',' expr} ']' | '(' expr ')'
-                 | name '(' arguments ')' | name {'.' name | '{' expr {',' expr} '}'}
-    """
-
-    def __init__(self, text: str, source: str | None) -> None:
-        self.text = text
-        self.source = source
-        self.tokens = _tokenize(text, source)
-        self.i = 0
-        self.procs = {
-            b.text.casefold()
-            for a, b in zip(self.tokens, self.tokens[1:], strict=False)
-            if a.word() == "PROC" and b.kind == "name"
-        }
-        self.decls: list[_Decl] = []
-        self.params: dict[str, frozenset[str]] = {}
-        self.calls: list[_Call] = []
-        self.routine: str | None = None
-        self.loop_vars: list[str] = []
-
-    # --- tokens
-
-    def peek(self, k: int = 0) -> _Token:
-        return self.tokens[min(self.i + k, len(self.tokens) - 1)]
-
-    def next(self) -> _Token:
-        tok = self.peek()
-        self.i = min(self.i + 1, len(self.tokens) - 1)
-        return tok
-
-    def at(self, *texts: str) -> bool:
-        """The next token is one of these keywords (any case) or operators."""
-        tok = self.peek()
-        if tok.kind == "name":
-            return tok.word() in texts
-        return tok.kind == "op" and tok.text in texts
-
-    def error(self, line: int, message: str) -> RapidError:
-        return RapidError(f"{_where(self.source, line)}: {message}")
-
-    def expect(self, text: str, context: str) -> _Token:
-        if not self.at(text):
-            tok = self.peek()
-            raise self.error(tok.line, f"expected {text!r} {context}, found {tok.describe()}")
-        return self.next()
-
-    def identifier(self, context: str) -> _Token:
-        tok = self.peek()
-        if tok.kind != "name" or tok.word() in _RESERVED:
-            raise self.error(tok.line, f"expected a name {context}, found {tok.describe()}")
-        return self.next()
-
-    def end_statement(self, context: str) -> None:
-        """The ';' that ends a declaration or a statement."""
-        if self.at(";"):
-            self.next()
-            return
-        tok, last = self.peek(), self.tokens[self.i - 1]
-        if tok.text in ("]", ")", "}"):
-            raise self.error(
-                tok.line, f"unbalanced brackets: {tok.text!r} closes nothing in {context}"
-            )
-        raise self.error(last.line, f"missing ';' after {context} (found {tok.describe()})")
-
-    def skip_to(self, closer: str, opener: _Token, what: str) -> None:
-        """Skip the tokens up to and including `closer` (a keyword or an operator)."""
-        while not self.at(closer):
-            if self.peek().kind == "eof":
-                raise self.error(opener.line, f"{what} has no {closer}")
-            self.next()
-        self.next()
-
-    # --- module
-
-    def module(self) -> _Parsed:
-        self.expect("MODULE", "at the start of the module")
-        opener = self.tokens[self.i - 1]
-        name = self.identifier("after MODULE").text
-        if self.at("("):
-            self.skip_to(")", self.next(), f"the attribute list of MODULE {name}")
-        while not self.at("ENDMODULE"):
-            tok = self.peek()
-            if tok.kind == "eof":
-                raise self.error(opener.line, f"MODULE {name} has no ENDMODULE")
-            scope = self.next().word() if self.at("LOCAL", "TASK") else ""
-            if self.at("PERS", "CONST", "VAR"):
-                self.declaration(scope)
-            elif self.at("PROC"):
-                self.proc()
-            elif self.at("FUNC", "TRAP", "RECORD"):
-                start = self.next()
-                self.skip_to(f"END{start.word()}", start, f"{start.word()} at line {start.line}")
-            else:
-                tok = self.peek()
-                raise self.error(
-                    tok.line,
-                    f"expected a data declaration (PERS, CONST, VAR) or a routine (PROC, FUNC, "
-                    f"TRAP), found {tok.describe()}",
-                )
-        end = self.next()
-        if self.peek().kind != "eof":
-            raise self.error(end.line, f"text after ENDMODULE: {self.peek().describe()}")
-        return _Parsed(name, self.decls, self.params, self.calls)
-
-    def declaration(self, scope: str) -> None:
-        storage = self.next()
-        datatype = self.identifier(f"(a data type) after {storage.word()}")
-        name = self.identifier(f"after the data type {datatype.text}")
-        array = self.at("{")
-        if array:
-            self.next()
-            self.expressions("}", name)
-        value = None
-        if self.at(":="):
-            self.next()
-            value = self.expression()
-        self.end_statement(f"the declaration of {name.text}")
-        self.decls.append(
-            _Decl(
-                name.text,
-                datatype.text,
-                storage.word(),
-                scope,
-                array,
-                value,
-                storage.line,
-                self.routine,
-            )
-        )
-
-    def proc(self) -> None:
-        start = self.next()
-        name = self.identifier("after PROC")
-        self.expect("(", f"after PROC {name.text}")
-        self.params[name.text.casefold()] = self.parameters()
-        self.routine = name.text
-        what = f"PROC {name.text} (line {start.line})"
-        ends = ("BACKWARD", "ERROR", "UNDO", "ENDPROC")
-        self.block(ends, what)
-        while not self.at("ENDPROC"):
-            section = self.next()
-            if section.word() == "ERROR" and self.at("("):
-                self.skip_to(")", self.next(), f"the ERROR list of {what}")
-            self.block(ends, what)
-        self.next()
-        self.routine = None
-
-    def parameters(self) -> frozenset[str]:
-        """The parameter names up to the closing ')': in each parameter, separated by ',' or
-        '|', the last name before any '{' (after INOUT / VAR / PERS and the type)."""
-        names: set[str] = set()
-        last: str | None = None
-        depth = 0
-        while not (self.at(")") and depth == 0):
-            tok = self.next()
-            if tok.kind == "eof":
-                raise self.error(tok.line, "the parameter list has no ')'")
-            if tok.text == "{":
-                depth += 1
-            elif tok.text == "}":
-                depth -= 1
-            elif depth == 0 and tok.text in (",", "|"):
-                if last:
-                    names.add(last)
-                last = None
-            elif depth == 0 and tok.kind == "name":
-                last = tok.text.casefold()
-        if last:
-            names.add(last)
-        self.next()
-        return frozenset(names)
-
-    # --- statements
-
-    def block(self, ends: tuple[str, ...], what: str) -> None:
-        """Statements up to one of `ends` (not consumed); ends[-1] closes `what`."""
-        while not self.at(*ends):
-            tok = self.peek()
-            if tok.kind == "eof" or tok.word() in _BLOCK_WORDS:
-                raise self.error(tok.line, f"{what} has no {ends[-1]} (found {tok.describe()})")
-            self.statement()
-
-    def statement(self) -> None:
-        """One statement: a keyword's (see _STATEMENTS), a label, an assignment, a late-bound
-        call or an instruction."""
-        tok = self.peek()
-        word = tok.word()
-        if tok.text == "%":
-            self.late_bound_call()
-        elif tok.kind != "name":
-            raise self.error(tok.line, f"expected an instruction, found {tok.describe()}")
-        elif word in self._STATEMENTS:
-            self._STATEMENTS[word](self)
-        elif word in _RESERVED:
-            raise self.error(tok.line, f"unexpected {tok.describe()}")
-        elif self.peek(1).text == ":":  # a label
-            self.next()
-            self.next()
-        elif self.peek(1).text in (":=", ".", "{"):
-            self.assignment()
-        else:
-            self.instruction()
-
-    def late_bound_call(self) -> None:
-        """%"name"% arguments;"""
-        start = self.next()
-        self.expression()
-        self.expect("%", "after the late-bound procedure name")
-        self.arguments()
-        self.end_statement(f"the late-bound call at line {start.line}")
-
-    def assignment(self) -> None:
-        """target := expr; with any .field / {index} of the assigned data."""
-        start = self.peek()
-        self.primary()
-        self.expect(":=", f"in the assignment at line {start.line}")
-        self.expression()
-        self.end_statement(f"the assignment to {start.text}")
-
-    def local_declaration(self) -> None:
-        """A routine's data: [LOCAL | TASK] (PERS | CONST | VAR) ..."""
-        scope = self.next().word() if self.at("LOCAL", "TASK") else ""
-        self.declaration(scope)
-
-    def for_statement(self) -> None:
-        start = self.next()
-        var = self.identifier("after FOR")
-        self.expect("FROM", f"after FOR {var.text}")
-        self.expression()
-        self.expect("TO", "in the FOR statement")
-        self.expression()
-        if self.at("STEP"):
-            self.next()
-            self.expression()
-        self.expect("DO", "in the FOR statement")
-        self.loop_vars.append(var.text.casefold())
-        self.block(("ENDFOR",), f"FOR (line {start.line})")
-        self.loop_vars.pop()
-        self.next()
-
-    def while_statement(self) -> None:
-        start = self.next()
-        self.expression()
-        self.expect("DO", "after the WHILE condition")
-        self.block(("ENDWHILE",), f"WHILE (line {start.line})")
-        self.next()
-
-    def return_statement(self) -> None:
-        """RETURN or RAISE, with an optional value."""
-        word = self.next().word()
-        if not self.at(";"):
-            self.expression()
-        self.end_statement(word)
-
-    def bare_statement(self) -> None:
-        """EXIT, RETRY or TRYNEXT."""
-        self.end_statement(self.next().word())
-
-    def goto_statement(self) -> None:
-        self.next()
-        self.identifier("after GOTO")
-        self.end_statement("GOTO")
-
-    def connect_statement(self) -> None:
-        self.next()
-        self.expression()
-        self.expect("WITH", "in CONNECT")
-        self.identifier("after WITH")
-        self.end_statement("CONNECT")
-
-    def if_statement(self) -> None:
-        start = self.next()
-        self.expression()
-        if not self.at("THEN"):  # compact IF: one simple statement
-            self.statement()
-            return
-        self.next()
-        what = f"IF (line {start.line})"
-        self.block(("ELSEIF", "ELSE", "ENDIF"), what)
-        while self.at("ELSEIF"):
-            self.next()
-            self.expression()
-            self.expect("THEN", "after the ELSEIF condition")
-            self.block(("ELSEIF", "ELSE", "ENDIF"), what)
-        if self.at("ELSE"):
-            self.next()
-            self.block(("ENDIF",), what)
-        self.next()
-
-    def test_statement(self) -> None:
-        start = self.next()
-        self.expression()
-        what = f"TEST (line {start.line})"
-        while self.at("CASE"):
-            self.next()
-            self.expression()
-            while self.at(","):
-                self.next()
-                self.expression()
-            self.expect(":", "after CASE")
-            self.block(("CASE", "DEFAULT", "ENDTEST"), what)
-        if self.at("DEFAULT"):
-            self.next()
-            self.expect(":", "after DEFAULT")
-            self.block(("ENDTEST",), what)
-        self.expect("ENDTEST", f"to close the {what}")
-
-    def instruction(self) -> None:
-        name = self.next()
-        if name.text.casefold() not in INSTRUCTIONS and name.text.casefold() not in self.procs:
-            raise self.error(
-                name.line,
-                f"unknown instruction {name.text!r}: neither a RAPID instruction this reader "
-                "knows nor a PROC of the module",
-            )
-        args = self.arguments()
-        self.end_statement(f"the {name.text} instruction")
-        assert self.routine is not None
-        self.calls.append(
-            _Call(name.text, tuple(args), name.line, self.routine, frozenset(self.loop_vars))
-        )
-
-    # The statements that start with a keyword, by keyword.
-    _STATEMENTS: ClassVar[dict[str, Callable[[_Parser], None]]] = {
-        "IF": if_statement,
-        "FOR": for_statement,
-        "WHILE": while_statement,
-        "TEST": test_statement,
-        "RETURN": return_statement,
-        "RAISE": return_statement,
-        "EXIT": bare_statement,
-        "RETRY": bare_statement,
-        "TRYNEXT": bare_statement,
-        "GOTO": goto_statement,
-        "CONNECT": connect_statement,
-        **dict.fromkeys(("PERS", "CONST", "VAR", "LOCAL", "TASK"), local_declaration),
-    }
-
-    def arguments(self, closer: str = ";") -> list[_Arg]:
-        args: list[_Arg] = []
-        if self.at(closer):
-            return args
-        while True:
-            start = self.peek()
-            if self.at("\\"):
-                self.next()
-                name = self.identifier("after '\\'").text
-                value = None
-                if self.at(":="):
-                    self.next()
-                    value = self.expression()
-                args.append(_Arg(name, True, value, start.start, self.tokens[self.i - 1].end))
-            else:
-                name = None
-                if start.kind == "name" and self.peek(1).text == ":=":
-                    name = self.next().text
-                    self.next()
-                value = self.expression()
-                args.append(_Arg(name, False, value, start.start, value.end))
-            if self.at(","):
-                self.next()
-            elif not self.at("\\"):
-                return args
-
-    # --- expressions
-
-    def expression(self, min_precedence: int = 1) -> _Node:
-        left = self.unary()
-        while True:
-            tok = self.peek()
-            op = tok.word() or (tok.text if tok.kind == "op" else "")
-            if op not in _BINARY or _BINARY[op] < min_precedence:
-                return left
-            self.next()
-            right = self.expression(_BINARY[op] + 1)
-            left = _Node("binary", left.start, right.end, left.line, op, (left, right))
-
-    def unary(self) -> _Node:
-        tok = self.peek()
-        if self.at("-", "+", "NOT"):
-            self.next()
-            operand = self.expression(3) if tok.word() == "NOT" else self.unary()
-            return _Node("unary", tok.start, operand.end, tok.line, tok.text.upper(), (operand,))
-        return self.primary()
-
-    def primary(self) -> _Node:
-        tok = self.next()
-        if tok.kind == "num":
-            return _Node("num", tok.start, tok.end, tok.line, _number(tok.text))
-        if tok.kind == "str":
-            return _Node("str", tok.start, tok.end, tok.line, _string(tok.text))
-        if tok.word() in ("TRUE", "FALSE"):
-            return _Node("bool", tok.start, tok.end, tok.line, tok.word() == "TRUE")
-        if tok.text == "[":
-            items = self.expressions("]", tok)
-            return _Node("agg", tok.start, self.tokens[self.i - 1].end, tok.line, None, items)
-        if tok.text == "(":
-            inner = self.expression()
-            self.close(")", tok)
-            return replace(inner, start=tok.start, end=self.tokens[self.i - 1].end)
-        if tok.kind == "name" and tok.word() not in _RESERVED:
-            if self.at("("):
-                opener = self.next()
-                args = self.arguments(")")
-                self.close(")", opener)
-                end = self.tokens[self.i - 1].end
-                return _Node("call", tok.start, end, tok.line, tok.text, (), tuple(args))
-            while self.at(".", "{"):
-                if self.next().text == ".":
-                    self.identifier("after '.'")
-                else:
-                    self.expressions("}", self.tokens[self.i - 1])
-            end = self.tokens[self.i - 1].end
-            return _Node("name", tok.start, end, tok.line, self.text[tok.start : end])
-        raise self.error(tok.line, f"expected a value, found {tok.describe()}")
-
-    def expressions(self, closer: str, opener: _Token) -> tuple[_Node, ...]:
-        """expr {',' expr} closer."""
-        items = [self.expression()]
-        while self.at(","):
-            self.next()
-            items.append(self.expression())
-        self.close(closer, opener)
-        return tuple(items)
-
-    def close(self, closer: str, opener: _Token) -> None:
-        if not self.at(closer):
-            raise self.error(
-                opener.line,
-                f"unbalanced brackets: the {opener.text!r} at line {opener.line} is not closed "
-                f"by {closer!r} (found {self.peek().describe()})",
-            )
-        self.next()
-
-
-def _number(text: str) -> float:
-    if text[:2].lower() in ("0x", "0b", "0o"):
-        return float(int(text, 0))
-    return float(text)
-
-
-def _string(text: str) -> str:
-    body = text[1:-1].replace('""', '"')
-    return re.sub(
-        r"\\([0-9A-Fa-f]{2}|\\)", lambda m: "\\" if m[1] == "\\" else chr(int(m[1], 16)), body
-    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -931,10 +331,13 @@ _RUNTIME = "run-time"  # a name bound only when the program runs (parameter, FOR
 
 
 class _Builder:
-    def __init__(self, parsed: _Parsed, text: str, source: str | None) -> None:
+    def __init__(
+        self, parsed: _Parsed, text: str, source: str | None, outer: dict[str, _Decl]
+    ) -> None:
         self.text = text
         self.source = source
         self.params = parsed.params
+        self.outer = outer
         self.module_decls: dict[str, _Decl] = {}
         self.local_decls: dict[tuple[str, str], _Decl] = {}
         for decl in parsed.decls:
@@ -971,7 +374,11 @@ class _Builder:
         key = name.casefold()
         if key in scope.loop_vars or key in self.params.get(scope.routine.casefold(), ()):
             return _RUNTIME
-        decl = self.local_decls.get((scope.routine.casefold(), key)) or self.module_decls.get(key)
+        decl = (
+            self.local_decls.get((scope.routine.casefold(), key))
+            or self.module_decls.get(key)
+            or self.outer.get(key)
+        )
         return decl if decl is not None else _PREDEFINED.get(key)
 
     def check_declared(self, node: _Node, datatype: str, role: str, call: _Call) -> None:
@@ -1027,8 +434,8 @@ class _Builder:
             return self.named_pose(node, scope, call)
         if node.kind == "call" and str(node.value).casefold() in ("offs", "reltool"):
             return self.offset_pose(node, scope, call)
-        if node.kind == "call":
-            return None  # a function known at run time (CRobT, CalcRobT, ...)
+        if node.kind in ("call", "placeholder"):
+            return None  # a function known at run time (CRobT, ...), or not written yet
         raise self.error(node.line, f"cannot read the target of {call.name}: {self.slice(node)}")
 
     def named_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
@@ -1038,10 +445,10 @@ class _Builder:
         found = self.lookup(str(node.value), scope)  # None: an element or a field
         if not isinstance(found, _Decl) or found.array:
             return None
-        if found.routine is None:
+        if found.routine is None and self.module_decls.get(found.name.casefold()) is found:
             target = self.targets.get(found.name)
             return None if target is None else target.T_wobj_tcp.copy()
-        value = _literal(found.value)  # a robtarget declared in the routine
+        value = _literal(found.value)  # declared in the routine, or in another module
         if value is None:
             return None
         where = _where(self.source, node.line)
@@ -1133,31 +540,13 @@ class _Builder:
         )
 
 
-def _read_text(path: Path) -> str:
-    """The file's text as it is (line endings kept): UTF-8, else Latin-1."""
-    raw = path.read_bytes()
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError:
-        return raw.decode("latin-1")
-
-
-def read_module(source: str | Path, name: str | None = None) -> RapidModule:
-    """Read a RAPID module: `source` is its text (str) or its file (Path); `name` is what
-    error messages call it (default: the file's path). Raises RapidError on a syntax error, an
-    unknown instruction, a move whose target, tool or work object is not declared, or data
-    that are not what their type needs (e.g. a quaternion off unit length by more than
-    1e-3)."""
-    if isinstance(source, Path):
-        path: Path | None = source
-        text = _read_text(source)
-        label: str | None = name or str(source)
-    elif "\n" not in source and re.search(r"\.(mod|modx|sys|prg)\s*$", source, re.IGNORECASE):
-        raise RapidError(f"{source!r} looks like a file name: pass a Path to read a file")
-    else:
-        path, text, label = None, source, name
-    parsed = _Parser(text, label).module()
-    builder = _Builder(parsed, text, label)
+def build_module(source: ModuleText, outer: dict[str, _Decl] | None = None) -> RapidModule:
+    """The typed module of a parsed text, its names resolved in its own module and then in
+    `outer` (the data other modules of its task make visible to it, by case-folded name).
+    Raises RapidError naming the file and line for a move whose target, tool or work object
+    is declared nowhere, or data that are not what their type needs."""
+    parsed, text, label = source.parsed, source.text, source.label
+    builder = _Builder(parsed, text, label, outer or {})
     moves = tuple(builder.move(c) for c in parsed.calls if c.name.casefold() in MOVES)
     return RapidModule(
         parsed.name,
@@ -1166,9 +555,26 @@ def read_module(source: str | Path, name: str | None = None) -> RapidModule:
         builder.wobjs,
         builder.targets,
         moves,
-        path,
+        source.path,
         {d.name: builder.declaration(d) for d in builder.module_decls.values()},
+        tuple(parsed.routines),
+        tuple(Instruction(c.name, c.line, c.routine) for c in parsed.calls),
+        tuple(parsed.records),
+        parsed.attributes,
+        parsed.header,
+        tuple(parsed.placeholders),
     )
+
+
+def read_module(source: str | Path, name: str | None = None) -> RapidModule:
+    """Read one RAPID module: `source` is its text (str) or its file (Path); `name` is what
+    error messages call it (default: the file's path). Every instruction is read whatever its
+    name (scenarios.rapid.task names the procedures defined nowhere). Raises RapidError on a
+    syntax error, an encrypted or binary file, a move whose target, tool or work object is
+    not declared in the module, or data that are not what their type needs (e.g. a
+    quaternion off unit length by more than 1e-3). A task of several modules:
+    scenarios.rapid.task.read_task."""
+    return build_module(parse_module(source, name))
 
 
 # ---------------------------------------------------------------------------------------------

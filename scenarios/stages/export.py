@@ -101,6 +101,10 @@ def program_filter(
     )
 
 
+#: The folder a user's task of several modules is written back to, in the run folder.
+TASK_FOLDER = "program"
+
+
 def export_program(
     folder: Path,
     program: OfflineProgram,
@@ -129,10 +133,17 @@ def export_program(
         return None
     if user is None:
         write_program(folder / "program.mod", program, T_table_nominal, nominal, filtered)
-    else:
-        T_base_object = program.T_base_object
-        T_uframe_oframe = np.linalg.inv(user.wobj.T_base_uframe) @ T_base_object
-        write_text(
-            folder / "program.mod", with_oframe(user.module, user.wobj.name, T_uframe_oframe)
-        )
-    return "program.mod"
+        return "program.mod"
+    T_base_object = program.T_base_object
+    T_uframe_oframe = np.linalg.inv(user.wobj.T_base_uframe) @ T_base_object
+    declaring = user.wobj_module or user.module
+    corrected = with_oframe(declaring, user.wobj.name, T_uframe_oframe)
+    if user.task is None or len(user.task.modules) == 1:
+        write_text(folder / "program.mod", corrected)
+        return "program.mod"
+    # A task: its modules in a folder, the one declaring the work object corrected.
+    for module in user.task.modules:
+        assert module.path is not None  # a task's modules are read from files
+        text = corrected if module is declaring else module.text
+        write_text(folder / TASK_FOLDER / module.path.name, text)
+    return TASK_FOLDER
