@@ -5,8 +5,9 @@ passes. A job that cannot be done refuses here, before anything moves."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
+from itertools import islice
 
 import numpy as np
 
@@ -18,7 +19,8 @@ from models.model import ObjectModel
 from models.registry import real_model
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, RobotSection
-from scenarios.offline.arm_setup import ArmSetupError, choose_arm_setup, joint_window
+from scenarios.offline.arm_setup import arm_setups, joint_window, no_home_message
+from scenarios.offline.moves import UnreachablePlanError
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -32,6 +34,7 @@ from scenarios.offline.operations import (
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.plan_cache import cached_plan, plan_key
 from scenarios.offline.premotion import job_virtual_cell
+from scenarios.offline.program import Operation
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.scan_plan import ScanPlan
@@ -94,11 +97,16 @@ def job_robot(
         raise ScenarioError(f"cell.robot: {exc}") from None
 
 
-def file_arm(
+#: How many of a file arm's chosen homes a job tries before it refuses.
+ARM_SETUPS_TRIED = 3
+
+
+def job_arms(
     config: JobConfig, virtual: ObjectModel, T_table_nominal: np.ndarray, say: Progress
-) -> Robot:
-    """The arm of a file without a home or joint window in its cell: both chosen in the
-    virtual cell (scenarios.offline.arm_setup), said, and given to the arm."""
+) -> Iterator[Robot]:
+    """The job's arm: the one its cell gives (a built-in arm, or a file arm with home and
+    joint window); for a file arm without them, the homes and windows chosen in the virtual
+    cell (scenarios.offline.arm_setup), best first, each said as it is tried."""
     section = config.cell.robot
     robot = job_robot(section)
     file_speed = robot.kinematics().model.velocityLimit
@@ -115,23 +123,34 @@ def file_arm(
     if section.model in BUILTIN or (
         section.home_deg is not None and section.limits_deg is not None
     ):
-        return robot
-    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
-    T_world_table = nominal_T_base_table(0.0)
-    centre = T_world_table[:3, :3] @ box.centre + T_world_table[:3, 3]
+        yield robot
+        return
     calibrates = config.calibration.enabled  # its spheres on the table
     cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal, calibrates)
     if section.home_deg is not None:  # the window around the given home
         lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, cell)
         say("arm: joint window chosen around the given home (cell.robot.limits_deg to fix it)")
-        return job_robot(section, None, (lower, upper))
-    try:
-        setup = choose_arm_setup(robot.kinematics(), cell, centre, float(centre[2] + box.half[2]))
-    except ArmSetupError as exc:
-        raise ScenarioError(f"cell.robot: {exc}") from None
-    say(f"arm: {setup.describe()} (cell.robot.home_deg, cell.robot.limits_deg to fix them)")
-    window = None if section.limits_deg else (setup.lower, setup.upper)
-    return job_robot(section, setup.q_home, window)
+        yield job_robot(section, None, (lower, upper))
+        return
+    box = ObjectBox.of(virtual.mesh.vertices, T_table_nominal)
+    T_world_table = nominal_T_base_table(0.0)
+    centre = T_world_table[:3, :3] @ box.centre + T_world_table[:3, 3]
+    setups = arm_setups(robot.kinematics(), cell, centre, float(centre[2] + box.half[2]))
+    found = False
+    for setup in islice(setups, ARM_SETUPS_TRIED):
+        found = True
+        say(f"arm: {setup.describe()} (cell.robot.home_deg, cell.robot.limits_deg to fix them)")
+        window = None if section.limits_deg else (setup.lower, setup.upper)
+        yield job_robot(section, setup.q_home, window)
+    if not found:
+        raise ScenarioError(f"cell.robot: {no_home_message()}")
+
+
+def file_arm(
+    config: JobConfig, virtual: ObjectModel, T_table_nominal: np.ndarray, say: Progress
+) -> Robot:
+    """The job's arm, or a file arm's best chosen home and window (see `job_arms`)."""
+    return next(job_arms(config, virtual, T_table_nominal, say))
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,7 +193,6 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
     user = None if config.operations.program is None else read_user_program(config.operations)
     virtual, real = object_models(config, user)
     T_table_nominal = nominal_pose(settings.placement, virtual.mesh.vertices)
-    robot = file_arm(config, virtual, T_table_nominal, say)
     if user is not None:
         check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)
         say(f"program {config.operations.program}: {len(user.operations)} touches")
@@ -182,6 +200,35 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
     operations = (
         target_operations(virtual, config.operations) if user is None else program_operations(user)
     )
+    arms = job_arms(config, virtual, T_table_nominal, say)
+    robot = next(arms)
+    while True:
+        try:
+            scan_plan, plan_cache = _arm_plan(config, robot, user, virtual, T_table_nominal,
+                                              operations, say)  # fmt: skip
+            break
+        except UnreachablePlanError as exc:
+            say(f"arm: that home does not do this job: {exc}")
+            robot_next = next(arms, None)
+            if robot_next is None:
+                raise
+            robot = robot_next
+    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan, plan_cache)
+
+
+def _arm_plan(
+    config: JobConfig,
+    robot: Robot,
+    user: UserProgram | None,
+    virtual: ObjectModel,
+    T_table_nominal: np.ndarray,
+    operations: tuple[Operation, ...],
+    say: Progress,
+) -> tuple[ScanPlan | None, str | None]:
+    """Whether `robot` reaches the job's rack slots, scan and operations, and its scan plan
+    and the plan's cache key (None, None without a surface scan); raises
+    UnreachablePlanError naming what it cannot do."""
+    settings = config.planning()
     reach = check_reach(
         robot,
         settings,
@@ -197,19 +244,18 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
         f"reach: the {robot.name} reaches the slots of {', '.join(reach.tools)}, the scan and "
         "the operations in the virtual cell"
     )
-    scan_plan = plan_cache = None
-    if "surface" in config.localization.methods:
-        # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
-        # before the real one moves: a target no pass constrains refuses the job here.
-        targets = np.array([op.T_object_touch[:3, 3] for op in operations])
-        names = tuple(op.name for op in operations)
-        key = plan_key(robot, settings, virtual, T_table_nominal, targets, names)
-        scan_plan, stored = cached_plan(
-            key,
-            lambda: job_scan_plan(robot, settings, virtual, T_table_nominal, targets, say, names),
-        )
-        if stored:
-            say(f"scan plan: this virtual cell's plan, from the cache ({key})")
-            say(plan_summary(scan_plan))
-        plan_cache = key if cache_enabled() else None
-    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan, plan_cache)
+    if "surface" not in config.localization.methods:
+        return None, None
+    # The scan's passes, chosen (or, for a fixed plan, predicted) in the virtual cell
+    # before the real one moves: a target no pass constrains refuses the job here.
+    targets = np.array([op.T_object_touch[:3, 3] for op in operations])
+    names = tuple(op.name for op in operations)
+    key = plan_key(robot, settings, virtual, T_table_nominal, targets, names)
+    scan_plan, stored = cached_plan(
+        key,
+        lambda: job_scan_plan(robot, settings, virtual, T_table_nominal, targets, say, names),
+    )
+    if stored:
+        say(f"scan plan: this virtual cell's plan, from the cache ({key})")
+        say(plan_summary(scan_plan))
+    return scan_plan, key if cache_enabled() else None

@@ -13,6 +13,7 @@ import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from scenarios.errors import ScenarioError
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.results.run import MethodReport, RunResult
 
@@ -216,13 +217,17 @@ def file_arm_rows(
             overrides = FILE_ARM_LAYOUT | {"cell.robot.model": str(path),
                                            "cell.robot.flange": flange}  # fmt: skip
             for seed in seeds:
-                result = _run("skull", seed, Path(tmp), overrides)
-                home = ", ".join(f"{v:.0f}" for v in result.home_deg)
-                met = all(check.met for check in result.checks.values())
-                rows.append(
-                    f"| {label} | {seed} | [{home}] | {_own(result)} | "
-                    f"{'met' if met else 'missed'} ({result.status}) |"
-                )
+                try:
+                    result = _run("skull", seed, Path(tmp), overrides)
+                except ScenarioError as exc:  # refused before the cell starts
+                    rows.append(f"| {label} | {seed} | - | - / - | refused: {exc} |")
+                else:
+                    home = ", ".join(f"{v:.0f}" for v in result.home_deg)
+                    met = all(check.met for check in result.checks.values())
+                    rows.append(
+                        f"| {label} | {seed} | [{home}] | {_own(result)} | "
+                        f"{'met' if met else 'missed'} ({result.status}) |"
+                    )
                 if say is not None:
                     say(rows[-1])
     return rows

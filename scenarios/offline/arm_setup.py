@@ -27,7 +27,7 @@ those.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -308,41 +308,60 @@ def _rank(arm: _Arm, q: np.ndarray) -> tuple[bool, float]:
     )
 
 
+def arm_setups(
+    kin: Kinematics,
+    cell: VirtualCell,
+    p_world_object: np.ndarray,
+    top_z_m: float,
+) -> Iterator[ArmSetup]:
+    """Homes and joint windows for the arm of `kin` (the file's ranges) in `cell` (its
+    virtual cell, the object at its nominal pose), best first: the flange pointing down
+    above the object's centre `p_world_object` (3,) [m], the tools' length and a clearance
+    above its top `top_z_m` [m], tried nearer the arm and at other heights where it does not
+    reach; at each place, the branches with the upper arm leaning towards the flange first,
+    then the farthest from the elbow's and the wrist's singularities. Lazy: a job takes the
+    next only if the one before cannot do it."""
+    arm = _Arm(kin, cell)
+    mount = np.asarray(kin.model.jointPlacements[1].translation, dtype=float)
+    given: list[np.ndarray] = []
+    for fraction in _HOME_FRACTIONS:
+        xy = mount[:2] + fraction * (np.asarray(p_world_object[:2]) - mount[:2])
+        for height in _HOME_HEIGHTS_M:
+            p = np.r_[xy, top_z_m + TOOLS_LENGTH_M + height]
+            clear = [
+                q for yaw in _HOME_YAWS for q in _candidates(arm, _down(p, yaw)) if _clear(cell, q)
+            ]
+            for q in sorted(clear, key=lambda c: _rank(arm, c), reverse=True):
+                # One per branch: the same joints to a few degrees are the same home.
+                if any(np.max(np.abs(q - g)) < np.deg2rad(10.0) for g in given):
+                    continue
+                try:
+                    lower, upper, bounds = joint_window(kin, q, cell)
+                except ArmSetupError:
+                    continue  # a branch with no room for one of its joints
+                given.append(q)
+                yield ArmSetup(q, lower, upper, bounds, p)
+
+
 def choose_arm_setup(
     kin: Kinematics,
     cell: VirtualCell,
     p_world_object: np.ndarray,
     top_z_m: float,
 ) -> ArmSetup:
-    """Home and joint window for the arm of `kin` (the file's ranges) in `cell` (its
-    virtual cell, the object at its nominal pose): the flange pointing down above the
-    object's centre `p_world_object` (3,) [m], the tools' length and a clearance above its
-    top `top_z_m` [m], tried nearer the arm and at other heights where it does not reach;
-    of the branches found there, one with the upper arm leaning towards the flange, the
-    farthest from the elbow's and the wrist's singularities. Raises
-    ArmSetupError when no place gives a clear home."""
-    arm = _Arm(kin, cell)
-    mount = np.asarray(kin.model.jointPlacements[1].translation, dtype=float)
-    tried = []
-    for fraction in _HOME_FRACTIONS:
-        xy = mount[:2] + fraction * (np.asarray(p_world_object[:2]) - mount[:2])
-        for height in _HOME_HEIGHTS_M:
-            p = np.r_[xy, top_z_m + TOOLS_LENGTH_M + height]
-            tried.append(p)
-            clear = [
-                q for yaw in _HOME_YAWS for q in _candidates(arm, _down(p, yaw)) if _clear(cell, q)
-            ]
-            for q in sorted(clear, key=lambda c: _rank(arm, c), reverse=True):
-                try:
-                    lower, upper, bounds = joint_window(kin, q, cell)
-                except ArmSetupError:
-                    continue  # a branch with no room for one of its joints
-                return ArmSetup(q, lower, upper, bounds, p)
-    places = ", ".join(str(np.round(p, 2).tolist()) for p in tried[:3])
-    raise ArmSetupError(
-        f"no clear home with the flange pointing down above the object (tried {len(tried)} "
-        f"places, e.g. {places} m): the arm does not reach over the object from its mount; "
-        "move the arm nearer (cell.robot.mount_xyz) or the object (cell.object.placement."
-        "xy_m), or give the arm's home and joint window (cell.robot.home_deg, "
+    """The best of `arm_setups`; raises ArmSetupError when no place gives a clear home."""
+    for setup in arm_setups(kin, cell, p_world_object, top_z_m):
+        return setup
+    raise ArmSetupError(no_home_message())
+
+
+def no_home_message() -> str:
+    """Why a file arm has no home, and the keys that would give it one."""
+    places = len(_HOME_FRACTIONS) * len(_HOME_HEIGHTS_M)
+    return (
+        f"no clear home with the flange pointing down above the object (tried {places} "
+        "places over and towards it): the arm does not reach over the object from its "
+        "mount; move the arm nearer (cell.robot.mount_xyz) or the object (cell.object."
+        "placement.xy_m), or give the arm's home and joint window (cell.robot.home_deg, "
         "cell.robot.limits_deg)"
     )

@@ -326,27 +326,36 @@ def _table_travel_clear(
     return all(_pose_clear(cell, q, s, margin_m) for s in np.linspace(s0, s1, steps))
 
 
-def _first_contact(
+def _blocker(
     cell: VirtualCell,
     kin: Kinematics,
-    q0: np.ndarray,
-    q1: np.ndarray,
-    table_m: float,
+    legs: tuple[tuple[np.ndarray, np.ndarray, float, float], ...],
     margin_m: float,
 ) -> str:
-    """What the joint move q0 -> q1 first comes near (as _joint_path_clear samples it):
-    "link5 within 4 mm of table, at 40 % of the move"."""
+    """What the route through home first comes near: its legs (q0, q1, table s0, s1), each
+    a joint move at the table s0 = s1 or the table's travel s0 -> s1 with the arm held at q0,
+    sampled as the route's checks sample them: "link5 within 4 mm of table (home -> pass
+    start)"."""
+    names = ("the move to home", "the table's travel at home", "home -> pass start")
     limits = TRANSIT_LIMITS
-    for s in joint_move_samples(kin, LASER.T_tool_tcp, q0, q1, limits.step_m, limits.step_rad):
-        cell.set_tool("laser")
-        cell.set_table(table_m)
-        cell.set_joints(q0 + s * (q1 - q0))
-        found = cell.contacts(margin_m)
-        if found:
-            c = found[0]
-            how = "into" if c.penetrating else f"within {c.distance_m * 1e3:.0f} mm of"
-            return f"{c.body} {how} {c.other} at {100 * s:.0f} % of the move from home"
-    return "the table's travel"
+    for (q0, q1, s0, s1), name in zip(legs, names, strict=True):
+        if s0 == s1:
+            steps = joint_move_samples(kin, LASER.T_tool_tcp, q0, q1, limits.step_m,
+                                       limits.step_rad)  # fmt: skip
+            poses = [(q0 + f * (q1 - q0), s0) for f in steps]
+        else:
+            count = max(1, int(np.ceil(abs(s1 - s0) / 0.02))) + 1
+            poses = [(q0, s) for s in np.linspace(s0, s1, count)]
+        for q, s in poses:
+            cell.set_tool("laser")
+            cell.set_table(s)
+            cell.set_joints(q)
+            found = cell.contacts(margin_m)
+            if found:
+                c = found[0]
+                how = "into" if c.penetrating else f"within {c.distance_m * 1e3:.0f} mm of"
+                return f"{c.body} {how} {c.other} ({name})"
+    return "nothing found on the way through home"
 
 
 def route_transits(
@@ -378,10 +387,12 @@ def route_transits(
         ):
             out.append(replace(planned, q_via=(home,)))
         else:
+            legs = ((q_from, home, s_from, s_from), (home, home, s_from, s),
+                    (home, planned.q_start, s, s))  # fmt: skip
             raise ScanPlanError(
                 f"scan plan: no clear way to {planned.name}: the arm's move to its start "
                 f"comes within {margin_m * 1e3:.0f} mm of the cell, directly and through "
-                f"home ({_first_contact(cell, kin, home, planned.q_start, s, margin_m)}); "
+                f"home ({_blocker(cell, kin, legs, margin_m)}); "
                 "the job refuses before any motion. Give the arm a home above the object "
                 "from which the pass' start is clear (cell.robot.home_deg), a joint window "
                 "that keeps the elbow and wrist on one branch (cell.robot.limits_deg), or "
