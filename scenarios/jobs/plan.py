@@ -97,8 +97,8 @@ def job_robot(
         raise ScenarioError(f"cell.robot: {exc}") from None
 
 
-#: How many of a file arm's chosen homes a job tries before it refuses.
-ARM_SETUPS_TRIED = 3
+#: How many of a file arm's chosen homes (one per branch) a job tries before it refuses.
+ARM_SETUPS_TRIED = 4
 
 
 def job_arms(

@@ -319,11 +319,13 @@ def arm_setups(
     above the object's centre `p_world_object` (3,) [m], the tools' length and a clearance
     above its top `top_z_m` [m], tried nearer the arm and at other heights where it does not
     reach; at each place, the branches with the upper arm leaning towards the flange first,
-    then the farthest from the elbow's and the wrist's singularities. Lazy: a job takes the
-    next only if the one before cannot do it."""
+    then the farthest from the elbow's and the wrist's singularities; one per branch (the
+    upper arm's lean and the wrist's side), since the window keeps the home's branch and a
+    job's poses may need another. Lazy: a job takes the next only if the one before cannot
+    do it."""
     arm = _Arm(kin, cell)
     mount = np.asarray(kin.model.jointPlacements[1].translation, dtype=float)
-    given: list[np.ndarray] = []
+    given: set[tuple[bool, bool]] = set()
     for fraction in _HOME_FRACTIONS:
         xy = mount[:2] + fraction * (np.asarray(p_world_object[:2]) - mount[:2])
         for height in _HOME_HEIGHTS_M:
@@ -332,14 +334,16 @@ def arm_setups(
                 q for yaw in _HOME_YAWS for q in _candidates(arm, _down(p, yaw)) if _clear(cell, q)
             ]
             for q in sorted(clear, key=lambda c: _rank(arm, c), reverse=True):
-                # One per branch: the same joints to a few degrees are the same home.
-                if any(np.max(np.abs(q - g)) < np.deg2rad(10.0) for g in given):
+                # One home per branch (the upper arm's lean, the wrist's side): the next
+                # home a job tries is another way of holding the arm, not the same one.
+                branch = (_rank(arm, q)[0], arm.wrist_sine(q) > 0.0)
+                if branch in given:
                     continue
                 try:
                     lower, upper, bounds = joint_window(kin, q, cell)
                 except ArmSetupError:
                     continue  # a branch with no room for one of its joints
-                given.append(q)
+                given.add(branch)
                 yield ArmSetup(q, lower, upper, bounds, p)
 
 
