@@ -9,6 +9,13 @@ position and the tool on the flange are written into the state, the tool body is
 the flange as the changer's weld would hold it, and MuJoCo's collision detection lists what
 touches or comes within a margin.
 
+Near a fixed mesh object with convex pieces (a bone from a CT: pieces that stand millimetres
+proud of its rough surface), a geom of the moving side that the pieces put within
+`EXACT_BAND_M` of it is measured against the object's own surface instead
+(cell.surface_distance: libigl's signed distance to its triangles for points standing for the
+geom, at most their stated deviation, 0.7 mm or less, short of the true distance; exact
+less 0.03 mm for spheres and capsules such as the tools' tips).
+
 Only the moving side is reported: the arm's links and the tool in hand (with its fingers or
 spindle), against everything else (the table, the rack, the tools in the rack, the objects
 and fixtures, the floor, the arm's base) and the tool in hand against the arm's own links.
@@ -26,12 +33,16 @@ import numpy as np
 from cell.errors import CellConfigError, JointLimitError, UnknownNameError
 from cell.layout import CellLayout, FixedMesh, FixedPrimitive
 from cell.robots import Robot
-from cell.scene import RAY_GROUPS, build_model
+from cell.scene import RAY_GROUPS, T_TABLEBODY_TABLE, build_model
+from cell.surface_distance import GeomPoints, SurfaceDistance, geom_points
 from models.robot import FINGER_TRAVEL, FLANGE_SITE, JOINT_NAMES, TABLE_TRAVEL, TOOLS
 from registration.rigid import R_to_quat_wxyz
 
 #: Name of the world's own geoms that have none.
 _WORLD = "world"
+#: A moving geom that an object's convex pieces put within this distance of it is measured
+#: against the object's own surface [m] (the pieces stand a few millimetres proud of it).
+EXACT_BAND_M = 0.02
 
 
 @dataclass(frozen=True)
@@ -41,7 +52,8 @@ class Contact:
     `body`: the moving side, an arm link ("link5") or the tool in hand ("tool_screwer");
     `other`: what it meets, by a name a user knows ("table", "rack", "tool_laser", "object",
     "calibration_sphere1", "floor", "link4"); `distance_m` [m]: the smallest signed distance
-    between their geoms (negative: they penetrate by that much).
+    between their geoms (negative: they penetrate by that much), near a fixed mesh object
+    to its own surface (the module's docstring).
     """
 
     body: str
@@ -56,10 +68,15 @@ class Contact:
 
 class VirtualCell:
     """The nominal cell of `layout` (the data sheets' arm and TCPs), posed by
-    `set_joints`, `set_table` and `set_tool`, asked for `contacts`."""
+    `set_joints`, `set_table` and `set_tool`, asked for `contacts`; `exact_band_m` [m]: how
+    near an object's convex pieces a moving geom is measured against its own surface (0:
+    the pieces only, as MuJoCo's contacts see the object)."""
 
-    def __init__(self, layout: CellLayout) -> None:
+    def __init__(self, layout: CellLayout, exact_band_m: float = EXACT_BAND_M) -> None:
+        if not (np.isfinite(exact_band_m) and 0.0 <= exact_band_m <= 0.5):
+            raise CellConfigError(f"exact_band_m must be in [0, 0.5] m, got {exact_band_m!r}")
         self.layout = layout
+        self.exact_band_m = float(exact_band_m)
         self.model = build_model(layout)  # the nominal arm and TCPs
         self.data = mujoco.MjData(self.model)
         m = self.model
@@ -87,6 +104,14 @@ class VirtualCell:
         self._tool_of_body = [by_id.get(int(root[b])) for b in range(m.nbody)]
         self._geom_name = _geom_names(m, layout, self._tool_of_body)
         self._geom_body = m.geom_bodyid.copy()
+        # Fixed mesh objects whose contact is a proxy (convex pieces): their own surfaces.
+        self._surfaces = {
+            o.name: (SurfaceDistance(o.vertices, o.faces), T_TABLEBODY_TABLE @ o.T_table_object)
+            for o in layout.fixtures
+            if isinstance(o, FixedMesh) and o.convex_pieces
+        }
+        self._table_body = int(m.body("table").id)
+        self._points: dict[int, GeomPoints | None] = {}
         for name in ("finger_left", "finger_right"):
             self.data.qpos[m.joint(name).qposadr[0]] = FINGER_TRAVEL  # open, as the cell starts
         self._margin = -1.0
@@ -101,10 +126,11 @@ class VirtualCell:
         robot: Robot,
         rack_xyz: tuple[float, float, float],
         fixtures: tuple[FixedMesh | FixedPrimitive, ...] = (),
+        exact_band_m: float = EXACT_BAND_M,
     ) -> VirtualCell:
         """The nominal cell of `robot` with its rack at `rack_xyz` [m] and `fixtures` on the
         table at the poses the planner believes."""
-        return cls(CellLayout(robot=robot, rack_xyz=rack_xyz, fixtures=fixtures))
+        return cls(CellLayout(robot=robot, rack_xyz=rack_xyz, fixtures=fixtures), exact_band_m)
 
     @property
     def tools(self) -> tuple[str, ...]:
@@ -217,6 +243,7 @@ class VirtualCell:
         dist = d.contact.dist[:n]
         held = self.tool_in_hand
         closest: dict[tuple[str, str], float] = {}
+        near_surface: set[tuple[int, str]] = set()  # (moving geom, object) to measure exactly
         for (g1, g2), dk in zip(geoms, dist, strict=True):
             if dk > margin_m:
                 continue
@@ -225,14 +252,36 @@ class VirtualCell:
                 b = int(self._geom_body[g])
                 held_here = held is not None and self._tool_of_body[b] == held
                 rank = 0 if held_here else 1 if self._arm_body[b] else 2
-                sides.append((rank, self._geom_name[g]))
-            (rank_a, a), (rank_b, b_name) = sorted(sides)
+                sides.append((rank, self._geom_name[g], int(g)))
+            (rank_a, a, g_a), (rank_b, b_name, _g_b) = sorted(sides)
             if rank_a == 2 or rank_a == rank_b == 0:  # no moving side; the tool's own parts
+                continue
+            if self.exact_band_m > 0.0 and b_name in self._surfaces and dk < self.exact_band_m:
+                near_surface.add((g_a, b_name))
                 continue
             key = (a, b_name)
             closest[key] = min(closest.get(key, np.inf), float(dk))
-        found = [Contact(a, b, dk) for (a, b), dk in closest.items()]
+        for g, name in near_surface:
+            key = (self._geom_name[g], name)
+            closest[key] = min(closest.get(key, np.inf), self._surface_distance(g, name))
+        found = [Contact(a, b, dk) for (a, b), dk in closest.items() if dk <= margin_m]
         return tuple(sorted(found, key=lambda c: c.distance_m))
+
+    def _surface_distance(self, geom: int, name: str) -> float:
+        """Signed distance [m] of moving geom `geom` to the own surface of object `name`
+        (cell.surface_distance), in the current pose."""
+        if geom not in self._points:
+            self._points[geom] = geom_points(self.model, geom)
+        points = self._points[geom]
+        if points is None:  # a geom with no extent: never on the moving side
+            raise CellConfigError(f"geom {geom} of the moving side has no extent to measure")
+        surface, T_tablebody_object = self._surfaces[name]
+        d = self.data
+        T_world_object = _pose(d.xpos[self._table_body], d.xmat[self._table_body]) @ (
+            T_tablebody_object
+        )
+        T_world_geom = _pose(d.geom_xpos[geom], d.geom_xmat[geom])
+        return surface.geom_distance(points, np.linalg.inv(T_world_object) @ T_world_geom)
 
 
 def _pose(position: np.ndarray, matrix: np.ndarray) -> np.ndarray:

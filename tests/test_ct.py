@@ -159,8 +159,9 @@ def test_a_file_that_is_not_a_volume(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("z", "orientations", "match"),
     [
-        ([0.0, 1.0, 2.0, 4.0], None, "slice gaps"),
-        ([0.0, 1.0, 2.3, 3.0], None, "inconsistent spacing"),
+        ([0.0, 1.0, 2.0, 32.0], None, r"slice gap of 30\.0 mm between slice002\.dcm and "
+         r"slice003\.dcm"),
+        ([0.0, 1.0, 1.0, 2.0], None, r"two slices at the same position \(slice001\.dcm"),
         ([0.0, 1.0, 2.0, 3.0], [[1, 0, 0, 0, 1, 0]] * 3 + [[1, 0, 0, 0, 0.8, 0.6]],
          "mixed slice orientations"),
     ],

@@ -1,6 +1,8 @@
 """Volume files: a DICOM series (pydicom), NIfTI (nibabel) and NRRD (pynrrd), each with its
 voxel spacing, slice positions and orientation, read into a `Volume` (volume.py for the
-frames). Anything that is not a usable volume is refused with one line naming the file."""
+frames). A series whose slices do not form a regular grid (uneven steps, a gantry tilt) is
+resampled onto one (models.ct.regular), as is any volume asked for at a given voxel size.
+Anything that is not a usable volume is refused with one line naming the file."""
 
 from __future__ import annotations
 
@@ -10,12 +12,11 @@ from typing import Any
 
 import numpy as np
 
+from models.ct.regular import MAX_GAP_MM, SliceStack, check_steps, is_regular, regularize, resample
 from models.ct.volume import RAS_FROM_LPS, Volume, VolumeError
 
 NIFTI_SUFFIXES = (".nii", ".nii.gz")
 NRRD_SUFFIXES = (".nrrd", ".nhdr")
-#: Slice positions may differ from even spacing by this fraction of the spacing.
-SPACING_TOLERANCE = 0.01
 
 
 def is_volume(path: str | Path) -> bool:
@@ -26,19 +27,26 @@ def is_volume(path: str | Path) -> bool:
     return p.is_dir() or name.endswith((*NIFTI_SUFFIXES, *NRRD_SUFFIXES, ".dcm"))
 
 
-def read_volume(path: str | Path) -> Volume:
-    """A volume from a DICOM series folder (or one of its files), a NIfTI or an NRRD file."""
+def read_volume(
+    path: str | Path,
+    voxel_mm: tuple[float, float, float] | None = None,
+    max_gap_mm: float = MAX_GAP_MM,
+) -> Volume:
+    """A volume from a DICOM series folder (or one of its files), a NIfTI or an NRRD file, on
+    a regular grid: the file's own if it is one, else resampled at the pixel spacing and the
+    smallest slice step, or at `voxel_mm` (i, j, k) [mm] if given (`Volume.resampled` says
+    how). A step between slices wider than `max_gap_mm` [mm] is refused."""
     path = Path(path)
     if not path.exists():
         raise VolumeError(f"{path}: no such file or folder")
     name = path.name.lower()
     if path.is_dir():
-        return read_dicom_series(path)
+        return read_dicom_series(path, voxel_mm=voxel_mm, max_gap_mm=max_gap_mm)
     if name.endswith(NIFTI_SUFFIXES):
-        return read_nifti(path)
+        return regularize(read_nifti(path), voxel_mm, max_gap_mm)
     if name.endswith(NRRD_SUFFIXES):
-        return read_nrrd(path)
-    return read_dicom_series(path.parent, only=path)
+        return regularize(read_nrrd(path), voxel_mm, max_gap_mm)
+    return read_dicom_series(path.parent, only=path, voxel_mm=voxel_mm, max_gap_mm=max_gap_mm)
 
 
 def read_nifti(path: Path) -> Volume:
@@ -83,10 +91,17 @@ def read_nrrd(path: Path) -> Volume:
     return Volume(data.astype(np.float32), affine, None, frames[space], str(path))
 
 
-def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
+def read_dicom_series(
+    folder: Path,
+    only: Path | None = None,
+    voxel_mm: tuple[float, float, float] | None = None,
+    max_gap_mm: float = MAX_GAP_MM,
+) -> Volume:
     """A CT/MR series from `folder`: the series of the file `only`, or the folder's one
     series (a folder holding several must be given one file of the series wanted): slices
-    sorted along their normal, evenly spaced, one orientation."""
+    of one orientation sorted along their normal, resampled onto a regular grid if their
+    steps vary or they are tilted (or at `voxel_mm`, if given); a gap wider than
+    `max_gap_mm` [mm] is refused."""
     import warnings
 
     import pydicom
@@ -130,7 +145,7 @@ def read_dicom_series(folder: Path, only: Path | None = None) -> Volume:
             else:
                 images.append(_image(f, ds))
         modality = str(getattr(headers[series][0][1], "Modality", "")) or None
-    return _stack(where, images, modality)
+    return _stack(where, images, modality, voxel_mm, max_gap_mm)
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,40 +225,50 @@ def _frames(f: Path, ds: Any) -> list[_Image]:
     return out
 
 
-def _stack(where: Path, images: list[_Image], modality: str | None) -> Volume:
-    """Slices sorted along their normal into a volume: one orientation, one size, even
-    spacing, no gap."""
+def _stack(
+    where: Path,
+    images: list[_Image],
+    modality: str | None,
+    voxel_mm: tuple[float, float, float] | None,
+    max_gap_mm: float,
+) -> Volume:
+    """Slices sorted along their normal into a volume: one orientation, one size, no gap; on
+    their own grid if it is regular, else resampled (models.ct.regular)."""
     orientation = images[0].orientation
     for image in images[1:]:
         if np.abs(image.orientation - orientation).max() > 1e-4:
             raise VolumeError(f"{where}: mixed slice orientations ({images[0].name}, {image.name})")
+    if len(images) < 2:
+        raise VolumeError(f"{where}: one slice is no volume")
     row, col = orientation[:3], orientation[3:]
     normal = np.cross(row, col)
     positions = np.array([image.position for image in images])
-    order = np.argsort(positions @ normal)
+    order = np.argsort(positions @ normal, kind="stable")
     images = [images[k] for k in order]
     positions = positions[order]
-    if len(images) < 2:
-        raise VolumeError(f"{where}: one slice is no volume")
-    steps = np.diff(positions @ normal)
-    spacing = float(np.median(steps))
-    if spacing <= 0 or np.abs(steps - spacing).max() > SPACING_TOLERANCE * spacing:
-        gaps = np.flatnonzero(np.abs(steps - spacing) > SPACING_TOLERANCE * spacing)
-        kind = "gaps" if spacing > 0 and np.all(steps[gaps] > spacing) else "inconsistent spacing"
-        raise VolumeError(
-            f"{where}: slice {kind}: steps {np.round(steps[gaps][:3], 3).tolist()} mm against "
-            f"{spacing:.3f} mm (at slices {gaps[:3].tolist()})"
-        )
     shapes = {image.values.shape for image in images}
     if len(shapes) != 1:
         raise VolumeError(f"{where}: slices of different sizes {sorted(shapes)}")
+    pixels = {tuple(np.round(image.pixel, 6)) for image in images}
+    if len(pixels) != 1:
+        raise VolumeError(f"{where}: slices of different pixel spacings {sorted(pixels)} mm")
     pixel = images[0].pixel  # between rows, between columns
     data = np.stack([image.values for image in images], axis=-1)  # (rows j, columns i, k)
     data = np.transpose(data, (1, 0, 2))  # (i, j, k)
+    stack = SliceStack(
+        data,
+        positions,
+        row / np.linalg.norm(row),
+        col / np.linalg.norm(col),
+        np.array([pixel[1], pixel[0]]),
+        tuple(image.name for image in images),
+    )
+    steps = check_steps(stack, str(where), max_gap_mm)
+    if voxel_mm is not None or not is_regular(stack, steps):
+        return resample(stack, steps, voxel_mm, modality, str(where))
     affine = np.eye(4)
     affine[:3, 0] = row * pixel[1]
     affine[:3, 1] = col * pixel[0]
-    # The slices' own step, which a tilted gantry shears off the normal.
     affine[:3, 2] = (positions[-1] - positions[0]) / (len(images) - 1)
     affine[:3, 3] = positions[0]
     return Volume(data, affine, modality, "LPS", str(where))

@@ -11,10 +11,14 @@ a plan of the same volume always agree.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from models.errors import ModelError
+
+if TYPE_CHECKING:
+    from models.ct.regular import Resampling
 
 #: RAS = RAS_FROM_LPS @ LPS (and back: it is its own inverse).
 RAS_FROM_LPS = np.diag([-1.0, -1.0, 1.0, 1.0])
@@ -31,13 +35,16 @@ class Volume:
     """An image volume: `data` (I, J, K) float values (Hounsfield units for CT), `affine_lps`
     (4, 4) voxel index -> LPS [mm], `modality` ("CT", "MR", ... or None if the file does not
     say), `native_frame` the frame its file and its plans use ("LPS" for DICOM and NRRD in
-    LPS, "RAS" for NIfTI and NRRD in RAS), `source` the file or folder it came from."""
+    LPS, "RAS" for NIfTI and NRRD in RAS), `source` the file or folder it came from,
+    `resampled` how its slices were put onto this regular grid (models.ct.regular; None: the
+    file's own grid)."""
 
     data: np.ndarray
     affine_lps: np.ndarray
     modality: str | None
     native_frame: str
     source: str
+    resampled: Resampling | None = None
 
     def __post_init__(self) -> None:
         data = np.asarray(self.data)

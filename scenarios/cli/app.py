@@ -57,15 +57,21 @@ def check(
         raise typer.Exit(1)
 
 
-def _volume_model(path: str, iso: float, units: str, out: str | None) -> None:
-    """`twincell model` on a CT volume: its bone surface, checked, exported."""
+def _volume_model(
+    path: str, iso: float, units: str, out: str | None, voxel_mm: str | None, max_gap_mm: float
+) -> None:
+    """`twincell model` on a CT volume: its bone surface, checked, exported; an irregular
+    series resampled (and said so)."""
     from rich.console import Console
     from rich.table import Table
 
     from models.ct import bone_model, read_volume
+    from models.ct.regular import voxel_size
     from models.export import write_mesh
 
-    volume = read_volume(path)
+    volume = read_volume(path, voxel_size(voxel_mm), max_gap_mm)
+    if volume.resampled is not None:
+        typer.echo(f"{path}: {volume.resampled}")
     bone = bone_model(volume, iso_hu=iso)
     c = bone.check
     table = Table(title=f"bone model: {path}", show_header=False)
@@ -74,6 +80,7 @@ def _volume_model(path: str, iso: float, units: str, out: str | None) -> None:
     rows = (
         ("modality / frame", f"{volume.modality or 'not stated'} / {volume.native_frame}"),
         ("voxels (i, j, k)", " x ".join(str(n) for n in volume.data.shape)),
+        ("grid", "the file's own" if volume.resampled is None else str(volume.resampled)),
         ("voxel size (i, j, k) \\[mm]", ", ".join(f"{v:.3f}" for v in c.voxel_mm)),
         ("threshold \\[HU]", f"{c.iso_hu:g}"),
         ("faces", str(c.faces)),
@@ -115,6 +122,23 @@ def model(
     iso: Annotated[
         float, typer.Option("--iso", help="Bone threshold of a CT volume [HU].")
     ] = 300.0,
+    voxel_mm: Annotated[
+        str | None,
+        typer.Option(
+            "--voxel-mm",
+            help="Resample a CT volume onto a regular grid of this voxel size [mm] (one size "
+            "or AxBxC). Default: a series with uneven slice steps or a gantry tilt is "
+            "resampled at its pixel spacing and smallest step, a regular one kept.",
+        ),
+    ] = None,
+    max_gap_mm: Annotated[
+        float,
+        typer.Option(
+            "--max-gap-mm",
+            help="The widest step between a CT series' slices that is interpolated over "
+            "[mm]; wider is refused as missing slices.",
+        ),
+    ] = 10.0,
 ) -> None:
     """Check a model (vertices, faces, watertight, size, volume, convex pieces); export it."""
     from rich.console import Console
@@ -127,7 +151,7 @@ def model(
     from models.registry import load_model
 
     if is_volume(name):
-        _volume_model(name, iso, units, out)
+        _volume_model(name, iso, units, out, voxel_mm, max_gap_mm)
         return
 
     loaded, warnings = load_model(name, real=real, seed=seed, units=units)

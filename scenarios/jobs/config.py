@@ -223,14 +223,20 @@ class CTSection(Section):
     (i, j, k) [mm] (a clinical head protocol's 0.5 mm in-plane, 1 mm slices), the
     point-spread function's FWHM [mm], the voxel noise [HU]; `iso_hu` is the segmentation's
     bone threshold. `voxel_mm` also takes one size or "AxBxC" (`--vary
-    model.ct.voxel_mm=0.5x0.5x1,1x1x2`)."""
+    model.ct.voxel_mm=0.5x0.5x1,1x1x2`). A CT volume given as the object (`cell.object.model`)
+    is segmented at `iso_hu` too; a series of it with uneven slice steps or a gantry tilt is
+    resampled onto a regular grid at its pixel spacing and smallest step, or at
+    `resample_mm` (one size or "AxBxC") if given; a step wider than `max_gap_mm` [mm] is
+    refused as missing slices."""
 
     voxel_mm: tuple[float, float, float] = (0.5, 0.5, 1.0)
     blur_mm: float = Field(0.7, ge=0.0, le=5.0)
     noise_hu: float = Field(20.0, ge=0.0, le=500.0)
     iso_hu: float = 300.0
+    resample_mm: tuple[float, float, float] | None = None
+    max_gap_mm: float = Field(10.0, gt=0.0)
 
-    @field_validator("voxel_mm", mode="before")
+    @field_validator("voxel_mm", "resample_mm", mode="before")
     @classmethod
     def _voxel(cls, value: Any) -> Any:
         """One size (isotropic) or "AxBxC" (a sweep's value) as well as three sizes."""

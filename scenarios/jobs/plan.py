@@ -15,6 +15,7 @@ from cell import nominal_T_base_table
 from cell.errors import CellConfigError
 from cell.robots import BUILTIN, Robot, make_robot
 from models.cache import enabled as cache_enabled
+from models.ct.readers import is_volume
 from models.model import ObjectModel
 from models.registry import real_model
 from scenarios.errors import ScenarioError
@@ -61,6 +62,8 @@ def object_models(
         config.operations.kind,
         config.seed,
         config.model.ct.iso_hu,
+        config.model.ct.resample_mm,
+        config.model.ct.max_gap_mm,
     )
     if user is not None:
         virtual = replace(virtual, burr_holes=program_targets(user))
@@ -192,6 +195,8 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
         )
     user = None if config.operations.program is None else read_user_program(config.operations)
     virtual, real = object_models(config, user)
+    if is_volume(obj.model):  # what was read, and how its slices were regularised
+        say(f"model: {virtual.source}")
     T_table_nominal = nominal_pose(settings.placement, virtual.mesh.vertices)
     if user is not None:
         check_program_frame(user, nominal_T_base_table(user.table_position_m) @ T_table_nominal)

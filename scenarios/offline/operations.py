@@ -15,6 +15,7 @@ import numpy as np
 
 from models.ct.object import volume_object
 from models.ct.readers import is_volume
+from models.ct.regular import MAX_GAP_MM
 from models.model import ObjectModel
 from models.registry import load_model
 from models.targets import BurrHole
@@ -55,16 +56,20 @@ def virtual_model(
     kind: str,
     seed: int,
     iso_hu: float = 300.0,
+    ct_voxel_mm: tuple[float, float, float] | None = None,
+    ct_max_gap_mm: float = MAX_GAP_MM,
 ) -> ObjectModel:
     """The virtual model of the object `name` (built in, a mesh file in `units`, or a CT
     volume) with its targets for operations of `kind`: burr holes for touches (the model's
     own, `targets_file`, a `<mesh>.targets.yaml` beside a mesh file, or generated on its
     upper surface), screw frames driven from above for screws. A CT volume's model is its
-    bone at `iso_hu` [HU], and a JSON `targets_file` is the plan made on it
+    bone at `iso_hu` [HU] (an irregular series resampled, at `ct_voxel_mm` if given; a slice
+    gap wider than `ct_max_gap_mm` refused), and a JSON `targets_file` is the plan made on it
     (models.ct.plan)."""
     if is_volume(name):  # a CT: its bone, and the plan made on it
         json_plan = targets_file is not None and targets_file.lower().endswith(".json")
-        model = volume_object(name, iso_hu, targets_file if json_plan else None, seed)
+        plan = targets_file if json_plan else None
+        model = volume_object(name, iso_hu, plan, seed, ct_voxel_mm, ct_max_gap_mm)
         if json_plan:
             return model
     else:

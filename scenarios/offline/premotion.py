@@ -20,8 +20,9 @@ every `step_m` of TCP travel and `step_rad` of joint motion) and each sample is 
   the built-in arm it is about 0.44 sin(q5) near the wrist's, so the default 0.04 keeps the
   wrist 5 degrees from straight;
 - collision: in the virtual cell (cell.virtual: the nominal cell with the object at the
-  pose the program was corrected with), no arm link or the tool in hand comes within
-  `clearance_m` of anything else, except the tool in hand and the touched object on the
+  pose the program was corrected with; near the object, its own surface rather than its
+  convex pieces, which stand proud of a rough one), no arm link or the tool in hand comes
+  within `clearance_m` of anything else, except the tool in hand and the touched object on the
   lines into and out of the touch, which are meant to come close and only may not
   penetrate (`touch_clearance_m`).
 
@@ -42,7 +43,7 @@ import numpy as np
 from cell import FixedMesh, FixedPrimitive, Kinematics
 from cell.robots import Robot
 from cell.trajectory import straight_path
-from cell.virtual import Contact, VirtualCell
+from cell.virtual import EXACT_BAND_M, Contact, VirtualCell
 from models.model import ObjectModel
 from scenarios.errors import ScenarioError
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
@@ -201,18 +202,21 @@ def job_virtual_cell(
     T_table_object: np.ndarray,
     calibrates: bool = False,
     name: str = "object",
+    exact_band_m: float = EXACT_BAND_M,
 ) -> VirtualCell:
     """The virtual cell a job's program is checked in: the job's arm (nominal) and rack at
     `rack_xyz` [m], the virtual model `virtual` (its convex pieces for contact) at the pose
     T_table_object (4, 4) the program was corrected with, named `name`, and the calibration
-    spheres at their design places if the job `calibrates`."""
+    spheres at their design places if the job `calibrates`; near the object (within
+    `exact_band_m` [m] of its pieces) the arm and tool are measured against its own mesh
+    (cell.virtual)."""
     pieces = tuple(p.vertices for p in virtual.convex_pieces)
     fixtures: tuple[FixedMesh | FixedPrimitive, ...] = (
         FixedMesh(name, virtual.mesh.vertices, virtual.mesh.faces, T_table_object, pieces),
     )
     if calibrates:
         fixtures = (*fixtures, *DEFAULT_ARTIFACT.fixtures())
-    return VirtualCell.of(robot, rack_xyz, fixtures)
+    return VirtualCell.of(robot, rack_xyz, fixtures, exact_band_m)
 
 
 # -- the check ----------------------------------------------------------------------------------
