@@ -227,7 +227,7 @@ def joint_window(
             "in its branch; give another home (cell.robot.home_deg) or the joint window "
             "(cell.robot.limits_deg)"
         )
-    bounds = (
+    reasons = (
         "one turn about home",
         "upper arm above the shoulder",
         "elbow between stretched and folded",
@@ -235,6 +235,8 @@ def joint_window(
         "wrist off its singularity",
         "a turn each way",
     )
+    whole = (lower <= kin.lower) & (upper >= kin.upper)  # nothing narrowed it
+    bounds = tuple("the file's range" if w else r for w, r in zip(whole, reasons, strict=True))
     return lower, upper, bounds
 
 
