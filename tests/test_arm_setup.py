@@ -10,7 +10,6 @@ the evaluator's true targets.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +27,7 @@ from cell.virtual import VirtualCell
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import file_arm, object_models
+from scenarios.jobs.tables import file_arm_rows, numbers, readme_table
 from scenarios.offline.arm_setup import (
     SINGULAR_MARGIN_RAD,
     ArmSetupError,
@@ -37,6 +37,7 @@ from scenarios.offline.arm_setup import (
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.premotion import job_virtual_cell
 
+ROOT = Path(__file__).resolve().parent.parent
 #: The sweeps' step [rad]: a bound is found to within it.
 STEP = np.deg2rad(1.0)
 
@@ -143,30 +144,17 @@ def test_a_given_home_and_window_are_kept() -> None:
 
 
 @pytest.mark.slow
-def test_the_skull_job_on_an_mjcf_arm_given_by_its_file_alone(tmp_path: Path) -> None:
+def test_the_file_arms_table_m1013_row() -> None:
     """MuJoCo Menagerie's Doosan M1013 (1.3 m reach, MJCF: no speed limits in the file,
     efforts from its joints' force ranges), nothing but file, flange and mount in the ur5
-    cell's layout: the job chooses its home and window, and meets the skull goals against
-    the evaluator's true targets."""
-    from scenarios.cli.app import main
-
-    arm = Path(__file__).resolve().parent.parent / "bench/arms/doosan_robotics_m1013/m1013.xml"
-    cell = tmp_path / "m1013.yaml"
-    cell.write_text(
-        "cell:\n"
-        f"  robot: {{model: {arm}, flange: link_6, mount_xyz: [0.55, -0.1, 0.45]}}\n"
-        "  rack_xyz: [0.2, -0.8, -0.1]\n"
-        "  object: {placement: {xy_m: [-0.15, 0.0]}}\n"
-    )
-    code = main(["run", "skull", "--cell", str(cell), "--out", str(tmp_path), "--no-rrd",
-                 "--quiet"])  # fmt: skip
-    assert code == 0
-    results = json.loads((tmp_path / "latest" / "results.json").read_text())
-    assert results["status"] == "complete" and results["robot"] == "m1013"
-    assert results["target_error_rms_m"] <= 0.5e-3
-    assert results["target_error_max_m"] <= 1.0e-3
-    lower, upper = (np.deg2rad(v) for v in results["limits_deg"])
-    home = np.deg2rad(results["home_deg"])
-    assert np.all(lower <= home) and np.all(upper >= home)
-    # Shoulder, elbow and wrist each kept on one side of their singular poses: half a turn.
-    assert np.all((upper - lower)[[1, 2, 4]] <= np.pi + 1e-4)
+    cell's layout, seed 0: the README's file arms row of it, rerun. The run meets the skull
+    goals against the evaluator's true targets, with the home the README shows."""
+    readme = (ROOT / "README.md").read_text()
+    printed = next(r for r in readme_table(readme, "file_arms") if r.startswith("| M1013"))
+    arm = ROOT / "bench/arms/doosan_robotics_m1013/m1013.xml"
+    (fresh,) = file_arm_rows([("M1013 (Menagerie, MJCF)", arm, "link_6")], [0])
+    fresh_cells, printed_cells = fresh.split("|"), printed.split("|")
+    assert fresh_cells[3] == printed_cells[3], (fresh, printed)  # the home chosen
+    assert fresh_cells[5].strip() == printed_cells[5].strip() == "met (complete)"
+    # Two decimals [mm] are printed: the rerun agrees to the last digit but one.
+    np.testing.assert_allclose(numbers(fresh), numbers(printed), atol=0.021)
