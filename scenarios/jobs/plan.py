@@ -20,7 +20,12 @@ from models.model import ObjectModel
 from models.registry import real_model
 from scenarios.errors import ScenarioError
 from scenarios.jobs.config import JobConfig, RobotSection
-from scenarios.offline.arm_setup import arm_setups, joint_window, no_home_message
+from scenarios.offline.arm_setup import (
+    ArmSetupError,
+    arm_setups,
+    joint_window,
+    no_home_message,
+)
 from scenarios.offline.moves import UnreachablePlanError
 from scenarios.offline.operations import (
     UserProgram,
@@ -131,7 +136,10 @@ def job_arms(
     calibrates = config.calibration.enabled  # its spheres on the table
     cell = job_virtual_cell(robot, config.cell.rack_xyz, virtual, T_table_nominal, calibrates)
     if section.home_deg is not None:  # the window around the given home
-        lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, cell)
+        try:
+            lower, upper, _ = joint_window(robot.kinematics(), robot.q_home, cell)
+        except ArmSetupError as exc:
+            raise ScenarioError(f"cell.robot: {exc}") from None
         say("arm: joint window chosen around the given home (cell.robot.limits_deg to fix it)")
         yield job_robot(section, None, (lower, upper))
         return

@@ -13,8 +13,13 @@ fixes one branch; this module derives one from the arm's kinematics and the layo
 - **joint window** around home, each joint bounded by what keeps the branch, shrunk by a
   margin: joint 1 one turn (home +-180 deg); joint 2 the upper arm above the shoulder;
   joint 3 between the elbow's stretched and folded singularities; joint 5 between the
-  wrist's singularities (axes 4 and 6 aligned); joint 4 where the longest tool stays clear
-  of the forearm and the upper arm; joint 6 one turn each way. All within the file's ranges.
+  wrist's singularities (axes 4 and 6 aligned); joints 4 and 5 where no tool in hand comes
+  within 5 mm of the forearm or the upper arm; joint 6 one turn each way. All within the
+  file's ranges.
+
+Homes come one per branch (the upper arm leaning towards the flange or not, the wrist on
+one side or the other), best first: the window keeps the home's branch, and a job whose
+rack slots, scan passes or transits lie outside it tries the next (scenarios.jobs.plan).
 
 Each bound is found by sweeping its joint alone (the others at home) through the file's
 range with the arm's own forward kinematics and the virtual cell's geometry (the tools'
@@ -48,7 +53,8 @@ TOOL_ARM_GAP_M = 0.005
 #: The arm's links a tool in hand must keep clear of (the flange's own links, 5 and 6,
 #: carry it).
 _FOLD_LINKS = frozenset({"link1", "link2", "link3", "link4"})
-#: How high [m] above the object's top the flange sits at home beyond the tools' length.
+#: The tools' length [m] (the screwer's TCP, the longest): home's flange is this and a
+#: clearance above the object's top.
 TOOLS_LENGTH_M = 0.2
 #: Clearance [m] the arm at home keeps from everything in the virtual cell.
 HOME_CLEARANCE_M = 0.02
@@ -165,9 +171,8 @@ def _sweep(
     """Joint k's values over the file's range (home among them) and `measure` at each, the
     other joints at q; and home's index."""
     lo, hi = float(arm.kin.lower[k]), float(arm.kin.upper[k])
-    below = np.arange(q[k], lo, -_STEP)[::-1]
-    above = np.arange(q[k], hi, _STEP)[1:]
-    grid = np.r_[lo, below, above, hi] if below[0] > lo else np.r_[below, above, hi]
+    # Steps of _STEP from home both ways, and the file's ends (home may sit on one).
+    grid = np.unique(np.r_[lo, np.arange(q[k], lo, -_STEP), np.arange(q[k], hi, _STEP), hi])
     home = int(np.argmin(np.abs(grid - q[k])))
     values = np.array([measure(np.r_[q[:k], v, q[k + 1 :]]) for v in grid])
     return grid, values, home
