@@ -237,7 +237,7 @@ def _flange_axis_cosine(model: pin.Model, tip_frame: str) -> float:
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     last = model.njoints - 1
-    axis = data.oMi[last].rotation @ _motion_axis(model, last)
+    axis = data.oMi[last].rotation @ motion_axis(model, last)
     return float(data.oMf[model.getFrameId(tip_frame)].rotation[:, 2] @ axis)
 
 
@@ -252,7 +252,7 @@ def _chain_to(model: pin.Model, tip_frame: str) -> pin.Model:
     return pin.buildReducedModel(model, locked, pin.neutral(model))
 
 
-def _motion_axis(model: pin.Model, j: int) -> np.ndarray:
+def motion_axis(model: pin.Model, j: int) -> np.ndarray:
     """Unit axis (3,) of revolute joint j in its own frame (its constant motion subspace)."""
     data = model.createData()
     pin.forwardKinematics(model, data, pin.neutral(model))
@@ -329,7 +329,7 @@ def arm_mjcf(
             f"link{j}",
             f' pos="{_f(M.translation)}" quat="{_quat(M.rotation)}"',
             inertial,
-            f'<joint name="{JOINT_NAMES[k]}" axis="{_f(_motion_axis(model, j))}" '
+            f'<joint name="{JOINT_NAMES[k]}" axis="{_f(motion_axis(model, j))}" '
             f'range="{lower[k]:.12g} {upper[k]:.12g}" armature="{servo.armature[k]:g}"/>',
             geoms,
         )
@@ -483,7 +483,7 @@ def robot_from_file(
     if limits.ranges_rad is not None:
         _limit(model, limits.ranges_rad, path)
     model.jointPlacements[1] = _mount(mount_xyz, mount_yaw_deg) * model.jointPlacements[1]
-    axes = [_motion_axis(model, j) for j in range(1, 7)]
+    axes = [motion_axis(model, j) for j in range(1, 7)]
     speed, effort = _speeds_and_efforts(model, limits.speed_rad_s, limits.effort_nm, path)
     home = np.zeros(6) if q_home is None else np.asarray(q_home, dtype=float)
     servo = servo or Servo(

@@ -117,20 +117,17 @@ def job_arms(
     cell (scenarios.offline.arm_setup), best first, each said as it is tried."""
     section = config.cell.robot
     robot = job_robot(section)
+    if section.model in BUILTIN:
+        yield robot
+        return
     file_speed = robot.kinematics().model.velocityLimit
-    if (
-        section.model not in BUILTIN
-        and section.speed_deg_s is None
-        and not (np.isfinite(file_speed) & (file_speed > 0)).all()
-    ):
+    if section.speed_deg_s is None and not (np.isfinite(file_speed) & (file_speed > 0)).all():
         speeds = ", ".join(f"{v:.0f}" for v in np.rad2deg(robot.joint_speed))
         say(
             f"arm: {section.model} gives no joint speed limits; assumed [{speeds}] deg/s "
             "(cell.robot.speed_deg_s gives the arm's own)"
         )
-    if section.model in BUILTIN or (
-        section.home_deg is not None and section.limits_deg is not None
-    ):
+    if section.home_deg is not None and section.limits_deg is not None:
         yield robot
         return
     calibrates = config.calibration.enabled  # its spheres on the table

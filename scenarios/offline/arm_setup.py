@@ -39,6 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from cell import Kinematics
+from cell.robots import motion_axis
 from cell.virtual import VirtualCell
 
 #: Sweep step [rad] of the joint-window bounds.
@@ -103,12 +104,7 @@ class _Arm:
     def __init__(self, kin: Kinematics, cell: VirtualCell) -> None:
         self.kin = kin
         self.cell = cell
-        data = kin.model.createData()
-        pin.forwardKinematics(kin.model, data, pin.neutral(kin.model))
-        self._axes = [np.zeros(3)] + [
-            np.asarray(data.joints[j].S).reshape(6)[3:] for j in range(1, 7)
-        ]
-        self._axes = [a / max(float(np.linalg.norm(a)), 1e-12) for a in self._axes]
+        self._axes = [np.zeros(3)] + [motion_axis(kin.model, j) for j in range(1, 7)]
 
     def frames(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Origins (7, 3) and unit axes (7, 3) of joints 1..6 in the world at q (row 0

@@ -301,51 +301,34 @@ def _pose_clear(cell: VirtualCell, q: np.ndarray, table_m: float, margin_m: floa
     return not cell.contacts(margin_m)
 
 
-def _joint_path_clear(
-    cell: VirtualCell,
-    kin: Kinematics,
-    q0: np.ndarray,
-    q1: np.ndarray,
-    table_m: float,
-    margin_m: float,
-) -> bool:
-    """Whether the joint move q0 -> q1 (straight in joint space, as the controller moves)
-    keeps `margin_m` [m] from everything, the table at `table_m` [m]: sampled as the
-    pre-motion check samples a joint move (q0 itself not checked)."""
+Poses = list[tuple[np.ndarray, float]]
+
+
+def _joint_move_poses(kin: Kinematics, q0: np.ndarray, q1: np.ndarray, table_m: float) -> Poses:
+    """The poses (joints, table position [m]) of the joint move q0 -> q1 (straight in joint
+    space, as the controller moves) with the table at `table_m`, sampled as the pre-motion
+    check samples a joint move (q0 itself not among them)."""
     limits = TRANSIT_LIMITS
     steps = joint_move_samples(kin, LASER.T_tool_tcp, q0, q1, limits.step_m, limits.step_rad)
-    return all(_pose_clear(cell, q0 + s * (q1 - q0), table_m, margin_m) for s in steps)
+    return [(q0 + f * (q1 - q0), table_m) for f in steps]
 
 
-def _table_travel_clear(
-    cell: VirtualCell, q: np.ndarray, s0: float, s1: float, margin_m: float
-) -> bool:
-    """Whether the arm held at `q` clears the cell by `margin_m` [m] while the table moves
-    from `s0` to `s1` [m] (checked every 2 cm of the travel, both ends included)."""
+def _table_travel_poses(q: np.ndarray, s0: float, s1: float) -> Poses:
+    """The poses of the arm held at `q` while the table moves from `s0` to `s1` [m]: every
+    2 cm of the travel, both ends included."""
     steps = max(1, int(np.ceil(abs(s1 - s0) / 0.02))) + 1
-    return all(_pose_clear(cell, q, s, margin_m) for s in np.linspace(s0, s1, steps))
+    return [(q, float(s)) for s in np.linspace(s0, s1, steps)]
 
 
-def _blocker(
-    cell: VirtualCell,
-    kin: Kinematics,
-    legs: tuple[tuple[np.ndarray, np.ndarray, float, float], ...],
-    margin_m: float,
-) -> str:
-    """What the route through home first comes near: its legs (q0, q1, table s0, s1), each
-    a joint move at the table s0 = s1 or the table's travel s0 -> s1 with the arm held at q0,
-    sampled as the route's checks sample them: "link5 within 4 mm of table (home -> pass
-    start)"."""
-    names = ("the move to home", "the table's travel at home", "home -> pass start")
-    limits = TRANSIT_LIMITS
-    for (q0, q1, s0, s1), name in zip(legs, names, strict=True):
-        if s0 == s1:
-            steps = joint_move_samples(kin, LASER.T_tool_tcp, q0, q1, limits.step_m,
-                                       limits.step_rad)  # fmt: skip
-            poses = [(q0 + f * (q1 - q0), s0) for f in steps]
-        else:
-            count = max(1, int(np.ceil(abs(s1 - s0) / 0.02))) + 1
-            poses = [(q0, s) for s in np.linspace(s0, s1, count)]
+def _poses_clear(cell: VirtualCell, poses: Poses, margin_m: float) -> bool:
+    """Whether the arm with the laser keeps `margin_m` [m] from everything at each pose."""
+    return all(_pose_clear(cell, q, s, margin_m) for q, s in poses)
+
+
+def _blocker(cell: VirtualCell, legs: tuple[tuple[str, Poses], ...], margin_m: float) -> str:
+    """What the first of the named `legs` to meet the cell first comes within `margin_m` [m]
+    of: "link5 within 4 mm of table (home -> pass start)"."""
+    for name, poses in legs:
         for q, s in poses:
             cell.set_tool("laser")
             cell.set_table(s)
@@ -376,32 +359,40 @@ def route_transits(
     q_from, s_from = home, passes[0].table_position_m if passes else 0.0
     for planned in passes:
         s = planned.table_position_m
-        if _table_travel_clear(cell, q_from, s_from, s, margin_m) and _joint_path_clear(
-            cell, kin, q_from, planned.q_start, s, margin_m
-        ):
-            out.append(replace(planned, q_via=()))
-        elif (
-            _joint_path_clear(cell, kin, q_from, home, s_from, margin_m)
-            and _table_travel_clear(cell, home, s_from, s, margin_m)
-            and _joint_path_clear(cell, kin, home, planned.q_start, s, margin_m)
-        ):
-            out.append(replace(planned, q_via=(home,)))
-        else:
-            legs = ((q_from, home, s_from, s_from), (home, home, s_from, s),
-                    (home, planned.q_start, s, s))  # fmt: skip
-            raise ScanPlanError(
-                f"scan plan: no clear way to {planned.name}: the arm's move to its start "
-                f"comes within {margin_m * 1e3:.0f} mm of the cell, directly and through "
-                f"home ({_blocker(cell, kin, legs, margin_m)}); "
-                "the job refuses before any motion. Give the arm a home above the object "
-                "from which the pass' start is clear (cell.robot.home_deg), a joint window "
-                "that keeps the elbow and wrist on one branch (cell.robot.limits_deg), or "
-                "move the arm (cell.robot.mount_xyz) or the object (cell.object.placement."
-                "xy_m) so that the pass lies within easier reach"
+        direct = _table_travel_poses(q_from, s_from, s) + _joint_move_poses(
+            kin, q_from, planned.q_start, s
+        )
+        via: tuple[np.ndarray, ...] = ()
+        if not _poses_clear(cell, direct, margin_m):
+            legs = (
+                ("the move to home", _joint_move_poses(kin, q_from, home, s_from)),
+                ("the table's travel at home", _table_travel_poses(home, s_from, s)),
+                ("home -> pass start", _joint_move_poses(kin, home, planned.q_start, s)),
             )
-        rose = _retreat_q(kin, planned, T_base_table)
-        q_from, s_from = (planned.q_start if rose is None else rose), s
+            if not all(_poses_clear(cell, poses, margin_m) for _, poses in legs):
+                raise ScanPlanError(
+                    f"scan plan: no clear way to {planned.name}: the arm's move to its start "
+                    f"comes within {margin_m * 1e3:.0f} mm of the cell, directly and through "
+                    f"home ({_blocker(cell, legs, margin_m)}); the job refuses before any "
+                    "motion. Give the arm a home above the object from which the pass' start "
+                    "is clear (cell.robot.home_deg), a joint window that keeps the elbow and "
+                    "wrist on one branch (cell.robot.limits_deg), or move the arm "
+                    "(cell.robot.mount_xyz) or the object (cell.object.placement.xy_m) so "
+                    "that the pass lies within easier reach"
+                )
+            via = (home,)
+        out.append(replace(planned, q_via=via))
+        q_from, s_from = _risen(kin, planned, T_base_table), s
     return tuple(out)
+
+
+def _risen(
+    kin: Kinematics, planned: PlannedPass, T_base_table: Callable[[float], np.ndarray]
+) -> np.ndarray:
+    """The joints the arm leaves pass `planned` with: the laser risen from its end, or its
+    start where it cannot rise."""
+    rose = _retreat_q(kin, planned, T_base_table)
+    return planned.q_start if rose is None else rose
 
 
 def _predict(
