@@ -437,6 +437,7 @@ class JobConfig(Section):
             localization=self.localization,
             operations=self.operations,
             verify=self.verify,
+            goal_rms_m=self.checks.target_error_rms_m,
         )
 
 

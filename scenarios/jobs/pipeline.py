@@ -34,6 +34,7 @@ from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator, PoseEvaluation
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.run import RunResult
+from scenarios.results.verification import Verification
 from scenarios.stages.calibrate import Calibrate, Calibrated
 from scenarios.stages.context import StageContext
 from scenarios.stages.execute import Execute
@@ -45,7 +46,7 @@ from scenarios.stages.register import LocatedPose, Register, Registered
 from scenarios.stages.scan import Scan, Scanned
 from scenarios.stages.stage import Outcome, Stage
 from scenarios.stages.state import JobState
-from scenarios.stages.verify import Verify
+from scenarios.stages.verify import Verified, Verify
 
 Progress = Callable[[str], None]
 
@@ -152,6 +153,7 @@ class JobRun:
         self.pose_errors: dict[str, PoseEvaluation] | None = None
         self.time_at_verdict_s = cell.controller.time_s
         self.exported = Exported()
+        self.verifications: list[Verification] = []
         self._t0 = time.perf_counter()
 
     def enter(self, stage: Stage, state: JobState) -> None:
@@ -180,6 +182,8 @@ class JobRun:
         elif isinstance(outcome, Registered):
             self.time_at_verdict_s = controller.time_s
             self._log_registration(outcome.pose, state)
+        elif isinstance(outcome, Verified):
+            self._log_verification(outcome)
         elif isinstance(outcome, Exported):
             self.exported = outcome
 
@@ -193,6 +197,19 @@ class JobRun:
             for p in poses
             if p.T_table_object is not None
         }
+
+    def _log_verification(self, outcome: Verified) -> None:
+        self.verifications.append(outcome.verification)
+        if self.recording is None:
+            return
+        targets_model = np.array([h.p_entry for h in self.virtual.burr_holes]).reshape(-1, 3)
+        T = outcome.T_table_object
+        self.recording.log_verification(
+            self.cell.controller.time_s,
+            outcome.verification,
+            targets_model @ T[:3, :3].T + T[:3, 3],
+            outcome.strip_table,
+        )
 
     def _log_registration(self, pose: LocatedPose, state: JobState) -> None:
         located, scanned = pose.localization, state.scanned

@@ -123,6 +123,7 @@ def finish_job(
         else plan.scan_plan.summary(None if state.scanned is None else state.scanned.scan_time_s),
         model_cache=used_key(config.cell.object.model, config.seed),
         plan_cache=plan.plan_cache,
+        verifications=tuple(job.verifications),
     )
     if config.output.plots:
         _figures(config, plan, job.folder, result, state)

@@ -314,11 +314,17 @@ class OperationsSection(Section):
 
 class VerifySection(Section):
     """The check of the correction before any target is touched (scenarios.offline.verify):
-    the laser scans a strip of the object again, matched on its own, and the targets it
-    places are compared with the registration's; a disagreement re-scans and re-matches
-    once, then refuses."""
+    the laser scans a strip of the object again, and the object's move since the scan is
+    measured at each target and held to what the job's goal leaves; a detected move
+    re-scans and re-matches once, then refuses. `max_strips`: strips it scans at most to
+    make that call; `arm_accuracy_m` [m]: the arm's error at a target after its calibration
+    (the job's budget for it); `repeatability_m` [m]: the arm's and the table's pose
+    repeatability, one standard deviation per axis (data sheets)."""
 
     enabled: bool = True
+    max_strips: int = Field(3, ge=1, le=10)
+    arm_accuracy_m: float = Field(1.5e-4, ge=0.0, le=0.01)
+    repeatability_m: float = Field(2.0e-5, ge=0.0, le=0.01)
 
 
 class PlanningSettings(Section):
@@ -338,3 +344,6 @@ class PlanningSettings(Section):
     localization: LocalizationSection = LocalizationSection()
     operations: OperationsSection = OperationsSection()
     verify: VerifySection = VerifySection()
+    #: The job's RMS goal for its targets [m] (None: no goal): what the verification holds a
+    #: move of the object to.
+    goal_rms_m: float | None = Field(5.0e-4, gt=0.0)

@@ -28,6 +28,7 @@ from scenarios.results.evaluations import (
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported import ExportedRun
 from scenarios.results.scan_plan import ScanPlanSummary
+from scenarios.results.verification import Verification
 
 #: The version of results.json's layout that this module writes and reads.
 SCHEMA_VERSION = 1
@@ -195,6 +196,8 @@ class RunResult:
         faults: each fault injected into the real cell, and what detected it; supervision:
             what the controller's supervision and the stages' checks saw, in order.
         scan_plan: the scan's plan, None without a scan.
+        verifications: the verification before the first touch, each time it ran (a
+            detected move re-scans, re-matches and verifies again), in order.
         model_cache: the key of the built model read from (or written to) the disk cache
             (models.cache), or None (not a cached model, or the cache turned off);
             plan_cache: the key of the scan plan read from (or written to) it
@@ -229,6 +232,7 @@ class RunResult:
     scan_plan: ScanPlanSummary | None = None
     model_cache: str | None = None
     plan_cache: str | None = None
+    verifications: tuple[Verification, ...] = ()
     seconds: float | None = None
     schema_version: int = field(default=SCHEMA_VERSION)
 
@@ -296,6 +300,7 @@ class RunResult:
             "scan_plan": None if self.scan_plan is None else self.scan_plan.to_json(),
             "model_cache": self.model_cache,
             "plan_cache": self.plan_cache,
+            "verifications": [v.to_json() for v in self.verifications],
             "seconds": self.seconds,
         }
 
@@ -366,6 +371,7 @@ class RunResult:
             scan_plan=None if plan is None else ScanPlanSummary.from_json(plan),
             model_cache=data["model_cache"],
             plan_cache=data.get("plan_cache"),
+            verifications=tuple(Verification.from_json(v) for v in data.get("verifications", ())),
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),
         )

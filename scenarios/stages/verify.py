@@ -1,6 +1,6 @@
-"""The verification before the first touch: a strip of the object scanned again at the
-program's table position, matched on its own, the targets it places compared with the
-registration's (scenarios.offline.verify)."""
+"""The verification before the first touch: strips of the object scanned again as they were
+scanned, the object's move since the scan measured at each target and held to what the
+job's goal leaves (scenarios.offline.verify)."""
 
 from __future__ import annotations
 
@@ -12,13 +12,15 @@ import numpy as np
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.settings import Registration
 from scenarios.offline.verify import (
+    Budget,
     RegisteredTargets,
+    Rescanned,
     ScanRecord,
     Verification,
+    allowances,
     verify_registration,
 )
 from scenarios.stages.context import StageContext
-from scenarios.stages.program import ProgramStage
 from scenarios.stages.register import LocatedPose
 from scenarios.stages.scan import ScanStage
 from scenarios.stages.stage import Outcome, Stage
@@ -35,43 +37,53 @@ def verify_stage(
     ctx: StageContext,
     pose: LocatedPose,
     scanned: ScanStage,
-    programs: ProgramStage,
     model: CellModel,
-) -> Verification:
-    """Scan a strip of the object again at the first program's table position, match it on
-    its own and compare where the two matches put the targets with the surface match's
-    `pose`."""
+) -> Rescanned:
+    """Scan strips of the object again and measure how far it moved since the surface
+    match's `pose` was found, at each target, against what the job's goal leaves."""
     assert pose.localization is not None and pose.T_table_object is not None
-    program = next(iter(programs.operations.values()))
     settings, virtual = ctx.settings, ctx.virtual
+    section = settings.verify
     pass_sigma = settings.localization.registration.pass_sigma_m
     targets = tuple((h.name, h.p_entry) for h in virtual.burr_holes)
-    verdict = verify_registration(
+    tre = pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre
+    rescanned = verify_registration(
         ctx.controller,
         virtual,
         RegisteredTargets(
             pose.T_table_object,
             targets,
-            pose.localization.result.predicted_tre(np.array([p for _, p in targets])).tre,
+            tre,
+            allowances(settings.goal_rms_m, tre, section.arm_accuracy_m),
         ),
         ScanRecord(scanned.scan, scanned.keep, scanned.plan),
         ctx.box,
         settings.localization.scan,
-        program.table_position_m,
         model,
-        PASS_SIGMA_M if pass_sigma is None else pass_sigma,
+        Budget(
+            settings.goal_rms_m,
+            settings.localization.scan.planning.range_sigma_m,
+            section.repeatability_m,
+            PASS_SIGMA_M if pass_sigma is None else pass_sigma,
+            section.max_strips,
+        ),
         ctx.hooks.say,
     )
+    verdict = rescanned.verification
     ctx.hooks.say(f"verify: {'agrees' if verdict.agrees else 'DISAGREES'}: {verdict.summary()}")
-    return verdict
+    return rescanned
 
 
 @dataclass(frozen=True, eq=False)
 class Verified(Outcome):
-    """The verification's verdict. If it disagrees, the stages `rescan` run again and the
-    verification after them; on the last attempt the surface pose is refused instead."""
+    """The verification's verdict, the pose it verified (T_table_object (4, 4) [m]) and the
+    strips' points (N, 3) [m] in the table frame. If it disagrees, the stages `rescan` run
+    again and the verification after them; on the last attempt the surface pose is refused
+    instead."""
 
     verification: Verification
+    T_table_object: np.ndarray
+    strip_table: np.ndarray
     rescan: tuple[Stage, ...] = ()
     refusal: str | None = None
 
@@ -95,7 +107,7 @@ class Verify:
     attempt: int = 0
     attempts: int = 2
     name: str = "verify"
-    title: str = "the match on patches of the object, away from the targets"
+    title: str = "the object's move since the scan, measured on strips scanned again"
 
     def due(self, ctx: StageContext) -> bool:
         return bool(ctx.state.programs.operations)
@@ -104,12 +116,15 @@ class Verify:
         state = ctx.state
         pose, scanned = state.pose("surface"), state.scanned
         assert pose is not None and scanned is not None
-        verdict = verify_stage(ctx, pose, scanned, state.programs, state.model)
+        rescanned = verify_stage(ctx, pose, scanned, state.model)
+        verdict = rescanned.verification
+        assert pose.T_table_object is not None
+        seen = (verdict, pose.T_table_object, rescanned.points_table)
         if verdict.agrees:
-            return Verified(verdict)
+            return Verified(*seen)
         message = f"the object disagrees with the match: {verdict.summary()}"
         if self.attempt + 1 >= self.attempts:
             ctx.hooks.detect("verification", message, "refused")
-            return Verified(verdict, refusal=message)
+            return Verified(*seen, refusal=message)
         ctx.hooks.detect("verification", message, "re-scanned and matched again")
-        return Verified(verdict, (*self.rescan, replace(self, attempt=self.attempt + 1)))
+        return Verified(*seen, (*self.rescan, replace(self, attempt=self.attempt + 1)))

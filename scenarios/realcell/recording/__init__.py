@@ -10,7 +10,8 @@ Entities (base frame = world; timelines `sim_time`, the cell's clock, and `icp`)
 - `world/cell/table/frame`: the table frame the cell model believes; under it `model` (the
   virtual model: nominal, then registered; its targets with it), `calibration/points` and
   `calibration/centres` (the calibration's fit), `scan/line`, `scan/passes/pNN`,
-  `scan/registered` (coloured by residual) and `icp/...` (match.py);
+  `scan/registered` (coloured by residual), `icp/...` (match.py) and `verify/...` (the
+  verification's strips and its decision at each target: verification.py);
 - `world/targets/...`: corrected, achieved, true, magnified error lines, predicted-TRE
   ellipsoids (targets.py); `plots/...`, `legend/residual`, `log` (one entry per phase and
   per decision).
@@ -43,6 +44,8 @@ from scenarios.realcell.recording.scan import LaserRays, log_scan
 from scenarios.realcell.recording.scene import CellScene, mesh_archetype
 from scenarios.realcell.recording.stream import ICP, Stream, pose
 from scenarios.realcell.recording.targets import log_targets
+from scenarios.realcell.recording.verification import log_verification
+from scenarios.results.verification import Verification
 
 #: The table frame the cell model believes: the table's top, where the object stands.
 TABLE = "world/cell/table/frame"
@@ -269,6 +272,17 @@ class Recording:
         T = program.T_base_object
         centre = T[:3, :3] @ self._centre_model + T[:3, 3]
         log_targets(self.stream, time_s, corrected, evaluated, covariances, centre)
+
+    def log_verification(
+        self,
+        time_s: float,
+        verification: Verification,
+        targets_table: np.ndarray,
+        strip_table: np.ndarray,
+    ) -> None:
+        """The verification at `time_s`: its targets (K, 3) and strips' points (N, 3) [m]
+        in the table frame (see verification.py)."""
+        log_verification(self.stream, time_s, verification, targets_table, strip_table, TABLE)
 
     def close(self, keep: bool = True) -> None:
         """Send what was buffered and close; keep the file only if the run completed."""

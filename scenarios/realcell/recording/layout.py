@@ -42,6 +42,8 @@ def blueprint(
         rrb.Tabs(
             rrb.BarChartView(origin="/plots/targets/error_mm", name="target error [mm]"),
             rrb.BarChartView(origin="/plots/targets/predicted_tre_mm", name="predicted TRE [mm]"),
+            rrb.BarChartView(origin="/plots/verify/moved_mm", name="verify: moved [mm]"),
+            rrb.BarChartView(origin="/plots/verify/allowance_mm", name="verify: allowed [mm]"),
         ),
         rrb.Tabs(
             rrb.BarChartView(

@@ -1,0 +1,147 @@
+"""The verification before the first touch as results.json keeps it
+(scenarios.offline.verify measures it): per target, the object's move measured since the
+scan, the measurement's own bound, what the job's goal allows and the decision; the strips
+scanned again and their cell time."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from scenarios.results.edge import JsonObject, unbounded
+
+Decision = Literal["agrees", "moved", "inconsistent", "unresolved"]
+
+
+@dataclass(frozen=True)
+class TargetCheck:
+    """One target: how far the object moved it between the scan and the verification
+    (`moved_m` [m], measured; `uncertainty_m` [m]: the bound the measurement's own noise
+    stays under), the move the goal allows (`allowance_m` [m]); and how far the second
+    strip's own match places it from the registration (`disagreement_m` [m]) against what
+    the two matches' predicted TREs allow (`disagreement_allowed_m` [m])."""
+
+    name: str
+    moved_m: float
+    uncertainty_m: float
+    allowance_m: float
+    disagreement_m: float
+    disagreement_allowed_m: float
+    goal_m: float = float("inf")
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the measurement tells a move of the allowance from none (its bound is
+        within the allowance) and surely sees a move beyond the goal `goal_m` [m] (the
+        allowance plus the bound is within the goal)."""
+        u, a = self.uncertainty_m, self.allowance_m
+        return a > 0 and u <= a and a + u <= self.goal_m
+
+    @property
+    def resolves_m(self) -> float:
+        """The least move [m] this check surely catches: the allowance plus the bound."""
+        return max(self.allowance_m, 0.0) + self.uncertainty_m
+
+    @property
+    def decision(self) -> Decision:
+        if self.moved_m > self.allowance_m:
+            return "moved"
+        if self.disagreement_m > self.disagreement_allowed_m:
+            return "inconsistent"
+        return "agrees" if self.resolved else "unresolved"
+
+    def to_json(self) -> JsonObject:
+        return {
+            "name": self.name,
+            "moved_m": self.moved_m,
+            "uncertainty_m": self.uncertainty_m,
+            "allowance_m": self.allowance_m,
+            "resolved": self.resolved,
+            "disagreement_m": self.disagreement_m,
+            "disagreement_allowed_m": self.disagreement_allowed_m,
+            "goal_m": None if self.goal_m == float("inf") else self.goal_m,
+            "decision": self.decision,
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> TargetCheck:
+        return cls(
+            str(data["name"]),
+            float(data["moved_m"]),
+            float(data["uncertainty_m"]),
+            float(data["allowance_m"]),
+            float(data["disagreement_m"]),
+            float(data["disagreement_allowed_m"]),
+            unbounded(data["goal_m"]),
+        )
+
+
+@dataclass(frozen=True)
+class Verification:
+    """The strips scanned again (their passes' names), their points on the object, the
+    cell time they took [s], each target's check; the registration agrees if no target
+    moved beyond its allowance or disagrees with the second scan. `verified_to_m`: the least
+    target move [m] the verification surely catches."""
+
+    strips: tuple[str, ...]
+    points: int
+    scan_time_s: float
+    checks: tuple[TargetCheck, ...]
+
+    @property
+    def agrees(self) -> bool:
+        return self.points > 0 and all(c.decision in ("agrees", "unresolved") for c in self.checks)
+
+    @property
+    def resolved(self) -> bool:
+        """Whether every target's check tells a move of its allowance from none."""
+        return bool(self.checks) and all(c.resolved for c in self.checks)
+
+    @property
+    def verified_to_m(self) -> float:
+        return max((c.resolves_m for c in self.checks), default=float("inf"))
+
+    def summary(self) -> str:
+        strips = " + ".join(self.strips)
+        if not self.checks:
+            return f"{strips} again: {self.points} points on the object, too few to match"
+        worst = max(self.checks, key=_worst_key)
+        if worst.decision == "inconsistent":
+            return (
+                f"{strips} again ({self.points} points): its own match places {worst.name} "
+                f"{worst.disagreement_m * 1e3:.2f} mm from the registration's (allowed "
+                f"{worst.disagreement_allowed_m * 1e3:.2f})"
+            )
+        text = (
+            f"{strips} again ({self.points} points): the targets moved up to "
+            f"{worst.moved_m * 1e3:.3f} mm ({worst.name}; allowed {worst.allowance_m * 1e3:.3f},"
+            f" measured to {worst.uncertainty_m * 1e3:.3f})"
+        )
+        if not self.resolved:
+            text += f"; verified to {self.verified_to_m * 1e3:.2f} mm only"
+        return text
+
+    def to_json(self) -> JsonObject:
+        return {
+            "strips": list(self.strips),
+            "points": self.points,
+            "scan_time_s": self.scan_time_s,
+            "agrees": self.agrees,
+            "resolved": self.resolved,
+            "verified_to_m": None if not self.checks else self.verified_to_m,
+            "targets": [c.to_json() for c in self.checks],
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> Verification:
+        return cls(
+            tuple(str(n) for n in data["strips"]),
+            int(data["points"]),
+            float(data["scan_time_s"]),
+            tuple(TargetCheck.from_json(t) for t in data["targets"]),
+        )
+
+
+def _worst_key(c: TargetCheck) -> tuple[int, float]:
+    order = {"inconsistent": 2, "moved": 3, "unresolved": 1, "agrees": 0}
+    return order[c.decision], c.moved_m / max(c.allowance_m, 1e-9)
