@@ -140,6 +140,8 @@ def full_row(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
     row["stage"] = result.stage or ""
     row.update(_plan_columns(result.scan_plan))
     row.update(fault_columns(result))
+    row.update(verify_columns(result))
+    row["cell_time_s"] = result.cell_time_s
     for stage, seconds in result.timings.items():
         row[f"{stage}_seconds"] = seconds
     return row
@@ -175,6 +177,27 @@ def _plan_columns(plan: ScanPlanSummary | None) -> JsonObject:
     return row
 
 
+def verify_columns(result: RunResult) -> JsonObject:
+    """The verification's columns, of its first run (before any re-scan it caused):
+    `verify_runs` how often it ran, `verify_agrees`, `verify_resolved`, `verify_strips`,
+    `verify_scan_time_s` [s], and over the targets the largest move measured, the largest
+    bound and the smallest allowance [m] (empty without a verification)."""
+    if not result.verifications:
+        return {"verify_runs": 0}
+    first = result.verifications[0]
+    checks = first.checks
+    return {
+        "verify_runs": len(result.verifications),
+        "verify_agrees": int(first.agrees),
+        "verify_resolved": int(first.resolved),
+        "verify_strips": len(first.strips),
+        "verify_scan_time_s": first.scan_time_s,
+        "verify_moved_max_m": max((c.moved_m for c in checks), default=None),
+        "verify_uncertainty_max_m": max((c.uncertainty_m for c in checks), default=None),
+        "verify_allowance_min_m": min((c.allowance_m for c in checks), default=None),
+    }
+
+
 def fault_columns(result: RunResult) -> JsonObject:
     """The row's fault columns: for each fault injected, `fault.<name>` its outcome
     ("recovered": detected and the run complete; "stopped": detected and the run aborted
@@ -189,6 +212,8 @@ def fault_columns(result: RunResult) -> JsonObject:
             outcome = "recovered" if result.status == "complete" else "stopped"
         out[f"fault.{fault.name}"] = outcome
         out[f"fault.{fault.name}.stage"] = fault.detected_by
+        if fault.target_move_m is not None:
+            out[f"fault.{fault.name}.target_move_m"] = fault.target_move_m
     worst = result.target_error_max_m
     out["harmed"] = int(result.status == "complete" and worst is not None and worst > HARM_M)
     return out

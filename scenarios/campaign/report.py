@@ -126,7 +126,7 @@ def fault_counts(rows: list[dict[str, str]]) -> dict[str, dict[str, int]]:
             c.removeprefix("fault.")
             for r in rows
             for c in r
-            if c.startswith("fault.") and not c.endswith(".stage")
+            if c.startswith("fault.") and "." not in c.removeprefix("fault.")
         }
     )
     out: dict[str, dict[str, int]] = {}

@@ -230,9 +230,23 @@ class Evaluator:
                     Injection(fired.stage, fired.time_s, fired.detail),
                     MISSED if seen is None else seen.stage,
                     None if seen is None else seen.code,
+                    self._target_move(name),
                 )
             )
         return tuple(out)
+
+    def _target_move(self, fault: str) -> float | None:
+        """How far the fault `fault` moved the real object's farthest target [m] (the
+        object moved on the table by a push), or None if it moves no object."""
+        moved = self._truth.faults.T_table_moved.get(self._name)
+        if fault != "object_bump" or moved is None or not self._real.burr_holes:
+            return None
+        T_after = np.linalg.inv(self._truth.T_base_table()) @ self._truth.T_base_object(self._name)
+        T_before = np.linalg.inv(moved) @ T_after
+        p = np.array([h.p_entry for h in self._real.burr_holes])
+        after = p @ T_after[:3, :3].T + T_after[:3, 3]
+        before = p @ T_before[:3, :3].T + T_before[:3, 3]
+        return float(np.linalg.norm(after - before, axis=1).max())
 
     def watch(self, bodies: Any, laser: Any, ir: Any = None) -> None:
         """Let a recording witness the real cell: `bodies(data)` while it moves, `laser(data,

@@ -59,7 +59,9 @@ class FaultOutcome:
     """One fault of the run: its kind's `name`, `amount` (SI), the `stage` it was due in
     (None: from the start) and `option`; when it was injected (None: its occasion never
     came); the stage whose supervision or check saw it first (`detected_by`, or "missed",
-    or "not injected") and by which symptom (a code of SupervisionEvent)."""
+    or "not injected") and by which symptom (a code of SupervisionEvent); for a fault that
+    moves the object, how far it moved the farthest target (`target_move_m` [m], the
+    truth), else None."""
 
     name: str
     amount: float
@@ -68,6 +70,7 @@ class FaultOutcome:
     injected: Injection | None
     detected_by: str
     symptom: str | None = None
+    target_move_m: float | None = None
 
     @property
     def detected(self) -> bool:
@@ -87,6 +90,7 @@ class FaultOutcome:
             "injected": {"stage": i.stage, "time_s": i.time_s, "what": i.what},
             "detected_by": self.detected_by,
             "symptom": self.symptom,
+            "target_move_m": self.target_move_m,
         }
 
     @classmethod
@@ -101,4 +105,5 @@ class FaultOutcome:
             injected,
             str(data["detected_by"]),
             data.get("symptom"),
+            data.get("target_move_m"),
         )

@@ -196,6 +196,7 @@ class RunResult:
         faults: each fault injected into the real cell, and what detected it; supervision:
             what the controller's supervision and the stages' checks saw, in order.
         scan_plan: the scan's plan, None without a scan.
+        cell_time_s: the cell's clock at the run's end [s] (its simulated time).
         verifications: the verification before the first touch, each time it ran (a
             detected move re-scans, re-matches and verifies again), in order.
         model_cache: the key of the built model read from (or written to) the disk cache
@@ -233,6 +234,7 @@ class RunResult:
     model_cache: str | None = None
     plan_cache: str | None = None
     verifications: tuple[Verification, ...] = ()
+    cell_time_s: float | None = None
     seconds: float | None = None
     schema_version: int = field(default=SCHEMA_VERSION)
 
@@ -301,6 +303,7 @@ class RunResult:
             "model_cache": self.model_cache,
             "plan_cache": self.plan_cache,
             "verifications": [v.to_json() for v in self.verifications],
+            "cell_time_s": self.cell_time_s,
             "seconds": self.seconds,
         }
 
@@ -372,6 +375,7 @@ class RunResult:
             model_cache=data["model_cache"],
             plan_cache=data.get("plan_cache"),
             verifications=tuple(Verification.from_json(v) for v in data.get("verifications", ())),
+            cell_time_s=data.get("cell_time_s"),
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),
         )
