@@ -178,12 +178,20 @@ def _plan_columns(plan: ScanPlanSummary | None) -> JsonObject:
 
 
 def verify_columns(result: RunResult) -> JsonObject:
-    """The verification's columns, of its first run (before any re-scan it caused):
+    """The checks' columns. The verification's, of its first run (before any re-scan it caused):
     `verify_runs` how often it ran, `verify_agrees`, `verify_resolved`, `verify_strips`,
     `verify_scan_time_s` [s], and over the targets the largest move measured, the largest
-    bound and the smallest allowance [m] (empty without a verification)."""
+    bound and the smallest allowance [m] (empty without a verification); of the tools' checks
+    at the beam, the first one's offset and tolerance [m] and how many were made."""
+    tools: JsonObject = {}
+    if result.tool_checks:
+        tools = {
+            "tool_off_m": result.tool_checks[0].off_m,
+            "tool_checks": len(result.tool_checks),
+            "tool_tolerance_m": result.tool_checks[0].tolerance_m,
+        }
     if not result.verifications:
-        return {"verify_runs": 0}
+        return {"verify_runs": 0} | tools
     first = result.verifications[0]
     checks = first.checks
     return {
@@ -195,7 +203,7 @@ def verify_columns(result: RunResult) -> JsonObject:
         "verify_moved_max_m": max((c.moved_m for c in checks), default=None),
         "verify_uncertainty_max_m": max((c.uncertainty_m for c in checks), default=None),
         "verify_allowance_min_m": min((c.allowance_m for c in checks), default=None),
-    }
+    } | tools
 
 
 def fault_columns(result: RunResult) -> JsonObject:

@@ -341,7 +341,7 @@ _FaultOption = Annotated[
     list[str] | None,
     typer.Option(
         "--fault",
-        help="NAME[=AMOUNT]: inject a fault into the real cell (see --list-faults), "
+        help="NAME[=AMOUNT[:OPTION]]: inject a fault into the real cell (see --list-faults), "
         "the amount in SI units; repeatable.",
     ),
 ]
@@ -479,7 +479,7 @@ def _print_faults() -> None:
 
     from cell.sim.faults import FAULT_KINDS
 
-    table = Table(title="faults of the real cell (--fault NAME[=AMOUNT])")
+    table = Table(title="faults of the real cell (--fault NAME[=AMOUNT[:OPTION]])")
     for column in ("fault", "what happens", "amount", "default", "stage", "option"):
         table.add_column(column)
     for k in FAULT_KINDS.values():

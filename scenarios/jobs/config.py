@@ -289,13 +289,21 @@ def fault_mapping(value: Any, known: Any, unknown: str) -> Any:
 
 
 def _fault_setting(value: Any) -> Any:
-    """A bare number is the amount, true the defaults, false or null no fault."""
+    """A bare number is the amount, "AMOUNT:OPTION" the amount and the option
+    (`--vary faults.table_stall=0.002:lying,0.005:lying`), true the defaults, false or null
+    no fault."""
     if value is True:
         return {}
     if value is False:
         return None
     if isinstance(value, int | float):
         return {"amount": value}
+    if isinstance(value, str) and ":" in value:
+        amount, _, option = value.partition(":")
+        try:
+            return {"amount": float(amount), "option": option.strip()}
+        except ValueError:
+            return value  # the schema names what is wrong
     return value
 
 
@@ -538,8 +546,9 @@ def parse_assignment(text: str) -> tuple[str, Any]:
 
 
 def fault_assignment(text: str) -> tuple[str, Any]:
-    """NAME[=AMOUNT] of `--fault`: the dotted key `faults.NAME` and its value (the amount,
-    or true for the kind's defaults); an unknown name lists the faults."""
+    """NAME[=AMOUNT[:OPTION]] of `--fault`: the dotted key `faults.NAME` and its value (the
+    amount, "AMOUNT:OPTION", or true for the kind's defaults); an unknown name lists the
+    faults."""
     name, sep, raw = text.partition("=")
     name = name.strip()
     if name not in FAULT_KINDS:
@@ -548,15 +557,21 @@ def fault_assignment(text: str) -> tuple[str, Any]:
         )
     if not sep:
         return f"faults.{name}", True
+    raw_amount, colon, option = raw.partition(":")
+    kind = FAULT_KINDS[name]
     try:
-        amount = float(raw)
+        amount = float(raw_amount)
     except ValueError:
-        kind = FAULT_KINDS[name]
         raise ConfigError(
             f"--fault {text!r}: the amount must be a number ({kind.amount} [{kind.unit}], "
             f"default {kind.default:g})"
         ) from None
-    return f"faults.{name}", amount
+    if not colon:
+        return f"faults.{name}", amount
+    if option not in kind.options:
+        valid = ", ".join(kind.options) or "none"
+        raise ConfigError(f"--fault {text!r}: option {option!r} is not one of: {valid}")
+    return f"faults.{name}", f"{amount!r}:{option}"
 
 
 def shipped_cells() -> tuple[str, ...]:

@@ -34,10 +34,10 @@ from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator, PoseEvaluation
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.run import RunResult
-from scenarios.results.verification import Verification
+from scenarios.results.verification import TcpCheck, Verification
 from scenarios.stages.calibrate import Calibrate, Calibrated
 from scenarios.stages.context import StageContext
-from scenarios.stages.execute import Execute
+from scenarios.stages.execute import Execute, Executed
 from scenarios.stages.export import Export, Exported
 from scenarios.stages.loop import run_stages
 from scenarios.stages.probe import Probe, Probed
@@ -154,6 +154,7 @@ class JobRun:
         self.time_at_verdict_s = cell.controller.time_s
         self.exported = Exported()
         self.verifications: list[Verification] = []
+        self.tool_checks: tuple[TcpCheck, ...] = ()
         self._t0 = time.perf_counter()
 
     def enter(self, stage: Stage, state: JobState) -> None:
@@ -184,6 +185,8 @@ class JobRun:
             self._log_registration(outcome.pose, state)
         elif isinstance(outcome, Verified):
             self._log_verification(outcome)
+        elif isinstance(outcome, Executed):
+            self.tool_checks = outcome.tool_checks
         elif isinstance(outcome, Exported):
             self.exported = outcome
 

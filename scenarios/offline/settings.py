@@ -319,12 +319,15 @@ class VerifySection(Section):
     re-scans and re-matches once, then refuses. `max_strips`: strips it scans at most to
     make that call; `arm_accuracy_m` [m]: the arm's error at a target after its calibration
     (the job's budget for it); `repeatability_m` [m]: the arm's and the table's pose
-    repeatability, one standard deviation per axis (data sheets)."""
+    repeatability, one standard deviation per axis (data sheets); `tool_tolerance_m` [m]: how
+    far off its tooldata the TCP check at the beam lets a tool sit (None: the job's RMS
+    goal, which a tool off by more misses at every target on its own)."""
 
     enabled: bool = True
     max_strips: int = Field(3, ge=1, le=10)
     arm_accuracy_m: float = Field(1.5e-4, ge=0.0, le=0.01)
     repeatability_m: float = Field(2.0e-5, ge=0.0, le=0.01)
+    tool_tolerance_m: float | None = Field(None, gt=0.0, le=0.01)
 
 
 class PlanningSettings(Section):

@@ -12,12 +12,12 @@ difference of opposite spins is the tool's offset, free of the arm's error.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from cell import Controller, SupervisionError
 from scenarios.offline.moves import change_tool_safely
+from scenarios.results.verification import TcpCheck
 
 #: Tools with a pointer the beam can see: the pointer's radius [m] and how far above the TCP
 #: the beam crosses it [m] (the screwer's pointer: a 3 mm ball-ended rod, its TCP the ball's
@@ -32,40 +32,6 @@ TOLERANCE_M = 7.5e-4
 SPINS_DEG = (-90.0, 0.0, 90.0, 180.0)
 
 
-@dataclass(frozen=True)
-class TcpCheck:
-    """The pointer's sideways offset (x, y) in the tool frame [m] (inf where a sweep did not
-    see it) and the tolerance [m]."""
-
-    tool: str
-    offset_m: tuple[float, float]
-    tolerance_m: float = TOLERANCE_M
-
-    @property
-    def off_m(self) -> float:
-        return float(np.hypot(*self.offset_m))
-
-    @property
-    def ok(self) -> bool:
-        return self.off_m <= self.tolerance_m
-
-    @property
-    def T_flange_tool(self) -> np.ndarray:
-        """(4, 4) where the tool sits on the flange, as measured: shifted sideways."""
-        T = np.eye(4)
-        T[:2, 3] = self.offset_m
-        return T
-
-    def summary(self) -> str:
-        if not np.isfinite(self.off_m):
-            return f"the {self.tool}'s pointer missed the beam: more than {SWEEP_M * 1e3:g} mm off"
-        return (
-            f"the {self.tool}'s pointer is {self.off_m * 1e3:.2f} mm off its tooldata "
-            f"(x {self.offset_m[0] * 1e3:+.2f}, y {self.offset_m[1] * 1e3:+.2f} mm; "
-            f"tolerance {self.tolerance_m * 1e3:.2f} mm)"
-        )
-
-
 def _pose(spin_deg: float, p: np.ndarray) -> np.ndarray:
     """The TCP pose: the tool axis down, turned `spin_deg` about it, at `p` (3,)."""
     c, s = np.cos(np.deg2rad(spin_deg)), np.sin(np.deg2rad(spin_deg))
@@ -76,9 +42,11 @@ def _pose(spin_deg: float, p: np.ndarray) -> np.ndarray:
     return T
 
 
-def check_tcp(controller: Controller) -> TcpCheck | None:
-    """Check the tool in hand at the beam (see the module); None for a tool without a
-    pointer."""
+def check_tcp(
+    controller: Controller, tolerance_m: float = TOLERANCE_M, attempt: int = 0
+) -> TcpCheck | None:
+    """Check the tool in hand at the beam (see the module) against `tolerance_m` [m]; None
+    for a tool without a pointer."""
     tool = controller.tool_in_hand
     if tool not in POINTERS:
         return None
@@ -104,7 +72,7 @@ def check_tcp(controller: Controller) -> TcpCheck | None:
     # frame (the tool axis down, as _pose holds it), plus the arm's error.
     ox = (moved[90.0] - moved[-90.0]) / 2.0
     oy = (moved[0.0] - moved[180.0]) / 2.0
-    return TcpCheck(tool, (ox, oy))
+    return TcpCheck(tool, (ox, oy), tolerance_m, attempt)
 
 
 def checked_tool(
@@ -112,18 +80,22 @@ def checked_tool(
     tool: str,
     say: Callable[[str], None],
     detect: Callable[[str, str, str], None],
-) -> None:
-    """Change to `tool` and check it at the beam: a tool seated off its tooldata is put back
-    and taken again once (`detect(code, message, action)` hears of it); still off, the cell
-    stops (SupervisionError "tcp_check")."""
+    tolerance_m: float = TOLERANCE_M,
+) -> tuple[TcpCheck, ...]:
+    """Change to `tool` and check it at the beam against `tolerance_m` [m]: a tool seated
+    off its tooldata is put back and taken again once (`detect(code, message, action)`
+    hears of it); still off, the cell stops (SupervisionError "tcp_check"). Returns the
+    checks made (none for a tool without a pointer)."""
+    checks: list[TcpCheck] = []
     for attempt in range(2):
         change_tool_safely(controller, tool)
-        check = check_tcp(controller)
+        check = check_tcp(controller, tolerance_m, attempt)
         if check is None:
-            return
+            return ()
+        checks.append(check)
         if check.ok:
             say(f"TCP check: {check.summary()}")
-            return
+            return tuple(checks)
         if attempt == 0:
             detect("tcp_check", check.summary(), "re-seated the tool")
             controller.move_joints(controller.q_home)

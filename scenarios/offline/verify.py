@@ -4,24 +4,27 @@ fine as the job's goal.
 
 After the match, the laser scans again the pass of the scan whose points locate the targets
 best (the smallest worst predicted target error from its points alone), at the table
-position and with the joints it was scanned with. Both scans of that strip, the first and
-the second, are matched on their own to the model from the registered pose; their
-difference is how far the object moved since the scan. The arm's and the table's errors,
-the laser's mounting and the model's own errors are the same in both scans (the same poses,
-the same patch of surface), so they cancel: what is left is the laser's noise on the points
-and the arm's and the table's repeatability. That is the verification's own uncertainty,
-and it is some hundredths of a millimetre, where either match alone is uncertain by tenths.
+position the program will run at (a table that did not go where its readout says shows
+there). Both scans of that strip, the first and the second, are matched on their own to the
+model from the registered pose; their difference is how far the object moved since the
+scan. Where the program's table position is the pass's own (the arm then follows the pass
+with the same joints), the arm's and the table's errors, the laser's mounting and the
+model's own errors are the same in both scans, so they cancel: what is left is the laser's
+noise on the points and the arm's and the table's repeatability, some hundredths of a
+millimetre, where either match alone is uncertain by tenths. At another table position the
+arm's calibrated accuracy enters as well.
 
 Each target's move is held to what the job's goal leaves: the RMS goal less the error the
 job already has at that target (the registration's predicted TRE and the arm's accuracy,
 in quadrature), since a move can add to that error in any direction. If the verification's
-own uncertainty is too large to tell a move of that size from none, it scans the next best
-strip as well and matches the strips together, up to `VerifySection.max_strips`; if it still
-cannot, the run says what size of move it verified (`Verification.verified_to_m`).
+own uncertainty is too large to tell a move of that size from none, or to surely see one
+beyond the goal, it scans the next best strip as well and matches the strips together, up
+to `Budget.max_strips`; if it still cannot, the run says what size of move it verified
+(`Verification.verified_to_m`).
 
 The second strip's match is also compared with the registration itself, with what the two
 matches' predicted TREs allow (three standard deviations of their difference): a scan whose
-points were wrong (a table that did not go where its readout says) shows there.
+points were wrong shows there.
 
 A strip, not a few small patches: a skull's vault is nearly a sphere, and patches of it see
 a turn about its centre not at all; a strip across the face and the vault sees every motion
@@ -37,14 +40,17 @@ import numpy as np
 
 from cell import Controller
 from models.model import ObjectModel
+from models.robot import LASER
 from registration import Acceptance, MeshModel, invert, transform_points
 from registration.quality import ScanPasses
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.localization import localize
+from scenarios.offline.moves import TABLE_CANDIDATES_M
 from scenarios.offline.scan import (
     ObjectBox,
     PlannedPass,
     ScanData,
+    choose_table_position,
     crop_to_object,
     execute_scan,
 )
@@ -167,13 +173,16 @@ class Budget:
     """What the verification holds a move to and knows of its own noise: the job's RMS goal
     [m] (None: no goal), the laser's range noise [m], the arm's and the table's pose
     repeatability per axis [m], the arm's accuracy while it scans (a pass's offset per
-    axis [m], for the strips' matches) and the strips it may scan at most."""
+    axis [m], for the strips' matches), the strips it may scan at most, and the arm's
+    accuracy after calibration [m] (what a strip scanned again at another table position,
+    with other joints, differs by besides)."""
 
     goal_rms_m: float | None
     range_sigma_m: float
     repeatability_m: float
     pass_sigma_m: float
     max_strips: int
+    arm_accuracy_m: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,13 +252,15 @@ def verify_registration(
     scanned: ScanRecord,
     box: ObjectBox,
     section: Scan,
+    table_position_m: float,
     model: CellModel,
     budget: Budget,
     say: Progress,
 ) -> Rescanned:
     """Scan strips of the object again and measure how far it moved (see the module's
     docstring): the passes of `scanned` best first, each scanned again with the cell's
-    `model`, until every target's check is resolved or `budget.max_strips` ran."""
+    `model` at `table_position_m` [m] (the program's) if the arm follows it there, until
+    every target's check is resolved or `budget.max_strips` ran."""
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     targets_model = np.array([p for _, p in registered.targets])
     ranked = rank_strips(
@@ -258,17 +269,20 @@ def verify_registration(
     before: list[np.ndarray] = []
     after: list[np.ndarray] = []
     names: list[str] = []
+    as_scanned: list[bool] = []
     t0 = controller.time_s
     verification = Verification((), 0, 0.0, ())
     for k in ranked[: budget.max_strips]:
         planned = scanned.plan[k]
-        again = _rescan(controller, planned, box, section, model, say)
+        again, same = _rescan(controller, planned, box, section, table_position_m, model, say)
+        as_scanned.append(same)
         names.append(planned.name)
         before.append(scanned.pass_points(k))
         after.append(again)
         verification = _checked(
-            registered, shape, targets_model, before, after, tuple(names), budget
-        )
+            registered, shape, targets_model, (before, after), tuple(names),
+            replace(budget, arm_accuracy_m=0.0) if all(as_scanned) else budget,
+        )  # fmt: skip
         verification = replace(verification, scan_time_s=controller.time_s - t0)
         if verification.resolved or not verification.agrees or not verification.checks:
             break
@@ -285,13 +299,13 @@ def _checked(
     registered: RegisteredTargets,
     shape: MeshModel,
     targets_model: np.ndarray,
-    before: list[np.ndarray],
-    after: list[np.ndarray],
+    strips: tuple[list[np.ndarray], list[np.ndarray]],
     names: tuple[str, ...],
     budget: Budget,
 ) -> Verification:
-    """Each target's check from the strips' first points (`before`) and their points again
-    (`after`), both matched alone from the registered pose."""
+    """Each target's check from the strips' first points and their points again (`strips`:
+    before, after), both matched alone from the registered pose."""
+    before, after = strips
     points_after, labels_after = _stack(after)
     if min(len(a) for a in after) < MIN_POINTS or min(len(b) for b in before) < MIN_POINTS:
         return Verification(names, len(points_after), 0.0, ())
@@ -304,7 +318,11 @@ def _checked(
     x = transform_points(T_reg, targets_model)
     moved = np.linalg.norm(transform_points(T_moved, x) - x, axis=1)
     noise = budget.range_sigma_m**2 * (first.covariance + second.covariance)
-    variance = np.trace(noise, axis1=1, axis2=2) + 2.0 * 3.0 * budget.repeatability_m**2
+    variance = (
+        np.trace(noise, axis1=1, axis2=2)
+        + 2.0 * 3.0 * budget.repeatability_m**2
+        + 2.0 * budget.arm_accuracy_m**2
+    )
     uncertainty = BOUND_SIGMAS * np.sqrt(variance)
     # The second scan's own match against the registration (a wrong scan shows here).
     apart = np.linalg.norm(transform_points(second.T_table_object, targets_model) - x, axis=1)
@@ -330,17 +348,38 @@ def _rescan(
     planned: PlannedPass,
     box: ObjectBox,
     section: Scan,
+    table_position_m: float,
     model: CellModel,
     say: Progress,
-) -> np.ndarray:
-    """The pass `planned` scanned again as it was (the same table position and joints), the
-    table back where it was after: the points (M, 3) [m] in the table frame within the
-    object's box."""
-    strip = replace(planned, T_base_table=model.T_base_table(planned.table_position_m))
+) -> tuple[np.ndarray, bool]:
+    """The pass `planned` scanned again at `table_position_m` [m] (the program's) if the arm
+    follows it there, else at the first table position it does; as it was scanned (its
+    joints) if that is its own table position. The table goes back where it was after.
+    Returns the points (M, 3) [m] in the table frame within the object's box, and whether
+    the pass was scanned again as it was."""
+    order = (table_position_m, *(s for s in TABLE_CANDIDATES_M if s != table_position_m))
+    same = abs(table_position_m - planned.table_position_m) < 1e-9
+    if same:
+        strip = replace(planned, T_base_table=model.T_base_table(planned.table_position_m))
+    else:
+        s, q = choose_table_position(
+            controller.kinematics.for_tool("laser"),
+            LASER.T_tool_tcp,
+            planned.T_table_start,
+            planned.T_table_end,
+            controller.read_joints(),
+            planned.name,
+            model.T_base_table,
+            order,
+        )
+        same = abs(s - planned.table_position_m) < 1e-9
+        strip = PlannedPass(
+            planned.name, planned.T_table_start, planned.T_table_end, s, q, model.T_base_table(s)
+        )
     table_before = controller.table_position()
     again = execute_scan(controller, (strip,), section, say, model)
     # The table goes back where the scan left it: the tool change that follows is planned
     # with it there (at the program's position the object can stand in its way).
     if abs(controller.table_position() - table_before) > 1e-6:
         controller.move_table(table_before)
-    return again.points_table[crop_to_object(again.points_table, box, section.crop_margin_m)]
+    return again.points_table[crop_to_object(again.points_table, box, section.crop_margin_m)], same

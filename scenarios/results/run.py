@@ -28,7 +28,7 @@ from scenarios.results.evaluations import (
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported import ExportedRun
 from scenarios.results.scan_plan import ScanPlanSummary
-from scenarios.results.verification import Verification
+from scenarios.results.verification import TcpCheck, Verification
 
 #: The version of results.json's layout that this module writes and reads.
 SCHEMA_VERSION = 1
@@ -196,6 +196,8 @@ class RunResult:
         faults: each fault injected into the real cell, and what detected it; supervision:
             what the controller's supervision and the stages' checks saw, in order.
         scan_plan: the scan's plan, None without a scan.
+        tool_checks: the tools' checks at the beam before their program ran (a tool
+            seated off is put back and checked again).
         cell_time_s: the cell's clock at the run's end [s] (its simulated time).
         verifications: the verification before the first touch, each time it ran (a
             detected move re-scans, re-matches and verifies again), in order.
@@ -234,6 +236,7 @@ class RunResult:
     model_cache: str | None = None
     plan_cache: str | None = None
     verifications: tuple[Verification, ...] = ()
+    tool_checks: tuple[TcpCheck, ...] = ()
     cell_time_s: float | None = None
     seconds: float | None = None
     schema_version: int = field(default=SCHEMA_VERSION)
@@ -303,6 +306,7 @@ class RunResult:
             "model_cache": self.model_cache,
             "plan_cache": self.plan_cache,
             "verifications": [v.to_json() for v in self.verifications],
+            "tool_checks": [c.to_json() for c in self.tool_checks],
             "cell_time_s": self.cell_time_s,
             "seconds": self.seconds,
         }
@@ -375,6 +379,7 @@ class RunResult:
             model_cache=data["model_cache"],
             plan_cache=data.get("plan_cache"),
             verifications=tuple(Verification.from_json(v) for v in data.get("verifications", ())),
+            tool_checks=tuple(TcpCheck.from_json(c) for c in data.get("tool_checks", ())),
             cell_time_s=data.get("cell_time_s"),
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),

@@ -1,12 +1,15 @@
-"""The verification before the first touch as results.json keeps it
-(scenarios.offline.verify measures it): per target, the object's move measured since the
+"""The checks before and at the first touch as results.json keeps them: the verification
+(scenarios.offline.verify measures it: per target, the object's move measured since the
 scan, the measurement's own bound, what the job's goal allows and the decision; the strips
-scanned again and their cell time."""
+scanned again and their cell time) and the tools' checks at the beam
+(scenarios.offline.tcp_check)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Literal
+
+import numpy as np
 
 from scenarios.results.edge import JsonObject, unbounded
 
@@ -145,3 +148,57 @@ class Verification:
 def _worst_key(c: TargetCheck) -> tuple[int, float]:
     order = {"inconsistent": 2, "moved": 3, "unresolved": 1, "agrees": 0}
     return order[c.decision], c.moved_m / max(c.allowance_m, 1e-9)
+
+
+@dataclass(frozen=True)
+class TcpCheck:
+    """A tool checked at the beam after it was locked (scenarios.offline.tcp_check): its
+    pointer's sideways offset (x, y) from its tooldata in the tool frame [m] (inf where a
+    sweep did not see it), the tolerance it was held to [m], and which attempt it was (0:
+    as first seated, 1: seated again)."""
+
+    tool: str
+    offset_m: tuple[float, float]
+    tolerance_m: float
+    attempt: int = 0
+
+    @property
+    def off_m(self) -> float:
+        return float(np.hypot(*self.offset_m))
+
+    @property
+    def ok(self) -> bool:
+        return self.off_m <= self.tolerance_m
+
+    @property
+    def T_flange_tool(self) -> np.ndarray:
+        """(4, 4) where the tool sits on the flange, as measured: shifted sideways."""
+        T = np.eye(4)
+        T[:2, 3] = self.offset_m
+        return T
+
+    def summary(self) -> str:
+        if not np.isfinite(self.off_m):
+            return f"the {self.tool}'s pointer missed the beam: it sits far off its tooldata"
+        return (
+            f"the {self.tool}'s pointer is {self.off_m * 1e3:.2f} mm off its tooldata "
+            f"(x {self.offset_m[0] * 1e3:+.2f}, y {self.offset_m[1] * 1e3:+.2f} mm; "
+            f"tolerance {self.tolerance_m * 1e3:.2f} mm)"
+        )
+
+    def to_json(self) -> JsonObject:
+        finite = bool(np.isfinite(self.off_m))
+        return {
+            "tool": self.tool,
+            "offset_m": list(self.offset_m) if finite else None,
+            "off_m": self.off_m if finite else None,
+            "tolerance_m": self.tolerance_m,
+            "attempt": self.attempt,
+            "ok": self.ok,
+        }
+
+    @classmethod
+    def from_json(cls, data: JsonObject) -> TcpCheck:
+        offset = data["offset_m"]
+        x, y = (float("inf"), float("inf")) if offset is None else offset
+        return cls(str(data["tool"]), (x, y), float(data["tolerance_m"]), int(data["attempt"]))

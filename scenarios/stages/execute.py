@@ -7,21 +7,36 @@ from dataclasses import dataclass
 
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.program import execute_program
-from scenarios.offline.tcp_check import checked_tool
+from scenarios.offline.settings import PlanningSettings
+from scenarios.offline.tcp_check import TOLERANCE_M, checked_tool
+from scenarios.results.verification import TcpCheck
 from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
 from scenarios.stages.stage import Outcome
 
 
-def execute_stage(ctx: StageContext, programs: ProgramStage) -> None:
+def tool_tolerance(settings: PlanningSettings) -> float:
+    """How far off its tooldata a tool may sit [m]: `verify.tool_tolerance_m` if given, else
+    the job's RMS goal (a tool off by more misses it at every target on its own), else
+    TOLERANCE_M."""
+    given = settings.verify.tool_tolerance_m
+    if given is not None:
+        return given
+    return TOLERANCE_M if settings.goal_rms_m is None else settings.goal_rms_m
+
+
+def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, ...]:
     """Run the pick, then each program: the program's tool taken and checked at the beam,
-    then at each target the tool stops at the touch (and the screwer spins for `screw`)."""
+    then at each target the tool stops at the touch (and the screwer spins for `screw`).
+    Returns the tools' checks."""
     controller, hooks = ctx.controller, ctx.hooks
     section = ctx.settings.operations
     if programs.pick is not None and section.pick is not None:
         execute_pick(controller, programs.pick, section.pick, hooks)
+    tolerance = tool_tolerance(ctx.settings)
+    checks: list[TcpCheck] = []
     for method, program in programs.operations.items():
-        checked_tool(controller, program.tool, hooks.say, hooks.detect)
+        checks += checked_tool(controller, program.tool, hooks.say, hooks.detect, tolerance)
 
         def at_target(name: str) -> None:
             hooks.moment(name, section.tool)
@@ -34,12 +49,15 @@ def execute_stage(ctx: StageContext, programs: ProgramStage) -> None:
         hooks.say(
             f"{method}: {len(program.operations)} operations at table {program.table_position_m} m"
         )
+    return tuple(checks)
 
 
 @dataclass(frozen=True)
 class Executed(Outcome):
     """The corrected programs ran on the real cell (what they achieved is the evaluator's
-    to say)."""
+    to say), their tools checked at the beam (`tool_checks`)."""
+
+    tool_checks: tuple[TcpCheck, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -57,5 +75,4 @@ class Execute:
         )
 
     def run(self, ctx: StageContext) -> Executed:
-        execute_stage(ctx, ctx.state.programs)
-        return Executed()
+        return Executed(execute_stage(ctx, ctx.state.programs))

@@ -21,6 +21,7 @@ from scenarios.offline.verify import (
     verify_registration,
 )
 from scenarios.stages.context import StageContext
+from scenarios.stages.program import ProgramStage
 from scenarios.stages.register import LocatedPose
 from scenarios.stages.scan import ScanStage
 from scenarios.stages.stage import Outcome, Stage
@@ -37,12 +38,14 @@ def verify_stage(
     ctx: StageContext,
     pose: LocatedPose,
     scanned: ScanStage,
+    programs: ProgramStage,
     model: CellModel,
 ) -> Rescanned:
     """Scan strips of the object again and measure how far it moved since the surface
     match's `pose` was found, at each target, against what the job's goal leaves."""
     assert pose.localization is not None and pose.T_table_object is not None
     settings, virtual = ctx.settings, ctx.virtual
+    program = next(iter(programs.operations.values()))
     section = settings.verify
     pass_sigma = settings.localization.registration.pass_sigma_m
     targets = tuple((h.name, h.p_entry) for h in virtual.burr_holes)
@@ -59,6 +62,7 @@ def verify_stage(
         ScanRecord(scanned.scan, scanned.keep, scanned.plan),
         ctx.box,
         settings.localization.scan,
+        program.table_position_m,
         model,
         Budget(
             settings.goal_rms_m,
@@ -66,6 +70,7 @@ def verify_stage(
             section.repeatability_m,
             PASS_SIGMA_M if pass_sigma is None else pass_sigma,
             section.max_strips,
+            section.arm_accuracy_m,
         ),
         ctx.hooks.say,
     )
@@ -116,7 +121,7 @@ class Verify:
         state = ctx.state
         pose, scanned = state.pose("surface"), state.scanned
         assert pose is not None and scanned is not None
-        rescanned = verify_stage(ctx, pose, scanned, state.model)
+        rescanned = verify_stage(ctx, pose, scanned, state.programs, state.model)
         verdict = rescanned.verification
         assert pose.T_table_object is not None
         seen = (verdict, pose.T_table_object, rescanned.points_table)

@@ -1,0 +1,138 @@
+"""The operating curves of the checks that guard the skull job against a fault after its
+scan (scenarios.campaign.operating_curve): a campaign's rows in, the README's table and
+figure out.
+
+Usage: python bench/verify_curve.py CAMPAIGN_FOLDER --fault NAME [--goal-mm 0.5] [--write]
+
+CAMPAIGN_FOLDER is a `twincell campaign skull --stage full --vary faults.NAME=...` run (its
+results.csv). Prints the curve's table and whether it meets the goals (at least 95 % of the
+faults beyond the goal at a target detected, at most 5 % false alarms at 0, no complete run
+with its RMS goal missed while the fault went unseen). With --write: the rows the curve needs
+go to bench/data/verify_NAME.csv, the figure to bench/data/verify_NAME.png and the table
+into README.md between its `<!-- table:verify_NAME -->` markers (tests/test_verify_curve.py
+checks the README's table against that CSV).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+from scenarios.campaign.operating_curve import (
+    DETECTED,
+    OperatingCurve,
+    Row,
+    operating_curve,
+)
+from scenarios.jobs.tables import replace_table
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "bench" / "data"
+README = ROOT / "README.md"
+#: The columns of a campaign's rows the curve and its figure need.
+COLUMNS = (
+    "seed", "status", "run_status", "job_rms_m", "job_max_m", "verify_runs", "verify_agrees",
+    "verify_resolved", "verify_strips", "verify_scan_time_s", "verify_moved_max_m",
+    "verify_uncertainty_max_m", "verify_allowance_min_m", "cell_time_s",
+)  # fmt: skip
+
+
+def fault_columns(fault: str) -> tuple[str, ...]:
+    return (
+        f"vary.faults.{fault}",
+        f"fault.{fault}",
+        f"fault.{fault}.stage",
+        f"fault.{fault}.target_move_m",
+    )
+
+
+def trimmed(rows: list[Row], fault: str) -> list[Row]:
+    """The rows with the columns the curve needs (missing ones empty)."""
+    keep = (*fault_columns(fault), *COLUMNS)
+    return [{c: r.get(c, "") for c in keep} for r in rows]
+
+
+def read_rows(path: Path) -> list[Row]:
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def figure(curve: OperatingCurve, rows: list[Row], path: Path) -> None:
+    """Left: the detection rate per amount. Right: the largest move the verification
+    measured against the truth's, each run coloured by its outcome."""
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
+    amounts = [p.amount_m * 1e3 for p in curve.points]
+    left.plot(amounts, [100 * p.rate for p in curve.points], "o-", color="tab:blue")
+    left.axhline(95, color="grey", lw=0.8, ls="--")
+    left.axhline(5, color="grey", lw=0.8, ls="--")
+    left.set_xlabel(f"{curve.fault} amount [mm]")
+    left.set_ylabel("detected [%]")
+    left.set_ylim(-3, 103)
+    left.set_title(f"detection rate ({curve.points[0].trials} runs per amount)")
+    column = f"fault.{curve.fault}"
+    for seen, colour, label in ((True, "tab:green", "detected"), (False, "tab:red", "unseen")):
+        pts = [
+            (float(r[f"{column}.target_move_m"]) * 1e3, float(r["verify_moved_max_m"]) * 1e3)
+            for r in rows
+            if r.get(f"{column}.target_move_m") and r.get("verify_moved_max_m")
+            and (r[column] in DETECTED) == seen
+        ]  # fmt: skip
+        if pts:
+            x, y = zip(*pts, strict=True)
+            right.scatter(x, y, s=10, color=colour, label=label)
+    allowances = [float(r["verify_allowance_min_m"]) * 1e3 for r in rows if r.get(
+        "verify_allowance_min_m")]  # fmt: skip
+    if allowances:
+        right.axhline(min(allowances), color="grey", lw=0.8, ls="--", label="least allowance")
+    right.axvline(curve.goal_m * 1e3, color="black", lw=0.8, ls=":", label="RMS goal")
+    top = max((float(r.get(f"{column}.target_move_m") or 0) for r in rows), default=1) * 1e3
+    right.plot([0, top], [0, top], color="grey", lw=0.5)
+    right.set_xlabel("farthest target's true move [mm]")
+    right.set_ylabel("largest move measured by the verification [mm]")
+    right.legend(fontsize=8)
+    right.set_title("measured against true, per run")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("campaign", type=Path)
+    parser.add_argument("--fault", required=True)
+    parser.add_argument("--goal-mm", type=float, default=0.5)
+    parser.add_argument("--write", action="store_true")
+    args = parser.parse_args()
+    source = args.campaign / "results.csv" if args.campaign.is_dir() else args.campaign
+    rows = trimmed(read_rows(source), args.fault)
+    curve = operating_curve(rows, args.fault, args.goal_mm * 1e-3)
+    table = curve.table()
+    print("\n".join(table))
+    print(
+        f"faults beyond the goal detected: {curve.beyond_goal_rate:.1%}; false alarms at 0: "
+        f"{curve.false_alarm_rate:.1%}; complete runs with the RMS goal missed unseen: "
+        f"{curve.rms_missed_unseen}"
+    )
+    missed = curve.meets()
+    print("goals met" if not missed else "goals missed: " + "; ".join(missed))
+    if args.write:
+        DATA.mkdir(exist_ok=True)
+        out = DATA / f"verify_{args.fault}.csv"
+        with out.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+        figure(curve, rows, DATA / f"verify_{args.fault}.png")
+        name = f"verify_{args.fault}"
+        README.write_text(replace_table(README.read_text(), name, table[0], table[1:]))
+        print(f"wrote {out}, {out.with_suffix('.png')} and README.md's table {name}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,70 @@
+"""The operating curves of the checks after the scan (bench/verify_curve.py): the README's
+tables are what the committed campaign rows give, those rows meet the detection goals, and
+(slow tier) a smaller campaign run here meets them too.
+
+Ground truth: the campaign rows' outcomes come from the simulated cell's fault injector
+and the evaluator (how far a bump moved the farthest target; the achieved target errors),
+never from the checks under test.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from scenarios.campaign import plan_campaign, run_campaign
+from scenarios.campaign.operating_curve import operating_curve
+from scenarios.jobs.tables import readme_table
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "bench" / "data"
+GOAL_M = 0.5e-3
+#: The curves in the README: fault, and what their campaign must meet.
+CURVES = ("object_bump",)
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.parametrize("fault", CURVES)
+def test_the_readme_curve_is_its_campaign_s(fault: str) -> None:
+    curve = operating_curve(_rows(DATA / f"verify_{fault}.csv"), fault, GOAL_M)
+    readme = (ROOT / "README.md").read_text()
+    assert readme_table(readme, f"verify_{fault}") == curve.table()[2:]
+    assert (DATA / f"verify_{fault}.png").is_file()
+
+
+def test_the_bump_curve_meets_the_detection_goals() -> None:
+    """At least 30 runs per amount; 95 % of the bumps that moved a target beyond the RMS
+    goal detected, at most 5 % false alarms at 0, no complete run with its RMS goal missed
+    while a bump went unseen."""
+    curve = operating_curve(_rows(DATA / "verify_object_bump.csv"), "object_bump", GOAL_M)
+    assert min(p.trials for p in curve.points) >= 30
+    assert [p.amount_m for p in curve.points][0] == 0.0
+    assert curve.meets() == []
+
+
+SHORT = "name: skull\nlocalization:\n  scan: {speed_m_s: 0.25, period_s: 0.02}\n"
+
+
+@pytest.mark.slow
+def test_a_small_bump_campaign_meets_the_detection_goals(tmp_path: Path) -> None:
+    """No bump and a 0.5 mm bump (turned 0.5 deg), three runs each: no false alarm, every
+    bump that moved a target beyond the goal detected, no run complete with its RMS goal
+    missed while the bump went unseen."""
+    config = tmp_path / "short.yaml"
+    config.write_text(SHORT)
+    spec = plan_campaign(
+        str(config), stage="full", trials=3, seed=95000, vary=["faults.object_bump=0,0.0005"]
+    )
+    outcome = run_campaign(spec, tmp_path / "campaign", workers=2, progress=False)
+    rows = [{k: "" if v is None else str(v) for k, v in r.items()} for r in outcome.rows]
+    assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
+    curve = operating_curve(rows, "object_bump", GOAL_M)
+    assert [p.trials for p in curve.points] == [3, 3]
+    assert sum(p.beyond_goal for p in curve.points) >= 2  # the truth: the bumps mattered
+    assert curve.meets(detect=1.0, false_alarms=0.0) == []
