@@ -32,6 +32,9 @@ def _check(moved: float, bound: float, allowance: float = 0.2e-3, apart: float =
 def test_a_move_beyond_the_allowance_is_detected():
     assert _check(0.25e-3, 0.1e-3).decision == "moved"
     assert _check(0.15e-3, 0.1e-3).decision == "agrees"
+    # Beyond an allowance smaller than the bound, but within the bound: not called a move.
+    assert _check(0.09e-3, 0.1e-3, allowance=0.07e-3).decision == "unresolved"
+    assert _check(0.12e-3, 0.1e-3, allowance=0.07e-3).decision == "moved"
     # The second scan's own match far from the registration: a wrong scan.
     assert _check(0.05e-3, 0.1e-3, apart=1.5e-3).decision == "inconsistent"
 

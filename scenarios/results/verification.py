@@ -47,7 +47,11 @@ class TargetCheck:
 
     @property
     def decision(self) -> Decision:
-        if self.moved_m > self.allowance_m:
+        """"moved": beyond the allowance and beyond what the measurement's own noise
+        explains; "inconsistent": the second scan's own match too far from the
+        registration; else "agrees" if resolved, "unresolved" if not (a move it cannot tell
+        from none is not called a move)."""
+        if self.moved_m > max(self.allowance_m, self.uncertainty_m):
             return "moved"
         if self.disagreement_m > self.disagreement_allowed_m:
             return "inconsistent"
