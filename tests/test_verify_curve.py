@@ -61,7 +61,7 @@ def test_a_small_bump_campaign_meets_the_detection_goals(tmp_path: Path) -> None
     spec = plan_campaign(
         str(config), stage="full", trials=3, seed=95000, vary=["faults.object_bump=0,0.0005"]
     )
-    outcome = run_campaign(spec, tmp_path / "campaign", workers=2, progress=False)
+    outcome = run_campaign(spec, tmp_path / "campaign", progress=False)
     rows = [{k: "" if v is None else str(v) for k, v in r.items()} for r in outcome.rows]
     assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
     curve = operating_curve(rows, "object_bump", GOAL_M)

@@ -3,6 +3,7 @@ with its tool checked at the beam first (scenarios.offline.tcp_check)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from scenarios.offline.pick import execute_pick
@@ -14,15 +15,26 @@ from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
 from scenarios.stages.stage import Outcome
 
+#: The least tolerance of the TCP check [m]: what it reads on a well seated tool (the tool's
+#: own TCP error and the check's) stays below it.
+TOOL_FLOOR_M = 1.0e-4
+
 
 def tool_tolerance(settings: PlanningSettings) -> float:
     """How far off its tooldata a tool may sit [m]: `verify.tool_tolerance_m` if given, else
-    the job's RMS goal (a tool off by more misses it at every target on its own), else
-    TOLERANCE_M."""
+    what the job's RMS goal leaves for it (an offset of the tool moves every target alike,
+    in any direction: the goal less the error the job plans for, the scan's TRE goal and
+    the arm's accuracy in quadrature; at least TOOL_FLOOR_M), else TOLERANCE_M without a
+    goal."""
     given = settings.verify.tool_tolerance_m
     if given is not None:
         return given
-    return TOLERANCE_M if settings.goal_rms_m is None else settings.goal_rms_m
+    if settings.goal_rms_m is None:
+        return TOLERANCE_M
+    planned = math.hypot(
+        settings.localization.scan.planning.goal_tre_m, settings.verify.arm_accuracy_m
+    )
+    return max(settings.goal_rms_m - planned, TOOL_FLOOR_M)
 
 
 def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, ...]:
