@@ -44,7 +44,7 @@ def test_the_bump_curve_meets_the_detection_goals() -> None:
     while a bump went unseen."""
     curve = operating_curve(_rows(DATA / "verify_object_bump.csv"), "object_bump", GOAL_M)
     assert min(p.trials for p in curve.points) >= 30
-    assert [p.amount_m for p in curve.points][0] == 0.0
+    assert curve.points[0].amount_m == 0.0
     assert curve.meets() == []
 
 
