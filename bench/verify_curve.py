@@ -39,7 +39,8 @@ README = ROOT / "README.md"
 COLUMNS = (
     "seed", "status", "run_status", "job_rms_m", "job_max_m", "verify_runs", "verify_agrees",
     "verify_resolved", "verify_strips", "verify_scan_time_s", "verify_moved_max_m",
-    "verify_uncertainty_max_m", "verify_allowance_min_m", "cell_time_s",
+    "verify_uncertainty_max_m", "verify_allowance_min_m", "cell_time_s", "tool_off_m",
+    "tool_checks", "tool_tolerance_m",
 )  # fmt: skip
 
 
@@ -63,40 +64,55 @@ def read_rows(path: Path) -> list[Row]:
         return list(csv.DictReader(f))
 
 
+#: Per fault: the column of the check's reading and of its tolerance, and what they are.
+READINGS = {
+    "object_bump": ("verify_moved_max_m", "verify_allowance_min_m", "largest move measured"),
+    "table_stall": ("verify_moved_max_m", "verify_allowance_min_m", "largest move measured"),
+    "tool_lock_fail": ("tool_off_m", "tool_tolerance_m", "tool offset measured at the beam"),
+}
+
+
+def _size_mm(row: Row, fault: str) -> float:
+    """The fault's size at the targets [mm] (operating_curve's): a bump's farthest target
+    move, else the amount."""
+    moved = row.get(f"fault.{fault}.target_move_m")
+    raw = moved if moved else row[f"vary.faults.{fault}"].partition(":")[0]
+    return float(raw) * 1e3
+
+
 def figure(curve: OperatingCurve, rows: list[Row], path: Path) -> None:
-    """Left: the detection rate per amount. Right: the largest move the verification
-    measured against the truth's, each run coloured by its outcome."""
+    """Left: the detection rate per amount. Right: the check's reading against the fault's
+    size at the targets (the truth's), each run coloured by its outcome."""
+    fault = curve.fault
+    reading, tolerance, what = READINGS[fault]
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
     amounts = [p.amount_m * 1e3 for p in curve.points]
     left.plot(amounts, [100 * p.rate for p in curve.points], "o-", color="tab:blue")
     left.axhline(95, color="grey", lw=0.8, ls="--")
     left.axhline(5, color="grey", lw=0.8, ls="--")
-    left.set_xlabel(f"{curve.fault} amount [mm]")
+    left.set_xlabel(f"{fault} amount [mm]")
     left.set_ylabel("detected [%]")
     left.set_ylim(-3, 103)
     left.set_title(f"detection rate ({curve.points[0].trials} runs per amount)")
-    column = f"fault.{curve.fault}"
     for seen, colour, label in ((True, "tab:green", "detected"), (False, "tab:red", "unseen")):
         pts = [
-            (float(r[f"{column}.target_move_m"]) * 1e3, float(r["verify_moved_max_m"]) * 1e3)
+            (_size_mm(r, fault), float(r[reading]) * 1e3)
             for r in rows
-            if r.get(f"{column}.target_move_m") and r.get("verify_moved_max_m")
-            and (r[column] in DETECTED) == seen
-        ]  # fmt: skip
+            if r.get(reading) and (r[f"fault.{fault}"] in DETECTED) == seen
+        ]
         if pts:
             x, y = zip(*pts, strict=True)
             right.scatter(x, y, s=10, color=colour, label=label)
-    allowances = [float(r["verify_allowance_min_m"]) * 1e3 for r in rows if r.get(
-        "verify_allowance_min_m")]  # fmt: skip
-    if allowances:
-        right.axhline(min(allowances), color="grey", lw=0.8, ls="--", label="least allowance")
+    limits = [float(r[tolerance]) * 1e3 for r in rows if r.get(tolerance)]
+    if limits:
+        right.axhline(min(limits), color="grey", lw=0.8, ls="--", label="least tolerance")
     right.axvline(curve.goal_m * 1e3, color="black", lw=0.8, ls=":", label="RMS goal")
-    top = max((float(r.get(f"{column}.target_move_m") or 0) for r in rows), default=1) * 1e3
+    top = max((_size_mm(r, fault) for r in rows), default=1.0)
     right.plot([0, top], [0, top], color="grey", lw=0.5)
-    right.set_xlabel("farthest target's true move [mm]")
-    right.set_ylabel("largest move measured by the verification [mm]")
+    right.set_xlabel("the fault's size at the targets (truth) [mm]")
+    right.set_ylabel(f"{what} [mm]")
     right.legend(fontsize=8)
-    right.set_title("measured against true, per run")
+    right.set_title("the check's reading against the truth, per run")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
