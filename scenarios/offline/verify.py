@@ -358,10 +358,9 @@ def _rescan(
     Returns the points (M, 3) [m] in the table frame within the object's box, and whether
     the pass was scanned again as it was."""
     order = (table_position_m, *(s for s in TABLE_CANDIDATES_M if s != table_position_m))
-    same = abs(table_position_m - planned.table_position_m) < 1e-9
-    if same:
-        strip = replace(planned, T_base_table=model.T_base_table(planned.table_position_m))
-    else:
+    s = table_position_m
+    q = planned.q_start
+    if abs(s - planned.table_position_m) >= 1e-9:
         s, q = choose_table_position(
             controller.kinematics.for_tool("laser"),
             LASER.T_tool_tcp,
@@ -372,7 +371,10 @@ def _rescan(
             model.T_base_table,
             order,
         )
-        same = abs(s - planned.table_position_m) < 1e-9
+    same = abs(s - planned.table_position_m) < 1e-9
+    if same:  # as it was scanned: its joints and its way there
+        strip = replace(planned, T_base_table=model.T_base_table(s))
+    else:
         strip = PlannedPass(
             planned.name, planned.T_table_start, planned.T_table_end, s, q, model.T_base_table(s)
         )
