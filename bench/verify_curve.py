@@ -26,6 +26,7 @@ import matplotlib.pyplot as plt
 
 from scenarios.campaign.operating_curve import (
     DETECTED,
+    SIZE_IS_AMOUNT,
     OperatingCurve,
     Row,
     operating_curve,
@@ -37,10 +38,10 @@ DATA = ROOT / "bench" / "data"
 README = ROOT / "README.md"
 #: The columns of a campaign's rows the curve and its figure need.
 COLUMNS = (
-    "seed", "status", "run_status", "job_rms_m", "job_max_m", "verify_runs", "verify_agrees",
-    "verify_resolved", "verify_strips", "verify_scan_time_s", "verify_moved_max_m",
-    "verify_uncertainty_max_m", "verify_allowance_min_m", "cell_time_s", "tool_off_m",
-    "tool_checks", "tool_tolerance_m",
+    "trial", "seed", "status", "run_status", "job_rms_m", "job_max_m", "verify_runs",
+    "verify_agrees", "verify_resolved", "verify_strips", "verify_scan_time_s",
+    "verify_moved_max_m", "verify_uncertainty_max_m", "verify_allowance_min_m",
+    "cell_time_s", "tool_off_m", "tool_checks", "tool_tolerance_m",
 )  # fmt: skip
 
 
@@ -109,7 +110,10 @@ def figure(curve: OperatingCurve, rows: list[Row], path: Path) -> None:
     right.axvline(curve.goal_m * 1e3, color="black", lw=0.8, ls=":", label="RMS goal")
     top = max((_size_mm(r, fault) for r in rows), default=1.0)
     right.plot([0, top], [0, top], color="grey", lw=0.5)
-    right.set_xlabel("the fault's size at the targets (truth) [mm]")
+    sized = fault == "object_bump" or fault in SIZE_IS_AMOUNT
+    right.set_xlabel(
+        "the fault's size at the targets (truth) [mm]" if sized else f"{fault} amount [mm]"
+    )
     right.set_ylabel(f"{what} [mm]")
     right.legend(fontsize=8)
     right.set_title("the check's reading against the truth, per run")

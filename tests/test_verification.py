@@ -97,11 +97,12 @@ def test_the_recording_shows_the_verification(short_skull_run: Path, results: di
     assert "/plots/verify/moved_mm" in e and "/plots/verify/allowance_mm" in e
 
 
-def _row(amount: float, outcome: str, move: float, rms: float, status: str = "complete"):
+def _row(amount: float, outcome: str, move: float, rms: float, trial: int = 0):
     return {
+        "trial": str(trial),
         "vary.faults.object_bump": str(amount),
         "status": "ok",
-        "run_status": status,
+        "run_status": "complete",
         "job_rms_m": str(rms),
         "fault.object_bump": outcome,
         "fault.object_bump.target_move_m": str(move),
@@ -111,20 +112,21 @@ def _row(amount: float, outcome: str, move: float, rms: float, status: str = "co
 
 def test_the_operating_curve_counts_what_its_rows_hold():
     rows = [
-        _row(0.0, "missed", 0.0, 0.3e-3),
-        _row(0.0, "recovered", 0.0, 0.3e-3),  # a false alarm
-        _row(0.0002, "missed", 0.3e-3, 0.6e-3),  # unseen, complete, the goal missed
-        _row(0.0002, "recovered", 0.45e-3, 0.3e-3),
-        _row(0.0005, "recovered", 0.8e-3, 0.3e-3),
-        _row(0.0005, "missed", 0.7e-3, 0.4e-3),  # beyond the goal and unseen
+        _row(0.0, "missed", 0.0, 0.3e-3, trial=0),
+        _row(0.0, "recovered", 0.0, 0.55e-3, trial=1),  # a false alarm; the goal missed
+        _row(0.0002, "missed", 0.3e-3, 0.6e-3, trial=0),  # unseen, the goal missed by it
+        _row(0.0002, "missed", 0.45e-3, 0.6e-3, trial=1),  # missed without the bump too
+        _row(0.0005, "recovered", 0.8e-3, 0.3e-3, trial=0),
+        _row(0.0005, "missed", 0.7e-3, 0.4e-3, trial=1),  # beyond the goal and unseen
     ]
     curve = operating_curve(rows, "object_bump", GOAL_M)
     assert [p.amount_m for p in curve.points] == [0.0, 0.0002, 0.0005]
-    assert [p.detected for p in curve.points] == [1, 1, 1]
+    assert [p.detected for p in curve.points] == [1, 0, 1]
     assert curve.false_alarm_rate == 0.5
     assert curve.beyond_goal_rate == 0.5  # 2 beyond the goal, 1 detected
-    assert curve.rms_missed_unseen == 1
+    assert [p.rms_missed for p in curve.points] == [1, 2, 0]
+    assert curve.rms_missed_unseen == 1  # trial 1 missed the goal without the bump
     assert len(curve.meets()) == 3
-    assert curve.table()[2].startswith("| 0 | 2 | 1 (50%) | 0 (0) | 0 (0) | 0.30 | 7.0 |")
+    assert curve.table()[2].startswith("| 0 | 2 | 1 (50%) | 0 (0) | 1 (0) | 0.43 | 7.0 |")
     with pytest.raises(ValueError, match=r"vary\.faults\.table_stall"):
         operating_curve(rows, "table_stall", GOAL_M)

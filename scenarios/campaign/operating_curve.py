@@ -5,8 +5,14 @@ complete with its RMS goal missed while the fault went unseen. The amount 0 give
 alarms.
 
 A fault's size at the targets is the truth's: for a bump, how far it moved the farthest
-target (`fault.<name>.target_move_m`); for the other faults, their amount (a tool seated off
-by it, a table short by it, moves every target by as much).
+target (`fault.<name>.target_move_m`); for a tool seated off, its amount (it moves every
+target by as much); for the other faults it is not known (a table that stalls short with a
+lying readout moves the targets only if the table moves again between the scan and the
+program), and they have no "beyond the goal" count.
+
+A complete run that missed its RMS goal while the fault went unseen counts against the
+fault only if the same seed (the same trial of the campaign) met the goal without it: a
+run whose own error is beyond the goal did not miss it because of the fault.
 """
 
 from __future__ import annotations
@@ -19,6 +25,8 @@ from dataclasses import dataclass
 Row = dict[str, str]
 #: The outcomes of a fault that count as detected (fault_columns).
 DETECTED = ("recovered", "stopped")
+#: The faults whose amount is their size at the targets [m].
+SIZE_IS_AMOUNT = ("tool_lock_fail",)
 #: An amount at or below this [m] is no fault: its detections are false alarms (a tool's
 #: seat offset of 0 means no lock at all, so its curve starts at 1 um).
 NO_FAULT_M = 1.0e-5
@@ -63,7 +71,8 @@ class OperatingCurve:
 
     @property
     def beyond_goal_rate(self) -> float:
-        """Detected of the faults beyond the goal at the targets (nan: none was)."""
+        """Detected of the faults beyond the goal at the targets (nan: none was, or their
+        size is not known)."""
         n = sum(p.beyond_goal for p in self.points)
         return sum(p.beyond_goal_detected for p in self.points) / n if n else float("nan")
 
@@ -76,7 +85,7 @@ class OperatingCurve:
         most `false_alarms` at amount 0, no complete run with its RMS goal missed while a
         fault went unseen. Empty: all met."""
         out = []
-        if not self.beyond_goal_rate >= detect:
+        if self.beyond_goal_rate == self.beyond_goal_rate and self.beyond_goal_rate < detect:
             out.append(f"{self.beyond_goal_rate:.1%} of the faults beyond the goal detected")
         if not self.false_alarm_rate <= false_alarms:
             out.append(f"{self.false_alarm_rate:.1%} false alarms at 0")
@@ -88,14 +97,17 @@ class OperatingCurve:
         """The curve as README rows (markdown), one per amount."""
         rows = [
             f"| {self.fault} [{unit}] | trials | detected | beyond the goal at a target "
-            "(detected) | complete, RMS goal missed (fault unseen) | target RMS, median "
+            "(detected) | complete, RMS goal missed (fault unseen, goal met without it) | "
+            "target RMS, median "
             "[mm] | verification's cell time, median [s] |",
             "|---:|---:|---:|---:|---:|---:|---:|",
         ]
+        sized = self.fault in SIZE_IS_AMOUNT or self.fault == "object_bump"
         for p in self.points:
+            beyond = f"{p.beyond_goal} ({p.beyond_goal_detected})" if sized else "-"
             rows.append(
                 f"| {p.amount_m * 1e3:g} | {p.trials} | {p.detected} ({p.rate:.0%}) | "
-                f"{p.beyond_goal} ({p.beyond_goal_detected}) | {p.rms_missed} "
+                f"{beyond} | {p.rms_missed} "
                 f"({p.rms_missed_unseen}) | {_mm(p.rms_median_m)} | {_num(p.verify_time_s)} |"
             )
         return rows
@@ -109,12 +121,28 @@ def operating_curve(rows: Sequence[Row], fault: str, goal_m: float) -> Operating
         found = ", ".join(c for c in (rows[0] if rows else ()) if c.startswith("vary.")) or "none"
         raise ValueError(f"no column {column!r} in the campaign's rows; varied: {found}")
     amounts = sorted({_amount(r[column]) for r in rows})
+    met_without = {
+        r.get("trial", ""): _float(r.get("job_rms_m")) <= goal_m
+        for r in rows
+        if _amount(r[column]) <= NO_FAULT_M and r.get("run_status") == "complete"
+    }
     return OperatingCurve(
-        fault, goal_m, tuple(_point(rows, column, fault, a, goal_m) for a in amounts)
+        fault,
+        goal_m,
+        tuple(_point(rows, column, fault, a, goal_m, met_without) for a in amounts),
     )
 
 
-def _point(rows: Sequence[Row], column: str, fault: str, amount: float, goal: float) -> CurvePoint:
+def _point(
+    rows: Sequence[Row],
+    column: str,
+    fault: str,
+    amount: float,
+    goal: float,
+    met_without: dict[str, bool],
+) -> CurvePoint:
+    """The curve at `amount` [m]; `met_without`: per trial, whether the run without the
+    fault met the goal."""
     mine = [r for r in rows if _amount(r[column]) == amount and r.get("status") == "ok"]
     detected = [r.get(f"fault.{fault}") in DETECTED for r in mine]
     size = [_size(r, fault, amount) for r in mine]
@@ -133,16 +161,20 @@ def _point(rows: Sequence[Row], column: str, fault: str, amount: float, goal: fl
         beyond_goal=sum(s > goal for s in size),
         beyond_goal_detected=sum(s > goal and d for s, d in zip(size, detected, strict=True)),
         rms_missed=len(missed),
-        rms_missed_unseen=sum(not d for _, d in missed),
+        rms_missed_unseen=sum(
+            not d and met_without.get(r.get("trial", ""), True) for r, d in missed
+        ),
         rms_median_m=statistics.median(rms) if rms else float("nan"),
         verify_time_s=statistics.median(times) if times else float("nan"),
     )
 
 
 def _size(row: Row, fault: str, amount: float) -> float:
-    """The fault's size at the targets [m] (see the module's docstring)."""
+    """The fault's size at the targets [m], nan if not known (see the module's docstring)."""
     moved = row.get(f"fault.{fault}.target_move_m")
-    return _float(moved) if moved not in (None, "") else amount
+    if moved not in (None, ""):
+        return _float(moved)
+    return amount if fault in SIZE_IS_AMOUNT else float("nan")
 
 
 def _amount(value: str) -> float:
