@@ -53,18 +53,18 @@ SHORT = "name: skull\nlocalization:\n  scan: {speed_m_s: 0.25, period_s: 0.02}\n
 
 @pytest.mark.slow
 def test_a_small_bump_campaign_meets_the_detection_goals(tmp_path: Path) -> None:
-    """No bump and a 0.5 mm bump (turned 0.5 deg), three runs each: no false alarm, every
+    """No bump and a 0.5 mm bump (turned 0.5 deg), two runs each: no false alarm, every
     bump that moved a target beyond the goal detected, no run complete with its RMS goal
     missed while the bump went unseen."""
     config = tmp_path / "short.yaml"
     config.write_text(SHORT)
     spec = plan_campaign(
-        str(config), stage="full", trials=3, seed=95000, vary=["faults.object_bump=0,0.0005"]
+        str(config), stage="full", trials=2, seed=95000, vary=["faults.object_bump=0,0.0005"]
     )
     outcome = run_campaign(spec, tmp_path / "campaign", progress=False)
     rows = [{k: "" if v is None else str(v) for k, v in r.items()} for r in outcome.rows]
     assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
     curve = operating_curve(rows, "object_bump", GOAL_M)
-    assert [p.trials for p in curve.points] == [3, 3]
-    assert sum(p.beyond_goal for p in curve.points) >= 2  # the truth: the bumps mattered
+    assert [p.trials for p in curve.points] == [2, 2]
+    assert curve.points[1].beyond_goal == 2  # the truth: both bumps moved a target > 0.5 mm
     assert curve.meets(detect=1.0, false_alarms=0.0) == []
