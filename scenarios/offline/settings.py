@@ -322,7 +322,8 @@ class VerifySection(Section):
     repeatability, one standard deviation per axis (data sheets); `tool_tolerance_m` [m]: how
     far off its tooldata the TCP check at the beam lets a tool sit (None: the job's RMS
     goal less the error it plans for, the scan's TRE goal and `arm_accuracy_m` in
-    quadrature: 0.16 mm for the skull)."""
+    quadrature, but at least twice `arm_accuracy_m`, what the check reads on a well seated
+    tool: 0.3 mm for the skull)."""
 
     enabled: bool = True
     max_strips: int = Field(3, ge=1, le=10)

@@ -15,17 +15,15 @@ from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
 from scenarios.stages.stage import Outcome
 
-#: The least tolerance of the TCP check [m]: what it reads on a well seated tool (the tool's
-#: own TCP error and the check's) stays below it.
-TOOL_FLOOR_M = 1.0e-4
-
 
 def tool_tolerance(settings: PlanningSettings) -> float:
     """How far off its tooldata a tool may sit [m]: `verify.tool_tolerance_m` if given, else
     what the job's RMS goal leaves for it (an offset of the tool moves every target alike,
     in any direction: the goal less the error the job plans for, the scan's TRE goal and
-    the arm's accuracy in quadrature; at least TOOL_FLOOR_M), else TOLERANCE_M without a
-    goal."""
+    the arm's accuracy in quadrature), but at least what the check reads on a well seated
+    tool (twice the arm's accuracy: the check's reading holds the tool's own TCP error and
+    what the arm's error changes between two opposite turns of its wrist); TOLERANCE_M
+    without a goal."""
     given = settings.verify.tool_tolerance_m
     if given is not None:
         return given
@@ -34,7 +32,7 @@ def tool_tolerance(settings: PlanningSettings) -> float:
     planned = math.hypot(
         settings.localization.scan.planning.goal_tre_m, settings.verify.arm_accuracy_m
     )
-    return max(settings.goal_rms_m - planned, TOOL_FLOOR_M)
+    return max(settings.goal_rms_m - planned, 2.0 * settings.verify.arm_accuracy_m)
 
 
 def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, ...]:
