@@ -3,6 +3,7 @@ scan (scenarios.campaign.operating_curve): a campaign's rows in, the README's ta
 figure out.
 
 Usage: python bench/verify_curve.py CAMPAIGN_FOLDER --fault NAME [--goal-mm 0.5] [--write]
+       python bench/verify_curve.py --short
 
 CAMPAIGN_FOLDER is a `twincell campaign skull --stage full --vary faults.NAME=...` run (its
 results.csv). Prints the curve's table and whether it meets the goals (at least 95 % of the
@@ -11,6 +12,8 @@ with its RMS goal missed while the fault went unseen). With --write: the rows th
 go to bench/data/verify_NAME.csv, the figure to bench/data/verify_NAME.png and the table
 into README.md between its `<!-- table:verify_NAME -->` markers (tests/test_verify_curve.py
 checks the README's table against that CSV).
+
+--short: the curves of the campaigns kept in bench/data/ (no campaign is run).
 """
 
 from __future__ import annotations
@@ -124,11 +127,20 @@ def figure(curve: OperatingCurve, rows: list[Row], path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("campaign", type=Path)
-    parser.add_argument("--fault", required=True)
+    parser.add_argument("campaign", type=Path, nargs="?")
+    parser.add_argument("--fault")
     parser.add_argument("--goal-mm", type=float, default=0.5)
     parser.add_argument("--write", action="store_true")
+    parser.add_argument("--short", action="store_true")
     args = parser.parse_args()
+    if args.short:
+        for kept in sorted(DATA.glob("verify_*.csv")):
+            fault = kept.stem.removeprefix("verify_")
+            curve = operating_curve(read_rows(kept), fault, args.goal_mm * 1e-3)
+            print("\n".join(curve.table()), end="\n\n")
+        return
+    if args.campaign is None or args.fault is None:
+        parser.error("give a campaign's folder (or its results.csv) and --fault, or --short")
     source = args.campaign / "results.csv" if args.campaign.is_dir() else args.campaign
     rows = trimmed(read_rows(source), args.fault)
     curve = operating_curve(rows, args.fault, args.goal_mm * 1e-3)

@@ -63,6 +63,13 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
     ),
     # Its short run is tests/test_readme_tables.py's assembly row, checked against the README.
     "readme_tables.py": None,
+    "verify_curve.py": (
+        False,
+        tuple(
+            (f"| {fault} [mm]", "trials", "detected", "beyond the goal")
+            for fault in ("object_bump", "table_stall", "tool_lock_fail")
+        ),
+    ),
     "viewer_check.py": (True, (("moment", "view", "colour", "pixels"),)),
 }
 

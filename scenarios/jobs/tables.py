@@ -164,15 +164,31 @@ def ur5_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
     return rows
 
 
+#: The TCP check's tolerance in the calibration gains table's runs [m] (see groups_rows).
+GROUPS_TOOL_TOLERANCE_M = 7.5e-4
+
+
 def groups_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
     """The calibration gains table's rows: per seed, the exported filtered program's target
     RMS / max [mm] on a controller without absolute accuracy, the calibration identifying
-    the groups of GROUP_STEPS."""
+    the groups of GROUP_STEPS. The TCP check is held to GROUPS_TOOL_TOLERANCE_M: an arm
+    calibrated on fewer groups reads more at the beam than a fully calibrated one, and the
+    table shows what its program achieves rather than the check stopping it."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
         for seed in seeds:
             cells = [
-                _exported(_run("skull", seed, Path(tmp), {"calibration.identify": list(step)}))
+                _exported(
+                    _run(
+                        "skull",
+                        seed,
+                        Path(tmp),
+                        {
+                            "calibration.identify": list(step),
+                            "verify.tool_tolerance_m": GROUPS_TOOL_TOLERANCE_M,
+                        },
+                    )
+                )
                 for step in GROUP_STEPS
             ]
             rows.append(f"| {seed} | " + " | ".join(cells) + " |")

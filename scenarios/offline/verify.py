@@ -19,8 +19,9 @@ job already has at that target (the registration's predicted TRE and the arm's a
 in quadrature), since a move can add to that error in any direction. If the verification's
 own uncertainty is too large to tell a move of that size from none, or to surely see one
 beyond the goal, it scans the next best strip as well and matches the strips together, up
-to `Budget.max_strips`; if it still cannot, the run says what size of move it verified
-(`Verification.verified_to_m`).
+to `Budget.max_strips`, as long as more points can help (the repeatability stays in the
+bound whatever the points); if it still cannot, the run says what size of move it verified
+(`Verification.verified_to_m`), and does not call a move that is within its own bound.
 
 The second strip's match is also compared with the registration itself, with what the two
 matches' predicted TREs allow (three standard deviations of their difference): a scan whose
@@ -279,15 +280,31 @@ def verify_registration(
         names.append(planned.name)
         before.append(scanned.pass_points(k))
         after.append(again)
+        held = replace(budget, arm_accuracy_m=0.0) if all(as_scanned) else budget
         verification = _checked(
-            registered, shape, targets_model, (before, after), tuple(names),
-            replace(budget, arm_accuracy_m=0.0) if all(as_scanned) else budget,
-        )  # fmt: skip
+            registered, shape, targets_model, (before, after), tuple(names), held
+        )
         verification = replace(verification, scan_time_s=controller.time_s - t0)
         if verification.resolved or not verification.agrees or not verification.checks:
             break
+        if not _finer_helps(verification, held):
+            say(f"verify: {verification.summary()}; more strips cannot make it finer")
+            break
         say(f"verify: {verification.summary()}; a finer check: the next strip as well")
     return Rescanned(verification, np.concatenate(after) if after else np.empty((0, 3)))
+
+
+def _finer_helps(verification: Verification, budget: Budget) -> bool:
+    """Whether more strips could resolve every check: more points leave the arm's and the
+    table's repeatability (and the arm's accuracy at another table position) in the bound,
+    and that must fit within what each target's call needs."""
+    floor = BOUND_SIGMAS * np.sqrt(
+        2.0 * 3.0 * budget.repeatability_m**2 + 2.0 * budget.arm_accuracy_m**2
+    )
+    return all(
+        c.resolved or (c.allowance_m > 0 and floor <= min(c.allowance_m, c.goal_m - c.allowance_m))
+        for c in verification.checks
+    )
 
 
 def _stack(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
