@@ -268,6 +268,19 @@ class Controller(ABC):
         """The TCP check beam's ends (3,), (3,) [m] in the cell's layout."""
 
     @abstractmethod
+    def servo(self, q_ref: np.ndarray, period_s: float) -> None:
+        """One control period [s] of a streamed joint reference `q_ref` (6,) [rad] (an
+        external guidance, as ABB's EGM streams it): the motors head for it at most at the
+        joints' speed limits, under motion supervision. Raises JointLimitError for a
+        reference outside the joint limits."""
+
+    @abstractmethod
+    def pace(self, clock: Callable[[float], str | None] | None) -> None:
+        """Pace the cell's time: `clock(time_s)` is called every few milliseconds of the
+        controller's time while the arm moves or holds (None: unpaced); a message it returns
+        halts a move where it is (MotionHaltedError)."""
+
+    @abstractmethod
     def supervision_off(self) -> AbstractContextManager[None]:
         """Motion supervision off for what is meant to push (a grasp), as a program
         switches ABB's collision detection off around a gripping move."""

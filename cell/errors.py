@@ -44,3 +44,9 @@ class SupervisionError(RuntimeError):
     def __init__(self, code: str, message: str) -> None:
         super().__init__(message)
         self.code = code
+
+
+class MotionHaltedError(CellError, RuntimeError):
+    """A move halted where it was by a stop asked from outside the program (a served
+    controller's stop request); the arm stands still on its path. Starting again runs the
+    interrupted move from there."""

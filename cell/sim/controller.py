@@ -26,6 +26,7 @@ from cell.controller import (
 from cell.errors import (
     CellConfigError,
     JointLimitError,
+    MotionHaltedError,
     SupervisionError,
     UnreachableTargetError,
 )
@@ -119,6 +120,18 @@ class SimController(Controller):
         self._run(q, qd)
         sim.settle(settle_s)
 
+    def servo(self, q_ref: np.ndarray, period_s: float) -> None:
+        q1 = self.kinematics.check_limits(np.asarray(q_ref, dtype=float))
+        sim, q0 = self._sim, self._drives.motor.copy()
+        n = max(1, round(period_s / sim.dt))
+        step = np.clip(q1 - q0, -self._robot.joint_speed * period_s, self._robot.joint_speed * period_s)
+        q = q0 + np.outer(np.arange(1, n + 1) / n, step)
+        qd = np.broadcast_to(step / period_s, q.shape).copy()
+        self._run(q, qd, new_move=False)
+
+    def pace(self, clock: Callable[[float], str | None] | None) -> None:
+        self._sim.clock = clock
+
     def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
         seed = self._drives.motor if q_seed is None else q_seed
         return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
@@ -203,13 +216,20 @@ class SimController(Controller):
         qd: np.ndarray,
         read: Callable[[], Reading] | None = None,
         every: int = 1,
+        new_move: bool = True,
     ) -> list[Reading]:
         """Run motor set-points (K, 6) under motion supervision, `read()` after every
-        `every` steps (and the last) if given: a stop holds the arm, backs it off along the
-        path it came and raises SupervisionError."""
+        `every` steps (and the last) if given (`new_move`: see Drives.run): a stop holds the
+        arm, backs it off along the path it came and raises SupervisionError; the clock's
+        halt holds it where it is and raises MotionHaltedError."""
         try:
-            return self._drives.run(q, qd, read=read, every=every)
+            return self._drives.run(q, qd, read=read, every=every, new_move=new_move)
         except MotionStoppedError as stop:
+            if stop.halt:
+                self._drives.hold()
+                self._sim.settle(SETTLE_S)
+                self._log("halted", str(stop), "stopped")
+                raise MotionHaltedError(f"halted at t = {self.time_s:.2f} s: {stop}") from None
             done = q[: stop.steps]
             back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
             self._supervising = False

@@ -94,9 +94,11 @@ class Drives:
         qd: np.ndarray,
         read: Callable[[], Reading] | None = None,
         every: int = 1,
+        new_move: bool = True,
     ) -> list[Reading]:
         """Run motor set-points `q` (K, 6) [rad] and velocities `qd` (K, 6) [rad/s], one
-        per physics step, as one move (its own repeatability draw); the links' servos get them
+        per physics step, as one move (its own repeatability draw; with `new_move` False, the
+        next slice of the move before: a streamed reference); the links' servos get them
         less the offsets. `read()`, if given, is called
         after every `every` steps and after the last; its readings are returned."""
         q = np.asarray(q, dtype=float)
@@ -105,7 +107,7 @@ class Drives:
         moved = q[-1] - self.motor
         turned = np.abs(moved) >= _MOVED_RAD
         self.direction = np.where(turned, np.sign(moved), self.direction)
-        if self.errors.repeat_sigma_rad > 0.0:
+        if new_move and self.errors.repeat_sigma_rad > 0.0:
             self.jitter = self._rng.normal(0.0, self.errors.repeat_sigma_rad, 6)
         sim = self.sim
         setpoints = q - self.offsets(q) + sim.arm_ff * qd

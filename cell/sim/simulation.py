@@ -21,9 +21,11 @@ class MotionStoppedError(Exception):
     """A move stopped by the motion supervision after `steps` of its set-points; the
     message says why."""
 
-    def __init__(self, message: str, steps: int) -> None:
+    def __init__(self, message: str, steps: int, halt: bool = False) -> None:
         super().__init__(message)
         self.steps = steps
+        #: Stopped by the clock (a program stop asked from outside), not by the supervision.
+        self.halt = halt
 
 
 class Simulation:
@@ -65,6 +67,10 @@ class Simulation:
         #: The controller's motion supervision: called every `GUARD_EVERY` steps of a move;
         #: a message stops the move (`MotionStoppedError` is raised after that step).
         self.guard: Callable[[], str | None] | None = None
+        #: The clock the cell's time is paced by: called with the simulated time [s] every
+        #: `GUARD_EVERY` steps (a served twin keeps it locked to the wall clock); a message
+        #: halts a move where it is (`MotionStoppedError` with `halt`).
+        self.clock: Callable[[float], str | None] | None = None
         self._watch_every = 1
         self._since = 0
         self.reset()
@@ -90,6 +96,9 @@ class Simulation:
     def step(self, n: int = 1) -> None:
         """Advance `n` physics steps with the current set-points."""
         n = int(n)
+        if self.clock is not None:
+            self._paced(n)
+            return
         if self._watcher is None:
             if n > 0:
                 mujoco.mj_step(self.model, self.data, nstep=n)
@@ -100,6 +109,18 @@ class Simulation:
             n -= k
             self._tick(k)
 
+    def _paced(self, n: int) -> None:
+        """`n` steps in slices of `GUARD_EVERY`, the clock called after each (a hold is not
+        halted: its message is dropped)."""
+        clock, watcher = self.clock, self._watcher
+        while n > 0 and clock is not None:
+            k = min(n, GUARD_EVERY)
+            mujoco.mj_step(self.model, self.data, nstep=k)
+            n -= k
+            if watcher is not None:
+                self._tick(k)
+            clock(self.time)
+
     def settle(self, seconds: float) -> None:
         """Hold the current set-points for `seconds` [s]."""
         self.step(round(seconds / self.dt))
@@ -108,16 +129,19 @@ class Simulation:
         """Step once per row of `setpoints` (K, len(actuators)), writing it as the set-point."""
         m, d, ctrl = self.model, self.data, self.data.ctrl
         watched = self._watcher is not None
-        guard = self.guard
+        guard, clock = self.guard, self.clock
         for k, row in enumerate(setpoints):
             ctrl[actuators] = row
             mujoco.mj_step(m, d)
             if watched:
                 self._tick(1)
-            if guard is not None and k % GUARD_EVERY == 0:
-                reason = guard()
+            if k % GUARD_EVERY == 0:
+                reason = None if guard is None else guard()
                 if reason is not None:
                     raise MotionStoppedError(reason, k + 1)
+                reason = None if clock is None else clock(float(d.time))
+                if reason is not None:
+                    raise MotionStoppedError(reason, k + 1, halt=True)
 
     def _tick(self, steps: int) -> None:
         self._since += steps

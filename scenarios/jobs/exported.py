@@ -228,7 +228,7 @@ def execute_in_cell(
     the controller fetches it itself, as it would at the program's start. Raises RapidError
     (nothing moved) for a program that cannot run."""
     say = progress or (lambda _msg: None)
-    controller, evaluator = cell.controller, cell.evaluator
+    controller = cell.controller
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     if isinstance(program, ExecutionPlan):
@@ -249,9 +249,7 @@ def execute_in_cell(
         controller.return_tool()
 
     def at_touch(robtarget: str) -> None:
-        name = targets.name_of(robtarget)
-        if name is not None and plan.tool is not None:
-            evaluator.record_touch(_PREFIX + name, plan.tool)
+        record_touch(cell, targets, robtarget, plan.tool)
 
     t0 = time.perf_counter()
     try:
@@ -259,12 +257,32 @@ def execute_in_cell(
     finally:
         controller.set_absolute_accuracy(previous)
     timings["execute"] = time.perf_counter() - t0
-    measured = _measure(record, targets, cell)
-    motion_s = record.end_time_s - record.start_time_s
+    result = measure_execution(cell, record, targets, timings)
     say(
-        f"executed {len(record.moves)} moves in {motion_s:.1f} s of the controller's clock; "
-        f"{len(measured.targets)} job targets touched"
+        f"executed {result.moves} moves in {result.motion_time_s:.1f} s of the controller's "
+        f"clock; {len(result.targets)} job targets touched"
     )
+    return result
+
+
+def record_touch(cell: JobCell, targets: JobTargets, robtarget: str, tool: str | None) -> None:
+    """The evaluator's record of a touch of `robtarget` with `tool` in hand, if it stands
+    for one of the job's targets (what `measure_execution` measures)."""
+    name = targets.name_of(robtarget)
+    if name is not None and tool is not None:
+        cell.evaluator.record_touch(_PREFIX + name, tool)
+
+
+def measure_execution(
+    cell: JobCell,
+    record: ExecutionRecord,
+    targets: JobTargets,
+    timings: dict[str, float] | None = None,
+) -> ExecutionResult:
+    """The result of an executed program: its touches of the job's targets (recorded with
+    `record_touch` as they happened) against the truth."""
+    plan = record.plan
+    measured = _measure(record, targets, cell)
     return ExecutionResult(
         Path(plan.source).name,
         plan.source,
@@ -275,8 +293,8 @@ def execute_in_cell(
         measured.other_stops,
         len(record.moves),
         plan.skipped,
-        motion_s,
-        timings,
+        record.end_time_s - record.start_time_s,
+        dict(timings or {}),
     )
 
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from cell import Controller, Kinematics
 from cell.controller import SETTLE_S
-from cell.errors import CellError
+from cell.errors import CellError, MotionHaltedError
 from cell.trajectory import straight_path
 from models.robot import TABLE_TRAVEL
 from scenarios.errors import ScenarioError
@@ -806,6 +806,22 @@ def execute_plan(
     accuracy moves with its nominal arm). Raises ExecutionError naming the line if a move
     fails on the cell."""
     touched = on_touch or (lambda _target: None)
+    start = controller.time_s
+    start_plan(controller, plan, on_move)
+    done = []
+    for move in plan.moves:
+        done.append(run_move(controller, plan, move, on_move))
+        if move.touch:
+            touched(move.target)
+    return ExecutionRecord(plan, tuple(done), start, controller.time_s)
+
+
+def start_plan(
+    controller: Controller, plan: ExecutionPlan, on_move: Callable[[str], None] | None = None
+) -> None:
+    """What a plan's execution does before its first move: check that the controller is the
+    one it was planned for (its tools, its kinematics), change to the plan's tool (through
+    home) and joint move to q_start; `on_move(what)` after each motion."""
     moved = on_move or (lambda _what: None)
     if plan.tool is not None and plan.tool not in controller.tools:
         raise ExecutionError(
@@ -819,36 +835,43 @@ def execute_plan(
             f"moves with (the flange at the start differs by {gap:.3g}); plan with "
             "controller.kinematics"
         )
-    start = controller.time_s
     if plan.tool is not None and controller.tool_in_hand != plan.tool:
         change_tool_safely(controller, plan.tool)
         moved("tool change")
     controller.move_joints(plan.q_start)
     moved("start")
-    done = []
-    for move in plan.moves:
-        settle = SETTLE_S if move.stop else 0.0
-        try:
-            table = move.table_position_m
-            if table is not None and abs(controller.table_position() - table) > 1e-9:
-                controller.move_table(table)
-                moved("table")
-            if move.instruction == "MoveL":
-                controller.move_linear(
-                    move.T_base_tcp, move.v_tcp_m_s, move.v_ori_rad_s, settle, move.T_flange_tcp
-                )
-            else:
-                controller.move_joints(move.q, move.speed_fraction, settle)
-        except CellError as exc:
-            raise ExecutionError(
-                f"{move.source or plan.source}:{move.line}: {move.instruction} {move.target} "
-                "failed on the "
-                f"cell: {exc}"
-            ) from exc
-        moved(f"{move.instruction} {move.target}")
-        if move.touch:
-            touched(move.target)
-        q = controller.read_joints()
-        T_measured = controller.kinematics.fk(q) @ move.T_flange_tcp
-        done.append(ExecutedMove(move, q, T_measured, controller.time_s))
-    return ExecutionRecord(plan, tuple(done), start, controller.time_s)
+
+
+def run_move(
+    controller: Controller,
+    plan: ExecutionPlan,
+    move: PlannedMove,
+    on_move: Callable[[str], None] | None = None,
+) -> ExecutedMove:
+    """Run one planned move on the cell (the table first if the move sets it) and read the
+    encoders after it; `on_move(what)` after each motion. Raises ExecutionError naming the
+    line if the move fails on the cell; a halt asked from outside (MotionHaltedError) passes."""
+    moved = on_move or (lambda _what: None)
+    settle = SETTLE_S if move.stop else 0.0
+    try:
+        table = move.table_position_m
+        if table is not None and abs(controller.table_position() - table) > 1e-9:
+            controller.move_table(table)
+            moved("table")
+        if move.instruction == "MoveL":
+            controller.move_linear(
+                move.T_base_tcp, move.v_tcp_m_s, move.v_ori_rad_s, settle, move.T_flange_tcp
+            )
+        else:
+            controller.move_joints(move.q, move.speed_fraction, settle)
+    except MotionHaltedError:
+        raise
+    except CellError as exc:
+        raise ExecutionError(
+            f"{move.source or plan.source}:{move.line}: {move.instruction} {move.target} "
+            f"failed on the cell: {exc}"
+        ) from exc
+    moved(f"{move.instruction} {move.target}")
+    q = controller.read_joints()
+    T_measured = controller.kinematics.fk(q) @ move.T_flange_tcp
+    return ExecutedMove(move, q, T_measured, controller.time_s)

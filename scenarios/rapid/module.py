@@ -755,3 +755,33 @@ def with_oframe(module: RapidModule, wobj: str, T_uframe_oframe: np.ndarray) -> 
     old = module.text[oframe.start : oframe.end]
     new = _pose_text(T, ", " if ", " in old else ",")
     return module.text[: oframe.start] + new + module.text[oframe.end :]
+
+
+def with_value(module: RapidModule, name: str, value: str) -> str:
+    """The module's text with the value of its module-level datum `name` (as declared, any
+    case) written as `value` (RAPID text, e.g. "3.5" or "[[600,0,800],[1,0,0,0],...]"):
+    the old initializer replaced, or `:= value` added to a declaration that has none. Every
+    other character is kept. Raises RapidError if the module declares no such datum; the
+    caller reads the result again to check that the value is what the type needs."""
+    parser = _Parser(module.text, _label(module))
+    parser.module()
+    decl = next(
+        (d for d in parser.decls if d.routine is None and d.name.casefold() == name.casefold()),
+        None,
+    )
+    if decl is None:
+        raise RapidError(f"{_label(module)}: no module-level datum {name!r} is declared")
+    text = module.text
+    if decl.value is not None:
+        return text[: decl.value.start] + value + text[decl.value.end :]
+    lines = text.splitlines(keepends=True)
+    pattern = re.compile(rf"(\b{re.escape(decl.name)}\s*(?:\{{[^}}]*\}})?)\s*;", re.I)
+    line = lines[decl.line - 1]
+    found = pattern.search(line)
+    if found is None:
+        raise RapidError(
+            f"{_where(_label(module), decl.line)}: the declaration of {decl.name} spans lines; "
+            "give it an initial value in the module"
+        )
+    lines[decl.line - 1] = line[: found.start()] + f"{found.group(1)} := {value};" + line[found.end() :]
+    return "".join(lines)

@@ -1,0 +1,187 @@
+"""`twincell serve JOB_OR_RUN_FOLDER`: a job's real cell behind the controller's own
+interfaces, RWS and EGM (scenarios.twin), so that a client written for an ABB IRC5 drives it.
+
+The cell is the one `twincell run` builds for the job and seed (the same real arm, errors
+and true placement of the object); a run folder gives that run's cell, and its program is
+put in the controller's `$HOME` (program.mod, or the task's modules), ready to load. The
+controller moves its nominal arm, as `twincell execute` does. Each program a client runs to
+its end is measured against the truth as `twincell execute` measures it, and written to
+the serve folder (executions/NNN-<program>.json, the execution.json layout).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from models.atomic import write_text
+from scenarios.errors import ScenarioError
+from scenarios.jobs.config import JobConfig, load_config
+from scenarios.jobs.execute import job_program, rebuild_job_cell
+from scenarios.jobs.exported import (
+    ExecutionResult,
+    JobTargets,
+    job_targets,
+    measure_execution,
+    record_touch,
+)
+from scenarios.jobs.pipeline import job_cell
+from scenarios.jobs.plan import job_robot, object_models
+from scenarios.rapid.executor import ExecutionRecord
+from scenarios.realcell.setup import JobCell
+from scenarios.stages.export import TASK_FOLDER
+from scenarios.twin.controller import TwinController
+from scenarios.twin.elog import ElogEntry
+from scenarios.twin.server import ServedController, ServeOptions
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class Serving:
+    """A served twin: its controller and servers, the job's real cell (the truth: for the
+    evaluator's measures only), the serve folder, and the programs measured so far."""
+
+    served: ServedController
+    cell: JobCell
+    folder: Path
+    config: JobConfig
+    executions: list[ExecutionResult] = field(default_factory=list)
+    recording: Any | None = None
+    changed: threading.Condition = field(default_factory=threading.Condition)
+
+    @property
+    def twin(self) -> TwinController:
+        return self.served.twin
+
+    @property
+    def url(self) -> str:
+        return self.served.url
+
+    def wait_executions(self, count: int, timeout_s: float) -> list[ExecutionResult]:
+        """The measured programs once there are `count` of them (or after `timeout_s`)."""
+        with self.changed:
+            self.changed.wait_for(lambda: len(self.executions) >= count, timeout_s)
+            return list(self.executions)
+
+    def close(self) -> None:
+        self.served.close()
+        if self.recording is not None:
+            self.recording.close(keep=True)
+
+
+def serve_folder(out: str | Path, config: JobConfig) -> Path:
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    folder = Path(out) / f"serve-{config.name}-seed{config.seed}-{stamp}"
+    n = 1
+    while folder.exists():
+        n += 1
+        folder = Path(out) / f"serve-{config.name}-seed{config.seed}-{stamp}-{n}"
+    folder.mkdir(parents=True)
+    return folder
+
+
+def _job(name: str, seed: int | None) -> tuple[JobConfig, Path | None]:
+    """The job's configuration and, for a run folder, the folder."""
+    given = Path(name)
+    run = given if given.is_dir() else None
+    source = given / "config.yaml" if run is not None else name
+    if run is not None and not (run / "config.yaml").is_file():
+        raise ScenarioError(f"{run}: not a run folder of `twincell run` (no config.yaml)")
+    overrides: dict[str, object] = {} if seed is None else {"seed": seed}
+    config = load_config(source, overrides)
+    if not isinstance(config, JobConfig):
+        raise ScenarioError(f"{name}: a {config.kind} job has no cell to serve")
+    return config, run
+
+
+def serve_job(
+    name: str,
+    options: ServeOptions | None = None,
+    *,
+    seed: int | None = None,
+    speed: float = 1.0,
+    out: str | Path = "runs",
+    spawn: bool = False,
+    rrd: bool = False,
+    progress: Progress | None = None,
+) -> Serving:
+    """Serve the real cell of job `name` (a shipped job, a CONFIG.yaml or a run folder) with
+    `seed` (default the job's), its time `speed` times the wall clock's."""
+    say = progress or (lambda _m: None)
+    config, run = _job(name, seed)
+    robot = job_robot(config.cell.robot)
+    if not robot.rapid:
+        raise ScenarioError(f"{name}: the job's arm, the {robot.name}, does not run RAPID")
+    user = job_program(config, run) if run is not None else None
+    virtual, real = object_models(config, user)
+    folder = serve_folder(out, config)
+    recording = None
+    if spawn or rrd:
+        from scenarios.realcell.recording import Recording
+
+        title = f"twincell serve {config.name} (seed {config.seed})"
+        recording = Recording(folder / "serve.rrd", spawn=spawn, name=title, to_file=rrd)
+        cell = job_cell(config, virtual, real, robot, recording)
+    else:
+        cell = rebuild_job_cell(config, virtual, real, robot)
+    targets = job_targets(config, virtual, user)
+    serving: Serving | None = None
+
+    def touched(robtarget: str, tool: str | None) -> None:
+        record_touch(cell, targets, robtarget, tool)
+
+    def ended(record: ExecutionRecord) -> None:
+        if serving is not None:
+            _measured(serving, record, targets, say)
+
+    twin = TwinController(cell.controller, folder, speed, touched, ended, say)
+    twin.elog.listeners.append(lambda e: _log(cell, e))
+    if run is not None:
+        _program_files(run, twin, say)
+    served = ServedController(twin, options or ServeOptions())
+    serving = Serving(served, cell, folder, config, recording=recording)
+    say(f"the real cell of {config.name} (seed {config.seed}) serves RWS at {served.url}")
+    if served.egm is not None:
+        say(f"EGM to {served.egm.client[0]}:{served.egm.client[1]} every 4 ms")
+    return serving
+
+
+def _log(cell: JobCell, entry: ElogEntry) -> None:
+    cell.log.say(f"event log {entry.code}: {entry.title}: {entry.desc}")
+
+
+def _program_files(run: Path, twin: TwinController, say: Progress) -> None:
+    """A run's program in the controller's $HOME, ready to load."""
+    home = twin.files.resolve("$HOME")
+    module, task = run / "program.mod", run / TASK_FOLDER
+    if module.is_file():
+        shutil.copy(module, home / module.name)
+        say(f"$HOME/{module.name}: the run's program")
+    if task.is_dir():
+        shutil.copytree(task, home / TASK_FOLDER, dirs_exist_ok=True)
+        say(f"$HOME/{TASK_FOLDER}/: the run's task")
+
+
+def _measured(
+    serving: Serving, record: ExecutionRecord, targets: JobTargets, say: Progress
+) -> None:
+    """Measure a program that ran to its end and write it to the serve folder."""
+    result = measure_execution(serving.cell, record, targets)
+    with serving.changed:
+        serving.executions.append(result)
+        number = len(serving.executions)
+        serving.changed.notify_all()
+    folder = serving.folder / "executions"
+    folder.mkdir(exist_ok=True)
+    data = result.to_json() | {"job": serving.config.name, "seed": serving.config.seed}
+    path = folder / f"{number:03d}-{Path(result.program).stem}.json"
+    write_text(path, json.dumps(data, indent=2) + "\n")
+    rms = "-" if result.rms_m is None else f"{result.rms_m * 1e3:.3f} mm"
+    say(f"{result.program}: {len(result.targets)} targets touched, rms {rms}; wrote {path}")

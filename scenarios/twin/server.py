@@ -1,0 +1,57 @@
+"""A served controller: the twin's state (scenarios.twin.controller) behind RWS on an HTTP
+port and, if asked, an EGM session with a client's UDP port; started and stopped as one."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+from scenarios.twin.controller import TwinController
+from scenarios.twin.egm import EgmServer
+from scenarios.twin.http import DEFAULT_USERS, Server
+from scenarios.twin.rws import Rws
+
+
+@dataclass(frozen=True)
+class ServeOptions:
+    """Where and how to serve: RWS on host:port (port 0: any free one), EGM to the client
+    at egm_host:egm_port (None: no EGM), the users (name -> password)."""
+
+    host: str = "127.0.0.1"
+    port: int = 8080
+    egm_port: int | None = None
+    egm_host: str = "127.0.0.1"
+    users: tuple[tuple[str, str], ...] = tuple(DEFAULT_USERS.items())
+
+
+class ServedController:
+    """RWS (and EGM) serving `twin` from a thread of their own until `close()`."""
+
+    def __init__(self, twin: TwinController, options: ServeOptions) -> None:
+        self.twin = twin
+        self.rws = Rws(twin)
+        self.http = Server(
+            (options.host, options.port), self.rws.route, self.rws.subscriptions.serve,
+            dict(options.users),
+        )  # fmt: skip
+        self.egm: EgmServer | None = None
+        if options.egm_port is not None:
+            self.egm = EgmServer((options.egm_host, options.egm_port), options.host)
+            twin.egm = self.egm
+        self._thread = threading.Thread(
+            target=self.http.serve_forever, name="twin-rws", daemon=True
+        )
+        self._thread.start()
+
+    @property
+    def url(self) -> str:
+        """The RWS base URL, e.g. http://127.0.0.1:8080."""
+        return self.http.base
+
+    def close(self) -> None:
+        """Stop serving, halt what moves, and close the EGM session."""
+        self.http.shutdown()
+        self.http.server_close()
+        self.twin.close()
+        if self.egm is not None:
+            self.egm.close()

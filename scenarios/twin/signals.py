@@ -1,0 +1,71 @@
+"""The controller's I/O signals (RWS `rw/iosystem/signals/Local/DRV_1/NAME`): the cell's own,
+which read or drive its devices (the tool changer's lock sensor, the table's readout, the
+gripper), and plain user outputs and inputs a client's program may use. Digital values are
+0 or 1; analog ones in the unit their name gives."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from scenarios.twin.errors import bad_request, forbidden, not_found
+
+
+@dataclass(frozen=True)
+class SignalSpec:
+    """A signal: its name, type (DI, DO, AI, AO), what it is, and its range (analog)."""
+
+    name: str
+    type: str
+    what: str
+    low: float = 0.0
+    high: float = 1.0
+
+    @property
+    def output(self) -> bool:
+        return self.type in ("DO", "AO")
+
+    @property
+    def digital(self) -> bool:
+        return self.type in ("DI", "DO")
+
+
+SIGNALS: tuple[SignalSpec, ...] = (
+    SignalSpec("diToolLocked", "DI", "the tool changer's lock sensor: a tool is locked"),
+    SignalSpec("aiToolNumber", "AI", "the tool in hand (0 none, 1 gripper, 2 screwer, ...)", 0, 9),
+    SignalSpec("aiTablePosition", "AI", "the table axis' readout [mm]", -1e4, 1e4),
+    SignalSpec("aoGripperOpening", "AO", "each finger's opening from the centre [mm]", 0, 50),
+    *(SignalSpec(f"doUser{k}", "DO", "a user output") for k in range(1, 9)),
+    *(SignalSpec(f"diUser{k}", "DI", "a user input (loops back doUser of its number)")
+      for k in range(1, 9)),
+)  # fmt: skip
+BY_NAME = {s.name.casefold(): s for s in SIGNALS}
+
+
+def spec(name: str) -> SignalSpec:
+    """The signal `name` (any case); ControllerError 404 listing a few if unknown."""
+    found = BY_NAME.get(name.casefold())
+    if found is None:
+        raise not_found(
+            f"signal {name!r}: no such signal (e.g. {', '.join(s.name for s in SIGNALS[:5])})"
+        )
+    return found
+
+
+def parse_value(signal: SignalSpec, text: str) -> float:
+    """A value a client sets; ControllerError for an input or a value out of range."""
+    if not signal.output:
+        raise forbidden(f"{signal.name} is an input: it cannot be set")
+    try:
+        value = float(text)
+    except ValueError:
+        raise bad_request(f"{signal.name}: {text!r} is not a number") from None
+    if signal.digital and value not in (0.0, 1.0):
+        raise bad_request(f"{signal.name}: a digital signal is 0 or 1, not {text!r}")
+    if not signal.low <= value <= signal.high:
+        raise bad_request(f"{signal.name}: {value:g} is outside {signal.low:g}..{signal.high:g}")
+    return value
+
+
+def text_of(signal: SignalSpec, value: float) -> str:
+    """The lvalue RWS gives: "0"/"1" for a digital signal, a number for an analog one."""
+    return str(int(value)) if signal.digital else f"{value:.6g}"
