@@ -124,7 +124,8 @@ class SimController(Controller):
         q1 = self.kinematics.check_limits(np.asarray(q_ref, dtype=float))
         sim, q0 = self._sim, self._drives.motor.copy()
         n = max(1, round(period_s / sim.dt))
-        step = np.clip(q1 - q0, -self._robot.joint_speed * period_s, self._robot.joint_speed * period_s)
+        reach = self._robot.joint_speed * period_s
+        step = np.clip(q1 - q0, -reach, reach)
         q = q0 + np.outer(np.arange(1, n + 1) / n, step)
         qd = np.broadcast_to(step / period_s, q.shape).copy()
         self._run(q, qd, new_move=False)

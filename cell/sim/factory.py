@@ -82,7 +82,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTrut
                 else f"the {fault.option or 'screwer'} weighs {fault.amount:g} kg more"
             )
             faults.fire(fault.name, what)
-    return controller, CellTruth(config, params, sim, table, laser, ir, faults)
+    return controller, CellTruth(config, params, sim, table, laser, ir, faults, drives.read_motors)
 
 
 def _upper_surface(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from cell.errors import UnknownNameError
+from cell.errors import CellConfigError, UnknownNameError
 from cell.kinematics import Kinematics, payload_model
 from cell.sim.config import CellConfig
 from cell.sim.devices import TableAxis
@@ -32,8 +32,10 @@ class CellTruth:
         laser: LaserScanner | None = None,
         ir: IRSensor | None = None,
         faults: FaultInjector | None = None,
+        motors: Callable[[], np.ndarray] | None = None,
     ) -> None:
         self.config = config
+        self._motors = motors
         self.params = params
         self._sim = sim
         self._table = table
@@ -73,6 +75,13 @@ class CellTruth:
     def q(self) -> np.ndarray:
         """(6,) true joint positions [rad]."""
         return self._sim.arm_q()
+
+    def motor_angles(self) -> np.ndarray:
+        """(6,) the motors' true angles [rad]: the links' plus the drives' offsets (what the
+        encoders measure before their noise)."""
+        if self._motors is None:
+            raise CellConfigError("this cell's truth was built without its drives")
+        return self._motors()
 
     def table_position_m(self) -> float:
         """True table slide position [m] (readout plus the axis' positioning error)."""

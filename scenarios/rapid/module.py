@@ -783,5 +783,6 @@ def with_value(module: RapidModule, name: str, value: str) -> str:
             f"{_where(_label(module), decl.line)}: the declaration of {decl.name} spans lines; "
             "give it an initial value in the module"
         )
-    lines[decl.line - 1] = line[: found.start()] + f"{found.group(1)} := {value};" + line[found.end() :]
+    written = f"{found.group(1)} := {value};"
+    lines[decl.line - 1] = line[: found.start()] + written + line[found.end() :]
     return "".join(lines)

@@ -176,6 +176,11 @@ class Evaluator:
             )
         return tuple(out)
 
+    def motor_angles(self) -> np.ndarray:
+        """(6,) the arm's motors' true angles [rad] (what a controller's encoders measure,
+        before their noise)."""
+        return self._truth.motor_angles()
+
     # -- for the recording ------------------------------------------------------------------------
     def body_poses(self) -> dict[str, np.ndarray]:
         """(4, 4) true pose of every body of the real cell, by name (world = robot base),

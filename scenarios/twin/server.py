@@ -4,10 +4,12 @@ port and, if asked, an EGM session with a client's UDP port; started and stopped
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from scenarios.twin.controller import TwinController
 from scenarios.twin.egm import EgmServer
+from scenarios.twin.errors import bad_request
 from scenarios.twin.http import DEFAULT_USERS, Server
 from scenarios.twin.rws import Rws
 
@@ -55,3 +57,22 @@ class ServedController:
         self.twin.close()
         if self.egm is not None:
             self.egm.close()
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """HOST:PORT (port 0: any free one); ControllerError naming what was given."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise bad_request(f"{text!r}: give HOST:PORT, e.g. 127.0.0.1:8080")
+    return host, int(port)
+
+
+def parse_users(texts: Iterable[str]) -> tuple[tuple[str, str], ...]:
+    """NAME:PASSWORD each; none given: the controller's default user."""
+    users = []
+    for text in texts:
+        name, sep, password = text.partition(":")
+        if not sep or not name or not password:
+            raise bad_request(f"user {text!r}: give NAME:PASSWORD")
+        users.append((name, password))
+    return tuple(users) or tuple(DEFAULT_USERS.items())
