@@ -234,11 +234,15 @@ class SimController(Controller):
             done = q[: stop.steps]
             back = done[::-1][: max(2, round(BACK_OFF_S / self._sim.dt))]
             self._supervising = False
+            clock = self._sim.clock
+            if clock is not None:  # paced still, but a back-off is not halted
+                self._sim.clock = lambda t: clock(t) and None
             try:
                 self._drives.run(back, np.zeros_like(back))
                 self._sim.settle(SETTLE_S)
             finally:
                 self._supervising = True
+                self._sim.clock = clock
             self._log("collision", str(stop), "stopped")
             raise SupervisionError(
                 "collision",

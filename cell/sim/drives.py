@@ -119,7 +119,7 @@ class Drives:
                 sim.run(sim.arm_act, setpoints[start:end])
             except MotionStoppedError as stop:  # the motors stand at the last set-point given
                 self.motor = q[start + stop.steps - 1].copy()
-                raise MotionStoppedError(str(stop), start + stop.steps) from None
+                raise MotionStoppedError(str(stop), start + stop.steps, stop.halt) from None
             self.motor = q[end - 1].copy()
             if read is not None:
                 readings.append(read())

@@ -138,21 +138,25 @@ class TwinController:
         streamed = False
         while not self._closing.is_set():
             streaming = self.egm is not None and self.egm.active()
+            command: Callable[[], None]
             try:
-                command = (
-                    self._commands.get_nowait() if streaming else self._commands.get(timeout=0.05)
-                )
-            except queue.Empty:
                 if streaming:
-                    if not streamed:
-                        self._relock()
-                    self._egm_tick()
-                streamed = streaming
-                continue
-            streamed = False
+                    command = self._commands.get_nowait()
+                else:
+                    command = self._commands.get(timeout=0.05)
+                streamed = False
+            except queue.Empty:
+                if not streaming:
+                    continue
+                if not streamed:
+                    self._relock()
+                streamed = True
+                command = self._egm_tick
             try:
                 command()
-            except Exception as exc:
+            except MotionHaltedError:
+                pass  # a stop asked while streaming, or the server closing
+            except Exception as exc:  # the worker serves on after any error
                 self.elog.add("execution_error", f"the controller's worker: {exc!r}")
 
     def submit(self, command: Callable[[], None]) -> None:
