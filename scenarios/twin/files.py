@@ -5,7 +5,7 @@ MAX_UPLOAD are refused."""
 
 from __future__ import annotations
 
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 from scenarios.twin.errors import ControllerError, bad_request, forbidden, not_found
 
@@ -26,11 +26,12 @@ class FileService:
     def resolve(self, path: str) -> Path:
         """The file a client's `path` (e.g. "$HOME/program.mod") names; ControllerError
         if it is outside the roots."""
-        parts = PurePosixPath(path.replace("\\", "/")).parts
-        if not parts or parts[0] not in ROOTS:
+        raw = path.replace("\\", "/")
+        parts = tuple(p for p in raw.split("/") if p)
+        if raw.startswith("/") or not parts or parts[0] not in ROOTS:
             roots = ", ".join(ROOTS)
             raise forbidden(f"{path!r}: not under a root the file service serves ({roots})")
-        if any(p in ("..", ".") or p.startswith("/") for p in parts[1:]):
+        if any(p in ("..", ".") for p in parts[1:]):
             raise forbidden(f"{path!r}: '..' and '.' are not allowed in a path")
         root = (self.folder / ROOTS[parts[0]]).resolve()
         target = root.joinpath(*parts[1:])

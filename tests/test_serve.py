@@ -1,0 +1,367 @@
+"""`twincell serve`: the twin as an IRC5, driven only through the client people use with ABB
+controllers, abb_robot_client (its RWS and EGM classes). Ground truth: the physics (the
+evaluator's motor angles), the program's own robtargets, `twincell execute` on the same
+run folder, and what the tests themselves sent."""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import requests
+from abb_robot_client.egm import EGM
+from abb_robot_client.rws import (
+    RWS,
+    ABBException,
+    Signal,
+    SubscriptionResourcePriority,
+    SubscriptionResourceRequest,
+    SubscriptionResourceType,
+)
+
+from scenarios.jobs.execute import execute_run
+from scenarios.jobs.serve import Serving, serve_job
+from scenarios.rapid.module import read_module
+from scenarios.twin.files import MAX_UPLOAD, FileService
+from scenarios.twin.server import ServeOptions
+
+NINE = ",".join(["9E+09"] * 6)
+DATA = f"""MODULE UserData
+  VAR num nCount := 0;
+  PERS num nArr{{3}} := [1,2,3];
+  VAR bool bDone;
+  VAR string sName := "twin";
+  VAR robtarget pTeach := [[600,0,800],[0,0,1,0],[0,0,0,0],[{NINE}]];
+  CONST num nFixed := 4;
+ENDMODULE
+"""
+#: tool0 moved straight down into the table beside the object (the table top is at z = 400 mm).
+CRASH = f"""MODULE Crash
+  CONST robtarget pAbove := [[1000,-300,650],[0,0,1,0],[-1,0,-1,0],[{NINE}]];
+  CONST robtarget pInto := [[1000,-300,300],[0,0,1,0],[-1,0,-1,0],[{NINE}]];
+  PROC main()
+    MoveJ pAbove, v200, fine, tool0;
+    MoveL pInto, v50, fine, tool0;
+  ENDPROC
+ENDMODULE
+"""
+
+
+@pytest.fixture
+def served(tmp_path: Path, short_skull_run: Path) -> Iterator[Serving]:
+    """The short skull run's cell, served on a free port, its time 50 times the wall's."""
+    serving = serve_job(str(short_skull_run), ServeOptions(port=0), speed=50.0, out=tmp_path)
+    yield serving
+    serving.close()
+
+
+def _load(client: RWS, name: str, text: str | bytes, root: str = "$RAMDISK") -> None:
+    data = text.encode() if isinstance(text, str) else text
+    client.upload_file(f"{root}/{name}", data)
+    client._do_post(
+        "rw/rapid/tasks/T_ROB1?action=loadmod",
+        {"modulepath": f"{root}/{name}", "replace": "true"},
+    )
+
+
+def _run(client: RWS, timeout_s: float = 60.0) -> None:
+    client.resetpp()
+    client.start()
+    t0 = time.monotonic()
+    while client.get_execution_state().ctrlexecstate == "running":
+        assert time.monotonic() - t0 < timeout_s, "the program did not stop"
+        time.sleep(0.05)
+
+
+def _answers(client: RWS) -> None:
+    """The server answers normally."""
+    assert client.get_controller_state() == "motoron"
+    assert client.get_execution_state().ctrlexecstate == "stopped"
+
+
+# -- the fast tier: data, I/O, subscriptions, refusals ------------------------------------------
+def test_rapid_data_over_rws(served: Serving) -> None:
+    client = RWS(served.url)
+    _load(client, "UserData.mod", DATA)
+    assert client.get_rapid_variable_num("nCount") == 0.0
+    client.set_rapid_variable_num("nCount", 42.5)
+    assert client.get_rapid_variable_num("nCount") == 42.5
+    assert client.get_rapid_variable_num("nCount", "T_ROB1/UserData") == 42.5
+    client.set_rapid_variable_num_array("nArr", [4.0, 5.0, 6.5])
+    assert client.get_rapid_variable_num_array("nArr").tolist() == [4.0, 5.0, 6.5]
+    client.set_rapid_variable("bDone", "TRUE")
+    assert client.get_rapid_variable("bDone") == "TRUE"
+    client.set_rapid_variable("sName", '"cell 2"')
+    assert client.get_rapid_variable("sName") == '"cell 2"'
+    target = f"[[610.5,-20,790],[0,0.7071068,0.7071068,0],[0,0,0,1],[{NINE}]]"
+    client.set_rapid_variable("pTeach", target)
+    assert client.get_rapid_variable("pTeach") == target
+    found = client.get_rapid_variables()
+    assert {item["name"] for item in found} == {"nArr"}  # the PERS data only
+    # a CONST is read-only; a value of the wrong shape is refused; the value stays
+    for name, value in (("nFixed", "5"), ("pTeach", "[[1,2],[1,0,0,0]]"), ("nCount", '"x"')):
+        with pytest.raises(ABBException):
+            client.set_rapid_variable(name, value)
+    assert client.get_rapid_variable("pTeach") == target
+    assert client.get_rapid_variable_num("nCount") == 42.5
+
+
+def test_io_and_subscriptions(served: Serving) -> None:
+    client = RWS(served.url)
+    heard: list[object] = []
+    subscription = client.subscribe(
+        [
+            SubscriptionResourceRequest(
+                SubscriptionResourceType.Signal, SubscriptionResourcePriority.High, "doUser2"
+            ),
+            SubscriptionResourceRequest(
+                SubscriptionResourceType.ExecutionState, SubscriptionResourcePriority.Medium
+            ),
+        ],
+        heard.append,
+    )
+    try:
+        time.sleep(0.3)  # the websocket connects
+        client.set_digital_io("doUser2", 1)
+        assert client.get_digital_io("doUser2") == 1
+        assert client.get_digital_io("diUser2") == 1  # the user inputs loop the outputs back
+        t0 = time.monotonic()
+        while Signal("doUser2", "1") not in heard:
+            assert time.monotonic() - t0 < 3.0, f"no signal event; heard {heard}"
+            time.sleep(0.05)
+    finally:
+        subscription.close()
+    # the cell's own signals: the lock sensor and the tool in hand (the program's tool)
+    assert client.get_digital_io("diToolLocked") == 0  # the arm starts with no tool
+    for signal in ("diToolLocked", "nosuch"):  # an input; no such signal
+        with pytest.raises(ABBException):
+            client.set_digital_io(signal, 1)
+    with pytest.raises(ABBException, match="outside"):
+        client.set_analog_io("aoGripperOpening", 999.0)
+    _answers(client)
+
+
+def test_refusals_leave_the_server_serving(served: Serving) -> None:
+    client = RWS(served.url)
+    # a wrong password: 401, as RWS answers it
+    with pytest.raises(ABBException) as wrong:
+        RWS(served.url, password="guess").get_controller_state()
+    assert "authentication" in str(wrong.value)
+    response = requests.get(f"{served.url}/rw/panel/ctrlstate?json=1", timeout=5)
+    assert response.status_code == 401
+    assert response.headers["WWW-Authenticate"].startswith("Digest ")
+    # a module that does not parse: refused, logged, nothing moved
+    q_before = client.get_jointtarget().robax
+    client.upload_file("$HOME/Broken.mod", b"MODULE Broken\n  PROC main()\n    MoveJ ;\nENDMODULE\n")
+    with pytest.raises(ABBException) as broken:
+        client._do_post("rw/rapid/tasks/T_ROB1?action=loadmod", {"modulepath": "$HOME/Broken.mod"})
+    assert "Broken.mod" in str(broken.value)
+    assert client.read_event_log()[0].code == 80003
+    np.testing.assert_allclose(client.get_jointtarget().robax, q_before, atol=1e-6)
+    # paths outside the roots, an unknown symbol, an unknown resource
+    for path in ("$HOME/../escape.mod", "../etc/passwd", "/etc/passwd", "$HOME/a/../../b"):
+        with pytest.raises(Exception, match=r"Forbidden|Not Found"):
+            client.upload_file(path, b"x")
+    with pytest.raises(ABBException) as unknown:
+        client.get_rapid_variable("nNoSuchSymbol")
+    assert "no such symbol" in str(unknown.value)
+    with pytest.raises(ABBException):
+        client._do_get("rw/nosuch/resource")
+    # start without a program pointer, and with the motors off
+    with pytest.raises(ABBException, match="program pointer"):
+        client.start()
+    client.set_controller_state("motoroff")
+    _load(client, "UserData.mod", DATA)
+    with pytest.raises(ABBException, match="motors are off"):
+        client.start()
+    client.set_controller_state("motoron")
+    _answers(client)
+
+
+def test_file_service_roots(tmp_path: Path) -> None:
+    files = FileService(tmp_path)
+    files.write("$HOME/sub/a.mod", b"text")
+    assert files.read("$HOME/sub/a.mod") == b"text"
+    assert files.listing("$HOME") == [("sub", True, 0)]
+    link = tmp_path / "HOME" / "out"
+    link.symlink_to(tmp_path.parent)
+    for path in ("$HOME/../x", "$HOME/out/x", "HOME/x", "$RAMDISK/./x", ""):
+        with pytest.raises(Exception, match="not under|not allowed|leaves"):
+            files.write(path, b"x")
+    with pytest.raises(Exception, match="larger than"):
+        files.write("$HOME/big.bin", bytes(MAX_UPLOAD + 1))
+    assert not (tmp_path / "HOME" / "big.bin").exists()
+
+
+# -- the slow tier: programs, EGM, the burst, the command -----------------------------------
+@pytest.mark.slow
+def test_program_over_rws_as_twincell_execute(
+    served: Serving, short_skull_run: Path, tmp_path: Path
+) -> None:
+    client = RWS(served.url)
+    program = client.read_file("$HOME/program.mod")
+    _load(client, "program.mod", program)
+    _run(client)
+    # the encoders against the physics' motors
+    truth_deg = np.rad2deg(served.cell.evaluator.motor_angles())
+    np.testing.assert_allclose(client.get_jointtarget().robax, truth_deg, atol=0.01)
+    # the controller's TCP in the program's tool and work object: the last robtarget
+    module = read_module(program.decode())
+    last = module.moves[-1]
+    assert last.wobj is not None
+    robtarget = client.get_robtarget(tool=last.tool, wobj=last.wobj, coordinate="Wobj")
+    expected_mm = module.targets[last.target].T_wobj_tcp[:3, 3] * 1e3
+    np.testing.assert_allclose(robtarget.trans, expected_mm, atol=0.1)
+    log = client.read_event_log()
+    assert [e.code for e in log[:2]] == [10005, 10007]  # newest first: stopped, started
+    assert "end of main" in log[0].desc
+    # the same program through `twincell execute`, on a copy of the run folder
+    served_result = served.wait_executions(1, 10.0)[0]
+    folder = shutil.copytree(short_skull_run, tmp_path / "run")
+    executed = execute_run(folder)
+    assert [t.evaluation.name for t in served_result.targets] == [
+        t.evaluation.name for t in executed.targets
+    ]
+    assert len(executed.targets) >= 3
+    np.testing.assert_allclose(served_result.errors(), executed.errors(), atol=1e-5)
+
+
+@pytest.mark.slow
+def test_stop_and_start_again_finish_the_program(served: Serving) -> None:
+    client = RWS(served.url)
+    _load(client, "program.mod", client.read_file("$HOME/program.mod"))
+    client.resetpp()
+    client.start()
+    time.sleep(0.3)
+    client.stop()
+    t0 = time.monotonic()
+    while client.get_execution_state().ctrlexecstate == "running":
+        assert time.monotonic() - t0 < 5.0
+        time.sleep(0.02)
+    assert "halted" in client.read_event_log()[0].desc
+    assert not served.executions
+    client.start()  # from where it halted
+    t0 = time.monotonic()
+    while client.get_execution_state().ctrlexecstate == "running":
+        assert time.monotonic() - t0 < 60.0
+        time.sleep(0.05)
+    assert len(served.wait_executions(1, 10.0)) == 1
+    assert served.executions[0].rms_m is not None
+    assert served.executions[0].rms_m < 1e-3  # the job's goal holds after a stop and a start
+
+
+@pytest.mark.slow
+def test_a_collision_stops_the_program(served: Serving) -> None:
+    client = RWS(served.url)
+    _load(client, "Crash.mod", CRASH)
+    _run(client)
+    log = client.read_event_log()
+    assert [e.code for e in log[:2]] == [10005, 50204]
+    assert "collision" in log[0].desc
+    # the arm backed off above the table top (z = 400 mm) and stands there
+    assert client.get_robtarget().trans[2] > 400.0
+    _answers(client)
+
+
+@pytest.mark.slow
+def test_big_upload_and_burst(served: Serving) -> None:
+    client = RWS(served.url)
+    with pytest.raises(Exception, match="Too Large"):
+        client.upload_file("$HOME/big.bin", bytes(100 * 1024 * 1024))
+    assert "big.bin" not in client.list_files("$HOME")
+    failures: list[BaseException] = []
+
+    def burst() -> None:
+        own = RWS(served.url)
+        try:
+            for _ in range(125):
+                assert own.get_execution_state().ctrlexecstate == "stopped"
+        except BaseException as exc:
+            failures.append(exc)
+
+    threads = [threading.Thread(target=burst) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not failures
+    _answers(client)
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.slow
+def test_egm_feedback_rate_and_tracking(tmp_path: Path) -> None:
+    port = _free_udp_port()
+    egm = EGM(port)
+    serving = serve_job("skull", ServeOptions(port=0, egm_port=port), out=tmp_path)
+    try:
+        ok, first = egm.receive_from_robot(2.0)
+        assert ok and first.motors_on and not first.rapid_running
+        q0 = first.joint_angles.copy()
+        amplitude = np.array([5.0, 3.0, 0, 0, 0, 0])  # deg, at 0.5 Hz
+        peak_deg_s = float(np.max(amplitude) * 2 * np.pi * 0.5)
+        sent: list[tuple[float, np.ndarray]] = []
+        times, errors = [], []
+        t0 = time.monotonic()
+        while (now := time.monotonic()) - t0 < 2.0:
+            ok, state = egm.receive_from_robot(0.1)
+            if not ok:
+                continue
+            times.append(now)
+            errors.append(np.max(np.abs(state.joint_angles - state.joint_angles_planned)))
+            reference = q0 + amplitude * np.sin(2 * np.pi * 0.5 * (now - t0))
+            egm.send_to_robot(reference)
+            sent.append((now, reference))
+        rate = (len(times) - 1) / (times[-1] - times[0])
+        assert rate >= 240.0
+        # the arm follows: after the first half second, within what 8 ms (two control
+        # periods) of the reference's fastest motion moves
+        settled = [e for t, e in zip(times, errors, strict=True) if t - t0 > 0.5]
+        assert max(settled) <= peak_deg_s * 0.008
+        # and it is where the references took it: the last reference, within that too
+        last = sent[-1][1]
+        ok, state = egm.receive_from_robot(0.1)
+        assert ok
+        assert np.max(np.abs(state.joint_angles - last)) <= peak_deg_s * 0.008 + 0.01
+    finally:
+        serving.close()
+        egm.socket.close()
+
+
+@pytest.mark.slow
+def test_twincell_serve_command(tmp_path: Path) -> None:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    command = [sys.executable, "-m", "scenarios.cli.app", "serve", "skull",
+               "--rws", f"127.0.0.1:{port}", "--out", str(tmp_path), "--quiet"]  # fmt: skip
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        client = RWS(f"http://127.0.0.1:{port}")
+        t0 = time.monotonic()
+        while True:
+            try:
+                assert client.get_operation_mode() == "AUTO"
+                break
+            except requests.ConnectionError:
+                assert time.monotonic() - t0 < 60.0 and process.poll() is None
+                time.sleep(0.2)
+        _answers(client)
+    finally:
+        process.terminate()
+        out, err = process.communicate(timeout=30)
+    assert process.returncode == 0, err
+    assert "stopped; 0 programs measured" in out
