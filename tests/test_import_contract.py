@@ -56,9 +56,9 @@ PROBES = {
 
 
 def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: Path) -> None:
-    # A copy of the project's packages with a probe module in the stages' package (and one in
-    # the planning's) that imports what the stages must never see: lint-imports then fails,
-    # naming each probe's import; the same copy without the probes passes.
+    # A copy of the project's packages with probe modules in the stages', the planning's and
+    # the served controller's packages that import what they must never see: lint-imports
+    # then fails, naming each probe's import; the same copy without the probes passes.
     for package in ("cell", "models", "registration", "scenarios"):
         shutil.copytree(
             ROOT / package,
@@ -70,7 +70,7 @@ def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: 
     clean = _lint(config, cwd=tmp_path)
     assert clean.returncode == 0, clean.stdout + clean.stderr
     for i, (what, source) in enumerate(PROBES.items()):
-        package = "stages" if i % 2 == 0 else "offline"
+        package = ("stages", "offline", "twin")[i % 3]
         (tmp_path / "scenarios" / package / f"probe_{i}.py").write_text(
             f'"""A probe that imports {what}."""\n\n' + source
         )
@@ -78,6 +78,7 @@ def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: 
     out = run.stdout.replace("\n", " ")
     assert run.returncode != 0, out
     assert "the planning, RAPID and the stages never see the truth" in run.stdout.replace("\n", " ")
+    assert "the served controller knows what a controller knows" in out
     for i in range(len(PROBES)):
         assert f"probe_{i}" in out, (i, out)
 

@@ -165,7 +165,7 @@ def test_refusals_leave_the_server_serving(served: Serving) -> None:
     with pytest.raises(ABBException) as broken:
         client._do_post("rw/rapid/tasks/T_ROB1?action=loadmod", {"modulepath": "$HOME/Broken.mod"})
     assert "Broken.mod" in str(broken.value)
-    assert client.read_event_log()[0].code == 80003
+    assert client.read_event_log()[0].code == 89003
     np.testing.assert_allclose(client.get_jointtarget().robax, q_before, atol=1e-6)
     # paths outside the roots, an unknown symbol, an unknown resource
     for path in ("$HOME/../escape.mod", "../etc/passwd", "/etc/passwd", "$HOME/a/../../b"):

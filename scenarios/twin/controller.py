@@ -335,8 +335,9 @@ class TwinController:
                 task, cell.nominal_kinematics, cell_tools(cell), cell.q_home, cell.robot.joint_speed
             )
         except (RapidError, ExecutionError) as exc:
-            self.elog.add("plan_refused", str(exc))
-            raise ControllerError(400, "rapid", str(exc)) from None
+            message = str(exc).replace(f"{self.task_folder}/", "T_ROB1/")  # the client's names
+            self.elog.add("plan_refused", message)
+            raise ControllerError(400, "rapid", message) from None
         with self._lock:
             self._execution = Execution(plan)
         self.elog.add("pp_reset", f"to main of {plan.module} ({len(plan.moves)} moves)")

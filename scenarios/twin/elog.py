@@ -2,7 +2,7 @@
 2 warning, 3 error), a code, a title and a description. Codes are ABB's for what a real IRC5
 logs the same way (10002 program pointer reset, 10005 program stopped, 10007 program
 started, 10010 motors off, 10011 motors on, 50204 motion supervision); the twin's own entries
-use codes 80001 and up (EVENTS)."""
+use codes 89001 and up (EVENTS), apart from the 80001 and up that RAPID programs log with."""
 
 from __future__ import annotations
 
@@ -19,14 +19,14 @@ EVENTS: dict[str, tuple[int, int, str]] = {
     "motors_off": (1, 10010, "Motors OFF state"),
     "motors_on": (1, 10011, "Motors ON state"),
     "collision": (3, 50204, "Motion supervision"),
-    "loaded": (1, 80001, "Module loaded"),
-    "unloaded": (1, 80002, "Module unloaded"),
-    "load_refused": (3, 80003, "Module not loaded"),
-    "plan_refused": (3, 80004, "Program cannot run"),
-    "execution_error": (3, 80005, "Execution error"),
-    "supervision": (3, 80006, "Supervision stop"),
-    "lagging": (2, 80007, "Cannot keep up with the wall clock"),
-    "egm": (1, 80008, "EGM"),
+    "loaded": (1, 89001, "Module loaded"),
+    "unloaded": (1, 89002, "Module unloaded"),
+    "load_refused": (3, 89003, "Module not loaded"),
+    "plan_refused": (3, 89004, "Program cannot run"),
+    "execution_error": (3, 89005, "Execution error"),
+    "supervision": (3, 89006, "Supervision stop"),
+    "lagging": (2, 89007, "Cannot keep up with the wall clock"),
+    "egm": (1, 89008, "EGM"),
 }
 #: Entries kept (the oldest are dropped, as a controller's log wraps).
 KEEP = 1000
