@@ -130,6 +130,7 @@ class TwinController:
         self._q_ref = q
         self.snapshot = self._snapshot(q, q)
         controller.pace(self._clock)
+        self.elog.add("motors_on", "the controller started with its motors on")
         self._worker = threading.Thread(target=self._work, name="twin-motion", daemon=True)
         self._worker.start()
 
