@@ -26,6 +26,7 @@ from abb_robot_client.rws import (
     SubscriptionResourceRequest,
     SubscriptionResourceType,
 )
+from rrd_reader import read_rrd
 
 from scenarios.jobs.execute import execute_run
 from scenarios.jobs.serve import Serving, serve_job
@@ -139,7 +140,7 @@ def test_io_and_subscriptions(served: Serving) -> None:
             time.sleep(0.05)
     finally:
         subscription.close()
-    # the cell's own signals: the lock sensor and the tool in hand (the program's tool)
+    # the cell's own signals: the lock sensor
     assert client.get_digital_io("diToolLocked") == 0  # the arm starts with no tool
     for signal in ("diToolLocked", "nosuch"):  # an input; no such signal
         with pytest.raises(ABBException):
@@ -176,6 +177,13 @@ def test_refusals_leave_the_server_serving(served: Serving) -> None:
     assert "no such symbol" in str(unknown.value)
     with pytest.raises(ABBException):
         client._do_get("rw/nosuch/resource")
+    # a request that is not HTTP, and one whose length lies
+    lying = b"PUT /fileservice/$HOME/x HTTP/1.1\r\nContent-Length: -5\r\n\r\n"
+    for raw in (b"GARBAGE\r\n\r\n", lying):
+        host, port = served.url.removeprefix("http://").split(":")
+        with socket.create_connection((host, int(port)), timeout=5) as raw_socket:
+            raw_socket.sendall(raw)
+            assert b"400" in raw_socket.recv(400)  # Bad Request
     # start without a program pointer, and with the motors off
     with pytest.raises(ABBException, match="program pointer"):
         client.start()
@@ -236,7 +244,26 @@ def test_program_over_rws_as_twincell_execute(
 
 
 @pytest.mark.slow
-def test_stop_and_start_again_finish_the_program(served: Serving) -> None:
+def test_stop_and_start_again_finish_the_program(short_skull_run: Path, tmp_path: Path) -> None:
+    served = serve_job(
+        str(short_skull_run), ServeOptions(port=0), speed=50.0, out=tmp_path, rrd=True
+    )
+    try:
+        _stop_and_start(served)
+    finally:
+        served.close()
+    # the recording witnessed it: the arm moving over the program's time, the event log
+    entities = read_rrd(served.folder / "serve.rrd", ("/world/cell/arm", "/log"))
+    wrist = entities["/world/cell/arm/link6"].timed("Transform3D:translation")
+    assert len(wrist) > 100
+    assert wrist[-1][0] - wrist[0][0] > 10.0  # seconds of the controller's clock
+    moved = np.ptp(np.array([np.asarray(v[0]) for _, v in wrist]), axis=0)
+    assert np.max(moved) > 0.1  # [m]
+    texts = [c["TextLog:text"][0] for _, _, c in entities["/log"].rows]
+    assert any("10007" in t for t in texts) and any("10005" in t for t in texts)
+
+
+def _stop_and_start(served: Serving) -> None:
     client = RWS(served.url)
     _load(client, "program.mod", client.read_file("$HOME/program.mod"))
     client.resetpp()
