@@ -127,7 +127,9 @@ def serve_job(
         from scenarios.realcell.recording import Recording
 
         title = f"twincell serve {config.name} (seed {config.seed})"
-        recording = Recording(folder / "serve.rrd", spawn=spawn, name=title, to_file=rrd)
+        recording = Recording(
+            folder / "serve.rrd", spawn=spawn, name=title, to_file=rrd, served=True
+        )
         cell = job_cell(config, virtual, real, robot, recording)
     else:
         cell = rebuild_job_cell(config, virtual, real, robot)

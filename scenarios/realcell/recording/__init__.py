@@ -38,7 +38,7 @@ from scenarios.offline.scan import ScanData
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.residuals import colour_scale, residual_colours
 from scenarios.realcell.evaluation import TargetEvaluation
-from scenarios.realcell.recording.layout import blueprint
+from scenarios.realcell.recording.layout import blueprint, serve_blueprint
 from scenarios.realcell.recording.match import colour_bar, log_icp, log_registered
 from scenarios.realcell.recording.scan import LaserRays, log_scan
 from scenarios.realcell.recording.scene import CellScene, mesh_archetype
@@ -61,9 +61,16 @@ class Recording:
     viewer if `spawn`, listed in the viewer as `name`."""
 
     def __init__(
-        self, path: Path, spawn: bool = False, name: str = "twincell run", to_file: bool = True
+        self,
+        path: Path,
+        spawn: bool = False,
+        name: str = "twincell run",
+        to_file: bool = True,
+        served: bool = False,
     ) -> None:
-        self.stream = Stream(Path(path), name, blueprint(), spawn, to_file)
+        self._served = served  # a served cell's layout (layout.serve_blueprint)
+        self.stream = Stream(Path(path), name, serve_blueprint() if served else blueprint(),
+                             spawn, to_file)  # fmt: skip
         self.stream.static("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         self._scene: CellScene | None = None
         self._rays = LaserRays()
@@ -162,6 +169,9 @@ class Recording:
         centre = T[:3, :3] @ self._centre_model + T[:3, 3]
         eye_object = (centre + self._size * np.array([0.7, -0.9, 0.8]), centre)
         eye_cell = (centre + np.array([1.0, -1.9, 1.2]), 0.5 * centre)
+        if self._served:
+            self.stream.send_blueprint(serve_blueprint(eye_cell))
+            return
         self.stream.send_blueprint(blueprint(self._object, eye_object, eye_cell))
 
     def log_calibration(self, time_s: float, calibration: CalibrationResult) -> None:

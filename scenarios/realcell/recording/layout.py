@@ -4,6 +4,7 @@ Left, the object close up (the scan, the virtual model moving to its registered 
 targets; the real object and the arm left out, they would hide the fit) above the whole
 cell (the real cell, the laser's rays). Right, the plots (target errors and predicted TRE
 per target, the ICP's RMS on the `icp` timeline), the colour scale and the run's log.
+A served cell (`twincell serve`) has a layout of its own: the cell, and its event log.
 """
 
 from __future__ import annotations
@@ -62,6 +63,24 @@ def blueprint(
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(close_up, cell, row_shares=[3, 2]), plots, column_shares=[3, 2]
+        ),
+        rrb.TimePanel(timeline=SIM_TIME, state="expanded"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.BlueprintPanel(state="collapsed"),
+    )
+
+
+def serve_blueprint(eye_cell: tuple[np.ndarray, np.ndarray] | None = None) -> rrb.Blueprint:
+    """The layout of a served cell: the whole cell (what a client makes it do) beside the
+    controller's event log."""
+    eye = None
+    if eye_cell is not None:
+        eye = rrb.EyeControls3D(position=eye_cell[0], look_target=eye_cell[1], eye_up=(0, 0, 1))
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin="/world", name="cell", eye_controls=eye),
+            rrb.TextLogView(origin="/log", name="event log"),
+            column_shares=[3, 1],
         ),
         rrb.TimePanel(timeline=SIM_TIME, state="expanded"),
         rrb.SelectionPanel(state="collapsed"),
