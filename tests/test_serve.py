@@ -195,6 +195,30 @@ def test_refusals_leave_the_server_serving(served: Serving) -> None:
     _answers(client)
 
 
+def test_manual_mode_reads_but_does_not_write(tmp_path: Path, short_skull_run: Path) -> None:
+    served = serve_job(str(short_skull_run), ServeOptions(port=0), out=tmp_path, opmode="MANR")
+    try:
+        client = RWS(served.url)
+        assert client.get_operation_mode() == "MANR"
+        client.upload_file("$HOME/UserData.mod", DATA.encode())  # the file service serves on
+        for write in (
+            lambda: client._do_post(
+                "rw/rapid/tasks/T_ROB1?action=loadmod", {"modulepath": "$HOME/UserData.mod"}
+            ),
+            client.resetpp,
+            client.start,
+            lambda: client.set_digital_io("doUser1", 1),
+            lambda: client.set_controller_state("motoroff"),
+        ):
+            with pytest.raises(ABBException, match="manual mode"):
+                write()
+        assert client.get_digital_io("doUser1") == 0
+        assert client.get_controller_state() == "motoron"
+        assert client.get_jointtarget().robax.shape == (6,)
+    finally:
+        served.close()
+
+
 def test_file_service_roots(tmp_path: Path) -> None:
     files = FileService(tmp_path)
     files.write("$HOME/sub/a.mod", b"text")

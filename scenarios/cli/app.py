@@ -554,6 +554,14 @@ def serve(
         float,
         typer.Option("--speed", min=0.01, help="The cell's time runs N times the wall clock's."),
     ] = 1.0,
+    opmode: Annotated[
+        str,
+        typer.Option(
+            "--opmode",
+            help="The operation mode: AUTO, or MANR (manual: clients read, but neither start "
+            "programs nor write).",
+        ),
+    ] = "AUTO",
     user: Annotated[
         list[str] | None,
         typer.Option(
@@ -590,7 +598,7 @@ def serve(
     rws_host, rws_port = parse_address(rws)
     options = ServeOptions(host or rws_host, rws_port, egm_port, egm_host, parse_users(user or []))
     serving = serve_job(name, options, seed=seed, speed=speed, out=out, spawn=spawn, rrd=rrd,
-                        progress=progress)  # fmt: skip
+                        progress=progress, opmode=opmode.upper())  # fmt: skip
     typer.echo(f"serving {serving.url} (Ctrl-C to stop); serve folder: {serving.folder}")
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda _s, _f: done.set())

@@ -111,9 +111,11 @@ def serve_job(
     spawn: bool = False,
     rrd: bool = False,
     progress: Progress | None = None,
+    opmode: str = "AUTO",
 ) -> Serving:
     """Serve the real cell of job `name` (a shipped job, a CONFIG.yaml or a run folder) with
-    `seed` (default the job's), its time `speed` times the wall clock's."""
+    `seed` (default the job's), its time `speed` times the wall clock's, the controller in
+    operation mode `opmode` (AUTO, or MANR: clients read only)."""
     say = progress or (lambda _m: None)
     config, run = _job(name, seed)
     robot = job_robot(config.cell.robot)
@@ -143,7 +145,7 @@ def serve_job(
         if serving is not None:
             _measured(serving, record, targets, say)
 
-    twin = TwinController(cell.controller, folder, speed, touched, ended, say)
+    twin = TwinController(cell.controller, folder, speed, touched, ended, say, opmode)
     twin.elog.listeners.append(lambda e: _log(cell, e))
     if run is not None:
         _program_files(run, twin, say)

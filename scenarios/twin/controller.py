@@ -52,6 +52,10 @@ PERIOD_S = 0.004
 LAG_S = 0.25
 #: A streamed reference older than this is not followed (the arm holds) [s].
 STALE_S = 0.1
+#: The operation modes the twin runs in: automatic, and manual reduced speed (where a
+#: remote client reads but neither starts programs nor writes: on an IRC5 that needs the
+#: FlexPendant, or remote mastership its user grants there).
+OPMODES = ("AUTO", "MANR")
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,9 +100,12 @@ class TwinController:
         on_touch: Callable[[str, str | None], None] | None = None,
         on_end: Callable[[ExecutionRecord], None] | None = None,
         say: Callable[[str], None] | None = None,
+        opmode: str = "AUTO",
     ) -> None:
         if not speed > 0:
             raise bad_request(f"speed {speed!r}: give a factor > 0")
+        if opmode not in OPMODES:
+            raise bad_request(f"operation mode {opmode!r}: give {' or '.join(OPMODES)}")
         self.cell = controller
         self.speed = speed
         self.files = FileService(folder / "files")
@@ -106,7 +113,7 @@ class TwinController:
         self.task_folder.mkdir(parents=True, exist_ok=True)
         self.elog = EventLog()
         self.ctrlstate = "motoron"
-        self.opmode = "AUTO"
+        self.opmode = opmode
         self.execstate = "stopped"
         self.cycle = "once"
         self.speedratio = 100
@@ -233,6 +240,7 @@ class TwinController:
 
     def set_ctrlstate(self, state: str) -> None:
         """Motors on or off (`motoron`, `motoroff`); motors off halts a running program."""
+        self._require_auto("switch the motors")
         if state not in ("motoron", "motoroff"):
             raise bad_request(f"ctrl-state {state!r}: give motoron or motoroff")
         with self._lock:
@@ -268,6 +276,7 @@ class TwinController:
     def load_module(self, path: str, replace: bool = False) -> str:
         """Load the module file `path` (a file-service path) into T_ROB1; refused, with an
         event-log entry and nothing moved, if it does not read."""
+        self._require_auto("load a module")
         data = self.files.read(path)
         self._require_stopped("load a module")
         try:
@@ -291,6 +300,7 @@ class TwinController:
         return module.name
 
     def unload_module(self, name: str) -> None:
+        self._require_auto("unload a module")
         self._require_stopped("unload a module")
         with self._lock:
             path = self._modules.pop(name.casefold(), None)
@@ -314,6 +324,7 @@ class TwinController:
     def set_symbol(self, path: str, value: str) -> None:
         """Write a RAPID datum (the loaded module's text changes; the program reads it at the
         next program pointer reset)."""
+        self._require_auto("write RAPID data")
         with self._lock:
             symbol = self.symbol(path)
             text = set_value(symbol, value)
@@ -321,6 +332,13 @@ class TwinController:
         self._changed(f"rapid:{symbol.url}", symbol.value)
 
     # -- execution ------------------------------------------------------------------------------
+    def _require_auto(self, what: str) -> None:
+        if self.opmode != "AUTO":
+            raise not_allowed(
+                f"cannot {what} in manual mode ({self.opmode}): a remote client does so in "
+                "automatic mode (an IRC5 in manual mode takes it from the FlexPendant)"
+            )
+
     def _require_stopped(self, what: str) -> None:
         if self.execstate == "running":
             raise not_allowed(f"cannot {what} while the program runs (stop it first)")
@@ -328,6 +346,7 @@ class TwinController:
     def resetpp(self) -> None:
         """Plan the loaded task from main on the nominal arm (the data as they are now); a
         program that cannot run is refused here, with an event-log entry."""
+        self._require_auto("reset the program pointer")
         self._require_stopped("reset the program pointer")
         task = self._task()
         cell = self.cell
@@ -345,6 +364,7 @@ class TwinController:
 
     def start(self) -> None:
         """Run the program from its pointer on the worker."""
+        self._require_auto("start a program")
         with self._lock:
             if self.ctrlstate != "motoron":
                 raise not_allowed("the motors are off: a program starts with the motors on")
@@ -420,6 +440,7 @@ class TwinController:
         return self.signals[name]
 
     def set_signal(self, spec: SignalSpec, text: str) -> None:
+        self._require_auto("set a signal")
         value = parse_value(spec, text)
         if spec.name == "aoGripperOpening":
             if self.cell.tool_in_hand != "gripper":
