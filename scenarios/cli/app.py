@@ -609,7 +609,8 @@ def serve(
         pass
     finally:
         serving.close()
-    typer.echo(f"stopped; {len(serving.executions)} programs measured in {serving.folder}")
+    n = len(serving.executions)
+    typer.echo(f"stopped; {n} program{'' if n == 1 else 's'} measured in {serving.folder}")
 
 
 @app.command("rapid")
