@@ -690,30 +690,6 @@ def campaign(
     )
 
 
-def _user_errors() -> tuple[type[BaseException], ...]:
-    """The root exceptions of the project's packages: bad input a user can fix. Only those of
-    the packages this call has imported: the others cannot have raised (importing the cell
-    to check would cost a register call a second)."""
-    errors: list[type[BaseException]] = []
-    if "registration.errors" in sys.modules:
-        from registration.errors import RegistrationError
-
-        errors.append(RegistrationError)
-    if "cell.errors" in sys.modules:
-        from cell.errors import CellError, SupervisionError
-
-        errors += [CellError, SupervisionError]
-    if "models.errors" in sys.modules:
-        from models.errors import ModelError
-
-        errors.append(ModelError)
-    if "scenarios.errors" in sys.modules:
-        from scenarios.errors import ScenarioError
-
-        errors.append(ScenarioError)
-    return tuple(errors)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script: user errors become one line and exit status 2.
 
@@ -745,7 +721,9 @@ def main(argv: list[str] | None = None) -> int:
         typer.echo(f"twincell: internal error (an unexpected warning): {exc}", err=True)
         return 1
     except Exception as exc:
-        if isinstance(exc, _user_errors()):
+        from scenarios.errors import user_errors
+
+        if isinstance(exc, user_errors()):
             typer.echo(f"twincell: error: {exc}", err=True)
             return 2
         raise

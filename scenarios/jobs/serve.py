@@ -87,18 +87,39 @@ def serve_folder(out: str | Path, config: JobConfig) -> Path:
     return folder
 
 
-def _job(name: str, seed: int | None) -> tuple[JobConfig, Path | None]:
-    """The job's configuration and, for a run folder, the folder."""
+def _job(
+    name: str | Path,
+    seed: int | None,
+    overrides: dict[str, object] | None = None,
+    cell: str | Path | None = None,
+) -> tuple[JobConfig, Path | None]:
+    """The job's configuration (a shipped job, a CONFIG.yaml or a run folder's, with the
+    `cell`, the seed and `overrides` applied) and, for a run folder, the folder."""
     given = Path(name)
     run = given if given.is_dir() else None
     source = given / "config.yaml" if run is not None else name
     if run is not None and not (run / "config.yaml").is_file():
         raise ScenarioError(f"{run}: not a run folder of `twincell run` (no config.yaml)")
-    overrides: dict[str, object] = {} if seed is None else {"seed": seed}
-    config = load_config(source, overrides)
+    extra: dict[str, object] = dict(overrides or {}) | ({} if seed is None else {"seed": seed})
+    config = load_config(source, extra, cell)
     if not isinstance(config, JobConfig):
-        raise ScenarioError(f"{name}: a {config.kind} job has no cell to serve")
+        raise ScenarioError(f"{name}: a {config.kind} job has no real cell")
     return config, run
+
+
+def cell_of_job(
+    name: str | Path,
+    seed: int | None = None,
+    overrides: dict[str, object] | None = None,
+    cell: str | Path | None = None,
+) -> JobCell:
+    """The real cell of a job (or of a run folder), as `twincell run` builds it for the seed:
+    the same arm, errors and true placement; its controller moves the nominal arm."""
+    config, run = _job(name, seed, overrides, cell)
+    robot = job_robot(config.cell.robot)
+    user = job_program(config, run) if run is not None else None
+    virtual, real = object_models(config, user)
+    return rebuild_job_cell(config, virtual, real, robot)
 
 
 def serve_job(
