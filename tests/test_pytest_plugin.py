@@ -1,0 +1,132 @@
+"""twincell as a pytest plugin, tested with pytest's own pytester: a generated user project
+whose tests use the plugin's fixtures and assertions, run by pytest as the user would."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import abb_robot_client.rws  # noqa: F401
+import pytest
+
+# pytester runs pytest in this process and forgets the modules each run imported; what the
+# runs use (pinocchio's and MuJoCo's bindings, the RWS client's classes) is imported before
+# any of them, so that it stays
+import scenarios.jobs.runner
+import scenarios.jobs.serve  # noqa: F401
+
+pytest_plugins = ["pytester"]
+
+#: A quicker scan than the shipped job's: 0.25 m/s, a line every 20 ms.
+FAST = '{"localization.scan.speed_m_s": 0.25, "localization.scan.period_s": 0.02}'
+
+USER_TESTS = f'''
+import pytest
+from abb_robot_client.rws import RWS
+from scenarios.testing import assert_goals, assert_targets_within
+
+FAST = {FAST}
+
+
+def test_a_tolerance_no_arm_meets(run_job):
+    assert_targets_within(run_job("skull", seed=0, overrides=FAST), 0.05e-3)
+
+
+@pytest.mark.twincell_seeds(2, start=5)
+def test_over_seeds(run_job, twincell_seed):
+    run = run_job("skull", seed=twincell_seed, overrides=FAST)
+    assert run.seed == twincell_seed
+    assert_goals(run)
+
+
+def test_a_bad_configuration(run_job):
+    run_job("skull", overrides={{"localization.scan.speed_m_s": -1}})
+
+
+def test_the_served_twin(served_twin):
+    twin = served_twin("skull", speed=10.0)
+    assert RWS(twin.url).get_controller_state() == "motoron"
+'''
+
+
+def test_seeds_parametrise_the_tests(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(
+        test_seeds="""
+import pytest
+
+@pytest.mark.twincell_seeds(3, start=10)
+def test_marked(twincell_seed):
+    assert 10 <= twincell_seed < 13
+
+def test_plain(twincell_seed):
+    assert twincell_seed == 0
+
+def test_without(tmp_path):
+    pass
+"""
+    )
+    result = pytester.runpytest("-p", "no:xdist", "--collect-only", "-q")
+    ids = [line for line in result.outlines if "::" in line]
+    assert ids == [
+        "test_seeds.py::test_marked[seed10]",
+        "test_seeds.py::test_marked[seed11]",
+        "test_seeds.py::test_marked[seed12]",
+        "test_seeds.py::test_plain[seed0]",
+        "test_seeds.py::test_without",
+    ]
+    result = pytester.runpytest("-p", "no:xdist", "--collect-only", "-q", "--twincell-seeds", "2")
+    assert sum("test_marked[" in line for line in result.outlines) == 2
+    assert sum("test_plain[" in line for line in result.outlines) == 2
+    result = pytester.runpytest("-p", "no:xdist", "-q", "--twincell-seeds", "2")
+    result.assert_outcomes(passed=4, failed=1)  # test_plain's seed 1 fails
+
+
+def test_passed_tests_leave_no_folders_unless_kept(
+    pytester: pytest.Pytester, tmp_path: Path
+) -> None:
+    pytester.makepyfile(
+        test_twin="""
+from abb_robot_client.rws import RWS
+
+def test_the_served_twin(served_twin):
+    twin = served_twin("skull")
+    assert RWS(twin.url).get_operation_mode() == "AUTO"
+"""
+    )
+    for keep, left in ((False, 0), (True, 1)):
+        out = tmp_path / f"keep{keep}"
+        args = ["-p", "no:xdist", "-p", "no:cacheprovider", "--twincell-out", str(out)]
+        result = pytester.runpytest(*args, *(["--twincell-keep"] if keep else []))
+        result.assert_outcomes(passed=1)
+        assert len(list(out.glob("*/serve-skull-*"))) == left
+
+
+@pytest.mark.slow
+def test_a_user_project(pytester: pytest.Pytester, tmp_path: Path) -> None:
+    pytester.makepyfile(test_my_cell=USER_TESTS)
+    out = tmp_path / "runs"
+    result = pytester.runpytest(
+        "-p", "no:xdist", "-p", "no:cacheprovider", "--twincell-no-rrd", "--twincell-keep",
+        "--twincell-out", str(out),
+    )  # fmt: skip
+    result.assert_outcomes(passed=3, failed=2)
+    text = "\n".join(result.outlines)
+    # the failing run: its targets by name, their errors, the limit, the seed, the folder
+    failure = text[text.index("_ test_a_tolerance_no_arm_meets _") :]
+    assert "job skull, seed 0" in failure
+    assert re.search(r"kocher_right: \d+\.\d{3} mm > 0\.050 mm", failure)
+    folder = re.search(r"run folder (\S+)", failure)
+    assert folder is not None and (Path(folder.group(1)) / "results.json").is_file()
+    # the session's summary lists it, with the rerun command where it has a recording
+    summary = text[text.index("twincell: run folders of the failed tests") :]
+    assert folder.group(1) in summary
+    # a configuration the project refuses: its one line, no traceback from the pipeline
+    bad = text[text.index("_ test_a_bad_configuration _") :]
+    assert "twincell: error:" in bad and "speed_m_s" in bad and "Traceback" not in bad
+    # the seed-parametrised test ran once per seed, each in its own run folder
+    runs = {p.resolve().parent for p in out.glob("*/*/results.json")}  # not `latest`
+    assert {p.parent.name for p in runs} == {
+        "test_my_cell.py_test_over_seeds_seed5_",
+        "test_my_cell.py_test_over_seeds_seed6_",
+        "test_my_cell.py_test_a_tolerance_no_arm_meets",
+    }
