@@ -352,6 +352,10 @@ def arm_mjcf(
         servo_actuators(lower, upper, effort, servo.kp, servo.kv),
         q_home,
         "0.35 0.55 0.75 1",
+        # The first link turns on the base bolted to the floor: its capsule's end (a radius
+        # below the joint-1 origin) stands for the base casting, not for a link that could
+        # meet the floor; an arm mounted at floor level would otherwise touch it everywhere.
+        on_floor=("link1",),
     )
 
 

@@ -22,6 +22,9 @@ from cell.robots import (
     ur5_urdf,
 )
 from cell.sim import CellConfig, make_cell
+from cell.virtual import VirtualCell
+from models.robot import RACK_POS
+from scenarios.outputs.exports import write_robot_urdf
 
 #: MuJoCo and Pinocchio agree to rounding on the same kinematic chain [m].
 FK_TOL_M = 1e-9
@@ -95,6 +98,27 @@ def test_a_ur5_cell_runs_its_arm_where_it_is_commanded() -> None:
     real = truth.kinematics().fk(truth.q())[:3, 3]
     gap = np.linalg.norm(real - controller.kinematics.fk(truth.q())[:3, 3])
     assert 1e-5 < gap < 3e-3  # the real arm is not the nominal one
+
+
+def test_an_arm_bolted_at_floor_level_turns_clear_of_the_floor(tmp_path: Path) -> None:
+    """An IRB 2400-class arm from its URDF (joint 1's origin at the foot of its base),
+    mounted at floor level: its first link's capsule reaches a radius (5 cm) below that
+    origin, into the floor; the link that turns on the base bolted there does not meet the
+    floor, in the virtual cell (the planner's checks, 10 mm margin) or in the real one
+    (turning joint 1 raises no supervision stop)."""
+    arm = irb2400()
+    urdf = write_robot_urdf(tmp_path, arm, arm.kinematics(), None)[0]  # what a run writes
+    home = np.deg2rad([0.0, 0.0, 0.0, 0.0, 90.0, 0.0])
+    robot = robot_from_file(urdf, "flange", q_home=home, vendor="abb")
+    cell = VirtualCell.of(robot, RACK_POS)
+    for turn in (0.0, 1.0, -2.0):
+        cell.set_joints(robot.q_home + np.array([turn, 0, 0, 0, 0, 0]))
+        assert [c for c in cell.contacts(0.01) if "link1" in (c.body, c.other)] == []
+    controller, truth = make_cell(CellConfig(seed=1, robot=robot))
+    q = controller.q_home + np.array([0.5, 0, 0, 0, 0, 0])
+    controller.move_joints(q)
+    np.testing.assert_allclose(truth.q(), q, atol=2e-3)
+    assert controller.events == []
 
 
 # -- files the cell refuses -------------------------------------------------------------------

@@ -144,11 +144,13 @@ def arm_document(
     actuators: str,
     q_home: Sequence[float] | np.ndarray,
     rgba: str,
+    on_floor: Sequence[str] = (),
 ) -> str:
     """The robot-only MJCF of a serial arm named `name`, as the cell expects it: a `base` body
     (its elements `base`) carrying `links` as a chain (joints `joint1`..`joint6`), the
     `flange_site` element in the last, the arm's own bodies excluded from touching each
-    other, its servos (`actuators`, servo_actuators) and a `home` keyframe at `q_home` (6,)
+    other, and those named in `on_floor` from touching the world's geometry (the floor),
+    its servos (`actuators`, servo_actuators) and a `home` keyframe at `q_home` (6,)
     [rad]. Visual geoms in group 2 coloured `rgba`, collision geoms in group 3. The one
     writer of arm models: the built-in arm (arm_xml) and any arm from its file
     (cell.robots) are both written here."""
@@ -166,11 +168,9 @@ def arm_document(
         return "\n".join(lines)
 
     names = ("base", *(link.name for link in links))
-    excludes = "\n".join(
-        f'    <exclude body1="{a}" body2="{b}"/>'
-        for i, a in enumerate(names)
-        for b in names[i + 1 :]
-    )
+    pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+    pairs += [("world", b) for b in on_floor]
+    excludes = "\n".join(f'    <exclude body1="{a}" body2="{b}"/>' for a, b in pairs)
     base_lines = "\n".join(f"      {line}" for line in base)
     return f"""<mujoco model="{name}">
   <compiler angle="radian" autolimits="true"/>
