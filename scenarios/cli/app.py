@@ -585,9 +585,6 @@ def serve(
     authentication) and EGM (UDP), until Ctrl-C. Programs a client loads and starts run as
     `twincell execute` runs them; each one run to its end is measured against the truth in
     the serve folder (executions/)."""
-    import signal
-    import threading
-
     from scenarios.jobs.serve import serve_job
     from scenarios.twin.server import ServeOptions, parse_address, parse_users
 
@@ -600,13 +597,21 @@ def serve(
     serving = serve_job(name, options, seed=seed, speed=speed, out=out, spawn=spawn, rrd=rrd,
                         progress=progress, opmode=opmode.upper())  # fmt: skip
     typer.echo(f"serving {serving.url} (Ctrl-C to stop); serve folder: {serving.folder}")
+    _serve_until_stopped(serving)
+
+
+def _serve_until_stopped(serving: Any) -> None:
+    """Serve until SIGINT (Ctrl-C) or SIGTERM, then close the servers and say what ran."""
+    import contextlib
+    import signal
+    import threading
+
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda _s, _f: done.set())
     try:
-        while not done.wait(0.5):
-            pass
-    except KeyboardInterrupt:
-        pass
+        with contextlib.suppress(KeyboardInterrupt):
+            while not done.wait(0.5):
+                continue
     finally:
         serving.close()
     n = len(serving.executions)

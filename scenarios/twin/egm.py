@@ -44,6 +44,7 @@ class EgmServer:
         self.sock.settimeout(0.2)
         self.port = int(self.sock.getsockname()[1])
         self.sent = 0
+        self.lost = 0
         self.received = 0
         self.refused = 0
         self._seq = 0
@@ -144,8 +145,8 @@ class EgmServer:
         try:
             self.sock.sendto(message.SerializeToString(), self.client)
             self.sent += 1
-        except OSError:
-            pass
+        except OSError:  # the client's port is not open (yet): a datagram lost, as UDP's are
+            self.lost += 1
 
 
 def _pose(cartesian: Any, T: np.ndarray) -> None:

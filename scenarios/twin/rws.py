@@ -434,14 +434,13 @@ class Subscriptions:
             sock.close()
             return
         try:
-            while not ws_closed(sock):
-                try:
-                    event = events.get(timeout=0.2)
-                except queue.Empty:
-                    continue
-                ws_send(sock, _page(event))
-        except OSError:
-            pass
+            with contextlib.suppress(OSError):  # the client went away mid-send
+                while not ws_closed(sock):
+                    try:
+                        event = events.get(timeout=0.2)
+                    except queue.Empty:
+                        continue
+                    ws_send(sock, _page(event))
         finally:
             with self._lock:
                 self._resources.pop(number, None)
