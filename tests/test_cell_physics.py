@@ -10,6 +10,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from cell import FixedMesh, FixedPrimitive, LoosePart
+from cell.controller import RACK_APPROACH_M
 from cell.sim import CellConfig, make_cell
 from registration.rigid import invert, make_T, pose_error
 
@@ -41,6 +42,11 @@ def test_every_tool_is_picked_carried_and_returned_in_the_real_cell() -> None:
         assert dp < 3e-3  # back in its slot, held by the rack weld
         assert sim.data.eq_active[sim.rack_eq[tool]] == 1
         assert sim.data.eq_active[sim.flange_eq[tool]] == 0
+        # The empty flange leaves the seat straight up, RACK_APPROACH_M above it (the truth's
+        # flange against the slot's pose), not down into the tool it left.
+        T_base_flange = sim.site_T(sim.flange_site)
+        lift = T_base_flange[2, 3] - controller.T_base_slot(tool)[2, 3]
+        assert abs(lift - RACK_APPROACH_M) < 3e-3, (tool, lift)
     assert sim.warnings() == 0
 
 

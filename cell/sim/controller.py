@@ -349,7 +349,8 @@ class SimController(Controller):
         self._approach(T_slot)
         self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
         self.unlock()
-        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
+        # The flange is the TCP now: it leaves the seat straight up, clear of the tool.
+        self.move_linear(self._above(T_slot), speed_m_s=0.1)
 
     def change_tool(self, tool: str) -> None:
         tool_index(tool)
