@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from scenarios.results.events import FaultOutcome, Injection
+from scenarios.results.exported import ExportedRun
 from scenarios.results.run import GoalCheck, RunResult
 from scenarios.testing import JobRun, assert_detected, assert_goals, assert_targets_within
 
@@ -57,6 +58,22 @@ def test_a_missed_goal_and_an_unfinished_run_fail(run: JobRun) -> None:
     for check in (assert_goals, lambda r: assert_targets_within(r, 1.0)):
         with pytest.raises(AssertionError, match=re.escape("ended refused in check\n  too far")):
             check(refused)
+
+
+def test_an_exported_program_stopped_on_the_cell_fails_the_goals(run: JobRun) -> None:
+    """The job met its goals, but the program it exported was stopped by the supervision
+    when the job ran it on the real cell: the goals are not met."""
+    assert run.result.exported_program is not None
+    assert run.result.exported_program.status == "complete"
+    stopped = ExportedRun(
+        "aborted", "motion supervision stopped the arm (collision: 75 N on link4)"
+    )
+    aborted = JobRun(replace(run.result, exported_program=stopped), run.folder)
+    with pytest.raises(AssertionError) as failed:
+        assert_goals(aborted)
+    text = str(failed.value)
+    assert f"the exported program {run.result.program_file} ended aborted" in text
+    assert "75 N on link4" in text and f"seed {run.seed}" in text
 
 
 def test_a_fault_detected_or_missed(run: JobRun) -> None:

@@ -620,6 +620,29 @@ def cell_overrides(name_or_path: str | Path) -> JsonObject:
     return overrides
 
 
+FILE_KEYS = (
+    "cell.robot.model",
+    "cell.object.model",
+    "cell.object.targets_file",
+    "operations.program",
+)
+"""The keys of a configuration that may name a file (or a CT series' folder)."""
+
+
+def _files_beside(data: JsonObject, folder: Path) -> JsonObject:
+    """`data` with each relative file of FILE_KEYS that exists beside the configuration file
+    (in `folder`) made absolute: a job's files are found beside its YAML, wherever it runs."""
+    out = data
+    flat = _flatten(data)
+    for key in FILE_KEYS:
+        value = flat.get(key)
+        if isinstance(value, str) and not Path(value).is_absolute():
+            beside = folder / value
+            if beside.exists():
+                out = set_dotted(out, key, str(beside.resolve()))
+    return out
+
+
 def load_config(
     name_or_path: str | Path,
     overrides: JsonObject | None = None,
@@ -630,7 +653,7 @@ def load_config(
     `cell` (see `cell_overrides`) if one is given. A configuration without a `name` is named
     after its file."""
     path = _shipped_or_file(name_or_path, "job", shipped_names(), CONFIG_DIR)
-    data = read_yaml_mapping(path)
+    data = _files_beside(read_yaml_mapping(path), path.parent)
     data.setdefault("name", path.stem)
     config = parse_config(data, str(path))
     if cell is not None:

@@ -23,11 +23,20 @@ def _targets(run: JobRun) -> list[str]:
 
 
 def assert_goals(run: JobRun) -> None:
-    """The run completed and met the job's goals (its target RMS and worst target)."""
+    """The run completed and met the job's goals (its target RMS and worst target), and the
+    program it exported, where the job ran it on the real cell, ran to its end (its accuracy
+    on a controller without absolute accuracy is results.json's `exported_program`)."""
     __tracebackhide__ = True
     r = run.result
     if r.status != "complete":
         raise _fail(run, f"the run ended {r.status} in {r.stage or 'the job'}", [str(r.reason)])
+    exported = r.exported_program
+    if exported is not None and exported.status != "complete":
+        raise _fail(
+            run,
+            f"the exported program {r.program_file} ended {exported.status} on the real cell",
+            [exported.reason],
+        )
     values = {
         "target_error_rms_m": r.target_error_rms_m,
         "target_error_max_m": r.target_error_max_m,
