@@ -110,3 +110,33 @@ def test_a_failing_run_leaves_results_incomplete_with_the_reason(tmp_path: Path)
     assert not (folder / "program.mod").exists()
     # The recording had started: it is removed, not left half written.
     assert not (folder / "run.rrd").exists() and not list(folder.glob(".*"))
+
+
+def test_a_job_s_files_are_found_beside_its_yaml(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A mesh, a program and a targets file named relative to a job's YAML are found beside
+    it, wherever the job runs from; a name that is not beside it (a built-in model) is kept."""
+    job = tmp_path / "cell_project"
+    job.mkdir()
+    for name in ("part.stl", "touches.mod", "plan.json"):
+        (job / name).write_text("")
+    (job / "job.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "cell": {"object": {"model": "part.stl", "targets_file": "plan.json"}},
+                "operations": {"program": "touches.mod"},
+            }
+        )
+    )
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    config = load_config(job / "job.yaml")
+    assert isinstance(config, JobConfig)
+    assert config.cell.object.model == str(job / "part.stl")
+    assert config.cell.object.targets_file == str(job / "plan.json")
+    assert config.operations.program == str(job / "touches.mod")
+    (job / "builtin.yaml").write_text(yaml.safe_dump({"cell": {"object": {"model": "skull"}}}))
+    built_in = load_config(job / "builtin.yaml")
+    assert isinstance(built_in, JobConfig) and built_in.cell.object.model == "skull"

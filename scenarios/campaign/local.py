@@ -8,6 +8,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 
 from scenarios.campaign.trials import Trial, run_trial
 from scenarios.results.edge import JsonObject
+from scenarios.workers import share_cores
 
 OnRow = Callable[[JsonObject], None]
 
@@ -21,7 +22,9 @@ def run_local(trials: Sequence[Trial], workers: int, on_row: OnRow) -> None:
             on_row(run_trial(trial))
         return
     context = multiprocessing.get_context("spawn")  # no fork of a threaded parent
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+    with ProcessPoolExecutor(
+        max_workers=workers, mp_context=context, initializer=share_cores, initargs=(workers,)
+    ) as pool:
         pending: set[Future[JsonObject]] = set()
         queue = list(reversed(trials))
         try:

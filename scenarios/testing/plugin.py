@@ -16,7 +16,8 @@ A configuration the project refuses, a program the reader refuses, a model that 
 load: the fixture fails the test with the project's one-line error. Run folders of failed
 tests are kept and listed at the end of the session with the command to look at them; those
 of passed tests are removed unless `--twincell-keep`. Recordings (run.rrd) are written unless
-`--twincell-no-rrd`. Imports of the project are deferred to the fixtures: loading the plugin
+`--twincell-no-rrd`. In a pytest-xdist worker the numeric libraries' thread pools keep to
+the worker's share of the cores (scenarios.workers). Imports of the project are deferred to the fixtures: loading the plugin
 costs a test session nothing.
 """
 
@@ -55,6 +56,11 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    workerinput = getattr(config, "workerinput", None)
+    if workerinput is not None:  # a pytest-xdist worker: its share of the machine's cores
+        from scenarios.workers import share_cores
+
+        share_cores(int(workerinput.get("workercount", 1)))
     config.addinivalue_line(
         "markers",
         "twincell_seeds(n, start=0): run the test once per seed start..start+n-1 "
