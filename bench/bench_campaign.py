@@ -19,9 +19,9 @@
    after's (timings aside). Both read and fill the user's model cache as they find it (the
    before of 67e7472 has none); --no-cache turns it off for both.
 
---short: 2 register trials per backend, 2 register-stage trials and 1 full-stage trial per
-version, one repeat; a
---before commit missing from this clone (a shallow one) is noted and its rows left out.
+--short: 2 register trials per backend, 2 register-stage trials per version (no full-stage
+trial), one repeat; a --before commit missing from this clone (a shallow one) is noted and
+its rows left out.
 """
 
 from __future__ import annotations
@@ -146,7 +146,9 @@ def _code(where: str, into: Path) -> Path | None:
 
 def versions_table(args: argparse.Namespace) -> None:
     """Register- and full-stage trials per minute, before and after: one table."""
-    stages = (("register", args.trials), ("full", args.full_trials))
+    stages = tuple(
+        (stage, n) for stage, n in (("register", args.trials), ("full", args.full_trials)) if n > 0
+    )
     with tempfile.TemporaryDirectory(prefix="twincell-thru-") as tmp:
         before = _code(args.before, Path(tmp) / "before")
         if before is None:
@@ -208,7 +210,7 @@ def main() -> None:
         child(args.child[0], int(args.child[1]), Path(args.child[2]))
         return
     if args.short:
-        args.trials, args.full_trials, args.repeats = 2, 1, 1
+        args.trials, args.full_trials, args.repeats = 2, 0, 1
     if args.only in (None, "backends"):
         backends_table(args.trials)
     if args.only is None:

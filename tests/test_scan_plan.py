@@ -202,13 +202,13 @@ def test_the_skull_job_scanned_with_the_chosen_passes_meets_its_goals(
 
 @pytest.mark.slow
 def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> None:
-    """Eight seeds of the skull job scanned with the chosen passes (the phantom's pose, the
+    """Six seeds of the skull job scanned with the chosen passes (the phantom's pose, the
     cell's errors and the phantom's deviation from its model drawn from each seed): the
     registration's error at each target, measured against the truth, over the TRE the
     planner predicted for it before any motion has a median within [0.67, 1.5], and every
     run meets the skull goals."""
     spec = plan_campaign(
-        "skull", stage="full", trials=8, seed=70000, vary=["localization.scan.plan=auto"]
+        "skull", stage="full", trials=6, seed=70000, vary=["localization.scan.plan=auto"]
     )
     outcome = run_campaign(spec, tmp_path / "campaign", progress=False, workers=2)
     ratios = []
@@ -217,7 +217,7 @@ def test_the_plan_s_predicted_tre_is_calibrated_over_seeds(tmp_path: Path) -> No
         assert row["scan_plan"] == "auto"
         assert row["job_rms_m"] <= 0.5e-3 and row["job_max_m"] <= 1.0e-3
         ratios += [row[f"err_t{k}_m"] / row[f"plan_tre_t{k}_m"] for k in range(row["n_targets"])]
-    assert len(ratios) == 32
+    assert len(ratios) == 24
     assert 0.67 <= float(np.median(ratios)) <= 1.5, sorted(ratios)
 
 

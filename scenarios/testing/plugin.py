@@ -17,8 +17,8 @@ load: the fixture fails the test with the project's one-line error. Run folders 
 tests are kept and listed at the end of the session with the command to look at them; those
 of passed tests are removed unless `--twincell-keep`. Recordings (run.rrd) are written unless
 `--twincell-no-rrd`. In a pytest-xdist worker the numeric libraries' thread pools keep to
-the worker's share of the cores (scenarios.workers). Imports of the project are deferred to the fixtures: loading the plugin
-costs a test session nothing.
+the worker's share of the cores (scenarios.workers). The pipeline is imported by the
+fixtures that run it, not by loading the plugin.
 """
 
 from __future__ import annotations
