@@ -135,7 +135,7 @@ def _targets_figure(folder: Path, result: RunResult) -> Path:
 
     primary = result.primary
     names = [t.name for t in primary.targets]
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(7, 4.6))
     x = np.arange(len(names))
     exported = result.exported_program
     by_name = {} if exported is None else {t.name: t.error_m for t in exported.targets}
@@ -159,9 +159,10 @@ def _targets_figure(folder: Path, result: RunResult) -> Path:
             ax.axhline(limit, color=colour, ls=style, lw=1, label=f"goal {label} {limit:g} mm")
     ax.set_xticks(x, names, rotation=20)
     ax.set_ylabel("[mm]")
-    ax.legend()
     ax.set_title(f"target errors ({primary.method} pose)")
-    fig.tight_layout()
+    # Below the axes: inside, the legend hides the bars of the middle targets.
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8)
+    fig.tight_layout(rect=(0.0, 0.14, 1.0, 1.0))
     path = _save(fig, folder / "targets.png")
     plt.close(fig)
     return path
