@@ -18,14 +18,15 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from scipy.spatial.transform import Rotation
 
 from cell import nominal_T_base_table
 from cell.robots import make_robot
 from models.registry import builtin_model, load_model
+from models.targets import frame_from_z
 from registration.shapes.mesh import MeshModel
 from scenarios.jobs.config import load_config
 from scenarios.offline.placement import nominal_pose
+from scenarios.rapid.module import pose_text
 from scenarios.rapid.writer import configuration
 
 HERE = Path(__file__).resolve().parent / "my_cell"
@@ -33,24 +34,6 @@ BALL_RADIUS_M = 0.003  # the pointer's tip ball; its centre is the TCP
 GAP_M = 0.001  # the ball stops this far before the entry
 APPROACH_M = 0.06
 EAX = "[0,9E+09,9E+09,9E+09,9E+09,9E+09]"
-
-
-def _pose(T: np.ndarray) -> str:
-    """A RAPID pose [[x,y,z],[q1,q2,q3,q4]] in mm, scalar-first quaternion."""
-    q = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
-    q = q if q[0] >= 0 else -q
-    p = T[:3, 3] * 1e3
-    return f"[[{p[0]:.3f},{p[1]:.3f},{p[2]:.3f}],[{q[0]:.9f},{q[1]:.9f},{q[2]:.9f},{q[3]:.9f}]]"
-
-
-def _frame(p: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """A frame at p whose z is the direction z, its x across the world's y."""
-    z = z / np.linalg.norm(z)
-    x = np.cross([0.0, 1.0, 0.0], z)
-    x /= np.linalg.norm(x)
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, p
-    return T
 
 
 def write_mesh() -> None:
@@ -89,7 +72,7 @@ def write_program() -> None:
         "  ! The phantom's burr-hole entries touched with the pointer, programmed on the",
         "  ! virtual cell: the work object on the phantom's nominal pose (table at 0).",
         "  PERS tooldata tPointer := [TRUE,[[0,0,200],[1,0,0,0]],[2,[0,0,100],[1,0,0,0],0,0,0]];",
-        f'  PERS wobjdata wobjPhantom := [FALSE,TRUE,"",{_pose(T_base_object)},'
+        f'  PERS wobjdata wobjPhantom := [FALSE,TRUE,"",{pose_text(T_base_object)},'
         "[[0,0,0],[1,0,0,0]]];",
         "  CONST speeddata vTouch := [20,500,5000,1000];",
     ]
@@ -99,13 +82,13 @@ def write_program() -> None:
     for k, hole in enumerate(design.burr_holes):
         axis = hole.direction / np.linalg.norm(hole.direction)
         entry = hole.p_entry + _entry_depth(surface, hole.p_entry, axis) * axis
-        T_touch = _frame(entry - (GAP_M + BALL_RADIUS_M) * axis, axis)
+        T_touch = frame_from_z(entry - (GAP_M + BALL_RADIUS_M) * axis, axis)
         T_approach = T_touch.copy()
         T_approach[:3, 3] -= APPROACH_M * axis
         for name, T in ((f"pApp{k}", T_approach), (f"pTouch{k}", T_touch)):
             q = kin.solve(T_base_object @ T, q, T_flange_tcp, extra_seeds=30)
             conf = ",".join(str(v) for v in configuration(kin, q))
-            lines.append(f"  CONST robtarget {name} := [{_pose(T)[1:-1]},[{conf}],{EAX}];")
+            lines.append(f"  CONST robtarget {name} := [{pose_text(T)[1:-1]},[{conf}],{EAX}];")
     # The corrected work object turns the phantom by up to its fixture's 20 degrees: a target
     # may then need the wrist in another quadrant (configuration monitoring would stop).
     lines += ["  PROC main()", "    ConfJ\\Off;", "    ConfL\\Off;"]

@@ -609,15 +609,10 @@ def cell_overrides(name_or_path: str | Path) -> JsonObject:
     """A cell (`--cell`): a shipped one by name or a YAML file by path, holding the keys of
     a job configuration that make the cell (the `cell` section's robot and rack, and what
     follows from the layout, e.g. `calibration.table_positions_m`); returned as dotted
-    overrides of the job's configuration, validated with it. A robot file it names
-    (`cell.robot.model`) is relative to the cell file's folder."""
+    overrides of the job's configuration, validated with it. A file it names (the robot's,
+    say) is found beside it (FILE_KEYS)."""
     path = _shipped_or_file(name_or_path, "cell", shipped_cells(), CELL_DIR)
-    overrides = _flatten(read_yaml_mapping(path))
-    model = overrides.get("cell.robot.model")
-    if isinstance(model, str) and model.lower().endswith((".urdf", ".xml", ".mjcf")):
-        # A robot file named in a cell file is found beside it.
-        overrides["cell.robot.model"] = str((path.parent / model).resolve())
-    return overrides
+    return _flatten(_files_beside(read_yaml_mapping(path), path.parent))
 
 
 FILE_KEYS = (

@@ -718,7 +718,7 @@ def _format(x: float, decimals: int) -> str:
     return "0" if text in ("", "-0", "-") else text
 
 
-def _pose_text(T: np.ndarray, separator: str = ",") -> str:
+def pose_text(T: np.ndarray, separator: str = ",") -> str:
     """A RAPID pose [[x,y,z],[q1,q2,q3,q4]] of T (4, 4) [m]: mm to 4 decimals, the
     scalar-first unit quaternion to 8 decimals with q1 >= 0, trailing zeros dropped."""
     q = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
@@ -739,7 +739,7 @@ def _check_transform(T: np.ndarray) -> np.ndarray:
 
 def with_oframe(module: RapidModule, wobj: str, T_uframe_oframe: np.ndarray) -> str:
     """The module's text with only the `oframe` of work object `wobj` replaced by
-    T_uframe_oframe (4, 4) [m], written in mm and a scalar-first quaternion (see _pose_text),
+    T_uframe_oframe (4, 4) [m], written in mm and a scalar-first quaternion (see pose_text),
     with the separator the old oframe used (", " or ","). Every other character (names,
     order, comments, whitespace, line endings) is kept; a CONST wobjdata is edited too. Write
     the result back with the encoding the file was read with."""
@@ -753,7 +753,7 @@ def with_oframe(module: RapidModule, wobj: str, T_uframe_oframe: np.ndarray) -> 
     assert decl.value is not None and decl.value.kind == "agg"  # read_module checked it
     oframe = decl.value.items[4]
     old = module.text[oframe.start : oframe.end]
-    new = _pose_text(T, ", " if ", " in old else ",")
+    new = pose_text(T, ", " if ", " in old else ",")
     return module.text[: oframe.start] + new + module.text[oframe.end :]
 
 
