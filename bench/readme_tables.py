@@ -1,17 +1,17 @@
-"""The README's per-seed tables of the skull job (built-in cell, the calibration's gains by
-group, UR5 cell) and the assembly job, rerun.
+"""The per-seed tables of docs/benchmarks.md, rerun: the skull job (built-in cell, the
+calibration's gains by group, UR5 cell, file arms) and the assembly job.
 
 Usage: python bench/readme_tables.py [--seeds 8] [--group-seeds 4] [--arm-seeds 5]
        [--tables NAME ...] [--write] [--short]
 Prints the tables (each seed as it finishes; all five unless --tables names some); with
---write, puts them into README.md between their `<!-- table:skull -->`,
+--write, puts them into docs/benchmarks.md between their `<!-- table:skull -->`,
 `<!-- table:groups -->`, `<!-- table:ur5 -->`, `<!-- table:file_arms -->` and
 `<!-- table:assembly -->` markers. The run time column is the wall time of each assembly run
 on this machine. The file arms are example-robot-data's UR10 and the Menagerie files in
 bench/arms/, each given by file, flange and mount alone.
 
 --short: seed 0 of the assembly table alone (one run; tests/test_readme_tables.py reruns
-seed 0 of every table against the README's rows); it writes nothing.
+seed 0 of every table against the page's rows); it writes nothing.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from scenarios.jobs.tables import (
     ur5_rows,
 )
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+PAGE = Path(__file__).resolve().parent.parent / "docs" / "benchmarks.md"
 ARMS = Path(__file__).resolve().parent / "arms"
 
 
@@ -56,7 +56,7 @@ def file_arm_table(seeds: Iterable[int], say: Progress | None) -> list[str]:
 
 
 Rows = Callable[[Iterable[int], Progress | None], list[str]]
-#: Each table: its header and the function that makes its rows, in the README's order.
+#: Each table: its header and the function that makes its rows, in the page's order.
 TABLES: dict[str, tuple[str, Rows]] = {
     "skull": (SKULL_HEADER, skull_rows),
     "groups": (GROUPS_HEADER, groups_rows),
@@ -72,7 +72,9 @@ def main() -> None:
     parser.add_argument("--group-seeds", type=int, default=4, help="seeds of the gains table")
     parser.add_argument("--arm-seeds", type=int, default=5, help="seeds of the file arms")
     parser.add_argument("--tables", nargs="+", choices=list(TABLES), default=list(TABLES))
-    parser.add_argument("--write", action="store_true", help="write the tables into README.md")
+    parser.add_argument(
+        "--write", action="store_true", help="write the tables into docs/benchmarks.md"
+    )
     parser.add_argument("--short", action="store_true", help="seed 0 of the assembly table")
     args = parser.parse_args()
     if args.short:
@@ -89,11 +91,11 @@ def main() -> None:
         print(header)
         made[name] = rows(seeds, print)
     if args.write:
-        text = README.read_text()
+        text = PAGE.read_text()
         for name, rows_made in made.items():
             text = replace_table(text, name, TABLES[name][0], rows_made)
-        README.write_text(text)
-        print(f"written into {README}")
+        PAGE.write_text(text)
+        print(f"written into {PAGE}")
 
 
 if __name__ == "__main__":

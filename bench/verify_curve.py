@@ -1,5 +1,5 @@
 """The operating curves of the checks that guard the skull job against a fault after its
-scan (scenarios.campaign.operating_curve): a campaign's rows in, the README's table and
+scan (scenarios.campaign.operating_curve): a campaign's rows in, docs/benchmarks.md's table and
 figure out.
 
 Usage: python bench/verify_curve.py CAMPAIGN_FOLDER --fault NAME [--goal-mm 0.5] [--write]
@@ -10,8 +10,8 @@ results.csv). Prints the curve's table and whether it meets the goals (at least 
 faults beyond the goal at a target detected, at most 5 % false alarms at 0, no complete run
 with its RMS goal missed while the fault went unseen). With --write: the rows the curve needs
 go to bench/data/verify_NAME.csv, the figure to bench/data/verify_NAME.png and the table
-into README.md between its `<!-- table:verify_NAME -->` markers (tests/test_verify_curve.py
-checks the README's table against that CSV).
+into docs/benchmarks.md between its `<!-- table:verify_NAME -->` markers (tests/test_verify_curve.py
+checks the page's table against that CSV).
 
 --short: the curves of the campaigns kept in bench/data/ (no campaign is run).
 """
@@ -38,7 +38,7 @@ from scenarios.jobs.tables import replace_table
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "bench" / "data"
-README = ROOT / "README.md"
+PAGE = ROOT / "docs" / "benchmarks.md"
 #: The columns of a campaign's rows the curve and its figure need.
 COLUMNS = (
     "trial", "seed", "status", "run_status", "job_rms_m", "job_max_m", "verify_runs",
@@ -162,8 +162,8 @@ def main() -> None:
             writer.writerows(rows)
         figure(curve, rows, DATA / f"verify_{args.fault}.png")
         name = f"verify_{args.fault}"
-        README.write_text(replace_table(README.read_text(), name, table[0], table[1:]))
-        print(f"wrote {out}, {out.with_suffix('.png')} and README.md's table {name}")
+        PAGE.write_text(replace_table(PAGE.read_text(), name, table[0], table[1:]))
+        print(f"wrote {out}, {out.with_suffix('.png')} and docs/benchmarks.md's table {name}")
 
 
 if __name__ == "__main__":

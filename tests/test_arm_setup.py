@@ -147,9 +147,9 @@ def test_a_given_home_and_window_are_kept() -> None:
 def test_the_file_arms_table_m1013_row() -> None:
     """MuJoCo Menagerie's Doosan M1013 (1.3 m reach, MJCF: no speed limits in the file,
     efforts from its joints' force ranges), nothing but file, flange and mount in the ur5
-    cell's layout, seed 0: the README's file arms row of it, rerun. The run meets the skull
-    goals against the evaluator's true targets, with the home the README shows."""
-    readme = (ROOT / "README.md").read_text()
+    cell's layout, seed 0: docs/benchmarks.md's file arms row of it, rerun. The run meets the skull
+    goals against the evaluator's true targets, with the home the page shows."""
+    readme = (ROOT / "docs" / "benchmarks.md").read_text()
     printed = next(r for r in readme_table(readme, "file_arms") if r.startswith("| M1013"))
     arm = ROOT / "bench/arms/doosan_robotics_m1013/m1013.xml"
     (fresh,) = file_arm_rows([("M1013 (Menagerie, MJCF)", arm, "link_6")], [0])

@@ -1,7 +1,7 @@
 """Every benchmark runs: each script in bench/ in its short mode (`--short`), in a fresh
 process as a user runs it, exits 0 and prints its table's header (readme_tables.py's is
-tests/test_readme_tables.py's assembly row). The README's benchmarks are all among them, and
-a script added to bench/ without a short run here fails."""
+tests/test_readme_tables.py's assembly row). The benchmarks the README and the documentation
+name are all among them, and a script added to bench/ without a short run here fails."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
             ("seed", "status", "ambiguity", "RMS", "max", "goal"),
         ),
     ),
-    # Its short run is tests/test_readme_tables.py's assembly row, checked against the README.
+    # Its short run is tests/test_readme_tables.py's assembly row (docs/benchmarks.md).
     "readme_tables.py": None,
     "verify_curve.py": (
         False,
@@ -83,9 +83,10 @@ def test_every_script_has_a_short_run() -> None:
     assert scripts == set(SHORT_RUNS), "give each script in bench/ a --short run here"
 
 
-def test_the_readme_names_only_these_scripts() -> None:
-    named = set(re.findall(r"bench/(\w+\.py)", (ROOT / "README.md").read_text()))
-    assert named, "the README names no benchmark"
+def test_the_readme_and_docs_name_only_these_scripts() -> None:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    named = {n for page in pages for n in re.findall(r"bench/(\w+\.py)", page.read_text())}
+    assert named, "the README and the docs name no benchmark"
     assert named <= set(SHORT_RUNS), named - set(SHORT_RUNS)
 
 

@@ -1,7 +1,8 @@
-"""The README's per-seed tables hold: seed 0 of the skull job (its program on a controller
-without absolute accuracy filtered and as programmed, its own execution, without the
-calibration; the calibration's gains group by group; in the UR5 cell) and of the assembly
-job, rerun, gives the README's rows within their printed precision (run times aside)."""
+"""The per-seed tables of docs/benchmarks.md hold: seed 0 of the skull job (its program on a
+controller without absolute accuracy filtered and as programmed, its own execution, without
+the calibration; the calibration's gains group by group; in the UR5 cell) and of the
+assembly job, rerun, gives the page's rows within their printed precision (run times
+aside)."""
 
 from __future__ import annotations
 
@@ -21,11 +22,11 @@ from scenarios.jobs.tables import (
     ur5_rows,
 )
 
-#: Each test reruns the jobs of a README row: one (assembly) to four (the groups).
+#: Each test reruns the jobs of a row: one (assembly) to four (the groups).
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parent.parent
-README = (ROOT / "README.md").read_text()
+PAGE = (ROOT / "docs" / "benchmarks.md").read_text()
 
 
 def _close(fresh: str, printed: str, columns: slice) -> None:
@@ -37,19 +38,19 @@ def _close(fresh: str, printed: str, columns: slice) -> None:
 
 def test_skull_table_seed_0() -> None:
     (fresh,) = skull_rows([0])
-    printed = readme_table(README, "skull")[0]
+    printed = readme_table(PAGE, "skull")[0]
     _close(fresh, printed, slice(None))
 
 
 def test_groups_table_seed_0() -> None:
     (fresh,) = groups_rows([0])
-    printed = readme_table(README, "groups")[0]
+    printed = readme_table(PAGE, "groups")[0]
     _close(fresh, printed, slice(None))
 
 
 def test_ur5_table_seed_0() -> None:
     (fresh,) = ur5_rows([0])
-    printed = readme_table(README, "ur5")[0]
+    printed = readme_table(PAGE, "ur5")[0]
     _close(fresh, printed, slice(None))
 
 
@@ -64,5 +65,5 @@ def test_assembly_table_seed_0(tmp_path: Path) -> None:
     lines = done.stdout.splitlines()
     assert ASSEMBLY_HEADER.splitlines()[0] in lines, done.stdout
     (fresh,) = [line for line in lines if line.startswith("| 0 |")]
-    printed = readme_table(README, "assembly")[0]
+    printed = readme_table(PAGE, "assembly")[0]
     _close(fresh, printed, slice(0, -1))  # the last column is the run's wall time

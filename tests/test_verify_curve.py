@@ -1,4 +1,4 @@
-"""The operating curves of the checks after the scan (bench/verify_curve.py): the README's
+"""The operating curves of the checks after the scan (bench/verify_curve.py): docs/benchmarks.md's
 tables are what the committed campaign rows give, those rows meet the detection goals, and
 (slow tier) a smaller campaign run here meets them too.
 
@@ -21,7 +21,7 @@ from scenarios.jobs.tables import readme_table
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "bench" / "data"
 GOAL_M = 0.5e-3
-#: The curves in the README: fault, and what their campaign must meet.
+#: The curves in docs/benchmarks.md: fault, and what their campaign must meet.
 CURVES = ("object_bump", "tool_lock_fail", "table_stall")
 
 
@@ -33,7 +33,7 @@ def _rows(path: Path) -> list[dict[str, str]]:
 @pytest.mark.parametrize("fault", CURVES)
 def test_the_readme_curve_is_its_campaign_s(fault: str) -> None:
     curve = operating_curve(_rows(DATA / f"verify_{fault}.csv"), fault, GOAL_M)
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "benchmarks.md").read_text()
     assert readme_table(readme, f"verify_{fault}") == curve.table()[2:]
     assert (DATA / f"verify_{fault}.png").is_file()
 

@@ -1,9 +1,9 @@
-"""The README's per-seed tables of the skull job (in the built-in cell, its calibration's
-gains group by group, and in the UR5 cell) and of the assembly job, made from runs.
+"""The per-seed tables of the skull job (in the built-in cell, its calibration's gains group
+by group, and in the UR5 cell) and of the assembly job, made from runs.
 
 `python bench/readme_tables.py` runs the jobs and prints (or, with --write, puts into
-README.md between the `<!-- table:NAME -->` markers) the tables; a test reruns a few seeds
-and compares them with the README's rows.
+docs/benchmarks.md between the `<!-- table:NAME -->` markers) the tables; a test reruns a
+few seeds and compares them with the page's rows.
 """
 
 from __future__ import annotations
@@ -254,16 +254,16 @@ def _span(name: str) -> re.Pattern[str]:
 
 
 def readme_table(readme: str, name: str) -> list[str]:
-    """The rows of the README's table `name` (between its markers), header excluded."""
+    """The rows of a page's table `name` (between its markers), header excluded."""
     found = _span(name).search(readme)
     if found is None:
-        raise ValueError(f"README has no table {name!r} (<!-- table:{name} --> markers)")
+        raise ValueError(f"no table {name!r} in the page (<!-- table:{name} --> markers)")
     lines = [line for line in found.group(2).splitlines() if line.startswith("|")]
     return lines[2:]
 
 
 def replace_table(readme: str, name: str, header: str, rows: list[str]) -> str:
-    """The README with table `name` replaced by `header` and `rows`."""
+    """The page `readme` with table `name` replaced by `header` and `rows`."""
     body = header + "\n" + "\n".join(rows) + "\n"
     return _span(name).sub(lambda m: m.group(1) + body + m.group(3), readme)
 
