@@ -24,10 +24,8 @@ class ParametricModel(Shape):
 
     Args:
         r: vectorised function r(u, v) -> points (..., 3) for parameter arrays u, v (...).
-        u_range: the parameter domain [lo, hi] of u.
-        v_range: the parameter domain [lo, hi] of v.
-        periodic_u: True if the surface closes on itself along u.
-        periodic_v: True if the surface closes on itself along v.
+        u_range, v_range: the parameter domain [lo, hi] of u and v.
+        periodic_u, periodic_v: True if the surface closes on itself along that parameter.
         resolution: triangulation grid (nu, nv); finer grids give better initial guesses.
         refine_iterations: Newton steps on the surface itself (0: triangles only).
     """

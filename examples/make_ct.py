@@ -1,0 +1,51 @@
+"""A CT of the skull phantom and a plan made on it, as a hospital would hand them over: the
+phantom's simulated head CT (0.5 x 0.5 x 1.0 mm voxels, a reconstruction kernel's blur, 20 HU
+of noise: models.ct.ct_scan) written as NIfTI, and its four burr holes as a plan in the
+volume's own frame (RAS for NIfTI, mm), each an entry and a target.
+
+    python examples/make_ct.py [FOLDER]
+
+writes FOLDER/phantom_ct.nii.gz and FOLDER/plan.json (FOLDER: `ct`). Then, as with your own:
+
+    twincell model ct/phantom_ct.nii.gz --out skull.stl
+    twincell run skull --model ct/phantom_ct.nii.gz --targets ct/plan.json
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import nibabel as nib
+import numpy as np
+
+from models.ct import CTSettings, ct_scan
+from models.ct.volume import RAS_FROM_LPS
+from models.registry import builtin_model
+
+
+def main(folder: Path) -> None:
+    phantom = builtin_model("skull", 0)
+    volume = ct_scan(phantom.mesh, CTSettings(), np.random.default_rng(0))  # LPS = model [mm]
+    folder.mkdir(parents=True, exist_ok=True)
+    affine_ras = RAS_FROM_LPS @ volume.affine_lps
+    image = nib.Nifti1Image(np.round(volume.data).astype(np.int16), affine_ras)
+    image.header.set_xyzt_units("mm")
+    nib.save(image, folder / "phantom_ct.nii.gz")
+    to_ras = RAS_FROM_LPS[:3, :3]
+    targets = []
+    for hole in phantom.burr_holes:
+        entry_mm = hole.p_entry * 1e3
+        target_mm = (hole.p_entry + hole.depth * hole.direction) * 1e3
+        targets.append({
+            "name": hole.name,
+            "entry": np.round(to_ras @ entry_mm, 2).tolist(),
+            "target": np.round(to_ras @ target_mm, 2).tolist(),
+        })  # fmt: skip
+    (folder / "plan.json").write_text(json.dumps({"frame": "RAS", "targets": targets}, indent=1))
+    print(f"wrote {folder / 'phantom_ct.nii.gz'} {volume.data.shape} and {folder / 'plan.json'}")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("ct"))
