@@ -2,8 +2,8 @@
 exported filtered and run on a controller without absolute accuracy, reaches the true burr
 holes clearly better than the same job with the calibration off, seed by seed.
 
-The margin comes from the measured spread (bench/readme_tables.py, the README's skull table,
-seeds 0-7): where the job without its calibration ran (seeds 0, 1, 3, 4, 6; on 2, 5 and 7 it
+The margin comes from the measured spread (bench/readme_tables.py, docs/benchmarks.md's skull
+table, seeds 0-7): where the job without its calibration ran (seeds 0, 1, 3, 4, 6; on 2, 5 and 7 it
 refused the match), its RMS less the exported program's was 0.39 mm on average, with a
 standard deviation of 0.15 mm, 0.23 mm at the least. Each seed here must gain at least the
 mean less two deviations, 0.1 mm. With the calibration switched off the gain is zero; with
