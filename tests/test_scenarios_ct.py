@@ -1,9 +1,10 @@
-"""The skull job with its virtual model made from a simulated CT of the phantom
-(`model.source: ct`): the model carries a CT's error, and the job meets its goals with it."""
+"""The skull job's virtual model made from a simulated CT of the phantom (`model.source:
+ct`) carries a CT's error. The job run with it, and with a CT volume and a plan as a user
+gives them (examples/make_ct.py), is run by docs/tutorials/ct.md's commands
+(tests/test_docs_commands.py), held to its goals there."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -11,11 +12,10 @@ import pytest
 
 from models.registry import builtin_model
 from registration import MeshModel
-from scenarios.cli.app import main
 from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import object_models
 
-#: Each test meshes simulated CT volumes of the phantom; two of them run the job on the mesh.
+#: It meshes two simulated CT volumes of the phantom.
 pytestmark = pytest.mark.slow
 
 SHORT_CT = """seed: 3
@@ -43,51 +43,3 @@ def test_ct_model_error_is_the_scanners(tmp_path: Path) -> None:
     coarse, _ = object_models(load_config(path))
     d_coarse = truth.closest(np.asarray(coarse.mesh.vertices)).distances
     assert d_coarse.mean() > 1.5 * d.mean()
-
-
-@pytest.mark.filterwarnings("ignore::DeprecationWarning")
-def test_skull_job_with_a_ct_model_meets_its_goals(tmp_path: Path) -> None:
-    config = tmp_path / "ct.yaml"
-    config.write_text(SHORT_CT)
-    out = tmp_path / "out"
-    assert main(["run", str(config), "--out", str(out), "--quiet", "--no-rrd"]) == 0
-    results = json.loads((out / "latest" / "results.json").read_text())
-    assert results["status"] == "complete"
-    errors = np.array([t["error_m"] for t in results["targets"]])
-    assert len(errors) == 4
-    assert np.sqrt(np.mean(errors**2)) <= 0.5e-3 and errors.max() <= 1.0e-3
-
-
-@pytest.mark.filterwarnings("ignore::DeprecationWarning")
-def test_skull_job_on_a_users_ct_volume_and_plan(tmp_path: Path) -> None:
-    """A CT volume (NIfTI, RAS) and a plan made on it (RAS, mm) as the job's object and
-    targets: the bone is meshed, the plan lands on it, the job runs within its goals."""
-    import nibabel as nib
-
-    from models.ct import CTSettings, ct_scan
-    from models.ct.volume import RAS_FROM_LPS
-    from models.registry import builtin_model
-
-    skull = builtin_model("skull")
-    volume = ct_scan(skull.mesh, CTSettings(voxel_mm=(1.0, 1.0, 1.0)), np.random.default_rng(1))
-    nib.save(
-        nib.Nifti1Image(volume.data, RAS_FROM_LPS @ volume.affine_lps), str(tmp_path / "ct.nii")
-    )
-    to_ras = np.diag([-1.0, -1.0, 1.0])
-    plan = {"frame": "RAS", "targets": [
-        {"name": h.name, "entry": (to_ras @ h.p_entry * 1e3).tolist(),
-         "target": (to_ras @ (h.p_entry + h.depth * h.direction) * 1e3).tolist()}
-        for h in skull.burr_holes
-    ]}  # fmt: skip
-    (tmp_path / "plan.json").write_text(json.dumps(plan))
-    config = tmp_path / "job.yaml"
-    config.write_text(SHORT_CT.replace("model: {source: ct}\n", ""))
-    out = tmp_path / "out"
-    command = ["run", str(config), "--model", str(tmp_path / "ct.nii"), "--targets"]
-    command += [str(tmp_path / "plan.json"), "--out", str(out), "--quiet", "--no-rrd"]
-    assert main(command) == 0
-    results = json.loads((out / "latest" / "results.json").read_text())
-    names = [t["name"] for t in results["targets"]]
-    assert results["status"] == "complete" and names == [h.name for h in skull.burr_holes]
-    errors = np.array([t["error_m"] for t in results["targets"]])
-    assert np.sqrt(np.mean(errors**2)) <= 0.5e-3 and errors.max() <= 1.0e-3

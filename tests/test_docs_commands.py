@@ -1,0 +1,315 @@
+"""Every command in the README and the documentation runs, so that a renamed option, key or
+file fails here instead of at a user's.
+
+A command is a line of a ```bash block (continuations joined, comments dropped); each one
+is checked in the fast tier without running it: a `twincell` command parses under the real
+command (its subcommand, arguments, options and their choices), a job's `--set`, `--fault`,
+`--cell`, `--model` and `--program` make a configuration the job accepts, a campaign's
+`--vary` keys a campaign it plans; a `python` script exists and takes the options given; a
+`pip install` names extras of pyproject.toml; a `cd` names a folder.
+
+Then every page's commands run as written, in order, from a scratch folder that holds the
+repository's `examples/`, `tests/` and `bench/` (the quick pages in the fast tier, the pages
+that run jobs in the slow tier), with three changes a test needs: a campaign's `--trials N`
+runs 1 trial (the same machinery as for N), `rerun FILE` (the viewer; bench/viewer_check.py
+looks at it where a display is) checks that the file is there, and `twincell serve` is
+started in the background while the page's Python runs against it, then stopped with
+SIGINT. A job a page runs must complete within its goals (the pages say they do). The page's
+```python blocks run after its commands where they are whole programs (RUN_PYTHON). What no
+page can run here is named in ELSEWHERE with the test that runs it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import signal
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+#: The folders of the repository a page's commands name, linked into the scratch folder.
+LINKED = ("examples", "tests", "bench")
+#: Pages whose commands take seconds: run in the fast tier; the others in the slow tier. The
+#: README's commands are the tutorials' own: it runs those no tutorial has.
+FAST_PAGES = ("README.md", "docs/tutorials/scans.md", "docs/tutorials/check.md")
+#: Pages whose ```python blocks are whole programs, run after the page's commands.
+RUN_PYTHON = ("docs/tutorials/scans.md", "docs/tutorials/serve.md")
+#: Commands no page runs here, and the test that runs them.
+ELSEWHERE = {
+    "pytest -q": ".ci/run: the fast tier itself",
+    "cd examples/my_cell && pytest -n 2": "tests/test_example_my_cell.py",
+    "dask scheduler": "tests/test_campaign_cluster.py: a Dask cluster of its own",
+    "dask worker tcp://HEAD:8786 --nthreads 1": "tests/test_campaign_cluster.py",
+    "twincell campaign skull --trials 1000 --backend dask --scheduler tcp://HEAD:8786":
+        "tests/test_campaign_cluster.py",
+    "mkdocs build --strict": ".ci/run",
+}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Command:
+    page: str  # relative to the repository
+    line: int
+    text: str
+
+    def __str__(self) -> str:
+        return f"{self.page}:{self.line}: {self.text}"
+
+
+def _blocks(page: Path, language: str) -> list[tuple[int, str]]:
+    text = page.read_text()
+    found = re.finditer(rf"^```{language}\n(.*?)^```", text, re.MULTILINE | re.DOTALL)
+    return [(text.count("\n", 0, m.start()) + 2, m.group(1)) for m in found]
+
+
+def page_commands(page: Path) -> list[Command]:
+    name = str(page.relative_to(ROOT))
+    commands = []
+    for first, block in _blocks(page, "bash"):
+        pending, start = "", first
+        for offset, raw in enumerate(block.splitlines()):
+            if not pending:
+                start = first + offset
+            pending += raw.rstrip("\\").rstrip() + " " if raw.endswith("\\") else raw
+            if raw.endswith("\\"):
+                continue
+            text = re.sub(r"(^|\s+)#.*$", "", pending).strip()  # a comment to the line's end
+            if text:
+                commands.append(Command(name, start, " ".join(text.split())))
+            pending = ""
+    return commands
+
+
+ALL = [c for page in PAGES for c in page_commands(page)]
+
+
+def _parts(command: Command) -> list[list[str]]:
+    """The simple commands of a line joined by &&."""
+    return [shlex.split(part) for part in command.text.split(" && ")]
+
+
+def test_the_pages_have_commands() -> None:
+    pages = {c.page for c in ALL}
+    assert "README.md" in pages and len(pages) >= 8, pages
+    assert all(Path(c.page).suffix == ".md" for c in ALL)
+
+
+@pytest.mark.parametrize("command", ALL, ids=str)
+def test_command_is_valid(command: Command) -> None:
+    for words in _parts(command):
+        check = CHECKS.get(words[0])
+        assert check is not None, f"{command}: no check for {words[0]!r}: add one"
+        check(words, command)
+
+
+def _check_twincell(words: list[str], command: Command) -> None:
+    from click import ClickException
+
+    from scenarios.cli.reference import command as cli
+
+    try:
+        context = cli.make_context("twincell", words[1:], resilient_parsing=False)
+        sub = cli.get_command(context, words[1])
+        assert sub is not None, f"{command}: no subcommand {words[1]!r}"
+        sub_context = sub.make_context(words[1], words[2:], parent=context)
+    except ClickException as exc:
+        pytest.fail(f"{command}: {exc.format_message()}")
+    params = sub_context.params
+    if words[1] == "run":
+        _check_job(params, command)
+    elif words[1] == "campaign":
+        from scenarios.campaign import plan_campaign
+
+        name, vary = _repo_path(params["name"]), params["vary"] or []
+        plan_campaign(name, stage=params["stage"], trials=params["trials"], vary=vary,
+                      seed=params["seed"])  # fmt: skip
+
+
+def _repo_path(name: str) -> str:
+    """A page's file argument as the repository holds it (a shipped name stays a name)."""
+    return str(ROOT / name) if (ROOT / name).exists() else name
+
+
+def _check_job(params: dict[str, object], command: Command) -> None:
+    from scenarios.jobs.config import fault_assignment, load_config, parse_assignment
+
+    overrides: dict[str, object] = {}
+    for key, option in (("cell.object.model", "model"), ("cell.object.targets_file", "targets"),
+                        ("operations.program", "program")):  # fmt: skip
+        if params[option] is not None:
+            overrides[key] = params[option]
+    if params["model"] is not None:
+        overrides["cell.object.units"] = params["units"]
+    overrides |= dict(parse_assignment(str(t)) for t in params["assign"] or [])  # type: ignore[attr-defined]
+    overrides |= dict(fault_assignment(str(t)) for t in params["fault"] or [])  # type: ignore[attr-defined]
+    cell = params["cell"]
+    load_config(_repo_path(str(params["name"])), overrides,
+                cell=_repo_path(str(cell)) if cell is not None else None)  # fmt: skip
+
+
+def _check_python(words: list[str], command: Command) -> None:
+    script = ROOT / words[1]
+    assert script.is_file(), f"{command}: no script {words[1]}"
+    options = [w.split("=")[0] for w in words[2:] if w.startswith("--")]
+    if options:
+        shown = subprocess.run([sys.executable, str(script), "--help"], capture_output=True,
+                               text=True, cwd=ROOT, timeout=120).stdout  # fmt: skip
+        missing = [o for o in options if o not in shown]
+        assert not missing, f"{command}: {script.name} takes no {missing}"
+
+
+def _check_pip(words: list[str], command: Command) -> None:
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    extras = set(project["optional-dependencies"])
+    for word in words[2:]:
+        named = re.fullmatch(r"-e|\.(?:\[(\w+)\])?", word)
+        assert named is not None, f"{command}: install the project, not {word!r}"
+        assert named.group(1) in {None, *extras}, f"{command}: no extra {named.group(1)!r}"
+
+
+def _check_cd(words: list[str], command: Command) -> None:
+    assert (ROOT / words[1]).is_dir(), f"{command}: no folder {words[1]}"
+
+
+def _check_elsewhere(words: list[str], command: Command) -> None:
+    part = " ".join(words)
+    assert part in ELSEWHERE or command.text in ELSEWHERE, (
+        f"{command}: say in ELSEWHERE which test runs {part!r}"
+    )
+
+
+def _check_rerun(words: list[str], command: Command) -> None:
+    assert len(words) == 2 and words[1].endswith(".rrd"), f"{command}: rerun FILE.rrd"
+
+
+CHECKS = {
+    "twincell": _check_twincell,
+    "python": _check_python,
+    "pip": _check_pip,
+    "cd": _check_cd,
+    "pytest": _check_elsewhere,
+    "dask": _check_elsewhere,
+    "mkdocs": _check_elsewhere,
+    "rerun": _check_rerun,
+}
+
+
+def test_the_tests_named_elsewhere_exist() -> None:
+    for where in ELSEWHERE.values():
+        path = where.split(":")[0]
+        assert (ROOT / path).exists(), where
+    stale = set(ELSEWHERE) - {c.text for c in ALL} - {p for c in ALL for p in c.text.split(" && ")}
+    assert not stale, f"ELSEWHERE names commands no page has: {stale}"
+
+
+# Running the pages' commands.
+
+
+def _scratch(tmp_path: Path) -> Path:
+    for name in LINKED:
+        (tmp_path / name).symlink_to(ROOT / name)
+    return tmp_path
+
+
+def _as_run(text: str) -> str:
+    """The command as the test runs it (the module's docstring says what changes)."""
+    text = re.sub(r"--trials \d+", "--trials 1", text)
+    return re.sub(r"^rerun (\S+)$", r"test -f \1", text)
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    return env
+
+
+def _run_elsewhere(page: str) -> set[str]:
+    """The simple commands that another page runs (for the README: the tutorials')."""
+    if page != "README.md":
+        return set()
+    return {part for c in ALL if c.page != page for part in c.text.split(" && ")}
+
+
+def run_page(page: str, folder: Path) -> None:
+    serving: subprocess.Popen[str] | None = None
+    elsewhere = _run_elsewhere(page)
+    try:
+        for command in page_commands(ROOT / page):
+            # The installation is the test's own; a command another test runs is left to it.
+            parts = [p for p in command.text.split(" && ") if not p.startswith("pip install")]
+            if command.text in ELSEWHERE or all(p in elsewhere | set(ELSEWHERE) for p in parts):
+                continue
+            command = Command(command.page, command.line, " && ".join(parts))
+            if command.text.startswith("twincell serve"):
+                serving = _serve(command, folder)
+                continue
+            done = subprocess.run(["bash", "-c", _as_run(command.text)], cwd=folder, env=_env(),
+                                  capture_output=True, text=True, timeout=900)  # fmt: skip
+            assert done.returncode == 0, f"{command}: exit {done.returncode}\n{done.stderr[-3000:]}"
+            if any(p.startswith("twincell run ") for p in parts):
+                _assert_goals(command, folder / "runs" / "latest" / "results.json")
+        if page in RUN_PYTHON:
+            for line, code in _blocks(ROOT / page, "python"):
+                done = subprocess.run([sys.executable, "-c", code], cwd=folder, env=_env(),
+                                      capture_output=True, text=True, timeout=600)  # fmt: skip
+                assert done.returncode == 0, f"{page}:{line}: the Python block\n{done.stderr}"
+    finally:
+        if serving is not None:
+            _stop(serving)
+
+
+def _assert_goals(command: Command, results_file: Path) -> None:
+    """A job a page runs completes within its goals, as the page says it does."""
+    results = json.loads(results_file.read_text())
+    if "checks" not in results:  # the seed paper's experiments: a table, no goals
+        return
+    missed = [name for name, check in results["checks"].items() if not check["met"]]
+    assert results["status"] == "complete" and not missed, (
+        f"{command}: {results['status']} ({results['reason']}); goals missed: {missed}"
+    )
+
+
+def _serve(command: Command, folder: Path) -> subprocess.Popen[str]:
+    process = subprocess.Popen(shlex.split(command.text), cwd=folder, env=_env(), text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
+    assert process.stdout is not None and process.stderr is not None
+    line = process.stdout.readline()  # "serving http://... (Ctrl-C to stop); ..."
+    if not line.startswith("serving "):
+        process.kill()
+        pytest.fail(f"{command}: {line}{process.communicate(timeout=60)[1]}")
+    return process
+
+
+def _stop(process: subprocess.Popen[str]) -> None:
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert "stopped;" in out, out
+
+
+@pytest.mark.parametrize("page", FAST_PAGES)
+def test_quick_page_runs(page: str, tmp_path: Path) -> None:
+    run_page(page, _scratch(tmp_path))
+
+
+#: docs/index.md installs and builds the documentation (.ci/run does); docs/benchmarks.md's
+#: scripts run in their short form in tests/test_bench.py.
+SLOW_PAGES = sorted(
+    {c.page for c in ALL} - set(FAST_PAGES) - {"docs/index.md", "docs/benchmarks.md"}
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page", SLOW_PAGES)
+def test_page_runs(page: str, tmp_path: Path) -> None:
+    run_page(page, _scratch(tmp_path))
