@@ -258,6 +258,8 @@ def run_page(page: str, folder: Path) -> None:
             assert done.returncode == 0, f"{command}: exit {done.returncode}\n{done.stderr[-3000:]}"
             if any(p.startswith("twincell run ") for p in parts):
                 _assert_goals(command, folder / "runs" / "latest" / "results.json")
+        if page in FIGURES:
+            FIGURES[page](folder)
         if page in RUN_PYTHON:
             for line, code in _blocks(ROOT / page, "python"):
                 done = subprocess.run([sys.executable, "-c", code], cwd=folder, env=_env(),
@@ -295,6 +297,63 @@ def _stop(process: subprocess.Popen[str]) -> None:
     out, err = process.communicate(timeout=60)
     assert process.returncode == 0, err
     assert "stopped;" in out, out
+
+
+# The figures a page prints, against what its own commands just made.
+
+
+def _text_block(page: str, starts: str) -> str:
+    return next(b for _, b in _blocks(ROOT / page, "text") if b.startswith(starts))
+
+
+def _scans_figures(folder: Path) -> None:
+    """docs/tutorials/scans.md shows the dragon's match: its first rows of T_model_data and
+    its RMS, as `twincell register` printed them (6 and 4 decimals)."""
+    shown = _text_block("docs/tutorials/scans.md", "T_model_data")
+    result = json.loads((folder / "result.json").read_text())
+    rows = [[float(v) for v in line.strip(" [].").split()] for line in shown.splitlines()[1:3]]
+    made = [v for row in result["T_model_data"][:2] for v in row]
+    assert [v for row in rows for v in row] == pytest.approx(made, abs=2e-6), (rows, made)
+    rms_mm = float(re.search(r"rms \[mm\]\s+│ ([\d.]+)", shown).group(1))  # type: ignore[union-attr]
+    assert rms_mm == pytest.approx(result["rms"] * 1e3, abs=1e-4)
+
+
+def _skull_figures(folder: Path) -> None:
+    """docs/tutorials/skull-job.md shows seed 0's table: each target's error, registration
+    share and predicted TRE [mm], to the printed 0.001 mm."""
+    shown = _text_block("docs/tutorials/skull-job.md", "                          skull run")
+    results = json.loads((folder / "runs" / "latest" / "results.json").read_text())
+    by_name = {t["name"]: t for t in results["targets"]}
+    row = r"│ (\w+): error / reg\. share / pred\. TRE \[mm\]\s+│ ([\d.]+) / ([\d.]+) / ([\d.]+)"
+    rows = re.findall(row, shown)
+    assert len(rows) == len(by_name) == 4, rows
+    for name, error, share, tre in rows:
+        fresh = by_name[name]
+        made = [fresh["error_m"], fresh["registration_error_m"], fresh["predicted_tre_m"]]
+        assert [float(error), float(share), float(tre)] == pytest.approx(
+            [1e3 * v for v in made], abs=6e-4
+        ), (name, made)
+
+
+def _ct_figures(folder: Path) -> None:
+    """docs/tutorials/ct.md gives the run on the CT's files, seed 0: its RMS and largest
+    target error [mm], to the printed 0.01 mm."""
+    text = (ROOT / "docs/tutorials/ct.md").read_text()
+    found = re.search(r"target errors ([\d.]+) mm RMS, ([\d.]+) mm at most", " ".join(text.split()))
+    assert found is not None
+    runs = [p.parent for p in (folder / "runs").glob("skull-*/config.yaml")
+            if "phantom_ct.nii.gz" in p.read_text()]  # fmt: skip
+    assert len(runs) == 1, runs
+    results = json.loads((runs[0] / "results.json").read_text())
+    made = [results["target_error_rms_m"] * 1e3, results["target_error_max_m"] * 1e3]
+    assert [float(found.group(1)), float(found.group(2))] == pytest.approx(made, abs=0.006)
+
+
+FIGURES = {
+    "docs/tutorials/scans.md": _scans_figures,
+    "docs/tutorials/skull-job.md": _skull_figures,
+    "docs/tutorials/ct.md": _ct_figures,
+}
 
 
 @pytest.mark.parametrize("page", FAST_PAGES)
