@@ -322,7 +322,8 @@ def _skull_figures(folder: Path) -> None:
     """docs/tutorials/skull-job.md shows seed 0's table: each target's error, registration
     share and predicted TRE [mm], to the printed 0.001 mm."""
     shown = _text_block("docs/tutorials/skull-job.md", "                          skull run")
-    results = json.loads((folder / "runs" / "latest" / "results.json").read_text())
+    (run,) = (folder / "runs").glob("skull-*")  # the page runs the skull job once
+    results = json.loads((run / "results.json").read_text())
     by_name = {t["name"]: t for t in results["targets"]}
     row = r"│ (\w+): error / reg\. share / pred\. TRE \[mm\]\s+│ ([\d.]+) / ([\d.]+) / ([\d.]+)"
     rows = re.findall(row, shown)
