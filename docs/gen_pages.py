@@ -13,6 +13,7 @@ import mkdocs_gen_files
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
+import scenarios.jobs.config as config_module
 from scenarios.jobs.config import JobConfig
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,11 +85,13 @@ def config_page() -> str:
     ]
     for path, model in sections(JobConfig, ""):
         doc = " ".join((model.__doc__ or "").split())
+        if not path:  # the top level: the sections, as the configuration's module lists them
+            doc = (config_module.__doc__ or "").split("\n\n")[1].replace(":\n- ", ":\n\n- ", 1)
         lines += [f"## `{path or 'top level'}`", ""] + ([doc, ""] if doc else [])
         lines += ["| key | type | default | unit | range |", "|---|---|---|---|---|"]
         for name, info in model.model_fields.items():
-            kind = type_name(info.annotation).replace("|", "\\|")
-            default = default_text(info).replace("|", "\\|")
+            kind = type_name(info.annotation).replace(" | ", " or ")
+            default = default_text(info).replace("|", "/")
             row = [f"`{name}`", f"`{kind}`", default, unit(name), bounds(info)]
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
