@@ -30,6 +30,7 @@ import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -111,7 +112,7 @@ def test_command_is_valid(command: Command) -> None:
 
 
 def _check_twincell(words: list[str], command: Command) -> None:
-    from click import ClickException
+    from typer import TyperException  # typer's own click's exceptions derive from it
 
     from scenarios.cli.reference import command as cli
 
@@ -120,8 +121,9 @@ def _check_twincell(words: list[str], command: Command) -> None:
         sub = cli.get_command(context, words[1])
         assert sub is not None, f"{command}: no subcommand {words[1]!r}"
         sub_context = sub.make_context(words[1], words[2:], parent=context)
-    except ClickException as exc:
-        pytest.fail(f"{command}: {exc.format_message()}")
+    except TyperException as exc:
+        message: Any = exc  # a click exception, which formats its own message
+        pytest.fail(f"{command}: {message.format_message()}")
     params = sub_context.params
     if words[1] == "run":
         _check_job(params, command)
@@ -138,21 +140,15 @@ def _repo_path(name: str) -> str:
     return str(ROOT / name) if (ROOT / name).exists() else name
 
 
-def _check_job(params: dict[str, object], command: Command) -> None:
-    from scenarios.jobs.config import fault_assignment, load_config, parse_assignment
+def _check_job(params: dict[str, Any], command: Command) -> None:
+    from scenarios.cli.app import run_overrides
+    from scenarios.jobs.config import load_config
 
-    overrides: dict[str, object] = {}
-    for key, option in (("cell.object.model", "model"), ("cell.object.targets_file", "targets"),
-                        ("operations.program", "program")):  # fmt: skip
-        if params[option] is not None:
-            overrides[key] = params[option]
-    if params["model"] is not None:
-        overrides["cell.object.units"] = params["units"]
-    overrides |= dict(parse_assignment(str(t)) for t in params["assign"] or [])  # type: ignore[attr-defined]
-    overrides |= dict(fault_assignment(str(t)) for t in params["fault"] or [])  # type: ignore[attr-defined]
+    options = ("model", "units", "targets", "program", "assign", "fault")
+    overrides = run_overrides(**{name: params[name] for name in options})
     cell = params["cell"]
-    load_config(_repo_path(str(params["name"])), overrides,
-                cell=_repo_path(str(cell)) if cell is not None else None)  # fmt: skip
+    load_config(_repo_path(params["name"]), overrides,
+                cell=_repo_path(cell) if cell is not None else None)  # fmt: skip
 
 
 def _check_python(words: list[str], command: Command) -> None:
@@ -257,7 +253,7 @@ def run_page(page: str, folder: Path) -> None:
                                   capture_output=True, text=True, timeout=900)  # fmt: skip
             assert done.returncode == 0, f"{command}: exit {done.returncode}\n{done.stderr[-3000:]}"
             if any(p.startswith("twincell run ") for p in parts):
-                _assert_goals(command, folder / "runs" / "latest" / "results.json")
+                _assert_goals(command, (folder / "runs" / "latest").resolve())
         if page in FIGURES:
             FIGURES[page](folder)
         if page in RUN_PYTHON:
@@ -270,15 +266,18 @@ def run_page(page: str, folder: Path) -> None:
             _stop(serving)
 
 
-def _assert_goals(command: Command, results_file: Path) -> None:
+def _assert_goals(command: Command, folder: Path) -> None:
     """A job a page runs completes within its goals, as the page says it does."""
-    results = json.loads(results_file.read_text())
-    if "checks" not in results:  # the seed paper's experiments: a table, no goals
-        return
-    missed = [name for name, check in results["checks"].items() if not check["met"]]
-    assert results["status"] == "complete" and not missed, (
-        f"{command}: {results['status']} ({results['reason']}); goals missed: {missed}"
-    )
+    from scenarios.results.run import RunResult
+    from scenarios.testing import assert_goals
+    from scenarios.testing.runs import JobRun
+
+    if "checks" not in json.loads((folder / "results.json").read_text()):
+        return  # the seed paper's experiments: a table of matches, no goals
+    try:
+        assert_goals(JobRun(RunResult.read(folder), folder))
+    except AssertionError as exc:
+        pytest.fail(f"{command}: {exc}")
 
 
 def _serve(command: Command, folder: Path) -> subprocess.Popen[str]:
@@ -373,3 +372,22 @@ SLOW_PAGES = sorted(
 @pytest.mark.parametrize("page", SLOW_PAGES)
 def test_page_runs(page: str, tmp_path: Path) -> None:
     run_page(page, _scratch(tmp_path))
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "twincell run skull --no-such-option",  # an option renamed
+        "twincell run skull --set cell.noise.laser_sigma=2e-4",  # a key renamed
+        "twincell run skull --cell no_such_cell",  # a cell that is not there
+        "twincell campaign skull --vary cell.noise.no_such_key=1,2",  # a campaign's key
+        "twincell registr scan.ply model.ply",  # a subcommand misspelt
+        "python bench/bench_cell.py --no-such-option",  # a script's option
+        'pip install -e ".[no_such_extra]"',  # an extra
+    ],
+)
+def test_a_stale_command_fails_its_check(text: str) -> None:
+    command = Command("a page", 1, text)
+    with pytest.raises((pytest.fail.Exception, AssertionError, ValueError)):
+        for words in _parts(command):
+            CHECKS[words[0]](words, command)

@@ -424,7 +424,6 @@ def run(
     """Run a job headless and write a run folder (results, table, figures, recording)."""
     from rich.console import Console
 
-    from scenarios.jobs.config import fault_assignment, parse_assignment
     from scenarios.jobs.runner import RunOptions, run_job
 
     if list_faults:
@@ -439,15 +438,9 @@ def run(
         if not quiet:
             typer.echo(f"  {message}", err=True)
 
-    overrides: dict[str, object] = {}
-    if model is not None:
-        overrides |= {"cell.object.model": model, "cell.object.units": units}
-    if targets is not None:
-        overrides["cell.object.targets_file"] = targets
-    if program is not None:
-        overrides["operations.program"] = program
-    overrides |= dict(parse_assignment(text) for text in assign or [])
-    overrides |= dict(fault_assignment(text) for text in fault or [])
+    overrides = run_overrides(
+        model=model, units=units, targets=targets, program=program, assign=assign, fault=fault
+    )
     folder, result = run_job(
         name,
         seed=seed,
@@ -470,6 +463,31 @@ def run(
     if result.status in ("refused", "aborted"):
         typer.echo(f"twincell: {result.status} in {result.stage}: {result.reason}", err=True)
         raise typer.Exit(3 if result.status == "refused" else 4)
+
+
+def run_overrides(
+    *,
+    model: str | None,
+    units: str,
+    targets: str | None,
+    program: str | None,
+    assign: list[str] | None,
+    fault: list[str] | None,
+) -> dict[str, object]:
+    """The dotted configuration keys `twincell run`'s options set: the object's model and
+    units, its targets file, the program, each `--set KEY=VALUE` and each `--fault`."""
+    from scenarios.jobs.config import fault_assignment, parse_assignment
+
+    overrides: dict[str, object] = {}
+    if model is not None:
+        overrides |= {"cell.object.model": model, "cell.object.units": units}
+    if targets is not None:
+        overrides["cell.object.targets_file"] = targets
+    if program is not None:
+        overrides["operations.program"] = program
+    overrides |= dict(parse_assignment(text) for text in assign or [])
+    overrides |= dict(fault_assignment(text) for text in fault or [])
+    return overrides
 
 
 def _print_faults() -> None:
