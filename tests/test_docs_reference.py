@@ -1,8 +1,8 @@
 """The documentation's hand-written reference agrees with the code: every field a run writes
 into results.json is on docs/reference/results.md, every exit status the command returns is
-on docs/reference/statuses.md (and no other), and the README's pictures are the files
-docs/make_figures.py makes. (The command and configuration references are generated from
-the code when the site is built.)"""
+on docs/reference/statuses.md (and no other), the README's pictures are the files
+docs/make_figures.py makes, and its links lead to files. (The command and configuration
+references are generated from the code when the site is built.)"""
 
 from __future__ import annotations
 
@@ -67,3 +67,14 @@ def test_the_readme_pictures_are_the_figures_script_s() -> None:
         path = figures.ASSETS / name
         assert path.is_file() and path.stat().st_size > 10_000, path
         assert f"docs/assets/{name}" in readme and f"assets/{name}" in home, name
+
+
+def test_the_readme_links_lead_to_files() -> None:
+    """The README is read on its own (GitHub, PyPI): each relative link and picture must
+    lead to a file of the repository (the site's own links are checked by mkdocs --strict)."""
+    readme = (ROOT / "README.md").read_text()
+    targets = re.findall(r"\]\(([^)\s]+)\)", readme) + re.findall(r'src="([^"]+)"', readme)
+    local = [t.split("#")[0] for t in targets if "://" not in t]
+    assert len(local) >= 10, local
+    missing = [t for t in local if not (ROOT / t).exists()]
+    assert not missing, missing
