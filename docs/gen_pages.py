@@ -18,9 +18,11 @@ from scenarios.jobs.config import JobConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 
-#: A key's unit, from its name's suffix (SI inside: the name says where it is not).
+#: A key's unit, from its name's suffix (SI inside: the name says where it is not); the
+#: longer suffixes first.
 UNITS = (
-    ("_nm_rad", "N m/rad"), ("_m_s", "m/s"), ("_rad_per_s", "rad/s"), ("_mm", "mm"),
+    ("_nm_rad", "N m/rad"), ("_m_s", "m/s"), ("_deg_s", "deg/s"), ("_rad_per_s", "rad/s"),
+    ("_rad_s", "rad/s"), ("_per_s", "1/s"), ("_nm", "N m"), ("_mm", "mm"),
     ("_deg", "deg"), ("_rad", "rad"), ("_hu", "HU"), ("_m", "m"), ("_s", "s"),
     ("_kg", "kg"), ("_n", "N"), ("_hz", "Hz"),
 )  # fmt: skip

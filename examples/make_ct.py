@@ -13,8 +13,8 @@ writes FOLDER/phantom_ct.nii.gz and FOLDER/plan.json (FOLDER: `ct`). Then, as wi
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
 import nibabel as nib
@@ -53,4 +53,6 @@ def main(folder: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("ct"))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folder", nargs="?", type=Path, default=Path("ct"), help="default: ct")
+    main(parser.parse_args().folder)

@@ -24,10 +24,12 @@ from __future__ import annotations
 import json
 import os
 import re
+import select
 import shlex
 import signal
 import subprocess
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -155,9 +157,10 @@ def _check_python(words: list[str], command: Command) -> None:
     script = ROOT / words[1]
     assert script.is_file(), f"{command}: no script {words[1]}"
     options = [w.split("=")[0] for w in words[2:] if w.startswith("--")]
-    if options:
-        shown = subprocess.run([sys.executable, str(script), "--help"], capture_output=True,
-                               text=True, cwd=ROOT, timeout=120).stdout  # fmt: skip
+    if options:  # asked in a folder of its own: a script's --help writes nothing anywhere
+        with tempfile.TemporaryDirectory() as scratch:
+            shown = subprocess.run([sys.executable, str(script), "--help"], capture_output=True,
+                                   text=True, cwd=scratch, timeout=120).stdout  # fmt: skip
         missing = [o for o in options if o not in shown]
         assert not missing, f"{command}: {script.name} takes no {missing}"
 
@@ -284,7 +287,8 @@ def _serve(command: Command, folder: Path) -> subprocess.Popen[str]:
     process = subprocess.Popen(shlex.split(command.text), cwd=folder, env=_env(), text=True,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
     assert process.stdout is not None and process.stderr is not None
-    line = process.stdout.readline()  # "serving http://... (Ctrl-C to stop); ..."
+    ready, _, _ = select.select([process.stdout], [], [], 300.0)  # the cell built, served
+    line = process.stdout.readline() if ready else ""  # "serving http://... (Ctrl-C to stop)"
     if not line.startswith("serving "):
         process.kill()
         pytest.fail(f"{command}: {line}{process.communicate(timeout=60)[1]}")
