@@ -6,8 +6,9 @@
     >>> outcome = run_campaign(spec, out="runs/campaigns/skull-register", workers=2)
 
 The campaign folder holds `campaign.yaml` (the resolved campaign: stage, base configuration,
-sweep, trials, seed), `trials/*.json` (one row per finished trial), `results.csv`, and the
-report (`report.md`, `report.json`, PNG figures). Running the same campaign into the same
+sweep, trials, seed), `trials/*.json` (one row per finished trial; a crashed trial's
+traceback in `trials/<trial_id>/traceback.txt`), `results.csv`, and the report
+(`report.md`, `report.json`, PNG figures). Running the same campaign into the same
 folder resumes it; a different campaign there is refused.
 """
 
@@ -191,6 +192,12 @@ class CampaignOutcome:
     ran: int
     skipped: int
     files: tuple[Path, ...]
+
+    @property
+    def crashed(self) -> list[JsonObject]:
+        """The rows of the trials stopped by a program error (status "crash"), each naming
+        its traceback's file (relative to the folder) in `traceback`."""
+        return [r for r in self.rows if r["status"] == "crash"]
 
 
 def run_campaign(

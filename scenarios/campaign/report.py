@@ -52,6 +52,10 @@ def _quantiles(x: np.ndarray) -> dict[str, float]:
 class GroupSummary:
     """Aggregated figures of a group of trials (a sweep point, or all). Lengths [m], times [s].
 
+    `errors`: trials stopped by a user error (status "error": a configuration or input the
+    trial cannot use); `crashes`: trials stopped by a program error (status "crash", a bug:
+    the traceback is in the trial's folder); the other figures are over the trials that
+    returned a row (status "ok", refused and aborted runs included).
     `acceptance_of_good`: accepted / good (right object, every target within the threshold);
     `target_error`: quantiles over every target of the accepted registrations;
     `tre_ratio`: quantiles of measured / predicted TRE over every target of the accepted
@@ -61,6 +65,7 @@ class GroupSummary:
     label: str
     trials: int
     errors: int
+    crashes: int
     accepted: int
     ambiguous: int
     rejected: int
@@ -89,7 +94,8 @@ def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
     return GroupSummary(
         label=label,
         trials=len(rows),
-        errors=len(rows) - len(ok),
+        errors=sum(r.get("status") == "error" for r in rows),
+        crashes=sum(r.get("status") == "crash" for r in rows),
         accepted=len(accepted),
         ambiguous=sum(r.get("verdict") == "ambiguous" for r in ok),
         rejected=sum(r.get("verdict") == "rejected" for r in ok),
@@ -161,24 +167,24 @@ def markdown(summaries: list[GroupSummary], stage: str) -> str:
         "",
         STAGE_NOTES.get(stage, f"Stage: {stage}."),
         "",
-        f"- trials: {total.trials} ({total.errors} failed)",
+        f"- trials: {total.trials} ({total.errors} failed, {total.crashes} crashed)",
         f"- false accepts: {total.false_accepts} (goal 0)",
         f"- acceptance of good registrations: {total.good_accepted}/{total.good}"
         f" = {_num(total.acceptance_of_good * 100, 1)} %",
         f"- predicted TRE calibration, median measured/predicted: {_num(median)} "
         f"(goal within [{lo}, {hi}]: {'met' if lo <= median <= hi else 'not met'})",
         "",
-        "| group | trials | failed | accepted | ambiguous | rejected | false accepts | "
+        "| group | trials | failed | crashed | accepted | ambiguous | rejected | false accepts | "
         "accepted good | target error median / q95 / max [mm] | TRE ratio q25 / median / q75 "
         "| trial time median / q95 [s] |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     exported = _exported_lines(summaries)
     if exported:
         lines[8:8] = exported
     for s in summaries:
         lines.append(
-            f"| {s.label} | {s.trials} | {s.errors} | {s.accepted} | {s.ambiguous} | "
+            f"| {s.label} | {s.trials} | {s.errors} | {s.crashes} | {s.accepted} | {s.ambiguous} | "
             f"{s.rejected} | {s.false_accepts} | {s.good_accepted}/{s.good} | "
             f"{_mm(s.target_error['median'])} / {_mm(s.target_error['q95'])} / "
             f"{_mm(s.target_error['max'])} | {_num(s.tre_ratio['q25'])} / "

@@ -4,11 +4,14 @@ Each trial's row is written to `trials/<trial_id>.json` through a temporary file
 an atomic rename, by the one process that collects the results: a row is there completely or
 not at all, and a trial id names one file, so a restarted campaign skips the finished trials
 and no result is lost or counted twice. The CSV (one row per trial, flat columns) is rebuilt
-from the JSON files, also atomically.
+from the JSON files, also atomically. A crashed trial (status "crash") also has a folder,
+`trials/<trial_id>/`, holding its full traceback (`traceback.txt`), written the same way
+before its row; the row names the file in its `traceback` column.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -17,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from models.atomic import write_text
+from scenarios.campaign.trials import TRACEBACK_TEXT
 from scenarios.results.edge import JsonObject
 
 
@@ -43,10 +47,27 @@ class ResultStore:
             return set()
         return {p.stem for p in self.trials_dir.glob("*.json")}
 
+    def traceback_path(self, trial_id: str) -> Path:
+        """Where the full traceback of the crashed trial `trial_id` is written."""
+        return self.trials_dir / trial_id / "traceback.txt"
+
     def write(self, row: JsonObject) -> Path:
-        """Store one row (must hold "trial_id")."""
+        """Store one row (must hold "trial_id"). A crashed trial's traceback (the row's
+        TRACEBACK_TEXT) goes to traceback_path first, and the row keeps the file's path
+        relative to the campaign folder as `traceback`; any other row removes a traceback
+        left by an earlier run of its trial (a crashed row deleted to run it again)."""
+        trial_id = str(row["trial_id"])
+        traceback = self.traceback_path(trial_id)
+        if TRACEBACK_TEXT in row:
+            row = dict(row)
+            write_text(traceback, str(row.pop(TRACEBACK_TEXT)))
+            row["traceback"] = traceback.relative_to(self.folder).as_posix()
+        elif traceback.exists():
+            traceback.unlink()
+            with contextlib.suppress(OSError):  # not empty: a killed writer's temporary file
+                traceback.parent.rmdir()
         return write_text(
-            self.path(str(row["trial_id"])),
+            self.path(trial_id),
             json.dumps({k: _plain(v) for k, v in row.items()}, sort_keys=False),
         )
 

@@ -2,6 +2,12 @@
 
 Trial ids are `p<point>-t<trial>`; the seed of trial k is `seed + k` at every sweep point
 (common random numbers: sweep points are compared on the same draws).
+
+A trial ends in one of three statuses: "ok" (the trial function returned its row, whatever
+the run's verdict: a refused match or an aborted job is a result), "error" (it raised one of
+the project's user errors, scenarios.errors.user_errors: a bad configuration, input the
+trial cannot use) or "crash" (it raised anything else: a bug). A crash's row carries its full
+traceback under TRACEBACK_TEXT, which the campaign's store writes to the trial's folder.
 """
 
 from __future__ import annotations
@@ -14,7 +20,15 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from scenarios.campaign.errors import CampaignError
+from scenarios.errors import user_errors
 from scenarios.results.edge import JsonObject
+
+STATUSES: tuple[str, ...] = ("ok", "error", "crash")
+"""A trial row's `status`: returned, stopped by a user error, stopped by a program error."""
+
+TRACEBACK_TEXT = "traceback_text"
+"""The key of a crashed trial's full traceback in the row run_trial returns; the store
+replaces it by the file it writes (scenarios.campaign.store.ResultStore.write)."""
 
 
 class TrialRow(Protocol):
@@ -62,9 +76,10 @@ def stage_function(stage: str) -> TrialFunction:
 
 
 def run_trial(trial: Trial) -> JsonObject:
-    """Run one trial and return its row: ids, sweep values, status ("ok" or "error" with
-    the exception in `error`), and the trial function's metrics. Never raises for a failing
-    trial: a failure is a result, recorded once like the others."""
+    """Run one trial and return its row: ids, sweep values, status (STATUSES; "error" or
+    "crash" with the exception and where it was raised in `error`, a crash with its full
+    traceback under TRACEBACK_TEXT), and the trial function's metrics. Never raises for a
+    failing trial: a failure is a result, recorded once like the others."""
     row: JsonObject = {
         "trial_id": trial.trial_id,
         "point": trial.point,
@@ -77,12 +92,17 @@ def run_trial(trial: Trial) -> JsonObject:
     try:
         columns = stage_function(trial.stage)(trial.config, trial.seed).columns()
     except Exception as exc:
-        last = traceback.extract_tb(exc.__traceback__)[-1]
-        where = f"{last.filename.rsplit('/', 1)[-1]}:{last.lineno}"
-        return {
-            **row,
-            "status": "error",
-            "error": f"{type(exc).__name__}: {exc} ({where})",
-            "trial_seconds": time.perf_counter() - t0,
-        }
+        return {**row, **_failure(exc), "trial_seconds": time.perf_counter() - t0}
     return {**row, "status": "ok", "error": "", **columns}
+
+
+def _failure(exc: Exception) -> JsonObject:
+    """The status columns of a trial stopped by `exc`: "error" for a user error (one line),
+    "crash" for any other exception (one line, and the full traceback)."""
+    last = traceback.extract_tb(exc.__traceback__)[-1]
+    where = f"{last.filename.rsplit('/', 1)[-1]}:{last.lineno}"
+    line = f"{type(exc).__name__}: {exc} ({where})"
+    if isinstance(exc, user_errors()):
+        return {"status": "error", "error": line}
+    text = "".join(traceback.format_exception(exc))
+    return {"status": "crash", "error": line, TRACEBACK_TEXT: text}

@@ -698,7 +698,13 @@ def campaign(
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
 ) -> None:
-    """Run many seeded trials (a sweep), store one row per trial, report reliability."""
+    """Run many seeded trials (a sweep), store one row per trial, report reliability.
+
+    A trial stopped by a user error (a configuration it cannot use) is a failed row; one
+    stopped by a program error (a bug) is a crashed row, its traceback in the campaign
+    folder's trials/ID/traceback.txt, and the command exits 5 once the table and the report
+    are written.
+    """
     from scenarios.campaign import default_out, plan_campaign, run_campaign
 
     spec = plan_campaign(name, stage=stage, trials=trials, vary=vary or [], seed=seed)
@@ -711,6 +717,14 @@ def campaign(
         f"campaign folder: {outcome.folder} ({outcome.ran} trials run now, "
         f"{outcome.skipped} finished before)"
     )
+    if outcome.crashed:
+        typer.echo(
+            f"twincell: internal error: {len(outcome.crashed)} of {len(outcome.rows)} trials "
+            f"crashed (a program error, not a refusal); tracebacks in "
+            f"{outcome.folder / 'trials'}/<trial_id>/traceback.txt",
+            err=True,
+        )
+        raise typer.Exit(5)
 
 
 def main(argv: list[str] | None = None) -> int:
