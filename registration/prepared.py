@@ -226,6 +226,8 @@ def read_source(path: str | Path) -> ModelSource:
 
 def _existing(path: str | Path) -> Path:
     p = Path(path)
+    if p.is_dir():
+        raise FormatError(f"{p} is a folder, not a prepared model file ({SUFFIX})")
     if not p.is_file():
         raise FormatError(f"prepared model file not found: {p}")
     return p

@@ -136,3 +136,50 @@ def test_a_guess_from_the_command_line_starts_refine(files, tmp_path, capsys) ->
         rot, trans = pose_error(np.array(result["T_model_data"]), scan.T_model_data)
         assert np.degrees(rot) < 0.2 and trans < 0.3e-3, (guess, rot, trans)
     capsys.readouterr()
+
+
+def test_collinear_nan_and_folder_inputs_are_named(files, tmp_path, capsys) -> None:
+    # Points on a 175 m line are refused as collinear before their size is taken for a units
+    # mistake; NaN in a mesh is counted, not measured as a span of nan m; a folder is a folder.
+    d, _ = files
+    model, scan = str(d / "model.stl"), str(d / "scan.xyz")
+    line = np.linspace(0.0, 1.0, 50)[:, None] * np.array([100.0, 120.0, 80.0])
+    np.savetxt(tmp_path / "line.xyz", line)
+    trimesh.PointCloud(line).export(tmp_path / "line.ply")  # float32: on the line within 1e-7
+    nan_vertices = V.copy()
+    nan_vertices[3, 1] = nan_vertices[7] = np.nan
+    trimesh.Trimesh(nan_vertices, F, process=False).export(tmp_path / "nan_model.ply")
+    (tmp_path / "nan_model.obj").write_text(
+        "v 0 0 0\nv nan 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 2 3\nf 1 3 4\n"
+    )
+    for folder in ("scans", "folder.xyz", "folder.twm"):
+        (tmp_path / folder).mkdir()
+    n = len(V)
+    cases = {
+        "line.xyz": ([str(tmp_path / "line.xyz"), model],
+                     "line.xyz: its 50 points are collinear (all on one line); a rigid match "
+                     "needs at least 3 points spanning a surface"),
+        "line.ply": ([str(tmp_path / "line.ply"), model], "line.ply: its 50 points are collinear"),
+        "nan mesh .ply": ([scan, str(tmp_path / "nan_model.ply")],
+                          f"nan_model.ply: 4 non-finite coordinate(s) (NaN or inf) in 2 of its "
+                          f"{n} vertices (the first in row 3"),
+        "nan mesh .obj": ([scan, str(tmp_path / "nan_model.obj")],
+                          "nan_model.obj: 1 non-finite coordinate(s) (NaN or inf) in 1 of its 4 "
+                          "vertices"),
+        "folder as points": ([str(tmp_path / "scans"), model],
+                             "scans is a folder, not a points file; valid: .xyz, .txt"),
+        "folder with a points suffix": ([str(tmp_path / "folder.xyz"), model],
+                                        "folder.xyz is a folder, not a points file; valid:"),
+        "folder as model": ([scan, str(tmp_path / "scans")],
+                            "scans is a folder, not a model file; valid: .stl, .obj, .ply"),
+        "folder as prepared model": ([scan, str(tmp_path / "folder.twm")],
+                                     "folder.twm is a folder, not a prepared model file (.twm)"),
+    }  # fmt: skip
+    for label, (args, message) in cases.items():
+        out = tmp_path / f"{label}.json"
+        code, err = _run(["register", *args, "--json", str(out)], capsys)
+        assert code == 2, label
+        assert message in err, (label, err)
+        assert err.count("\n") == 1 and "Traceback" not in err, label
+        assert "wrong units" not in err and "span nan" not in err and "not found" not in err
+        assert not out.exists(), label

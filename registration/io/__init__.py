@@ -8,8 +8,8 @@ the file's common frame), .las / .laz. Models: a triangle mesh (.stl, .obj, .ply
 .off), or any point file (a point model).
 
 Every reader raises FormatError naming the file and what is wrong: a missing or empty file,
-a truncated binary, a wrong header, NaN or inf, a count line that disagrees with the rows, a
-size that looks like the wrong units.
+a folder, a truncated binary, a wrong header, NaN or inf (counted), a count line that
+disagrees with the rows, points all on one line, a size that looks like the wrong units.
 """
 
 from __future__ import annotations
@@ -34,10 +34,15 @@ POINT_FORMATS: tuple[str, ...] = (
 )  # fmt: skip
 #: Plausible sizes of a scanned object or cell [m]; outside, the units are wrong.
 SIZE_RANGE_M: tuple[float, float] = (2e-4, 100.0)
+#: The points' second spread (singular value) over their first under which they lie on one
+#: line within what a file holds (float32 coordinates in PLY, PCD and LAS files).
+COLLINEAR_RATIO: float = 1e-6
 
 
 def _existing(path: str | Path, valid: tuple[str, ...], what: str) -> Path:
     p = Path(path)
+    if p.is_dir():
+        raise FormatError(f"{p} is a folder, not a {what} file; valid: {', '.join(valid)}")
     if not p.is_file():
         raise FormatError(f"{what} file not found: {p}")
     if p.suffix.lower() not in valid:
@@ -55,6 +60,35 @@ def unit_scale(units: str) -> float:
     if units not in UNITS:
         raise InputError(f"unknown units {units!r}; valid: {', '.join(UNITS)}")
     return UNITS[units]
+
+
+def check_finite(path: Path, points: Array, what: str = "points") -> None:
+    """Refuse coordinates (N, 3) that are NaN or inf, counted: how many, in how many of the
+    `what` (points or vertices), the first one's row."""
+    bad = ~np.isfinite(points)
+    if not bad.any():
+        return
+    rows = bad.any(axis=1)
+    raise FormatError(
+        f"{path}: {int(bad.sum())} non-finite coordinate(s) (NaN or inf) in {int(rows.sum())} "
+        f"of its {len(points)} {what} (the first in row {int(np.flatnonzero(rows)[0])}, "
+        f"counting from 0); every coordinate must be a finite number"
+    )
+
+
+def check_spread(path: Path, points: Array, what: str = "points") -> None:
+    """Refuse points (N, 3) that cannot locate a rigid pose: fewer than 3, or all on one line
+    (or one point) within COLLINEAR_RATIO. Points on one plane are a surface and pass."""
+    need = "a rigid match needs at least 3 points spanning a surface"
+    if len(points) < 3:
+        raise FormatError(f"{path}: it holds {len(points)} {what}; {need}")
+    s = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+    if s[0] == 0:
+        raise FormatError(f"{path}: its {len(points)} {what} are all one point; {need}")
+    if s[1] <= COLLINEAR_RATIO * s[0]:
+        raise FormatError(
+            f"{path}: its {len(points)} {what} are collinear (all on one line); {need}"
+        )
 
 
 def check_size(path: Path, points_m: Array, units: str) -> None:
@@ -95,10 +129,13 @@ def load_points(path: str | Path, units: str = "m") -> Array:
     scale = unit_scale(units)
     p = _existing(path, POINT_FORMATS, "points")
     points = _read_points(p)
+    if points.ndim == 2 and points.shape[1:] == (3,):
+        check_finite(p, points)
     try:
         points = check_points(points, f"points in {p}", minimum=1)
     except InputError as exc:
         raise FormatError(str(exc)) from None
+    check_spread(p, points)
     points = points * scale
     check_size(p, points, units)
     return points
@@ -111,6 +148,8 @@ def load_model(path: str | Path, units: str = "m") -> Shape:
     if p.suffix.lower() not in MESH_FORMATS:
         return PointModel(load_points(p, units))
     vertices, faces = read_mesh(p, points_only=False)
+    check_finite(p, vertices, "vertices")
+    check_spread(p, vertices, "vertices")
     vertices = vertices * scale
     check_size(p, vertices, units)
     if faces is None:
