@@ -230,6 +230,60 @@ def test_cli_meshes_a_volume_and_refuses_a_bad_one(tmp_path: Path, capsys) -> No
     assert "x.nrrd: not an NRRD volume" in err and len(err.strip().splitlines()) == 1
 
 
+def test_files_left_out_of_a_series_are_named_and_counted(tmp_path: Path, capsys) -> None:
+    """A series folder of 20 slices, a file that is no DICOM, one cut in its header (DICOM
+    without an image) and a notes file: the volume is the 20 slices, and the 3 files left out
+    are named with why in the volume, in the model's source and by `twincell model`."""
+    from models.ct.object import volume_object
+
+    data = np.full((24, 24, 20), -1000.0)
+    data[6:18, 6:18, 5:15] = 1200.0
+    folder = tmp_path / "ct"
+    _write_dicom(folder, data, [float(z) for z in range(20)])
+    (folder / "broken.dcm").write_bytes(b"\0" * 64 + b"not a DICOM file")
+    (folder / "cut.dcm").write_bytes((folder / "slice003.dcm").read_bytes()[:200])
+    (folder / "notes.txt").write_text("scanned on Tuesday")
+    volume = read_volume(folder)
+    assert volume.data.shape == (24, 24, 20)
+    assert volume.skipped is not None
+    assert volume.skipped.total == 23
+    assert volume.skipped.files == (
+        ("broken.dcm", "not DICOM"),
+        ("cut.dcm", "DICOM without an image"),
+        ("notes.txt", "not DICOM"),
+    )
+    line = (
+        f"3 of 23 files in {folder} skipped: broken.dcm (not DICOM), cut.dcm (DICOM without "
+        f"an image), notes.txt (not DICOM)"
+    )
+    assert str(volume.skipped) == line
+    assert line in volume_object(folder).source
+    assert main(["model", str(folder)]) == 0
+    out, err = capsys.readouterr()
+    assert err == f"twincell: warning: {line}\n"
+    assert "files skipped" in out and "broken.dcm" in out
+    # A clean series skips nothing; a folder of nothing readable says what it left out.
+    for name in ("broken.dcm", "cut.dcm", "notes.txt"):
+        (folder / name).rename(tmp_path / name)
+    assert read_volume(folder).skipped is None
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (tmp_path / "broken.dcm").rename(empty / "broken.dcm")
+    with pytest.raises(VolumeError, match=r"no DICOM image in .*empty \(1 of 1 files in "
+                       r".*empty skipped: broken\.dcm \(not DICOM\)\)"):  # fmt: skip
+        read_volume(empty)
+
+
+def test_many_files_left_out_are_all_counted() -> None:
+    """The one-line form names the first ten files left out and counts the rest."""
+    from models.ct.volume import SkippedFiles
+
+    skipped = SkippedFiles("ct", 120, tuple((f"x{k}.dcm", "not DICOM") for k in range(12)))
+    text = str(skipped)
+    assert text.startswith("12 of 120 files in ct skipped: x0.dcm (not DICOM), ")
+    assert "x9.dcm (not DICOM), and 2 more" in text and "x10.dcm" not in text
+
+
 def test_box_with_a_through_hole() -> None:
     """A 40 x 30 x 20 mm box drilled through by a 10 mm hole, CT-scanned at 0.5 x 0.5 x 1
     mm without noise and segmented at the midpoint threshold: the hole stays open (it is no

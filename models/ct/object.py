@@ -24,7 +24,8 @@ def volume_object(
     """The bone of the volume at `path` (threshold `iso_hu` [HU]) as an object model in the
     volume's frame [m], with the plan at `plan` (a JSON in the volume's frame, read_plan) as
     its burr holes, none if no plan. An irregular series is resampled (at `voxel_mm` if
-    given; read_volume) and its `source` says how."""
+    given; read_volume) and its `source` says how, and names the files of a series folder
+    that were left out."""
     volume = read_volume(path, voxel_mm, max_gap_mm)
     bone = bone_model(volume, iso_hu=iso_hu)
     holes = () if plan is None else read_plan(plan, volume)
@@ -35,5 +36,6 @@ def volume_object(
         convex_pieces=convex_pieces(bone.mesh, seed=seed),
         burr_holes=holes,
         source=f"CT {path} (bone at {iso_hu:g} HU)"
-        + ("" if volume.resampled is None else f"; {volume.resampled}"),
+        + ("" if volume.resampled is None else f"; {volume.resampled}")
+        + ("" if volume.skipped is None else f"; {volume.skipped}"),
     )

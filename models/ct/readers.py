@@ -2,18 +2,20 @@
 voxel spacing, slice positions and orientation, read into a `Volume` (volume.py for the
 frames). A series whose slices do not form a regular grid (uneven steps, a gantry tilt) is
 resampled onto one (models.ct.regular), as is any volume asked for at a given voxel size.
-Anything that is not a usable volume is refused with one line naming the file."""
+Anything that is not a usable volume is refused with one line naming the file; a file of a
+series folder that is left out (not DICOM, unreadable, no image) is named in the volume's
+`skipped`."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from models.ct.regular import MAX_GAP_MM, SliceStack, check_steps, is_regular, regularize, resample
-from models.ct.volume import RAS_FROM_LPS, Volume, VolumeError
+from models.ct.volume import RAS_FROM_LPS, SkippedFiles, Volume, VolumeError
 
 NIFTI_SUFFIXES = (".nii", ".nii.gz")
 NRRD_SUFFIXES = (".nrrd", ".nhdr")
@@ -101,26 +103,16 @@ def read_dicom_series(
     series (a folder holding several must be given one file of the series wanted): slices
     of one orientation sorted along their normal, resampled onto a regular grid if their
     steps vary or they are tilted (or at `voxel_mm`, if given); a gap wider than
-    `max_gap_mm` [mm] is refused."""
+    `max_gap_mm` [mm] is refused. The folder's files left out are the volume's `skipped`."""
     import warnings
 
     import pydicom
 
-    headers: dict[str, list[tuple[Path, Any]]] = {}  # pydicom datasets
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # pydicom warns on the VR quirks it reads through
-        for f in sorted(p for p in folder.iterdir() if p.is_file()):
-            try:
-                ds = pydicom.dcmread(f, stop_before_pixels=True)
-            except Exception:
-                if only is not None and f == only:
-                    raise VolumeError(f"{only}: not a volume (NIfTI, NRRD or DICOM)") from None
-                continue
-            if "Rows" in ds and "Columns" in ds:
-                headers.setdefault(str(ds.get("SeriesInstanceUID", "?")), []).append((f, ds))
+    headers, skipped = _series_headers(folder, only)
     where = only or folder
     if not headers:
-        raise VolumeError(f"{where}: no DICOM image in {folder}")
+        why = "" if skipped is None else f" ({skipped})"
+        raise VolumeError(f"{where}: no DICOM image in {folder}{why}")
     if only is not None:
         series = next((k for k, v in headers.items() if any(f == only for f, _ in v)), None)
         if series is None:
@@ -145,7 +137,48 @@ def read_dicom_series(
             else:
                 images.append(_image(f, ds))
         modality = str(getattr(headers[series][0][1], "Modality", "")) or None
-    return _stack(where, images, modality, voxel_mm, max_gap_mm)
+    volume = _stack(where, images, modality, voxel_mm, max_gap_mm)
+    return volume if skipped is None else replace(volume, skipped=skipped)
+
+
+def _series_headers(
+    folder: Path, only: Path | None
+) -> tuple[dict[str, list[tuple[Path, Any]]], SkippedFiles | None]:
+    """The headers (pydicom datasets without pixels) of the folder's image files by series,
+    and the files left out, each with why: not DICOM, unreadable, or DICOM without an image.
+    The file `only`, if it cannot be read, is refused."""
+    import warnings
+
+    import pydicom
+    from pydicom.errors import InvalidDicomError
+
+    headers: dict[str, list[tuple[Path, Any]]] = {}
+    skipped: list[tuple[str, str]] = []
+    files = sorted(p for p in folder.iterdir() if p.is_file())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pydicom warns on the VR quirks it reads through
+        for f in files:
+            try:
+                ds = pydicom.dcmread(f, stop_before_pixels=True)
+            except Exception as exc:  # pydicom raises many kinds for a file it cannot read
+                if only is not None and f == only:
+                    raise VolumeError(f"{only}: not a volume (NIfTI, NRRD or DICOM)") from None
+                why = "not DICOM" if isinstance(exc, InvalidDicomError) else _first_line(exc)
+                skipped.append((f.name, why))
+                continue
+            if "Rows" in ds and "Columns" in ds:
+                headers.setdefault(str(ds.get("SeriesInstanceUID", "?")), []).append((f, ds))
+            else:
+                skipped.append((f.name, "DICOM without an image"))
+    if not skipped:
+        return headers, None
+    return headers, SkippedFiles(str(folder), len(files), tuple(skipped))
+
+
+def _first_line(exc: BaseException) -> str:
+    """The kind of an exception and the first line of its message."""
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text.splitlines()[0]}" if text else type(exc).__name__
 
 
 @dataclass(frozen=True, eq=False)

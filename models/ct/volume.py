@@ -30,6 +30,25 @@ class VolumeError(ModelError, ValueError):
     the file and the problem."""
 
 
+@dataclass(frozen=True)
+class SkippedFiles:
+    """Files of a series folder left out of its volume: the folder, how many files it holds
+    and each file left out with why, as (name, reason)."""
+
+    folder: str
+    total: int
+    files: tuple[tuple[str, str], ...]
+
+    #: How many of the files the one-line form names (it counts them all).
+    SHOWN = 10
+
+    def __str__(self) -> str:
+        shown = ", ".join(f"{name} ({why})" for name, why in self.files[: self.SHOWN])
+        more = len(self.files) - self.SHOWN
+        rest = f", and {more} more" if more > 0 else ""
+        return f"{len(self.files)} of {self.total} files in {self.folder} skipped: {shown}{rest}"
+
+
 @dataclass(frozen=True, eq=False)
 class Volume:
     """An image volume: `data` (I, J, K) float values (Hounsfield units for CT), `affine_lps`
@@ -37,7 +56,8 @@ class Volume:
     say), `native_frame` the frame its file and its plans use ("LPS" for DICOM and NRRD in
     LPS, "RAS" for NIfTI and NRRD in RAS), `source` the file or folder it came from,
     `resampled` how its slices were put onto this regular grid (models.ct.regular; None: the
-    file's own grid)."""
+    file's own grid), `skipped` the files of its series folder that were left out (None:
+    none)."""
 
     data: np.ndarray
     affine_lps: np.ndarray
@@ -45,6 +65,7 @@ class Volume:
     native_frame: str
     source: str
     resampled: Resampling | None = None
+    skipped: SkippedFiles | None = None
 
     def __post_init__(self) -> None:
         data = np.asarray(self.data)

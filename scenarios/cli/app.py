@@ -64,6 +64,7 @@ def _volume_model(
     series resampled (and said so)."""
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
     from models.ct import bone_model, read_volume
     from models.ct.regular import voxel_size
@@ -72,6 +73,8 @@ def _volume_model(
     volume = read_volume(path, voxel_size(voxel_mm), max_gap_mm)
     if volume.resampled is not None:
         typer.echo(f"{path}: {volume.resampled}")
+    if volume.skipped is not None:
+        typer.echo(f"twincell: warning: {volume.skipped}", err=True)
     bone = bone_model(volume, iso_hu=iso)
     c = bone.check
     table = Table(title=f"bone model: {path}", show_header=False)
@@ -81,6 +84,7 @@ def _volume_model(
         ("modality / frame", f"{volume.modality or 'not stated'} / {volume.native_frame}"),
         ("voxels (i, j, k)", " x ".join(str(n) for n in volume.data.shape)),
         ("grid", "the file's own" if volume.resampled is None else str(volume.resampled)),
+        ("files skipped", "none" if volume.skipped is None else str(volume.skipped)),
         ("voxel size (i, j, k) \\[mm]", ", ".join(f"{v:.3f}" for v in c.voxel_mm)),
         ("threshold \\[HU]", f"{c.iso_hu:g}"),
         ("faces", str(c.faces)),
@@ -90,7 +94,7 @@ def _volume_model(
          f"{c.deviation_mean_m * 1e3:.3f} / {c.deviation_max_m * 1e3:.3f}"),
     )  # fmt: skip
     for label, value in rows:
-        table.add_row(label, value)
+        table.add_row(label, Text(value))  # Text: a file's name is not markup
     Console().print(table)
     if out is not None:
         written = write_mesh(bone.mesh, out, units)
