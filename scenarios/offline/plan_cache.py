@@ -8,31 +8,52 @@ targets' errors predicted); a job run again on the same model reads it back inst
 
 A plan is stored under a hash of all of those inputs and of the planning code's own source
 (the packages cell, models, registration, scenarios.offline and scenarios.stages), so a
-changed planner or model never reads a plan an older one wrote. The file is the plan
-pickled (a tree of frozen dataclasses and arrays), written atomically into the user's own
-cache folder; a file that does not read back is planned anew and replaced.
+changed planner or model never reads a plan an older one wrote. The file is a numpy .npz
+read without pickle (opening one runs no code from it): the plan's tree of frozen
+dataclasses as JSON, naming only the plan's own types (PLAN_TYPES), with its arrays beside
+it, to the bit. It is written atomically into the user's own cache folder; a file that does
+not read back as a plan is reported (a warning on this module's logger) and planned anew
+and replaced.
 """
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
-import pickle
+import io
+import json
+import logging
+import zipfile
+import zlib
 from collections.abc import Callable
+from dataclasses import fields, is_dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from pydantic import BaseModel
 
 from cell.robots import Robot
 from models import cache
 from models.atomic import write_atomic
 from models.model import ObjectModel
-from scenarios.offline.scan_plan import ScanPlan
-from scenarios.offline.settings import PlanningSettings
+from scenarios.offline.scan import PlannedPass
+from scenarios.offline.scan_plan import Candidate, ChosenPass, ScanPlan
+from scenarios.offline.settings import PlanningSettings, ScanPass
 
-#: The layout of the cache's files; a file of another layout is planned anew.
-FORMAT = 1
+log = logging.getLogger(__name__)
+
+#: The layout of the cache's files; a file of another layout is planned anew. (1: pickled
+#: plans, `.pickle`, no longer read.)
+FORMAT = 2
+#: The types a plan file may name: the plan's tree of values, nothing else.
+PLAN_TYPES: dict[str, type] = {
+    t.__name__: t for t in (ScanPlan, PlannedPass, ChosenPass, Candidate, ScanPass)
+}
+#: What reading a damaged, cut or foreign plan file raises (np.load, zipfile, zlib, json,
+#: the plan's constructors; pydantic's ValidationError is a ValueError).
+BAD_FILE_ERRORS = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, zlib.error)
 #: The packages whose source a plan depends on (relative to the project's root).
 PLANNING_CODE = ("cell", "models", "registration", "scenarios/offline", "scenarios/stages")
 
@@ -85,24 +106,94 @@ def folder() -> Path:
 
 def cached_plan(key: str, plan: Callable[[], ScanPlan]) -> tuple[ScanPlan, bool]:
     """The scan plan stored under `key`, or planned by `plan()` and stored; and whether it
-    came from the cache. With the cache off (TWINCELL_NO_CACHE), always planned."""
+    came from the cache. With the cache off (TWINCELL_NO_CACHE), always planned. A file that
+    does not read back as a plan is reported on this module's logger and replaced."""
     if not cache.enabled():
         return plan(), False
-    path = folder() / f"{key}.pickle"
-    stored = _read(path)
-    if stored is not None:
-        return stored, True
+    path = folder() / f"{key}.npz"
+    if path.is_file():
+        try:
+            return read_plan(path), True
+        except PlanFileError as exc:
+            log.warning("scan plan cache: %s; planning anew and replacing it", exc)
     made = plan()
+    encoded = encode_plan(made)
     with contextlib.suppress(OSError):  # a read-only cache folder costs time, not results
-        write_atomic(path, lambda tmp: tmp.write_bytes(pickle.dumps(made, protocol=5)))
+        write_atomic(path, lambda tmp: tmp.write_bytes(encoded))
     return made, False
 
 
-def _read(path: Path) -> ScanPlan | None:
-    """The plan stored at `path`, or None: no file, or one that is damaged or not a plan
-    (planned anew and replaced)."""
+class PlanFileError(ValueError):
+    """A plan file that does not read back as a plan: damaged, cut, of another layout."""
+
+
+def encode_plan(plan: ScanPlan) -> bytes:
+    """The .npz bytes of a plan: its tree as JSON (`tree`), its arrays as `a0`, `a1`, ..."""
+    arrays: dict[str, Any] = {}
+    tree = _encode(plan, arrays)
+    arrays |= {"format": np.array(FORMAT), "tree": np.array(json.dumps(tree))}
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def read_plan(path: Path) -> ScanPlan:
+    """The plan in the file at `path` (written by encode_plan); PlanFileError, naming the
+    file, if it is not one, saying why."""
     try:
-        stored = pickle.loads(path.read_bytes())
-    except Exception:  # any failure to read it back means: plan anew
-        return None
-    return stored if isinstance(stored, ScanPlan) else None
+        # The file opened here, closed here: np.load leaves its own open on a cut archive.
+        with path.open("rb") as f, np.load(f, allow_pickle=False) as data:
+            found = int(data["format"]) if "format" in data.files else "none"
+            if found != FORMAT:
+                raise PlanFileError(f"layout {found}, this code reads {FORMAT}")
+            arrays = {name: data[name] for name in data.files if name not in ("format", "tree")}
+            plan = _decode(json.loads(str(data["tree"])), arrays)
+    except PlanFileError as exc:
+        raise PlanFileError(f"{path}: {exc}") from None
+    except BAD_FILE_ERRORS as exc:
+        raise PlanFileError(f"{path}: not a readable plan ({type(exc).__name__}: {exc})") from None
+    if not isinstance(plan, ScanPlan):
+        raise PlanFileError(f"{path}: holds a {type(plan).__name__}, not a ScanPlan")
+    return plan
+
+
+def _encode(value: Any, arrays: dict[str, Any]) -> Any:
+    """The JSON form of a value of a plan's tree; its arrays go into `arrays`."""
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        if value.dtype.hasobject:
+            raise TypeError(f"a plan's arrays hold numbers; got one of {value.dtype}")
+        name = f"a{len(arrays)}"
+        arrays[name] = value
+        return {"array": name}
+    if isinstance(value, tuple):
+        return {"tuple": [_encode(v, arrays) for v in value]}
+    kind = type(value).__name__
+    if PLAN_TYPES.get(kind) is not type(value):
+        raise TypeError(f"a plan file stores {', '.join(PLAN_TYPES)}; got a {kind}")
+    if isinstance(value, BaseModel):
+        names = list(type(value).model_fields)
+    elif is_dataclass(value):
+        names = [f.name for f in fields(value) if f.init]
+    else:  # pragma: no cover - PLAN_TYPES holds dataclasses and pydantic models only
+        raise TypeError(f"cannot store a {kind}")
+    return {"type": kind, "fields": {n: _encode(getattr(value, n), arrays) for n in names}}
+
+
+def _decode(node: Any, arrays: dict[str, np.ndarray]) -> Any:
+    """The value of a JSON node written by _encode, with its arrays from `arrays`."""
+    if not isinstance(node, dict):
+        return node
+    if "array" in node:
+        return arrays[node["array"]]
+    if "tuple" in node:
+        return tuple(_decode(v, arrays) for v in node["tuple"])
+    kind = PLAN_TYPES[node["type"]]
+    values = {name: _decode(v, arrays) for name, v in node["fields"].items()}
+    try:
+        return kind(**values)
+    except TypeError as exc:  # fields that the type does not have: another layout
+        raise PlanFileError(f"a {kind.__name__} with other fields ({exc})") from None
