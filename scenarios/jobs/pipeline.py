@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -28,16 +29,20 @@ from scenarios.jobs.report import finish_job
 from scenarios.jobs.run_log import RunLog
 from scenarios.jobs.stages import StageTracker
 from scenarios.offline.cell_model import CellModel
+from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
 from scenarios.offline.operations import target_operations
+from scenarios.offline.tcp_check import POINTERS
 from scenarios.outputs import files as outputs
+from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator, PoseEvaluation
 from scenarios.realcell.setup import JobCell, build_job_cell
+from scenarios.results.beam import Commissioning
 from scenarios.results.run import RunResult
 from scenarios.results.verification import TcpCheck, Verification
 from scenarios.stages.calibrate import Calibrate, Calibrated
 from scenarios.stages.context import StageContext
-from scenarios.stages.execute import Execute, Executed
+from scenarios.stages.execute import Execute
 from scenarios.stages.export import Export, Exported
 from scenarios.stages.loop import run_stages
 from scenarios.stages.probe import Probe, Probed
@@ -55,7 +60,7 @@ Progress = Callable[[str], None]
 class RunHooks:
     """The stages' moments go to the evaluator (it records the truth then), their moves to
     the recording (the true bodies, the arm's path), their progress and their checks to the
-    run's `say` and `detect`."""
+    run's `say`, `detect` and `checked`."""
 
     def __init__(
         self,
@@ -63,11 +68,13 @@ class RunHooks:
         log: CellLog,
         say: Progress,
         detect: Callable[[str, str, str], None],
+        checked: Callable[[TcpCheck], None],
     ) -> None:
         self._evaluator = evaluator
         self._log = log
         self.say = say
         self.detect = detect
+        self.checked = checked
 
     def moment(self, name: str, tool: str) -> None:
         self._evaluator.record_touch(name, tool)
@@ -154,7 +161,6 @@ class JobRun:
         self.time_at_verdict_s = cell.controller.time_s
         self.exported = Exported()
         self.verifications: list[Verification] = []
-        self.tool_checks: tuple[TcpCheck, ...] = ()
         self._t0 = time.perf_counter()
 
     def enter(self, stage: Stage, state: JobState) -> None:
@@ -185,8 +191,6 @@ class JobRun:
             self._log_registration(outcome.pose, state)
         elif isinstance(outcome, Verified):
             self._log_verification(outcome)
-        elif isinstance(outcome, Executed):
-            self.tool_checks = outcome.tool_checks
         elif isinstance(outcome, Exported):
             self.exported = outcome
 
@@ -227,6 +231,21 @@ class JobRun:
         )
 
 
+def commissioned(config: JobConfig, plan: JobPlan, folder: Path, say: Progress) -> Commissioning:
+    """The job's real cell as it was commissioned: the job's tool read at the beam
+    (scenarios.offline.commissioning) on a copy of the cell without the job's faults or its
+    recording, the commissioning's cell time not the job's. Written to commissioning.json."""
+    cell = job_cell(config, plan.virtual, plan.real, plan.robot)
+    name = f"{plan.robot.name}, seed {config.seed}"
+    record = commission(cell.controller, (config.operations.tool,), name)
+    write_json(folder / COMMISSIONING_FILE, record.to_json())
+    say(
+        f"the cell's commissioning: the {config.operations.tool} read "
+        f"{len(record.references)} times at the beam"
+    )
+    return record
+
+
 def run_cell_job(
     config: JobConfig,
     folder: Path,
@@ -246,7 +265,7 @@ def run_cell_job(
     if faults:
         say("faults injected: " + ", ".join(f.name for f in faults))
     log = RunLog(cell.controller, cell.evaluator, cell.log, say, stages, recording)
-    hooks = RunHooks(cell.evaluator, cell.log, log.say, log.detect)
+    hooks = RunHooks(cell.evaluator, cell.log, log.say, log.detect, log.checked)
     controller = cell.controller
     ctx = StageContext(
         controller, plan.virtual, plan.T_table_nominal, cell.box, plan.settings, hooks,
@@ -254,5 +273,9 @@ def run_cell_job(
     )  # fmt: skip
     job = JobRun(cell, log, plan, folder, recording)
     job.timings["setup"] = time.perf_counter() - t_total
+    if config.verify.tool_reference and config.operations.tool in POINTERS:
+        t0 = time.perf_counter()
+        ctx = replace(ctx, commissioning=commissioned(config, plan, folder, say))
+        job.timings["commissioning"] = time.perf_counter() - t0
     ran = run_stages(job_stages(config, plan), ctx, job.enter, job.saw)
     return finish_job(config, plan, job, ran, t_total)

@@ -124,7 +124,7 @@ def finish_job(
         model_cache=used_key(config.cell.object.model, config.seed),
         plan_cache=plan.plan_cache,
         verifications=tuple(job.verifications),
-        tool_checks=job.tool_checks,
+        tool_checks=tuple(job.run.tool_checks),
         cell_time_s=controller.time_s,
     )
     if config.output.plots:

@@ -13,6 +13,7 @@ from scenarios.jobs.stages import SETUP, StageTracker
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.results.events import SupervisionEvent
+from scenarios.results.verification import TcpCheck
 
 Progress = Callable[[str], None]
 
@@ -46,6 +47,8 @@ class RunLog:
         self.transitions: list[tuple[float, str]] = [(0.0, SETUP)]
         #: The stages' own checks that spoke.
         self.checks: list[SupervisionEvent] = []
+        #: Every tool checked at the beam, in order, whatever happened next.
+        self.tool_checks: list[TcpCheck] = []
         controller.on_event = self._event
 
     def say(self, message: str) -> None:
@@ -67,6 +70,12 @@ class RunLog:
         self.checks.append(
             SupervisionEvent(self.stage, self._controller.time_s, code, message, action)
         )
+
+    def checked(self, check: TcpCheck) -> None:
+        """A tool was checked at the beam: kept, and shown in the recording."""
+        self.tool_checks.append(check)
+        if self._recording is not None:
+            self._recording.log_tool_check(self._controller.time_s, check)
 
     def stage_at(self, time_s: float) -> str:
         """The stage the run was in at `time_s` [s] of the controller's clock."""

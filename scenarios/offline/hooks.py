@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from scenarios.results.verification import TcpCheck
+
 
 class StageHooks(Protocol):
     """Callbacks of a stage into its run."""
@@ -27,6 +29,9 @@ class StageHooks(Protocol):
     def detect(self, code: str, message: str, action: str) -> None:
         """A check of the stage's own spoke (`code`), saw `message` and did `action`."""
 
+    def checked(self, check: TcpCheck) -> None:
+        """A tool was checked at the beam (every check, as it is made)."""
+
 
 class NoHooks:
     """Hooks that do nothing (a stage run on its own)."""
@@ -41,4 +46,7 @@ class NoHooks:
         return None
 
     def detect(self, code: str, message: str, action: str) -> None:
+        return None
+
+    def checked(self, check: TcpCheck) -> None:
         return None

@@ -313,23 +313,25 @@ class OperationsSection(Section):
 
 
 class VerifySection(Section):
-    """The check of the correction before any target is touched (scenarios.offline.verify):
-    the laser scans a strip of the object again, and the object's move since the scan is
+    """The checks before the first touch. The correction (scenarios.offline.verify): the
+    laser scans a strip of the object again, and the object's move since the scan is
     measured at each target and held to what the job's goal leaves; a detected move
     re-scans and re-matches once, then refuses. `max_strips`: strips it scans at most to
     make that call; `arm_accuracy_m` [m]: the arm's error at a target after its calibration
     (the job's budget for it); `repeatability_m` [m]: the arm's and the table's pose
-    repeatability, one standard deviation per axis (data sheets); `tool_tolerance_m` [m]: how
-    far off its tooldata the TCP check at the beam lets a tool sit (None: the job's RMS
-    goal less the error it plans for, the scan's TRE goal and `arm_accuracy_m` in
-    quadrature, but at least twice `arm_accuracy_m`, what the check reads on a well seated
-    tool: 0.3 mm for the skull)."""
+    repeatability, one standard deviation per axis (data sheets). The tool at the beam
+    (scenarios.offline.tcp_check): `tool_tolerance_m` [m]: how far off a tool may sit (None:
+    the job's RMS goal less the error it plans for, the scan's TRE goal and `arm_accuracy_m`
+    in quadrature: 0.165 mm for the skull); `tool_reference`: the cell was commissioned, its
+    pointed tools read at the beam, and each check differences against those readings (else
+    against the tooldata, with the arm's accuracy in its uncertainty)."""
 
     enabled: bool = True
     max_strips: int = Field(3, ge=1, le=10)
     arm_accuracy_m: float = Field(1.5e-4, ge=0.0, le=0.01)
     repeatability_m: float = Field(2.0e-5, ge=0.0, le=0.01)
     tool_tolerance_m: float | None = Field(None, gt=0.0, le=0.01)
+    tool_reference: bool = True
 
 
 class PlanningSettings(Section):

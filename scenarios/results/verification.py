@@ -47,7 +47,7 @@ class TargetCheck:
 
     @property
     def decision(self) -> Decision:
-        """"moved": beyond the allowance and beyond what the measurement's own noise
+        """ "moved": beyond the allowance and beyond what the measurement's own noise
         explains; "inconsistent": the second scan's own match too far from the
         registration; else "agrees" if resolved, "unresolved" if not (a move it cannot tell
         from none is not called a move)."""
@@ -154,25 +154,59 @@ def _worst_key(c: TargetCheck) -> tuple[int, float]:
     return order[c.decision], c.moved_m / max(c.allowance_m, 1e-9)
 
 
+ToolDecision = Literal["seated", "off", "unresolved"]
+
+#: A tool is called off only beyond this many standard deviations of its check's reading: a
+#: seated tool's reading (two-dimensional, Gaussian) goes beyond 4 sigma once in 3000 checks.
+K_SIGMA = 4.0
+
+
 @dataclass(frozen=True)
 class TcpCheck:
     """A tool checked at the beam after it was locked (scenarios.offline.tcp_check): its
-    pointer's sideways offset (x, y) from its tooldata in the tool frame [m] (inf where a
-    sweep did not see it), the tolerance it was held to [m], and which attempt it was (0:
-    as first seated, 1: seated again)."""
+    pointer's sideways offset (x, y) from where it should sit, in the tool frame [m] (inf
+    where a sweep did not see it); `sigma_m` [m]: the reading's own standard deviation per
+    axis on this cell (what a seated tool reads); `tolerance_m` [m]: the offset the job's
+    goal allows; `referenced`: differenced against the cell's commissioning reference (else
+    against the tooldata, the arm's own error at the beam in the reading); which attempt it
+    was (0: as first seated, 1: seated again).
+
+    A tool is off only beyond both the tolerance and K_SIGMA sigma; where K_SIGMA sigma is
+    beyond the tolerance, a reading within it is "unresolved": the tool is checked to that
+    much only."""
 
     tool: str
     offset_m: tuple[float, float]
     tolerance_m: float
     attempt: int = 0
+    sigma_m: float = 0.0
+    referenced: bool = False
 
     @property
     def off_m(self) -> float:
         return float(np.hypot(*self.offset_m))
 
     @property
+    def resolves_m(self) -> float:
+        """The offset [m] beyond which the check calls the tool off: the tolerance, or
+        K_SIGMA sigma if that is more."""
+        return max(self.tolerance_m, K_SIGMA * self.sigma_m)
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the check tells a tool off by its tolerance from a seated one."""
+        return K_SIGMA * self.sigma_m <= self.tolerance_m
+
+    @property
+    def decision(self) -> ToolDecision:
+        if not self.off_m <= self.resolves_m:  # inf: a sweep missed the beam
+            return "off"
+        return "seated" if self.resolved else "unresolved"
+
+    @property
     def ok(self) -> bool:
-        return self.off_m <= self.tolerance_m
+        """The tool may be used: not called off."""
+        return self.decision != "off"
 
     @property
     def T_flange_tool(self) -> np.ndarray:
@@ -184,11 +218,16 @@ class TcpCheck:
     def summary(self) -> str:
         if not np.isfinite(self.off_m):
             return f"the {self.tool}'s pointer missed the beam: it sits far off its tooldata"
-        return (
-            f"the {self.tool}'s pointer is {self.off_m * 1e3:.2f} mm off its tooldata "
+        against = "its commissioning reference" if self.referenced else "its tooldata"
+        text = (
+            f"the {self.tool}'s pointer is {self.off_m * 1e3:.2f} mm off {against} "
             f"(x {self.offset_m[0] * 1e3:+.2f}, y {self.offset_m[1] * 1e3:+.2f} mm; "
-            f"tolerance {self.tolerance_m * 1e3:.2f} mm)"
+            f"tolerance {self.tolerance_m * 1e3:.2f} mm, measured to "
+            f"{self.sigma_m * 1e3:.3f} mm)"
         )
+        if self.decision == "unresolved":
+            text += f"; checked to {self.resolves_m * 1e3:.2f} mm only"
+        return text
 
     def to_json(self) -> JsonObject:
         finite = bool(np.isfinite(self.off_m))
@@ -196,8 +235,12 @@ class TcpCheck:
             "tool": self.tool,
             "offset_m": list(self.offset_m) if finite else None,
             "off_m": self.off_m if finite else None,
+            "sigma_m": self.sigma_m,
             "tolerance_m": self.tolerance_m,
+            "resolves_m": self.resolves_m,
+            "referenced": self.referenced,
             "attempt": self.attempt,
+            "decision": self.decision,
             "ok": self.ok,
         }
 
@@ -205,4 +248,11 @@ class TcpCheck:
     def from_json(cls, data: JsonObject) -> TcpCheck:
         offset = data["offset_m"]
         x, y = (float("inf"), float("inf")) if offset is None else offset
-        return cls(str(data["tool"]), (x, y), float(data["tolerance_m"]), int(data["attempt"]))
+        return cls(
+            str(data["tool"]),
+            (x, y),
+            float(data["tolerance_m"]),
+            int(data["attempt"]),
+            float(data["sigma_m"]),
+            bool(data["referenced"]),
+        )

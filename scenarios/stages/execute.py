@@ -4,26 +4,29 @@ with its tool checked at the beam first (scenarios.offline.tcp_check)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+from cell import Controller
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.program import execute_program
 from scenarios.offline.settings import PlanningSettings
-from scenarios.offline.tcp_check import TOLERANCE_M, checked_tool
+from scenarios.offline.tcp_check import TOLERANCE_M, check_tcp, checked_tool
 from scenarios.results.verification import TcpCheck
 from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
 from scenarios.stages.stage import Outcome
 
+#: The least tolerance a goal leaves a tool [m]: a pointer's own manufacturing tolerance
+#: (ISO 2768-f over its 0.2 m, +-0.15 mm as three standard deviations).
+MIN_TOLERANCE_M = 5.0e-5
+
 
 def tool_tolerance(settings: PlanningSettings) -> float:
-    """How far off its tooldata a tool may sit [m]: `verify.tool_tolerance_m` if given, else
-    what the job's RMS goal leaves for it (an offset of the tool moves every target alike,
-    in any direction: the goal less the error the job plans for, the scan's TRE goal and
-    the arm's accuracy in quadrature), but at least what the check reads on a well seated
-    tool (twice the arm's accuracy: the check's reading holds the tool's own TCP error and
-    what the arm's error changes between two opposite turns of its wrist); TOLERANCE_M
-    without a goal."""
+    """How far off where it should sit a tool may be [m]: `verify.tool_tolerance_m` if given,
+    else what the job's RMS goal leaves for it: an offset of the tool moves every target
+    alike, so it adds to the error the job plans for (the scan's TRE goal and the arm's
+    accuracy in quadrature) in the worst case; TOLERANCE_M without a goal."""
     given = settings.verify.tool_tolerance_m
     if given is not None:
         return given
@@ -32,7 +35,22 @@ def tool_tolerance(settings: PlanningSettings) -> float:
     planned = math.hypot(
         settings.localization.scan.planning.goal_tre_m, settings.verify.arm_accuracy_m
     )
-    return max(settings.goal_rms_m - planned, 2.0 * settings.verify.arm_accuracy_m)
+    return max(settings.goal_rms_m - planned, MIN_TOLERANCE_M)
+
+
+def tool_check(ctx: StageContext, tool: str) -> Callable[[Controller, int], TcpCheck | None]:
+    """The check of `tool` at the beam as the job makes it: against the job's tolerance,
+    differenced against the cell's commissioning readings of the tool if it has some, its
+    uncertainty's floors from the data sheets (`verify`)."""
+    verify = ctx.settings.verify
+    references = () if ctx.commissioning is None else ctx.commissioning.readings(tool)
+    tolerance = tool_tolerance(ctx.settings)
+
+    def check(controller: Controller, attempt: int) -> TcpCheck | None:
+        priors = (verify.repeatability_m, verify.arm_accuracy_m)
+        return check_tcp(controller, tolerance, attempt, references, priors)
+
+    return check
 
 
 def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, ...]:
@@ -43,10 +61,12 @@ def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, 
     section = ctx.settings.operations
     if programs.pick is not None and section.pick is not None:
         execute_pick(controller, programs.pick, section.pick, hooks)
-    tolerance = tool_tolerance(ctx.settings)
     checks: list[TcpCheck] = []
     for method, program in programs.operations.items():
-        checks += checked_tool(controller, program.tool, hooks.say, hooks.detect, tolerance)
+        check = tool_check(ctx, program.tool)
+        checks += checked_tool(
+            controller, program.tool, hooks.say, hooks.detect, hooks.checked, check
+        )
 
         def at_target(name: str) -> None:
             hooks.moment(name, section.tool)

@@ -44,8 +44,8 @@ from scenarios.realcell.recording.scan import LaserRays, log_scan
 from scenarios.realcell.recording.scene import CellScene, mesh_archetype
 from scenarios.realcell.recording.stream import ICP, Stream, pose
 from scenarios.realcell.recording.targets import log_targets
-from scenarios.realcell.recording.verification import log_verification
-from scenarios.results.verification import Verification
+from scenarios.realcell.recording.verification import log_tool_check, log_verification
+from scenarios.results.verification import TcpCheck, Verification
 
 #: The table frame the cell model believes: the table's top, where the object stands.
 TABLE = "world/cell/table/frame"
@@ -293,6 +293,10 @@ class Recording:
         """The verification at `time_s`: its targets (K, 3) and strips' points (N, 3) [m]
         in the table frame (see verification.py)."""
         log_verification(self.stream, time_s, verification, targets_table, strip_table, TABLE)
+
+    def log_tool_check(self, time_s: float, check: TcpCheck) -> None:
+        """A tool checked at the beam at `time_s` (see verification.py)."""
+        log_tool_check(self.stream, time_s, check)
 
     def close(self, keep: bool = True) -> None:
         """Send what was buffered and close; keep the file only if the run completed."""

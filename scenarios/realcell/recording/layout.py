@@ -45,6 +45,10 @@ def blueprint(
             rrb.BarChartView(origin="/plots/targets/predicted_tre_mm", name="predicted TRE [mm]"),
             rrb.BarChartView(origin="/plots/verify/moved_mm", name="verify: moved [mm]"),
             rrb.BarChartView(origin="/plots/verify/allowance_mm", name="verify: allowed [mm]"),
+            rrb.BarChartView(
+                origin="/plots/tool_check",
+                name="TCP check: read, 4 sigma, called off beyond [mm]",
+            ),
         ),
         rrb.Tabs(
             rrb.BarChartView(

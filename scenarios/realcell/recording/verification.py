@@ -3,7 +3,8 @@
 At each target, under the table frame, a marker coloured by its decision (green: agrees,
 red: moved or inconsistent, orange: not resolved) labelled with the move measured, its
 bound and the allowance; the strips scanned again, in grey; bar charts of the moves and
-the allowances in mm; one log line per verification.
+the allowances in mm; one log line per verification. Each tool's check at the beam: its
+reading, four standard deviations and the offset it calls off beyond, in mm, and a log line.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 import rerun as rr
 
 from scenarios.realcell.recording.stream import Stream
-from scenarios.results.verification import Verification
+from scenarios.results.verification import TcpCheck, Verification
 
 COLOURS = {
     "agrees": (40, 200, 60),
@@ -66,3 +67,20 @@ def log_verification(
     )
     level = "INFO" if verification.agrees else "WARN"
     stream.log("log", rr.TextLog(f"verify: {verification.summary()}", level=level))
+
+
+TOOL_COLOURS = {"seated": (40, 200, 60), "off": (230, 30, 30), "unresolved": (255, 150, 0)}
+
+
+def log_tool_check(stream: Stream, time_s: float, check: TcpCheck) -> None:
+    """A tool checked at the beam at `time_s`: its offset read, its uncertainty and the
+    offset it calls off beyond, as bars in mm (`plots/tool_check`), and a log line, a
+    warning when the tool is called off."""
+    stream.at(sim_time=time_s)
+    finite = bool(np.isfinite(check.off_m))
+    bars = [check.off_m if finite else 0.0, 4.0 * check.sigma_m, check.resolves_m]
+    colour = TOOL_COLOURS[check.decision]
+    stream.log("plots/tool_check", rr.BarChart(np.array(bars) * 1e3, color=list(colour)))
+    level = "INFO" if check.ok else "WARN"
+    text = f"TCP check, attempt {check.attempt + 1}: {check.decision}: {check.summary()}"
+    stream.log("log", rr.TextLog(text, level=level))
