@@ -3,9 +3,9 @@
 On lock, the flange weld of the tool seated against the flange is activated (its relative
 pose written into `eq_data` first) and its rack weld released: the changer's locating pins
 pull the tool into its seat on the flange wherever within the capture range the flange met
-it, off by the changer's repeatability (a tool changer's data sheet: +-0.015 mm); on unlock at the rack,
-the reverse, the rack's seat centring the tool in its slot. A tool is never left floating:
-unlocking away from the tool's slot is refused.
+it, off by the changer's repeatability (a tool changer's data sheet: +-0.015 mm); on unlock
+at the rack, the reverse, the rack's seat centring the tool in its slot. A tool is never left
+floating: unlocking away from the tool's slot is refused.
 """
 
 from __future__ import annotations
