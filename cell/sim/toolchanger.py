@@ -1,11 +1,9 @@
 """The tool changer: weld equalities switched between a tool's rack slot and the flange.
 
-On lock, the flange weld of the tool seated against the flange is activated (its relative
-pose written into `eq_data` first) and its rack weld released: the changer's locating pins
-pull the tool into its seat on the flange wherever within the capture range the flange met
-it, off by the changer's repeatability (a tool changer's data sheet: +-0.015 mm); on unlock
-at the rack, the reverse, the rack's seat centring the tool in its slot. A tool is never left
-floating: unlocking away from the tool's slot is refused.
+On lock, the flange weld of the tool seated against the flange is activated at the CURRENT
+relative pose (written into `eq_data` first) and its rack weld released; on unlock at the rack,
+the reverse, the rack's seat centring the tool in its slot. A tool is never left floating:
+unlocking away from the tool's slot is refused.
 """
 
 from __future__ import annotations
@@ -28,9 +26,8 @@ ACTUATION_TIME_S = 0.1
 
 class ToolChanger:
     """Locks and releases tools in the physics of `sim`; `held` is the locked tool or None.
-    A tool seats on the flange's locating pins, off by the changer's repeatability
-    (`sigma_m` [m], `sigma_rad` [rad], Gaussian per axis, redrawn at every lock), wherever
-    within the capture range the flange met it."""
+    A tool seats where the flange meets it, off by the changer's repeatability (`sigma_m`
+    [m], `sigma_rad` [rad], Gaussian per axis, redrawn at every lock)."""
 
     def __init__(
         self,
@@ -47,7 +44,7 @@ class ToolChanger:
         self.faults: FaultInjector | None = None
 
     def _seat(self) -> np.ndarray:
-        """(4, 4) how far a tool seats from its seat on the flange (in the tool's frame)."""
+        """(4, 4) how far a tool seats from where it met the flange (in the tool's frame)."""
         T = np.eye(4)
         if self.sigma_rad > 0.0:
             T[:3, :3] = Rotation.from_rotvec(self.rng.normal(0.0, self.sigma_rad, 3)).as_matrix()
@@ -105,12 +102,7 @@ class ToolChanger:
                 "tool_lock_fail",
                 f"the {name} tool locked {fault.amount * 1e3:.1f} mm off its seat",
             )
-        # The pins seat the tool on the flange: its frame at the flange's, moved by `seat`.
-        T_seated = sim.site_T(sim.flange_site) @ seat
-        T_tool = sim.body_T(sim.tool_body[name])
-        self._set_weld(
-            sim.flange_eq[name], sim.tool_body[name], sim.link6, invert(T_tool) @ T_seated
-        )
+        self._set_weld(sim.flange_eq[name], sim.tool_body[name], sim.link6, seat)
         sim.data.eq_active[sim.rack_eq[name]] = 0
         self.held = name
         sim.settle(ACTUATION_TIME_S)

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -60,7 +59,8 @@ Progress = Callable[[str], None]
 class RunHooks:
     """The stages' moments go to the evaluator (it records the truth then), their moves to
     the recording (the true bodies, the arm's path), their progress and their checks to the
-    run's `say`, `detect` and `checked`."""
+    run's `say`, `detect` and `checked`; the cell's commissioning is the runner's
+    (`Commissioner`)."""
 
     def __init__(
         self,
@@ -69,12 +69,14 @@ class RunHooks:
         say: Progress,
         detect: Callable[[str, str, str], None],
         checked: Callable[[TcpCheck], None],
+        commissioning: Callable[[], Commissioning | None],
     ) -> None:
         self._evaluator = evaluator
         self._log = log
         self.say = say
         self.detect = detect
         self.checked = checked
+        self.commissioning = commissioning
 
     def moment(self, name: str, tool: str) -> None:
         self._evaluator.record_touch(name, tool)
@@ -231,19 +233,35 @@ class JobRun:
         )
 
 
-def commissioned(config: JobConfig, plan: JobPlan, folder: Path, say: Progress) -> Commissioning:
-    """The job's real cell as it was commissioned: the job's tool read at the beam
-    (scenarios.offline.commissioning) on a copy of the cell without the job's faults or its
-    recording, the commissioning's cell time not the job's. Written to commissioning.json."""
-    cell = job_cell(config, plan.virtual, plan.real, plan.robot)
-    name = f"{plan.robot.name}, seed {config.seed}"
-    record = commission(cell.controller, (config.operations.tool,), name)
-    write_json(folder / COMMISSIONING_FILE, record.to_json())
-    say(
-        f"the cell's commissioning: the {config.operations.tool} read "
-        f"{len(record.references)} times at the beam"
-    )
-    return record
+class Commissioner:
+    """The job's real cell as it was commissioned, made when a stage first asks: the job's
+    tool read at the beam (scenarios.offline.commissioning) on a copy of the cell without
+    the job's faults or its recording, moving with the arm's model the job's controller
+    moves with then (a cell is commissioned with the calibration it runs on); the
+    commissioning's cell time is not the job's. Written to commissioning.json."""
+
+    def __init__(self, config: JobConfig, plan: JobPlan, job: JobRun, say: Progress) -> None:
+        self._config, self._plan, self._job, self._say = config, plan, job, say
+        self._record: Commissioning | None = None
+
+    def __call__(self) -> Commissioning | None:
+        config, plan, job = self._config, self._plan, self._job
+        tool = config.operations.tool
+        if not config.verify.tool_reference or tool not in POINTERS:
+            return None
+        if self._record is None:
+            t0 = time.perf_counter()
+            copy = job_cell(config, plan.virtual, plan.real, plan.robot).controller
+            copy.set_absolute_accuracy(job.cell.controller.absolute_accuracy)
+            name = f"{plan.robot.name}, seed {config.seed}"
+            self._record = commission(copy, (tool,), name)
+            write_json(job.folder / COMMISSIONING_FILE, self._record.to_json())
+            job.timings["commissioning"] = time.perf_counter() - t0
+            self._say(
+                f"the cell's commissioning: the {tool} read {len(self._record.references)} "
+                "times at the beam"
+            )
+        return self._record
 
 
 def run_cell_job(
@@ -265,17 +283,14 @@ def run_cell_job(
     if faults:
         say("faults injected: " + ", ".join(f.name for f in faults))
     log = RunLog(cell.controller, cell.evaluator, cell.log, say, stages, recording)
-    hooks = RunHooks(cell.evaluator, cell.log, log.say, log.detect, log.checked)
+    job = JobRun(cell, log, plan, folder, recording)
+    commissioning = Commissioner(config, plan, job, log.say)
+    hooks = RunHooks(cell.evaluator, cell.log, log.say, log.detect, log.checked, commissioning)
     controller = cell.controller
     ctx = StageContext(
         controller, plan.virtual, plan.T_table_nominal, cell.box, plan.settings, hooks,
         JobState.start(CellModel.nominal(controller.nominal_kinematics)), folder, plan.user,
     )  # fmt: skip
-    job = JobRun(cell, log, plan, folder, recording)
     job.timings["setup"] = time.perf_counter() - t_total
-    if config.verify.tool_reference and config.operations.tool in POINTERS:
-        t0 = time.perf_counter()
-        ctx = replace(ctx, commissioning=commissioned(config, plan, folder, say))
-        job.timings["commissioning"] = time.perf_counter() - t0
     ran = run_stages(job_stages(config, plan), ctx, job.enter, job.saw)
     return finish_job(config, plan, job, ran, t_total)

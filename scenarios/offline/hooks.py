@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from scenarios.results.beam import Commissioning
 from scenarios.results.verification import TcpCheck
 
 
@@ -32,6 +33,10 @@ class StageHooks(Protocol):
     def checked(self, check: TcpCheck) -> None:
         """A tool was checked at the beam (every check, as it is made)."""
 
+    def commissioning(self) -> Commissioning | None:
+        """The cell's commissioning record (its tools' reference readings at the beam) for
+        the arm's model the controller moves with now; None if the cell has none."""
+
 
 class NoHooks:
     """Hooks that do nothing (a stage run on its own)."""
@@ -49,4 +54,7 @@ class NoHooks:
         return None
 
     def checked(self, check: TcpCheck) -> None:
+        return None
+
+    def commissioning(self) -> Commissioning | None:
         return None

@@ -22,7 +22,6 @@ from scenarios.offline.hooks import StageHooks
 from scenarios.offline.operations import UserProgram
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.settings import PlanningSettings
-from scenarios.results.beam import Commissioning
 
 if TYPE_CHECKING:
     from scenarios.stages.state import JobState
@@ -34,8 +33,7 @@ class StageContext:
     model with its targets, where the planner believes it sits (`T_table_nominal` (4, 4),
     its footprint `box`), the user's program if the job runs one, the planning `settings`,
     the `hooks` into the run, the folder the job's outputs go to, the `state` of the job
-    so far (what the earlier stages found), and the cell's `commissioning` record if it has
-    one (its tools' reference readings at the beam: what a cell's owner keeps of it)."""
+    so far (what the earlier stages found)."""
 
     controller: Controller
     virtual: ObjectModel
@@ -46,4 +44,3 @@ class StageContext:
     state: JobState
     folder: Path
     user: UserProgram | None = None
-    commissioning: Commissioning | None = None

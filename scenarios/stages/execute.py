@@ -43,7 +43,8 @@ def tool_check(ctx: StageContext, tool: str) -> Callable[[Controller, int], TcpC
     differenced against the cell's commissioning readings of the tool if it has some, its
     uncertainty's floors from the data sheets (`verify`)."""
     verify = ctx.settings.verify
-    references = () if ctx.commissioning is None else ctx.commissioning.readings(tool)
+    record = ctx.hooks.commissioning() if verify.tool_reference else None
+    references = () if record is None else record.readings(tool)
     tolerance = tool_tolerance(ctx.settings)
 
     def check(controller: Controller, attempt: int) -> TcpCheck | None:
