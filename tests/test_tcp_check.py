@@ -1,0 +1,124 @@
+"""The TCP check at the beam as a measurement: its decision from the reading, its uncertainty
+and its tolerance; the commissioning's reference, which takes the arm's own error out of the
+reading (against the seat the simulation welded, the truth); and a run stopped by the check,
+which keeps every check it made.
+
+Ground truth: the simulation's weld of the tool on the flange (cell.sim truth), never the
+check's own figures."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cell import Controller
+from cell.sim import CellConfig, make_cell
+from cell.sim.faults import Fault
+from cell.sim.truth import CellTruth
+from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
+from scenarios.offline.moves import change_tool_safely
+from scenarios.offline.tcp_check import check_tcp
+from scenarios.results.beam import Commissioning
+from scenarios.results.run import RunResult
+from scenarios.results.verification import K_SIGMA, TcpCheck
+
+
+@pytest.mark.parametrize(
+    ("off_mm", "sigma_mm", "tolerance_mm", "decision"),
+    [
+        (0.05, 0.02, 0.165, "seated"),  # within both
+        (0.20, 0.02, 0.165, "off"),  # beyond both
+        (0.10, 0.05, 0.165, "unresolved"),  # 4 sigma (0.2) beyond the tolerance, within it
+        (0.19, 0.05, 0.165, "unresolved"),  # beyond the tolerance, within 4 sigma: no call
+        (0.21, 0.05, 0.165, "off"),  # beyond 4 sigma too
+        (float("inf"), 0.02, 0.165, "off"),  # a sweep missed the beam
+    ],
+)
+def test_a_tool_is_called_off_only_beyond_its_tolerance_and_four_sigma(
+    off_mm: float, sigma_mm: float, tolerance_mm: float, decision: str
+) -> None:
+    y = 0.0 if np.isfinite(off_mm) else off_mm  # a sweep that missed leaves both unknown
+    check = TcpCheck("screwer", (off_mm * 1e-3, y), tolerance_mm * 1e-3, 0, sigma_mm * 1e-3)
+    assert check.decision == decision
+    assert check.ok == (decision != "off")
+    assert check.resolves_m == pytest.approx(max(tolerance_mm, K_SIGMA * sigma_mm) * 1e-3)
+    if decision == "unresolved":
+        assert f"checked to {K_SIGMA * sigma_mm:.2f} mm only" in check.summary()
+    back = TcpCheck.from_json(json.loads(json.dumps(check.to_json())))
+    assert back == check
+
+
+def _copy_and_faulty(
+    seed: int, seat_m: float
+) -> tuple[Commissioning, np.ndarray, Controller, CellTruth]:
+    """A cell commissioned (no fault) and the seat its commissioning read (x, y) [m]; the
+    same cell (same seed: the same arm, tools and beam) with the screwer taken, its lock
+    seating it `seat_m` [m] off."""
+    copy, copy_truth = make_cell(CellConfig(seed=seed))
+    record = commission(copy, ("screwer",), f"irb2400, seed {seed}")
+    change_tool_safely(copy, "screwer")  # a lock as the commissioning's (5 um repeatability)
+    seat_commissioned = copy_truth.T_flange_tool("screwer")[:2, 3]
+    faults = (Fault("tool_lock_fail", seat_m, None),) if seat_m else ()
+    cell, truth = make_cell(CellConfig(seed=seed, faults=faults))
+    change_tool_safely(cell, "screwer")
+    return record, seat_commissioned, cell, truth
+
+
+@pytest.mark.parametrize("seat_m", [0.0, 2.0e-4])
+def test_the_reference_reads_the_seat_without_the_arms_error(seat_m: float) -> None:
+    """On an uncalibrated cell (the arm's error at the beam in every reading), the check
+    differenced against the commissioning reads the seat's shift since then within 0.06 mm
+    (three of its standard deviations); against the tooldata alone it reads the arm's error
+    too, and says it cannot resolve the tolerance."""
+    record, seat_commissioned, cell, truth = _copy_and_faulty(2, seat_m)
+    references = record.readings("screwer")
+    assert len(references) == 3
+    shift = truth.T_flange_tool("screwer")[:2, 3] - seat_commissioned
+    check = check_tcp(cell, 1.65e-4, 0, references)
+    assert check is not None and check.referenced
+    assert np.abs(np.array(check.offset_m) - shift).max() < 6e-5
+    assert check.sigma_m < 4e-5
+    assert check.decision == ("seated" if seat_m == 0.0 else "off")
+    # Against the tooldata: its uncertainty holds the arm's accuracy (0.15 mm a side).
+    alone = check_tcp(cell, 1.65e-4, 0)
+    assert alone is not None and not alone.referenced
+    assert alone.sigma_m > 1.4e-4 and not alone.resolved
+
+
+def test_the_commissioning_record_round_trips() -> None:
+    record, _seat, _cell, _truth = _copy_and_faulty(1, 0.0)
+    assert Commissioning.from_json(json.loads(json.dumps(record.to_json()))) == record
+
+
+def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
+    """A check made finer than the arm (no reference, no accuracy or repeatability allowed
+    for, a tolerance of 10 um; no verification, whose allowance would be negative) calls a
+    seated tool off twice: the run is aborted in the execute stage, and results.json keeps
+    both checks with their readings, uncertainty, tolerance, attempt and decision; the
+    commissioning it did not use is not written."""
+    overrides = {
+        "output.plots": False,
+        "calibration.enabled": False,
+        "verify.enabled": False,
+        "verify.tool_reference": False,
+        "verify.arm_accuracy_m": 0.0,
+        "verify.repeatability_m": 1.0e-6,
+        "verify.tool_tolerance_m": 1.0e-5,
+    }
+    folder, _ = run_job(
+        "skull", seed=3, out=tmp_path, overrides=overrides, options=RunOptions(rrd=False)
+    )
+    results = RunResult.read(folder)
+    assert results.status == "aborted" and results.stage == "execute"
+    assert "TCP check" in (results.reason or "")
+    checks = results.tool_checks
+    assert [c.attempt for c in checks] == [0, 1]
+    for check in checks:
+        assert check.decision == "off" and not check.referenced
+        assert check.tolerance_m == 1.0e-5 and check.sigma_m == pytest.approx(1.0e-6)
+        assert 1.0e-5 < check.off_m < 1.0e-3  # the uncalibrated arm's error at the beam
+    assert not (folder / COMMISSIONING_FILE).exists()
