@@ -4,7 +4,6 @@ the RAPID program, the PLY scan and the rerun recording (checked with `rerun rrd
 from __future__ import annotations
 
 import json
-import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -72,7 +71,7 @@ def test_the_scan_plan_is_the_one_cached_under_the_key_results_json_names(folder
     if not cache.enabled():
         assert key is None
         return
-    stored = pickle.loads((plan_cache.folder() / f"{key}.pickle").read_bytes())
+    stored = plan_cache.read_plan(plan_cache.folder() / f"{key}.npz")
     chosen = [c["name"] for c in results["scan_plan"]["chosen"]]
     assert [c.name for c in stored.chosen] == chosen
     assert np.array_equal(stored.predicted_tre_m, results["scan_plan"]["predicted_tre_m"])

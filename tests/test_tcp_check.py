@@ -87,13 +87,11 @@ def test_the_reference_reads_the_seat_without_the_arms_error(seat_m: float) -> N
     alone = check_tcp(cell, 1.65e-4, 0)
     assert alone is not None and not alone.referenced
     assert alone.sigma_m > 1.4e-4 and not alone.resolved
-
-
-def test_the_commissioning_record_round_trips() -> None:
-    record, _seat, _cell, _truth = _copy_and_faulty(1, 0.0)
+    # The record as commissioning.json keeps it reads back the same.
     assert Commissioning.from_json(json.loads(json.dumps(record.to_json()))) == record
 
 
+@pytest.mark.slow
 def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
     """A check made finer than the arm (no reference, no accuracy or repeatability allowed
     for, a tolerance of 10 um; no verification, whose allowance would be negative) calls a
@@ -122,3 +120,27 @@ def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
         assert check.tolerance_m == 1.0e-5 and check.sigma_m == pytest.approx(1.0e-6)
         assert 1.0e-5 < check.off_m < 1.0e-3  # the uncalibrated arm's error at the beam
     assert not (folder / COMMISSIONING_FILE).exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [2, 7])
+def test_no_false_abort_on_the_ur5(tmp_path: Path, seed: int) -> None:
+    """The UR5 cell, no fault: seeds 2 and 7 were stopped by a check against the tooldata
+    (0.41 and 0.33 mm read on good seats, tolerance 0.30). Against the commissioning the
+    seated screwer reads within four of its standard deviations and the run completes,
+    within the skull goals against the true targets (the evaluator)."""
+    folder, _ = run_job(
+        "skull",
+        seed=seed,
+        out=tmp_path,
+        cell="ur5",
+        overrides={"output.plots": False},
+        options=RunOptions(rrd=False),
+    )
+    results = RunResult.read(folder)
+    assert results.status == "complete", results.reason
+    (check,) = results.tool_checks
+    assert check.referenced and check.decision == "seated"
+    assert check.off_m <= K_SIGMA * check.sigma_m
+    assert results.target_error_rms_m is not None and results.target_error_rms_m <= 0.5e-3
+    assert (folder / COMMISSIONING_FILE).is_file()
