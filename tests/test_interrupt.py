@@ -230,9 +230,10 @@ WRITTEN_BEFORE = {
     "scan": set(),
     "register": {"scan.ply"},
     "verify": {"scan.ply"},
-    "execute": {"scan.ply"},
+    "execute": {"scan.ply", "commissioning.json"},
     "export": {
         "scan.ply",
+        "commissioning.json",
         "targets.csv",
         "targets.json",
         "tooldata.json",

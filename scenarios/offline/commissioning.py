@@ -1,12 +1,13 @@
 """The cell's commissioning at the TCP check station: each pointed tool, seated by hand and
-known good, read at the beam a few times, taken off and seated again between readings.
+known good, read at the beam a few times.
 
 What the arm's own error adds to a reading at the beam is the same whenever the same cell
 crosses the beam the same way; these readings are the reference that every later check
 differences against (scenarios.offline.tcp_check), and their scatter is the check's
-uncertainty on this cell. A real cell is commissioned once, after installation or a crash;
-the simulated cell of a job is commissioned by its runner on a copy of itself without the
-faults that the job will meet (scenarios.jobs.pipeline).
+uncertainty on this cell (at least the arm's data-sheet repeatability, which also covers the
+tool changer's seat, a few micrometres). A real cell is commissioned once, after
+installation or a crash; the simulated cell of a job is commissioned by its runner on a copy
+of itself without the faults that the job will meet (scenarios.jobs.pipeline).
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ from scenarios.results.beam import BeamReading, Commissioning
 
 #: The commissioning record's file in a run folder.
 COMMISSIONING_FILE = "commissioning.json"
-#: Readings per tool: enough to see the check's scatter (two degrees of freedom each beyond
-#: the first), few enough to take a minute once in a cell's life.
-READINGS = 3
+#: Readings per tool: the scatter of two (two degrees of freedom), with the data sheet's
+#: repeatability as its floor.
+READINGS = 2
 #: Each sweep's travel before and after the beam [m]: a tool seated by hand is within a
 #: millimetre of its tooldata (a check's sweeps start farther out, for a tool seated off).
 SWEEP_M = 0.005
@@ -29,21 +30,21 @@ SWEEP_M = 0.005
 def commission(
     controller: Controller, tools: tuple[str, ...], cell: str, readings: int = READINGS
 ) -> Commissioning:
-    """Read each of `tools` that has a pointer (POINTERS) `readings` times at the beam, the
-    tool seated again before each; the arm ends at home with no tool in hand. `cell` names
-    the cell the record is of."""
+    """Take each of `tools` that has a pointer (POINTERS) and read it `readings` times at the
+    beam; the arm ends at home with no tool in hand. `cell` names the cell the record is
+    of."""
     if readings < 1:
         raise ValueError(f"commissioning takes at least one reading per tool, got {readings}")
     references: list[BeamReading] = []
     for tool in tools:
         if tool not in POINTERS:
             continue
+        change_tool_safely(controller, tool)
         for _ in range(readings):
-            change_tool_safely(controller, tool)
             reading = read_beam(controller, SWEEP_M)
             if reading is not None:
                 references.append(reading)
-            controller.move_joints(controller.q_home)
-            controller.return_tool()
+        controller.move_joints(controller.q_home)
+        controller.return_tool()
     controller.move_joints(controller.q_home)
     return Commissioning(cell, tuple(references))
