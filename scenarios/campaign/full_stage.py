@@ -24,7 +24,7 @@ from scenarios.campaign.register_stage import MAX_TARGETS
 from scenarios.campaign.rows import HARM_M
 from scenarios.results.edge import JsonObject
 from scenarios.results.exported import ExportedRun
-from scenarios.results.run import RunResult
+from scenarios.results.run import RAN, RunResult
 from scenarios.results.scan_plan import ScanPlanSummary
 
 
@@ -217,11 +217,11 @@ def fault_columns(result: RunResult) -> JsonObject:
         if not fault.detected:
             outcome = fault.detected_by
         else:
-            outcome = "recovered" if result.status == "complete" else "stopped"
+            outcome = "recovered" if result.status in RAN else "stopped"
         out[f"fault.{fault.name}"] = outcome
         out[f"fault.{fault.name}.stage"] = fault.detected_by
         if fault.target_move_m is not None:
             out[f"fault.{fault.name}.target_move_m"] = fault.target_move_m
     worst = result.target_error_max_m
-    out["harmed"] = int(result.status == "complete" and worst is not None and worst > HARM_M)
+    out["harmed"] = int(result.status in RAN and worst is not None and worst > HARM_M)
     return out

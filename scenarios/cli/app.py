@@ -464,6 +464,9 @@ def run(
 
     Console().print(results_table(result))
     typer.echo(f"run folder: {folder}")
+    if result.status == "at_risk":
+        typer.echo(f"twincell: the program ran, but {result.reason}", err=True)
+        raise typer.Exit(6)
     if result.status in ("refused", "aborted"):
         typer.echo(f"twincell: {result.status} in {result.stage}: {result.reason}", err=True)
         raise typer.Exit(3 if result.status == "refused" else 4)

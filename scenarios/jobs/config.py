@@ -255,10 +255,15 @@ class ModelSection(Section):
     file) is the virtual model, and the real object differs from it by the seeded model
     error of `cell.noise`. `ct`: the design is the real object, and the virtual model is
     segmented and meshed from its simulated CT (`ct`), so the model error is the one a
-    CT-derived model has (threshold bias, slice staircase, rounded edges)."""
+    CT-derived model has (threshold bias, slice staircase, rounded edges). `tolerance_m`
+    [m]: how far the real object's surface may lie from the model, as its drawing, its
+    maker or the CT's accuracy states it (two-sided, 95 %; a printed phantom's +-0.5 mm by
+    default): the planner's prior, the error budget's floor for the model's term; the
+    simulated error itself is `cell.noise`'s."""
 
     source: Literal["phantom", "ct"] = "phantom"
     ct: CTSection = CTSection()
+    tolerance_m: float = Field(5.0e-4, ge=0.0, le=0.01)
 
 
 class FaultSetting(Section):
@@ -446,6 +451,8 @@ class JobConfig(Section):
             operations=self.operations,
             verify=self.verify,
             goal_rms_m=self.checks.target_error_rms_m,
+            goal_max_m=self.checks.target_error_max_m,
+            model_tolerance_m=self.model.tolerance_m,
         )
 
 

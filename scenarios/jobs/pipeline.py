@@ -37,6 +37,7 @@ from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator, PoseEvaluation
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.beam import Commissioning
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.run import RunResult
 from scenarios.results.verification import TcpCheck, Verification
 from scenarios.stages.calibrate import Calibrate, Calibrated
@@ -59,7 +60,7 @@ Progress = Callable[[str], None]
 class RunHooks:
     """The stages' moments go to the evaluator (it records the truth then), their moves to
     the recording (the true bodies, the arm's path), their progress and their checks to the
-    run's `say`, `detect` and `checked`; the cell's commissioning is the runner's
+    run's `say`, `detect`, `checked` and `budgeted`; the cell's commissioning is the runner's
     (`Commissioner`)."""
 
     def __init__(
@@ -69,6 +70,7 @@ class RunHooks:
         say: Progress,
         detect: Callable[[str, str, str], None],
         checked: Callable[[TcpCheck], None],
+        budgeted: Callable[[ErrorBudget], None],
         commissioning: Callable[[], Commissioning | None],
     ) -> None:
         self._evaluator = evaluator
@@ -76,6 +78,7 @@ class RunHooks:
         self.say = say
         self.detect = detect
         self.checked = checked
+        self.budgeted = budgeted
         self.commissioning = commissioning
 
     def moment(self, name: str, tool: str) -> None:
@@ -285,7 +288,9 @@ def run_cell_job(
     log = RunLog(cell.controller, cell.evaluator, cell.log, say, stages, recording)
     job = JobRun(cell, log, plan, folder, recording)
     commissioning = Commissioner(config, plan, job, log.say)
-    hooks = RunHooks(cell.evaluator, cell.log, log.say, log.detect, log.checked, commissioning)
+    hooks = RunHooks(
+        cell.evaluator, cell.log, log.say, log.detect, log.checked, log.budgeted, commissioning
+    )
     controller = cell.controller
     ctx = StageContext(
         controller, plan.virtual, plan.T_table_nominal, cell.box, plan.settings, hooks,

@@ -35,6 +35,7 @@ from scenarios.outputs import files as outputs
 from scenarios.rapid.module import RapidError
 from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.evaluations import (
     CalibrationFigures,
     PickEvaluation,
@@ -89,7 +90,8 @@ def finish_job(
     faults = evaluator.faults(spoke)
     for fault in faults:
         say(f"fault {fault.name}: {'detected in ' if fault.detected else ''}{fault.detected_by}")
-    status, reason, stopped_in = run_status(aborted, ran.stopped_in, primary, state)
+    budget = job.run.budget
+    status, reason, stopped_in = run_status(aborted, ran.stopped_in, primary, state, budget)
     job.cell.log.phase("end", _ending(status, reason, stopped_in, reports[0]))
     job.timings["total"] = time.perf_counter() - t_total
     program = job.exported.program
@@ -126,6 +128,7 @@ def finish_job(
         verifications=tuple(job.verifications),
         tool_checks=tuple(job.run.tool_checks),
         cell_time_s=controller.time_s,
+        budget=budget,
     )
     if config.output.plots:
         _figures(config, plan, job.folder, result, state)
@@ -224,13 +227,20 @@ def goal_checks(config: JobConfig, report: MethodReport) -> dict[str, GoalCheck]
 
 
 def run_status(
-    aborted: SupervisionError | None, stopped_in: str | None, primary: LocatedPose, state: JobState
+    aborted: SupervisionError | None,
+    stopped_in: str | None,
+    primary: LocatedPose,
+    state: JobState,
+    budget: ErrorBudget | None = None,
 ) -> tuple[RunStatus, str, str | None]:
-    """The run's status ("complete", "refused", "aborted"), its reason, and the stage that
-    refused it or in which the supervision stopped it."""
+    """The run's status ("complete", "at_risk", "refused", "aborted"), its reason, and the
+    stage that refused it or in which the supervision stopped it. A program that ran is
+    "at_risk" when its error `budget` does not put the job's goals within reach."""
     if aborted is not None:
         return "aborted", str(aborted), stopped_in
     if primary.accepted:
+        if budget is not None and not budget.within_reach:
+            return "at_risk", "goal at risk: " + "; ".join(budget.risks), None
         return "complete", "", None
     by = state.refused_by or ("register" if primary.method == "surface" else "probe")
     return "refused", primary.reason, by
@@ -238,9 +248,11 @@ def run_status(
 
 def _ending(status: str, reason: str, stopped_in: str | None, report: MethodReport) -> str:
     """The recording's last line: how the run ended, and its target errors."""
-    ending = {"complete": "complete", "refused": f"refused: {reason}"}.get(
-        status, f"aborted in {stopped_in}: {reason}"
-    )
+    ending = {
+        "complete": "complete",
+        "at_risk": f"complete, {reason}",
+        "refused": f"refused: {reason}",
+    }.get(status, f"aborted in {stopped_in}: {reason}")
     errors = report.errors()
     if len(errors):
         ending += (

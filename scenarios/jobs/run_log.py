@@ -12,6 +12,7 @@ from cell import Controller, ControllerEvent
 from scenarios.jobs.stages import SETUP, StageTracker
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.events import SupervisionEvent
 from scenarios.results.verification import TcpCheck
 
@@ -49,6 +50,8 @@ class RunLog:
         self.checks: list[SupervisionEvent] = []
         #: Every tool checked at the beam, in order, whatever happened next.
         self.tool_checks: list[TcpCheck] = []
+        #: The targets' error budget, once made.
+        self.budget: ErrorBudget | None = None
         controller.on_event = self._event
 
     def say(self, message: str) -> None:
@@ -76,6 +79,12 @@ class RunLog:
         self.tool_checks.append(check)
         if self._recording is not None:
             self._recording.log_tool_check(self._controller.time_s, check)
+
+    def budgeted(self, budget: ErrorBudget) -> None:
+        """The targets' error budget was made: kept, and shown in the recording."""
+        self.budget = budget
+        if self._recording is not None:
+            self._recording.log_budget(self._controller.time_s, budget)
 
     def stage_at(self, time_s: float) -> str:
         """The stage the run was in at `time_s` [s] of the controller's clock."""

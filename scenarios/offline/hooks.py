@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Protocol
 
 from scenarios.results.beam import Commissioning
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.verification import TcpCheck
 
 
@@ -32,6 +33,9 @@ class StageHooks(Protocol):
 
     def checked(self, check: TcpCheck) -> None:
         """A tool was checked at the beam (every check, as it is made)."""
+
+    def budgeted(self, budget: ErrorBudget) -> None:
+        """The error budget of the targets was made, before the first touch."""
 
     def commissioning(self) -> Commissioning | None:
         """The cell's commissioning record (its tools' reference readings at the beam) for
@@ -54,6 +58,9 @@ class NoHooks:
         return None
 
     def checked(self, check: TcpCheck) -> None:
+        return None
+
+    def budgeted(self, budget: ErrorBudget) -> None:
         return None
 
     def commissioning(self) -> Commissioning | None:

@@ -312,6 +312,16 @@ class OperationsSection(Section):
         return self
 
 
+class BudgetCoverage(Section):
+    """The error budget's coverage factors (scenarios.offline.budget): a target's bound is
+    its standard error times `k_target`, the run's RMS bound the targets' RMS standard error
+    times `k_rms`. Calibrated on campaigns of the shipped cells so that the bounds cover the
+    true error at 95 % of targets and of runs (bench/budget_coverage.py prints both)."""
+
+    k_target: float = Field(2.0, gt=0.0, le=10.0)
+    k_rms: float = Field(1.5, gt=0.0, le=10.0)
+
+
 class VerifySection(Section):
     """The checks before the first touch. The correction (scenarios.offline.verify): the
     laser scans a strip of the object again, and the object's move since the scan is
@@ -324,7 +334,8 @@ class VerifySection(Section):
     the job's RMS goal less the error it plans for, the scan's TRE goal and `arm_accuracy_m`
     in quadrature: 0.165 mm for the skull); `tool_reference`: the cell was commissioned, its
     pointed tools read at the beam, and each check differences against those readings (else
-    against the tooldata, with the arm's accuracy in its uncertainty)."""
+    against the tooldata, with the arm's accuracy in its uncertainty). `budget`: the coverage
+    factors of the targets' error budget, which says whether the goals are within reach."""
 
     enabled: bool = True
     max_strips: int = Field(3, ge=1, le=10)
@@ -332,6 +343,7 @@ class VerifySection(Section):
     repeatability_m: float = Field(2.0e-5, ge=0.0, le=0.01)
     tool_tolerance_m: float | None = Field(None, gt=0.0, le=0.01)
     tool_reference: bool = True
+    budget: BudgetCoverage = BudgetCoverage()
 
 
 class PlanningSettings(Section):
@@ -354,3 +366,8 @@ class PlanningSettings(Section):
     #: The job's RMS goal for its targets [m] (None: no goal): what the verification holds a
     #: move of the object to.
     goal_rms_m: float | None = Field(5.0e-4, gt=0.0)
+    #: The job's goal for its largest target error [m] (None: no goal).
+    goal_max_m: float | None = Field(1.0e-3, gt=0.0)
+    #: How far the real object's surface may lie from its model [m], as the job file states
+    #: it (two-sided, 95 %): the error budget's floor for the model's term.
+    model_tolerance_m: float = Field(5.0e-4, ge=0.0, le=0.01)

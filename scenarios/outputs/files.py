@@ -130,7 +130,8 @@ def _registration_figure(
 def _targets_figure(folder: Path, result: RunResult) -> Path:
     """targets.png: each target's achieved error [mm] with the primary method's pose, beside
     the exported program's on a controller without absolute accuracy (when it ran to the
-    end on every target) and the predicted TRE, with the job's goals."""
+    end on every target) and the predicted TRE, each target's error budget (the bound it
+    stays within at 95 %), with the job's goals."""
     import matplotlib.pyplot as plt
 
     primary = result.primary
@@ -149,6 +150,15 @@ def _targets_figure(folder: Path, result: RunResult) -> Path:
     for k, (label, values) in enumerate(bars):
         offset = (k - (len(bars) - 1) / 2) * width
         ax.bar(x + offset, np.array(values) * 1e3, width, label=label)
+    budget = result.budget
+    if budget is not None:
+        bound = {t.name: t.bound_m for t in budget.targets}
+        if set(names) <= set(bound):
+            reach = "within reach" if budget.within_reach else "goal at risk"
+            ax.plot(
+                x, [bound[n] * 1e3 for n in names], "k_", ms=40, mew=2,
+                label=f"error budget, 95 % ({reach})",
+            )  # fmt: skip
     goals = (
         ("target_error_max_m", "r", "--", "max"),
         ("target_error_rms_m", "orange", ":", "rms"),

@@ -3,8 +3,10 @@ the evaluator's, written to results.json in one place (`RunResult.to_json`) and 
 from it (`RunResult.read`, `RunResult.from_json`).
 
 Lengths [m], angles [deg] where the name says so, times [s]. "status" is "complete" when the
-program ran, "refused" when the localization or its verification was not accepted (no
-motion towards the object), "aborted" when the controller's supervision stopped the cell.
+program ran with its goals within reach of the error budget, "at_risk" when it ran but the
+budget does not put its goals within reach (the reason says which and why), "refused" when
+the localization or its verification was not accepted (no motion towards the object),
+"aborted" when the controller's supervision stopped the cell.
 A run that failed or was interrupted leaves an `IncompleteRun` instead.
 """
 
@@ -18,6 +20,7 @@ from typing import Literal
 import numpy as np
 
 from scenarios.errors import ScenarioError
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.edge import JsonObject, unbounded
 from scenarios.results.evaluations import (
     CalibrationFigures,
@@ -33,7 +36,9 @@ from scenarios.results.verification import TcpCheck, Verification
 #: The version of results.json's layout that this module writes and reads.
 SCHEMA_VERSION = 1
 
-RunStatus = Literal["complete", "refused", "aborted"]
+RunStatus = Literal["complete", "at_risk", "refused", "aborted"]
+#: The statuses of a run whose program ran to its end.
+RAN: tuple[RunStatus, ...] = ("complete", "at_risk")
 
 
 class ResultsError(ScenarioError, ValueError):
@@ -172,7 +177,7 @@ class RunResult:
     """The whole run.
 
     Attributes:
-        status, reason: "complete", "refused" or "aborted", and why.
+        status, reason: "complete", "at_risk", "refused" or "aborted", and why.
         job, seed, model: the configuration's name, its seed, the object's model.
         scan_points: object points of the scan (0 without a scan).
         match: the surface match, or None (no scan, too few points, or probing only).
@@ -199,6 +204,8 @@ class RunResult:
         tool_checks: the tools' checks at the beam before their program ran (a tool
             seated off is put back and checked again).
         cell_time_s: the cell's clock at the run's end [s] (its simulated time).
+        budget: the targets' error budget, made before the first touch from what the job
+            measured (scenarios.offline.budget), or None (no surface pose drove a program).
         verifications: the verification before the first touch, each time it ran (a
             detected move re-scans, re-matches and verifies again), in order.
         model_cache: the key of the built model read from (or written to) the disk cache
@@ -238,6 +245,7 @@ class RunResult:
     verifications: tuple[Verification, ...] = ()
     tool_checks: tuple[TcpCheck, ...] = ()
     cell_time_s: float | None = None
+    budget: ErrorBudget | None = None
     seconds: float | None = None
     schema_version: int = field(default=SCHEMA_VERSION)
 
@@ -308,6 +316,7 @@ class RunResult:
             "verifications": [v.to_json() for v in self.verifications],
             "tool_checks": [c.to_json() for c in self.tool_checks],
             "cell_time_s": self.cell_time_s,
+            "budget": None if self.budget is None else self.budget.to_json(),
             "seconds": self.seconds,
         }
 
@@ -381,6 +390,7 @@ class RunResult:
             verifications=tuple(Verification.from_json(v) for v in data.get("verifications", ())),
             tool_checks=tuple(TcpCheck.from_json(c) for c in data.get("tool_checks", ())),
             cell_time_s=data.get("cell_time_s"),
+            budget=None if data.get("budget") is None else ErrorBudget.from_json(data["budget"]),
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),
         )

@@ -17,18 +17,21 @@ def results_table(result: RunResult) -> Table:
     table = Table(title=f"{result.job} run, seed {result.seed}: {result.status}")
     table.add_column("quantity")
     table.add_column("value", justify="right")
+    budget = result.budget
+    bounds = {} if budget is None else {t.name: t.bound_m for t in budget.targets}
     rows = [
         *_calibration_rows(result),
         ("scan points (object)", str(result.scan_points)),
         *_match_rows(result),
         *(
             (
-                f"{t.name}: error / reg. share / pred. TRE [mm]",
+                f"{t.name}: error / reg. share / pred. TRE / budget [mm]",
                 f"{_mm(t.error_m)} / {_mm(t.registration_error_m)} / "
-                f"{_mm(result.primary.predicted(t.name))}",
+                f"{_mm(result.primary.predicted(t.name))} / {_mm(bounds.get(t.name))}",
             )
             for t in result.targets
         ),
+        *_check_rows(result),
         *_goal_rows(result),
         *_exported_rows(result),
         *_method_rows(result),
@@ -70,6 +73,29 @@ def _match_rows(result: RunResult) -> Rows:
         ("match rms [mm]", _mm(None if match is None else match.rms_m)),
         ("match ambiguity", "-" if match is None else f"{match.ambiguity:.2f}"),
     ]
+
+
+def _check_rows(result: RunResult) -> Rows:
+    """Each tool's check at the beam (its decision, reading and what it resolves) and the
+    error budget's bounds against the goals."""
+    rows = [
+        (
+            f"TCP check {c.tool} (attempt {c.attempt + 1}): read / resolves [mm]",
+            f"{c.decision}: {_mm(c.off_m)} / {_mm(c.resolves_m)}"
+            + (" (checked to that only)" if c.decision == "unresolved" else ""),
+        )
+        for c in result.tool_checks
+    ]
+    budget = result.budget
+    if budget is not None:
+        rows.append(
+            (
+                "error budget: RMS / largest bound [mm] (95 %)",
+                f"{_mm(budget.rms_bound_m)} / {_mm(budget.max_bound_m)} "
+                f"({'within reach' if budget.within_reach else 'goal at risk'})",
+            )
+        )
+    return rows
 
 
 def _goal_rows(result: RunResult) -> Rows:

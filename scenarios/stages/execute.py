@@ -7,11 +7,15 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
 from cell import Controller
+from scenarios.offline.budget import error_budget, local_model_error, tool_term
 from scenarios.offline.pick import execute_pick
 from scenarios.offline.program import execute_program
 from scenarios.offline.settings import PlanningSettings
 from scenarios.offline.tcp_check import TOLERANCE_M, check_tcp, checked_tool
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.verification import TcpCheck
 from scenarios.stages.context import StageContext
 from scenarios.stages.program import ProgramStage
@@ -54,10 +58,35 @@ def tool_check(ctx: StageContext, tool: str) -> Callable[[Controller, int], TcpC
     return check
 
 
+def budget(ctx: StageContext, check: TcpCheck | None) -> ErrorBudget | None:
+    """The error budget of the targets of the program the surface pose drives
+    (scenarios.offline.budget), its tool's last `check` in it; None without such a pose."""
+    state = ctx.state
+    pose, scanned = state.pose("surface"), state.scanned
+    if pose is None or pose.localization is None or pose.T_table_object is None:
+        return None
+    if scanned is None or not ctx.virtual.burr_holes:
+        return None
+    holes = ctx.virtual.burr_holes
+    targets = np.array([h.p_entry for h in holes])
+    tre = pose.localization.result.predicted_tre(targets).tre
+    local = local_model_error(ctx.virtual, pose.T_table_object, scanned.points_table, targets)
+    residual = None if state.calibration is None else state.calibration.residual_rms_after_m
+    return error_budget(
+        tuple(h.name for h in holes),
+        np.asarray(tre, float),
+        local,
+        tool_term(check, ctx.settings),
+        residual,
+        ctx.settings,
+    )
+
+
 def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, ...]:
     """Run the pick, then each program: the program's tool taken and checked at the beam,
-    then at each target the tool stops at the touch (and the screwer spins for `screw`).
-    Returns the tools' checks."""
+    the error budget of the program the surface pose drives told to the run, then at each
+    target the tool stops at the touch (and the screwer spins for `screw`). Returns the
+    tools' checks."""
     controller, hooks = ctx.controller, ctx.hooks
     section = ctx.settings.operations
     if programs.pick is not None and section.pick is not None:
@@ -65,9 +94,13 @@ def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, 
     checks: list[TcpCheck] = []
     for method, program in programs.operations.items():
         check = tool_check(ctx, program.tool)
-        checks += checked_tool(
-            controller, program.tool, hooks.say, hooks.detect, hooks.checked, check
-        )
+        made = checked_tool(controller, program.tool, hooks.say, hooks.detect, hooks.checked, check)
+        checks += made
+        if method == "surface":
+            budgeted = budget(ctx, made[-1] if made else None)
+            if budgeted is not None:
+                hooks.say(budgeted.summary())
+                hooks.budgeted(budgeted)
 
         def at_target(name: str) -> None:
             hooks.moment(name, section.tool)

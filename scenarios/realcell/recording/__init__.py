@@ -38,6 +38,7 @@ from scenarios.offline.scan import ScanData
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.residuals import colour_scale, residual_colours
 from scenarios.realcell.evaluation import TargetEvaluation
+from scenarios.realcell.recording.budget import log_budget
 from scenarios.realcell.recording.layout import blueprint, serve_blueprint
 from scenarios.realcell.recording.match import colour_bar, log_icp, log_registered
 from scenarios.realcell.recording.scan import LaserRays, log_scan
@@ -45,6 +46,7 @@ from scenarios.realcell.recording.scene import CellScene, mesh_archetype
 from scenarios.realcell.recording.stream import ICP, Stream, pose
 from scenarios.realcell.recording.targets import log_targets
 from scenarios.realcell.recording.verification import log_tool_check, log_verification
+from scenarios.results.budget import ErrorBudget
 from scenarios.results.verification import TcpCheck, Verification
 
 #: The table frame the cell model believes: the table's top, where the object stands.
@@ -297,6 +299,10 @@ class Recording:
     def log_tool_check(self, time_s: float, check: TcpCheck) -> None:
         """A tool checked at the beam at `time_s` (see verification.py)."""
         log_tool_check(self.stream, time_s, check)
+
+    def log_budget(self, time_s: float, budget: ErrorBudget) -> None:
+        """The targets' error budget at `time_s` (see budget.py)."""
+        log_budget(self.stream, time_s, budget)
 
     def close(self, keep: bool = True) -> None:
         """Send what was buffered and close; keep the file only if the run completed."""

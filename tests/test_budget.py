@@ -1,0 +1,122 @@
+"""The error budget of a job's targets: the model's term read from the scan near each target
+(against a surface displaced by a known amount), the budget's decision against the goals,
+results.json's round trip, and a run whose budget puts its goal out of reach, which ends
+"at_risk" (exit status 6) instead of claiming the goal.
+
+Ground truth: the displacement the test gives the points, and the goals and terms the test
+states; never the budget's own figures."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from models.mesh import TriangleMesh
+from models.model import ObjectModel
+from scenarios.offline.budget import MIN_LOCAL_POINTS, error_budget, local_model_error
+from scenarios.offline.settings import PlanningSettings
+from scenarios.results.budget import ErrorBudget, TargetBudget
+from scenarios.results.run import RunResult
+
+
+def _plate() -> ObjectModel:
+    """A 0.2 m square plate in z = 0 (two triangles), object frame = table frame."""
+    v = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])
+    mesh = TriangleMesh(v, np.array([[0, 1, 2], [0, 2, 3]]))
+    return ObjectModel("plate", mesh, (mesh,))
+
+
+def test_the_model_term_is_the_scans_distance_from_the_model_near_each_target() -> None:
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-0.09, 0.09, size=(20000, 2))
+    # The real surface lies 0.3 mm above the model on the left half, on it on the right.
+    z = np.where(xy[:, 0] < 0.0, 0.3e-3, 0.0)
+    points = np.column_stack([xy, z])
+    T_table_object = np.eye(4)
+    targets = np.array([[-0.05, 0.0, 0.0], [0.05, 0.0, 0.0], [0.5, 0.5, 0.0]])
+    local = local_model_error(_plate(), T_table_object, points, targets)
+    assert local[0] == pytest.approx(0.3e-3, abs=1e-9)
+    assert local[1] == pytest.approx(0.0, abs=1e-9)
+    assert np.isnan(local[2])  # no point within reach: left to the stated tolerance
+    # The pose is applied: the same points seen with the object 2 mm along x.
+    T_moved = np.eye(4)
+    T_moved[0, 3] = 0.002
+    moved = local_model_error(_plate(), T_moved, points + [0.002, 0.0, 0.0], targets)
+    np.testing.assert_allclose(moved[:2], local[:2], atol=1e-9)
+    few = local_model_error(_plate(), T_table_object, points[: MIN_LOCAL_POINTS // 4], targets)
+    assert np.isnan(few).all()
+
+
+def _settings(goal_rms: float, goal_max: float, tolerance: float) -> PlanningSettings:
+    return PlanningSettings(goal_rms_m=goal_rms, goal_max_m=goal_max, model_tolerance_m=tolerance)
+
+
+def test_the_budget_adds_its_terms_in_quadrature_and_holds_them_to_the_goals() -> None:
+    settings = _settings(0.5e-3, 1.0e-3, 0.2e-3)
+    arm = settings.verify.arm_accuracy_m
+    k_target, k_rms = settings.verify.budget.k_target, settings.verify.budget.k_rms
+    names = ("a", "b")
+    tre = np.array([0.1e-3, 0.2e-3])
+    local = np.array([0.05e-3, np.nan])  # a: below the stated floor; b: not seen
+    budget = error_budget(names, tre, local, 0.03e-3, None, settings)
+    for target, t in zip(budget.targets, tre, strict=True):
+        assert target.model_m == pytest.approx(0.1e-3)  # half the stated tolerance
+        sigma = np.sqrt(t**2 + arm**2 + 0.03e-3**2 + 0.1e-3**2)
+        assert target.sigma_m == pytest.approx(sigma)
+        assert target.bound_m == pytest.approx(k_target * sigma)
+    rms_sigma = np.sqrt(np.mean([t.sigma_m**2 for t in budget.targets]))
+    assert budget.rms_bound_m == pytest.approx(k_rms * rms_sigma)
+    assert budget.within_reach == (k_rms * rms_sigma <= 0.5e-3 and budget.max_bound_m <= 1e-3)
+
+    # A model term seen larger than the stated tolerance, a calibration that fits worse than
+    # the arm's budget: both widen the budget.
+    wide = error_budget(names, tre, np.array([0.4e-3, 0.4e-3]), 0.03e-3, 0.3e-3, settings)
+    assert all(t.model_m == pytest.approx(0.4e-3) for t in wide.targets)
+    assert all(t.arm_m == pytest.approx(0.3e-3) for t in wide.targets)
+    assert not wide.within_reach
+    assert wide.risks[0].startswith("the RMS goal 0.500 mm is within reach only to")
+    assert "largest term: model" in wide.risks[0] or "largest term: arm" in wide.risks[0]
+
+
+def test_a_goal_out_of_reach_is_named_with_its_bound_and_largest_term() -> None:
+    targets = (
+        TargetBudget("near", 0.1e-3, 0.1e-3, 0.0, 0.1e-3, 0.4e-3),
+        TargetBudget("far", 0.6e-3, 0.1e-3, 0.0, 0.1e-3, 1.2e-3),
+    )
+    budget = ErrorBudget(targets, 2.0, 1.0, 0.5e-3, 1.0e-3)
+    # RMS bound: sqrt(mean sigma^2) = sqrt((0.03 + 0.38) / 2) mm = 0.453 mm: within 0.5.
+    assert budget.rms_bound_m == pytest.approx(np.sqrt((0.03e-6 + 0.38e-6) / 2))
+    assert budget.risks == (
+        "the largest-error goal 1.000 mm is within reach only to 1.200 mm at far (largest "
+        "term: tre, 0.600 mm)",
+    )
+    assert "largest within 1.200 mm" in budget.summary()
+    back = ErrorBudget.from_json(json.loads(json.dumps(budget.to_json())))
+    assert back == budget
+    unbounded = ErrorBudget((TargetBudget("x", np.inf, 0, 0, 0, np.inf),), 2.0, 1.0, None, 1e-3)
+    assert not unbounded.within_reach  # a target no scan constrains is no claim
+
+
+@pytest.mark.slow
+def test_a_run_whose_budget_puts_its_goal_out_of_reach_ends_at_risk(tmp_path: Path) -> None:
+    """The model stated to +-3 mm: its term alone (1.5 mm) is beyond the RMS goal, so the
+    program runs and the run says the goal is at risk; the same seed with the model stated
+    to its default completes."""
+    from scenarios.cli.app import main
+
+    code = main(
+        ["run", "skull", "--seed", "3", "--out", str(tmp_path), "--quiet", "--no-rrd",
+         "--set", "model.tolerance_m=0.003"]
+    )  # fmt: skip
+    result = RunResult.read(tmp_path / "latest")
+    assert code == 6
+    assert result.status == "at_risk"
+    assert result.reason.startswith("goal at risk: the RMS goal 0.500 mm is within reach only")
+    assert result.budget is not None
+    assert all(t.model_m >= 1.5e-3 for t in result.budget.targets)
+    assert result.targets  # the program ran
+    data = json.loads((tmp_path / "latest" / "results.json").read_text())
+    assert data["budget"]["within_reach"] is False
