@@ -39,12 +39,16 @@ RACK_FRONT_M = 0.2
 class ControllerEvent:
     """An entry of the controller's event log: the time [s], the supervision that spoke
     (`code`: collision, lock_sensor, table_in_position, joint_plausibility, load), what it
-    saw, and what the controller did (`action`: retried, re-read, stopped)."""
+    saw, and what the controller did (`action`: retried, re-read, stopped); the figure it
+    read and the limit it held it to, in SI units (the channels' difference [rad], the
+    table's offset [m], the holding torque [N m]), or None (a switch, a stop)."""
 
     time_s: float
     code: str
     message: str
     action: str
+    reading: float | None = None
+    limit: float | None = None
 
 
 @dataclass(frozen=True)
@@ -186,8 +190,15 @@ class Controller(ABC):
             reading, self.kinematics, self.T_flange_tcp("laser"), self.laser_directions_tcp
         )
 
-    def _log(self, code: str, message: str, action: str) -> None:
-        event = ControllerEvent(self.time_s, code, message, action)
+    def _log(
+        self,
+        code: str,
+        message: str,
+        action: str,
+        reading: float | None = None,
+        limit: float | None = None,
+    ) -> None:
+        event = ControllerEvent(self.time_s, code, message, action, reading, limit)
         self.events.append(event)
         if self.on_event is not None:
             self.on_event(event)

@@ -144,7 +144,7 @@ class Kinematics:
         return q
 
     def at_limits(self, q: np.ndarray, tol_rad: float = 1e-6) -> str:
-        """"; joint 4 at its limit -183 deg (cell.robot.limits_deg)" for the joints of q
+        """ "; joint 4 at its limit -183 deg (cell.robot.limits_deg)" for the joints of q
         (6,) on a limit, "" for none: what stops a solution that a limit cuts off."""
         q = np.asarray(q, dtype=float)
         out = [

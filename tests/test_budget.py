@@ -44,7 +44,7 @@ def test_the_model_term_is_the_scans_distance_from_the_model_near_each_target() 
     # The pose is applied: the same points seen with the object 2 mm along x.
     T_moved = np.eye(4)
     T_moved[0, 3] = 0.002
-    moved = local_model_error(_plate(), T_moved, points + [0.002, 0.0, 0.0], targets)
+    moved = local_model_error(_plate(), T_moved, points + np.array([0.002, 0.0, 0.0]), targets)
     np.testing.assert_allclose(moved[:2], local[:2], atol=1e-9)
     few = local_model_error(_plate(), T_table_object, points[: MIN_LOCAL_POINTS // 4], targets)
     assert np.isnan(few).all()

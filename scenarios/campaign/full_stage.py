@@ -136,6 +136,7 @@ def full_row(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
         row[f"exec_err_t{k}_m"] = target.executed_error_m
         row[f"tre_t{k}_m"] = target.predicted_tre_m
         row[f"ratio_t{k}"] = target.ratio
+    row.update(budget_columns(result, targets))
     row.update(_exported_columns(result.exported_program))
     row["stage"] = result.stage or ""
     row.update(_plan_columns(result.scan_plan))
@@ -144,6 +145,25 @@ def full_row(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
     row["cell_time_s"] = result.cell_time_s
     for stage, seconds in result.timings.items():
         row[f"{stage}_seconds"] = seconds
+    return row
+
+
+def budget_columns(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
+    """The error budget's columns (empty without one): its RMS and largest bounds [m],
+    whether the goals were within reach, and at each of the `targets` its standard error
+    `budget_sigma_t{k}_m` [m] (bench/budget_coverage.py calibrates the coverage factors on
+    them)."""
+    budget = result.budget
+    if budget is None:
+        return {}
+    sigma = {t.name: t.sigma_m for t in budget.targets}
+    row: JsonObject = {
+        "budget_rms_bound_m": budget.rms_bound_m,
+        "budget_max_bound_m": budget.max_bound_m,
+        "budget_within_reach": int(budget.within_reach),
+    }
+    for k, target in enumerate(targets):
+        row[f"budget_sigma_t{k}_m"] = sigma.get(target.name)
     return row
 
 

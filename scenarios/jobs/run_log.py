@@ -94,7 +94,9 @@ class RunLog:
         """What the supervision and the checks saw, each in the stage it spoke in, in time
         order."""
         events = [
-            SupervisionEvent(self.stage_at(e.time_s), e.time_s, e.code, e.message, e.action)
+            SupervisionEvent(
+                self.stage_at(e.time_s), e.time_s, e.code, e.message, e.action, e.reading, e.limit
+            )
             for e in self._controller.events
         ]
         return tuple(sorted(events + self.checks, key=lambda d: d.time_s))

@@ -318,8 +318,8 @@ class BudgetCoverage(Section):
     times `k_rms`. Calibrated on campaigns of the shipped cells so that the bounds cover the
     true error at 95 % of targets and of runs (bench/budget_coverage.py prints both)."""
 
-    k_target: float = Field(2.0, gt=0.0, le=10.0)
-    k_rms: float = Field(1.5, gt=0.0, le=10.0)
+    k_target: float = Field(1.25, gt=0.0, le=10.0)
+    k_rms: float = Field(1.10, gt=0.0, le=10.0)
 
 
 class VerifySection(Section):

@@ -12,13 +12,16 @@ from scenarios.results.edge import JsonObject
 class SupervisionEvent:
     """One thing the supervision or a stage's check saw: in `stage`, at `time_s` of the
     controller's clock [s], its `code` (e.g. "collision", "verification"), what it saw
-    (`message`) and what it did (`action`)."""
+    (`message`) and what it did (`action`); the figure it read and the limit it held it to
+    (SI units; None where the check reads no figure, a switch or a stop)."""
 
     stage: str
     time_s: float
     code: str
     message: str
     action: str
+    reading: float | None = None
+    limit: float | None = None
 
     def to_json(self) -> JsonObject:
         return {
@@ -27,6 +30,8 @@ class SupervisionEvent:
             "code": self.code,
             "message": self.message,
             "action": self.action,
+            "reading": self.reading,
+            "limit": self.limit,
         }
 
     @classmethod
@@ -37,6 +42,8 @@ class SupervisionEvent:
             str(data["code"]),
             str(data["message"]),
             str(data["action"]),
+            data.get("reading"),
+            data.get("limit"),
         )
 
 
