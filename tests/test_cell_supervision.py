@@ -64,6 +64,9 @@ def test_a_stalled_table(readout: str):
     if readout == "honest":
         assert [(e.code, e.action) for e in controller.events] == [("table_in_position", "retried")]
         assert abs(true_off) <= 2e-4
+        # The event keeps what it read and the window it held it to: the stall, 10 mm.
+        (event,) = controller.events
+        assert event.reading == pytest.approx(0.01, abs=5e-4) and event.limit == 2e-4
     else:
         assert controller.events == []
         assert true_off == pytest.approx(-0.01, abs=2e-4)
@@ -75,3 +78,5 @@ def test_a_joint_glitch_is_read_again():
     assert "encoder_glitch" in truth.faults.fired
     assert np.abs(readings - truth.q()).max() < 1e-3  # no reading carried the jump
     assert [(e.code, e.action) for e in controller.events] == [("joint_plausibility", "re-read")]
+    (event,) = controller.events  # the jump (0.05 rad) read, against the 1 mrad limit
+    assert event.reading == pytest.approx(0.05, abs=1e-3) and event.limit == 1e-3

@@ -96,6 +96,9 @@ def test_stopping_faults(tmp_path: Path, fault: str, value: float, code: str):
     assert results.supervision[-1].code == code
     assert results.supervision[-1].action == "stopped"
     assert results.targets == () and results.program_file is None
+    if code == "load":  # what it read (2 kg more than declared) and the limit, kept
+        stop = results.supervision[-1]
+        assert stop.limit == 5.0 and stop.reading is not None and stop.reading > stop.limit
 
 
 @pytest.mark.parametrize("seat_m", [0.0, 0.003])
