@@ -315,11 +315,13 @@ class OperationsSection(Section):
 class BudgetCoverage(Section):
     """The error budget's coverage factors (scenarios.offline.budget): a target's bound is
     its standard error times `k_target`, the run's RMS bound the targets' RMS standard error
-    times `k_rms`. Calibrated on campaigns of the shipped cells so that the bounds cover the
-    true error at 95 % of targets and of runs (bench/budget_coverage.py prints both)."""
+    times `k_rms`. Calibrated on 100 skull runs (seeds 76000-76039 and 74000-74059) at their
+    97.5 % quantiles, so that a campaign of 60 runs, with its own sampling scatter, still
+    finds 95 % of targets and of runs within their bounds (bench/budget_coverage.py prints
+    both)."""
 
-    k_target: float = Field(1.25, gt=0.0, le=10.0)
-    k_rms: float = Field(1.10, gt=0.0, le=10.0)
+    k_target: float = Field(1.40, gt=0.0, le=10.0)
+    k_rms: float = Field(1.15, gt=0.0, le=10.0)
 
 
 class VerifySection(Section):

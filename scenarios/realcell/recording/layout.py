@@ -42,12 +42,12 @@ def blueprint(
     plots = rrb.Vertical(
         rrb.Tabs(
             rrb.BarChartView(origin="/plots/targets/error_mm", name="target error [mm]"),
-            rrb.BarChartView(origin="/plots/targets/predicted_tre_mm", name="predicted TRE [mm]"),
-            rrb.BarChartView(origin="/plots/verify/moved_mm", name="verify: moved [mm]"),
-            rrb.BarChartView(origin="/plots/verify/allowance_mm", name="verify: allowed [mm]"),
             rrb.BarChartView(
                 origin="/plots/budget/bound_mm", name="error budget: bound per target [mm]"
             ),
+            rrb.BarChartView(origin="/plots/targets/predicted_tre_mm", name="predicted TRE [mm]"),
+            rrb.BarChartView(origin="/plots/verify/moved_mm", name="verify: moved [mm]"),
+            rrb.BarChartView(origin="/plots/verify/allowance_mm", name="verify: allowed [mm]"),
             rrb.BarChartView(
                 origin="/plots/tool_check",
                 name="TCP check: read, 4 sigma, called off beyond [mm]",
