@@ -77,6 +77,13 @@ def test_the_budget_adds_its_terms_in_quadrature_and_holds_them_to_the_goals() -
     assert all(t.model_m == pytest.approx(0.4e-3) for t in wide.targets)
     assert all(t.arm_m == pytest.approx(0.3e-3) for t in wide.targets)
     assert not wide.within_reach
+    # A cell that states its own arm figure for the budget (its campaigns' measure).
+    own = settings.model_copy(
+        update={"verify": settings.verify.model_copy(
+            update={"budget": settings.verify.budget.model_copy(update={"arm_m": 0.3e-3})}
+        )}
+    )  # fmt: skip
+    assert error_budget(names, tre, local, 0.0, None, own).targets[0].arm_m == 0.3e-3
     assert wide.risks[0].startswith("the RMS goal 0.500 mm is within reach only to")
     assert "largest term: model" in wide.risks[0] or "largest term: arm" in wide.risks[0]
 

@@ -254,9 +254,14 @@ def run_page(page: str, folder: Path) -> None:
                 continue
             done = subprocess.run(["bash", "-c", _as_run(command.text)], cwd=folder, env=_env(),
                                   capture_output=True, text=True, timeout=900)  # fmt: skip
-            assert done.returncode == 0, f"{command}: exit {done.returncode}\n{done.stderr[-3000:]}"
+            # Exit status 6: the program ran and the run says its goal is at risk, which the
+            # page must say too.
+            at_risk = done.returncode == 6 and "at risk" in (ROOT / page).read_text()
+            assert done.returncode == 0 or at_risk, (
+                f"{command}: exit {done.returncode}\n{done.stderr[-3000:]}"
+            )
             if any(p.startswith("twincell run ") for p in parts):
-                _assert_goals(command, (folder / "runs" / "latest").resolve())
+                _assert_goals(command, (folder / "runs" / "latest").resolve(), at_risk)
         if page in FIGURES:
             FIGURES[page](folder)
         if page in RUN_PYTHON:
@@ -269,16 +274,22 @@ def run_page(page: str, folder: Path) -> None:
             _stop(serving)
 
 
-def _assert_goals(command: Command, folder: Path) -> None:
-    """A job a page runs completes within its goals, as the page says it does."""
+def _assert_goals(command: Command, folder: Path, at_risk: bool = False) -> None:
+    """A job a page runs completes within its goals, as the page says it does (`at_risk`:
+    the run said its goal was at risk, as the page does: its goals are still checked)."""
     from scenarios.results.run import RunResult
     from scenarios.testing import assert_goals
     from scenarios.testing.runs import JobRun
 
     if "checks" not in json.loads((folder / "results.json").read_text()):
         return  # the seed paper's experiments: a table of matches, no goals
+    result = RunResult.read(folder)
+    if at_risk:
+        missed = [name for name, goal in result.checks.items() if not goal.met]
+        assert result.status == "at_risk" and not missed, f"{command}: {result.reason}; {missed}"
+        return
     try:
-        assert_goals(JobRun(RunResult.read(folder), folder))
+        assert_goals(JobRun(result, folder))
     except AssertionError as exc:
         pytest.fail(f"{command}: {exc}")
 

@@ -5,8 +5,9 @@ Four terms at each target, each a standard error (an RMS length) [m], add in qua
 - `tre`: the registration's predicted TRE there (registration.quality: the scan's noise, its
   correlated part and the passes' offsets through the match's geometry);
 - `arm`: the calibrated arm's error at a target: the job's budget for it
-  (`verify.arm_accuracy_m`, a data sheet's figure), or the calibration's own point residual
-  if it fits worse than that;
+  (`verify.arm_accuracy_m`, a data sheet's figure, or the cell's own `verify.budget.arm_m`
+  where its campaigns show its arm worse), or the calibration's own point residual if it
+  fits worse than that;
 - `tool`: what the tool's check at the beam left: its reading and, per axis, its own
   standard deviation;
 - `model`: how far the real surface lies from the model there: the RMS of the scan's
@@ -83,7 +84,7 @@ def error_budget(
     model error near each (K,) [m] (NaN: not seen), the tool's term [m], the calibration's
     point residual [m] (None: the arm was not calibrated), held to the job's goals."""
     verify = settings.verify
-    arm = verify.arm_accuracy_m
+    arm = verify.arm_accuracy_m if verify.budget.arm_m is None else verify.budget.arm_m
     if calibration_residual_m is not None:
         arm = max(arm, calibration_residual_m)
     stated = settings.model_tolerance_m / 2.0

@@ -318,10 +318,12 @@ class BudgetCoverage(Section):
     times `k_rms`. Calibrated on 100 skull runs (seeds 76000-76039 and 74000-74059) at their
     97.5 % quantiles, so that a campaign of 60 runs, with its own sampling scatter, still
     finds 95 % of targets and of runs within their bounds (bench/budget_coverage.py prints
-    both)."""
+    both). `arm_m` [m]: the calibrated arm's error at a target as the budget takes it (None:
+    `verify.arm_accuracy_m`), where a cell's campaigns show its arm worse than that."""
 
     k_target: float = Field(1.40, gt=0.0, le=10.0)
     k_rms: float = Field(1.15, gt=0.0, le=10.0)
+    arm_m: float | None = Field(None, gt=0.0, le=0.01)
 
 
 class VerifySection(Section):
