@@ -22,6 +22,7 @@ BENCH = ROOT / "bench"
 #: Each script, whether its short mode takes an output folder (--out), and its tables'
 #: headers: each the words that one line of its output must hold.
 SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
+    "budget_coverage.py": (False, (("set", "runs", "targets within their bound", "at risk"),)),
     "bench_campaign.py": (
         False,
         (

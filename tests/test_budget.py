@@ -127,3 +127,31 @@ def test_a_run_whose_budget_puts_its_goal_out_of_reach_ends_at_risk(tmp_path: Pa
     assert result.targets  # the program ran
     data = json.loads((tmp_path / "latest" / "results.json").read_text())
     assert data["budget"]["within_reach"] is False
+
+
+def test_the_faults_page_holds_the_kept_campaigns_coverage() -> None:
+    """docs/concepts/faults.md's budget table is what bench/budget_coverage.py makes of the
+    runs kept in bench/data (their true errors from the evaluator, their budgets made again
+    with the code and the settings of now): a changed factor or term changes the table."""
+    import importlib.util
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    spec = importlib.util.spec_from_file_location(
+        "budget_coverage", root / "bench" / "budget_coverage.py"
+    )
+    assert spec is not None and spec.loader is not None
+    bench = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = bench  # its dataclasses look their module up
+    spec.loader.exec_module(bench)
+    rows = bench.kept_rows()
+    assert len(rows) == 3
+    page = (root / "docs" / "concepts" / "faults.md").read_text()
+    for row in rows:
+        assert row in page, (
+            f"docs/concepts/faults.md: run `python bench/budget_coverage.py --short --page`: {row}"
+        )
+    # The skull's kept runs: the factors cover 95 % of targets and runs on 60 seeds.
+    skull = next(r for r in rows if r.startswith("| skull |"))
+    targets, runs = (float(x.strip().rstrip("%")) for x in skull.split("|")[3:5])
+    assert targets >= 95.0 and runs >= 95.0
