@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -52,6 +53,20 @@ def _run(args, capsys) -> tuple[int, str]:
     return code, capsys.readouterr().err
 
 
+def _refused_in_one_line(
+    args: list[str], message: str, label: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> str:
+    """`twincell ARGS --json FILE` exits 2 with one line holding `message` and writes
+    nothing; returns the line."""
+    out = tmp_path / f"{label}.json"
+    code, err = _run([*args, "--json", str(out)], capsys)
+    assert code == 2, label
+    assert message in err, (label, err)
+    assert err.count("\n") == 1 and "Traceback" not in err, label
+    assert not out.exists(), label  # nothing written
+    return err
+
+
 def test_bad_inputs_are_one_line_and_exit_2(files, tmp_path, capsys) -> None:
     d, _ = files
     model = str(d / "model.stl")
@@ -91,12 +106,7 @@ def test_bad_inputs_are_one_line_and_exit_2(files, tmp_path, capsys) -> None:
     full = (d / "scan.ply").read_bytes()
     (tmp_path / "cut.ply").write_bytes(full[: len(full) // 2])
     for label, (args, message) in cases.items():
-        out = tmp_path / f"{label}.json"
-        code, err = _run(["register", *args, "--json", str(out)], capsys)
-        assert code == 2, label
-        assert message in err, (label, err)
-        assert err.count("\n") == 1 and "Traceback" not in err, label
-        assert not out.exists(), label  # nothing written
+        _refused_in_one_line(["register", *args], message, label, tmp_path, capsys)
 
 
 def test_targets_and_seed_from_the_command_line(files, tmp_path, capsys) -> None:
@@ -176,10 +186,5 @@ def test_collinear_nan_and_folder_inputs_are_named(files, tmp_path, capsys) -> N
                                      "folder.twm is a folder, not a prepared model file (.twm)"),
     }  # fmt: skip
     for label, (args, message) in cases.items():
-        out = tmp_path / f"{label}.json"
-        code, err = _run(["register", *args, "--json", str(out)], capsys)
-        assert code == 2, label
-        assert message in err, (label, err)
-        assert err.count("\n") == 1 and "Traceback" not in err, label
+        err = _refused_in_one_line(["register", *args], message, label, tmp_path, capsys)
         assert "wrong units" not in err and "span nan" not in err and "not found" not in err
-        assert not out.exists(), label
