@@ -13,9 +13,10 @@ with the budget's code and the job's and the cell's settings as they are now (th
 With --write NAME, each target's terms and true error go to bench/data/budget_NAME.csv.
 
 --short: the sets kept in bench/data/budget_*.csv (docs/concepts/faults.md's figures; no
-job is run): skull_calibration (seeds 76000-76039), skull (74000-74059) and ur5 (the UR5
-cell, 74000-74059). With --page, the table goes into docs/concepts/faults.md between its
-`<!-- table:budget -->` markers (tests/test_budget.py checks the page against the sets).
+job is run): skull_calibration (seeds 76000-76039), skull (74000-74059), ur5 (the UR5
+cell, 74000-74059) and ur5e (examples/ur5e_cell.yaml, 74000-74019). With --page, the table
+goes into docs/concepts/faults.md between its `<!-- table:budget -->` markers
+(tests/test_budget.py checks the page against the sets).
 """
 
 from __future__ import annotations
@@ -75,7 +76,9 @@ def _settings(
     if (job, cell) not in cache:
         from scenarios.jobs.config import load_config
 
-        config = load_config(job, cell=None if cell == "-" else cell)
+        beside = ROOT / cell  # a cell file of the repository (examples/...), from anywhere
+        where = beside if cell != "-" and beside.is_file() else cell
+        config = load_config(job, cell=None if cell == "-" else where)
         cache[(job, cell)] = config.planning()
     return cache[(job, cell)]
 
