@@ -14,7 +14,8 @@ With --write NAME, each target's terms and true error go to bench/data/budget_NA
 
 --short: the sets kept in bench/data/budget_*.csv (docs/concepts/faults.md's figures; no
 job is run): skull_calibration (seeds 76000-76039), skull (74000-74059), ur5 (the UR5
-cell, 74000-74059) and ur5e (examples/ur5e_cell.yaml, 74000-74019). With --page, the table
+cell, 74000-74059), ur5e (examples/ur5e_cell.yaml, 74000-74019) and my_cell
+(examples/my_cell, 74000-74019). With --page, the table
 goes into docs/concepts/faults.md between its `<!-- table:budget -->` markers
 (tests/test_budget.py checks the page against the sets).
 """
@@ -78,7 +79,10 @@ def _settings(
 
         beside = ROOT / cell  # a cell file of the repository (examples/...), from anywhere
         where = beside if cell != "-" and beside.is_file() else cell
-        config = load_config(job, cell=None if cell == "-" else where)
+        job_file = ROOT / job  # a job file of the repository, from anywhere
+        config = load_config(
+            job_file if job_file.is_file() else job, cell=None if cell == "-" else where
+        )
         cache[(job, cell)] = config.planning()
     return cache[(job, cell)]
 
