@@ -171,7 +171,9 @@ def _targets_figure(folder: Path, result: RunResult) -> Path:
     ax.set_ylabel("[mm]")
     ax.set_title(f"target errors ({primary.method} pose)")
     # Below the axes: inside, the legend hides the bars of the middle targets.
-    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8)
+    fig.legend(
+        *ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8, markerscale=0.4
+    )
     fig.tight_layout(rect=(0.0, 0.14, 1.0, 1.0))
     path = _save(fig, folder / "targets.png")
     plt.close(fig)
