@@ -33,14 +33,13 @@ import numpy as np
 from scenarios.offline.budget import error_budget
 from scenarios.offline.settings import PlanningSettings
 from scenarios.results.budget import ErrorBudget
+from scenarios.results.run import RAN
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "bench" / "data"
 PAGE = ROOT / "docs" / "concepts" / "faults.md"
 COLUMNS = ("job", "cell", "seed", "status", "target", "error_m", "tre_m", "tool_m", "model_m",
            "calibration_residual_m")  # fmt: skip
-#: The statuses of a run whose program ran (the budget decides between them).
-RAN = ("complete", "at_risk")
 
 
 @dataclass(frozen=True)

@@ -102,12 +102,11 @@ class SimController(Controller):
             a, b = self._encoders.read_channels()
             off = np.abs(a - b)
             joint = int(np.argmax(off))
-            if off[joint] <= self.limits.max_channel_difference_rad:
+            if off[joint] <= (limit_rad := self.limits.max_channel_difference_rad):
                 return a
             message = f"joint {joint + 1}: the encoder's channels differ by {off[joint]:.4f} rad"
             action = "re-read" if attempt == 0 else "stopped"
-            limit = self.limits.max_channel_difference_rad
-            self._log("joint_plausibility", message, action, float(off[joint]), limit)
+            self._log("joint_plausibility", message, action, float(off[joint]), limit_rad)
         raise SupervisionError("joint_plausibility", f"{message}, twice")
 
     # -- motion -------------------------------------------------------------------------------
@@ -327,13 +326,12 @@ class SimController(Controller):
         self._sim.settle(0.2)
         torque = np.abs(self._sim.data.actuator_force[self._sim.arm_act])
         axis = int(np.argmax(torque))
-        if torque[axis] > self.limits.max_load_torque_nm:
+        if torque[axis] > (limit_nm := self.limits.max_load_torque_nm):
             message = (
                 f"load: axis {axis + 1} holds {torque[axis]:.1f} N m that the {tool} tool's "
                 "tooldata does not explain (the tool is heavier than its tooldata)"
             )
-            limit = self.limits.max_load_torque_nm
-            self._log("load", message, "stopped", float(torque[axis]), limit)
+            self._log("load", message, "stopped", float(torque[axis]), limit_nm)
             raise SupervisionError("load", message)
 
     def unlock(self) -> str:
@@ -431,12 +429,11 @@ class SimController(Controller):
                     "collision", f"motion supervision stopped the table ({stop})"
                 ) from None
             off = self._table.read() - position_m
-            if abs(off) <= self.limits.table_in_position_m:
+            if abs(off) <= (limit_m := self.limits.table_in_position_m):
                 return
             message = f"table not in position: readout {off * 1e3:+.2f} mm from {position_m:g} m"
             action = "retried" if attempt == 0 else "stopped"
-            limit = self.limits.table_in_position_m
-            self._log("table_in_position", message, action, float(abs(off)), limit)
+            self._log("table_in_position", message, action, float(abs(off)), limit_m)
         raise SupervisionError("table_in_position", f"{message} after a retry")
 
     def table_position(self) -> float:

@@ -63,11 +63,12 @@ def local_model_error(
     return out
 
 
-def tool_term(check: TcpCheck | None, settings: PlanningSettings) -> float:
+def tool_term(check: TcpCheck | None, tolerance_m: float) -> float:
     """What the tool's check left of its error [m]: its reading and its standard deviation
-    on both axes in quadrature; without a check, the tolerance the job allows a tool."""
+    on both axes in quadrature; without a check, the tolerance the job allows a tool
+    (`tolerance_m` [m])."""
     if check is None:
-        return float(settings.verify.tool_tolerance_m or settings.verify.arm_accuracy_m)
+        return tolerance_m
     off = check.off_m if np.isfinite(check.off_m) else check.resolves_m
     return float(np.hypot(off, np.sqrt(2.0) * check.sigma_m))
 

@@ -76,7 +76,7 @@ def budget(ctx: StageContext, check: TcpCheck | None) -> ErrorBudget | None:
         tuple(h.name for h in holes),
         np.asarray(tre, float),
         local,
-        tool_term(check, ctx.settings),
+        tool_term(check, tool_tolerance(ctx.settings)),
         residual,
         ctx.settings,
     )
