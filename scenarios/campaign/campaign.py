@@ -65,12 +65,17 @@ class CampaignSpec:
         }
 
 
-def base_config(name: str, stage: str) -> JsonObject:
+def base_config(name: str, stage: str, cell: str | None = None) -> JsonObject:
     """The base configuration of a campaign, a job configuration (JobConfig) as a plain dict
     (every key): for the register stage the default job on a built-in model (skull,
     ellipsoid, bracket, housing, lid) or a job YAML file (its `register_trial` section the
     defaults where it has none; scenarios.campaign.register_job); for the full stage a
-    shipped job (skull, assembly) or a job YAML file, run headless."""
+    shipped job (skull, assembly) or a job YAML file, run headless, in `cell` (a shipped
+    cell by name or a cell YAML, as `twincell run --cell` takes it) if one is given."""
+    if cell is not None and stage != "full":
+        raise CampaignError(
+            f"a cell ({cell!r}) is for the full stage; the {stage} stage runs no cell"
+        )
     if stage == "register":
         if name in MODELS:
             return register_base(name)
@@ -86,7 +91,7 @@ def base_config(name: str, stage: str) -> JsonObject:
     if stage == "full":
         from scenarios.jobs.config import load_config
 
-        config = load_config(name).model_dump(mode="json")
+        config = load_config(name, cell=cell).model_dump(mode="json")
         if "output" in config:
             config["output"] = {**config["output"], "rrd": False, "plots": False}
         return config
@@ -99,6 +104,7 @@ def plan_campaign(
     trials: int = 10,
     vary: list[str] | tuple[str, ...] = (),
     seed: int = 0,
+    cell: str | None = None,
 ) -> CampaignSpec:
     """A campaign of `trials` per point of the `vary` sweep (`KEY=V1,V2,...`, the job's
     dotted keys); every point's configuration is resolved and validated now, so that a bad
@@ -111,7 +117,8 @@ def plan_campaign(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise CampaignError(f"seed must be a non-negative integer, got {seed!r}")
     sweep = parse_vary(vary)
-    spec = CampaignSpec(Path(name).stem, stage, base_config(name, stage), sweep, trials, seed)
+    label = Path(name).stem if cell is None else f"{Path(name).stem}-{Path(cell).stem}"
+    spec = CampaignSpec(label, stage, base_config(name, stage, cell), sweep, trials, seed)
     for values in sweep_points(spec.sweep):
         resolve_config(spec, values)
     if stage == "register":

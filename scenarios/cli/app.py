@@ -695,6 +695,14 @@ def campaign(
         str, typer.Option("--stage", help="register (matching alone) or full (the scenario).")
     ] = "register",
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the first trial.")] = 0,
+    cell: Annotated[
+        str | None,
+        typer.Option(
+            "--cell",
+            help="full stage: the cell to run each trial in, as `twincell run --cell` "
+            "takes it (ur5, or a cell YAML).",
+        ),
+    ] = None,
     out: Annotated[
         str | None,
         typer.Option(
@@ -714,7 +722,7 @@ def campaign(
     """
     from scenarios.campaign import default_out, plan_campaign, run_campaign
 
-    spec = plan_campaign(name, stage=stage, trials=trials, vary=vary or [], seed=seed)
+    spec = plan_campaign(name, stage=stage, trials=trials, vary=vary or [], seed=seed, cell=cell)
     folder = out if out is not None else default_out(spec)
     outcome = run_campaign(
         spec, folder, backend=backend, workers=workers, scheduler=scheduler, progress=not quiet
