@@ -2,7 +2,8 @@
 scan (scenarios.campaign.operating_curve): a campaign's rows in, docs/benchmarks.md's table and
 figure out.
 
-Usage: python bench/verify_curve.py CAMPAIGN_FOLDER --fault NAME [--goal-mm 0.5] [--write]
+Usage: python bench/verify_curve.py CAMPAIGN_FOLDER --fault NAME [--cell LABEL] [--goal-mm 0.5]
+                                     [--write]
        python bench/verify_curve.py --short
 
 CAMPAIGN_FOLDER is a `twincell campaign skull --stage full --vary faults.NAME=...` run (its
@@ -11,7 +12,8 @@ faults beyond the goal at a target detected, at most 5 % false alarms at 0, no c
 with its RMS goal missed while the fault went unseen). With --write: the rows the curve needs
 go to bench/data/verify_NAME.csv, the figure to bench/data/verify_NAME.png and the table
 into docs/benchmarks.md between its `<!-- table:verify_NAME -->` markers (tests/test_verify_curve.py
-checks the page's table against that CSV).
+checks the page's table against that CSV). A campaign in another cell (`twincell campaign
+... --cell ur5`) is kept as verify_NAME.LABEL with `--cell LABEL`.
 
 --short: the curves of the campaigns kept in bench/data/ (no campaign is run).
 """
@@ -76,6 +78,16 @@ READINGS = {
 }
 
 
+def kept_name(fault: str, cell: str | None) -> str:
+    """The name a curve is kept under: verify_FAULT, or verify_FAULT.CELL for another cell."""
+    return f"verify_{fault}" if cell is None else f"verify_{fault}.{cell}"
+
+
+def kept_fault(path: Path) -> str:
+    """The fault of a kept curve's CSV (kept_name's inverse)."""
+    return path.stem.removeprefix("verify_").partition(".")[0]
+
+
 def _size_mm(row: Row, fault: str) -> float:
     """The fault's size at the targets [mm] (operating_curve's): a bump's farthest target
     move, else the amount."""
@@ -129,13 +141,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("campaign", type=Path, nargs="?")
     parser.add_argument("--fault")
+    parser.add_argument("--cell", help="the cell's label, for a campaign in another cell")
     parser.add_argument("--goal-mm", type=float, default=0.5)
     parser.add_argument("--write", action="store_true")
     parser.add_argument("--short", action="store_true")
     args = parser.parse_args()
     if args.short:
         for kept in sorted(DATA.glob("verify_*.csv")):
-            fault = kept.stem.removeprefix("verify_")
+            fault = kept_fault(kept)
+            print(kept.stem)
             curve = operating_curve(read_rows(kept), fault, args.goal_mm * 1e-3)
             print("\n".join(curve.table()), end="\n\n")
         return
@@ -155,13 +169,13 @@ def main() -> None:
     print("goals met" if not missed else "goals missed: " + "; ".join(missed))
     if args.write:
         DATA.mkdir(exist_ok=True)
-        out = DATA / f"verify_{args.fault}.csv"
+        name = kept_name(args.fault, args.cell)
+        out = DATA / f"{name}.csv"
         with out.open("w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
-        figure(curve, rows, DATA / f"verify_{args.fault}.png")
-        name = f"verify_{args.fault}"
+        figure(curve, rows, DATA / f"{name}.png")
         PAGE.write_text(replace_table(PAGE.read_text(), name, table[0], table[1:]))
         print(f"wrote {out}, {out.with_suffix('.png')} and docs/benchmarks.md's table {name}")
 

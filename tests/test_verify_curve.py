@@ -17,12 +17,19 @@ import pytest
 from scenarios.campaign import plan_campaign, run_campaign
 from scenarios.campaign.operating_curve import operating_curve
 from scenarios.jobs.tables import readme_table
+from scenarios.results.run import RAN
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "bench" / "data"
 GOAL_M = 0.5e-3
-#: The curves in docs/benchmarks.md: fault, and what their campaign must meet.
-CURVES = ("object_bump", "tool_lock_fail", "table_stall")
+#: The curves in docs/benchmarks.md, by the name they are kept under (verify_FAULT[.CELL]).
+CURVES = (
+    "object_bump",
+    "tool_lock_fail",
+    "table_stall",
+    "tool_lock_fail.builtin",
+    "tool_lock_fail.ur5",
+)
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
@@ -30,12 +37,37 @@ def _rows(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
-@pytest.mark.parametrize("fault", CURVES)
-def test_the_readme_curve_is_its_campaign_s(fault: str) -> None:
-    curve = operating_curve(_rows(DATA / f"verify_{fault}.csv"), fault, GOAL_M)
+@pytest.mark.parametrize("name", CURVES)
+def test_the_readme_curve_is_its_campaign_s(name: str) -> None:
+    fault = name.partition(".")[0]
+    curve = operating_curve(_rows(DATA / f"verify_{name}.csv"), fault, GOAL_M)
     readme = (ROOT / "docs" / "benchmarks.md").read_text()
-    assert readme_table(readme, f"verify_{fault}") == curve.table()[2:]
-    assert (DATA / f"verify_{fault}.png").is_file()
+    assert readme_table(readme, f"verify_{name}") == curve.table()[2:]
+    assert (DATA / f"verify_{name}.png").is_file()
+
+
+#: Of the seat campaign's runs, those that end `complete` with the RMS goal missed, at most:
+#: on the built-in arm seed 95014 (0.1 mm off, within the check's tolerance: its RMS 0.518 mm
+#: against the budget's bound 0.423 mm, the budget's shortfall that docs/benchmarks.md names).
+SEAT_MISSED = {"builtin": 1, "ur5": 0}
+
+
+@pytest.mark.parametrize("cell", ["builtin", "ur5"])
+def test_no_seat_fault_passes_under_the_checks(cell: str) -> None:
+    """The screwer seated 0.1-0.4 mm off, at least 20 runs per amount, on the built-in arm
+    and in the UR5 cell: every seat 0.3 mm or more off is called off by the TCP check, and
+    no run ends `complete` with its RMS goal missed (against the true targets) beyond the
+    one the docs name, whether or not the check saw the seat (the runs it does not stop
+    carry the reading in their error budget, which says when the goal is at risk); every
+    trial ran (no crash, no refusal)."""
+    rows = _rows(DATA / f"verify_tool_lock_fail.{cell}.csv")
+    curve = operating_curve(rows, "tool_lock_fail", GOAL_M)
+    amounts = [round(p.amount_m * 1e3, 3) for p in curve.points]
+    assert amounts == [0.1, 0.2, 0.3, 0.4], amounts
+    assert min(p.trials for p in curve.points) >= 20
+    assert all(p.detected == p.trials for p in curve.points if p.amount_m >= 0.3e-3)
+    assert all(r["status"] == "ok" and r["run_status"] in RAN for r in rows)
+    assert sum(p.rms_missed for p in curve.points) <= SEAT_MISSED[cell], curve.table()
 
 
 def test_the_bump_curve_meets_the_detection_goals() -> None:

@@ -21,6 +21,8 @@ import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from scenarios.results.run import RAN
+
 #: A campaign row as results.csv holds it.
 Row = dict[str, str]
 #: The outcomes of a fault that count as detected (fault_columns).
@@ -37,8 +39,10 @@ class CurvePoint:
     """One amount [m] of the fault: its trials, how many detected it; those whose size at
     the targets [m] was beyond the goal and how many of them were detected; the runs that
     ended complete with the RMS goal missed, and of them those where the fault went unseen;
-    the median target RMS of the complete runs [m] (nan: none) and the verification's
-    median cell time [s] (nan: none)."""
+    the runs that ran their program but said a goal was at risk (their error budget's
+    bound beyond it, scenarios.offline.budget); the median target RMS of the runs that ran
+    their program, complete or at risk [m] (nan: none) and the verification's median cell
+    time [s] (nan: none)."""
 
     amount_m: float
     trials: int
@@ -47,6 +51,7 @@ class CurvePoint:
     beyond_goal_detected: int
     rms_missed: int
     rms_missed_unseen: int
+    at_risk: int
     rms_median_m: float
     verify_time_s: float
 
@@ -98,9 +103,9 @@ class OperatingCurve:
         rows = [
             f"| {self.fault} [{unit}] | trials | detected | beyond the goal at a target "
             "(detected) | complete, RMS goal missed (fault unseen, goal met without it) | "
-            "target RMS, median "
+            "at risk | target RMS, median "
             "[mm] | verification's cell time, median [s] |",
-            "|---:|---:|---:|---:|---:|---:|---:|",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|",
         ]
         sized = self.fault in SIZE_IS_AMOUNT or self.fault == "object_bump"
         for p in self.points:
@@ -108,7 +113,8 @@ class OperatingCurve:
             rows.append(
                 f"| {p.amount_m * 1e3:g} | {p.trials} | {p.detected} ({p.rate:.0%}) | "
                 f"{beyond} | {p.rms_missed} "
-                f"({p.rms_missed_unseen}) | {_mm(p.rms_median_m)} | {_num(p.verify_time_s)} |"
+                f"({p.rms_missed_unseen}) | {p.at_risk} | {_mm(p.rms_median_m)} | "
+                f"{_num(p.verify_time_s)} |"
             )
         return rows
 
@@ -146,13 +152,13 @@ def _point(
     mine = [r for r in rows if _amount(r[column]) == amount and r.get("status") == "ok"]
     detected = [r.get(f"fault.{fault}") in DETECTED for r in mine]
     size = [_size(r, fault, amount) for r in mine]
-    complete = [r for r in mine if r.get("run_status") == "complete"]
+    ran = [r for r in mine if r.get("run_status") in RAN]
     missed = [
         (r, d)
         for r, d in zip(mine, detected, strict=True)
         if r.get("run_status") == "complete" and _float(r.get("job_rms_m")) > goal
     ]
-    rms = [_float(r.get("job_rms_m")) for r in complete]
+    rms = [_float(r.get("job_rms_m")) for r in ran]
     times = [_float(r.get("verify_scan_time_s")) for r in mine if r.get("verify_scan_time_s")]
     return CurvePoint(
         amount_m=amount,
@@ -164,6 +170,7 @@ def _point(
         rms_missed_unseen=sum(
             not d and met_without.get(r.get("trial", ""), True) for r, d in missed
         ),
+        at_risk=sum(r.get("run_status") == "at_risk" for r in mine),
         rms_median_m=statistics.median(rms) if rms else float("nan"),
         verify_time_s=statistics.median(times) if times else float("nan"),
     )
