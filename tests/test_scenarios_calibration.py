@@ -6,6 +6,7 @@ and bad inputs must be refused clearly."""
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import numpy as np
@@ -17,15 +18,19 @@ from cell.sim import CellConfig, CellTruth, make_cell
 from models.robot import LASER, SCREWER
 from scenarios.jobs.config import ConfigError, parse_config
 from scenarios.offline.calibration import (
+    APPROACH_RAD,
     DEFAULT_ARTIFACT,
+    PATH_STEP_RAD,
     CalibrationError,
     CalibrationPlan,
     CalibrationPriors,
     SphereArtifact,
+    View,
     _Layout,
     cell_model,
     identify,
     measure_spheres,
+    plan_views,
 )
 from scenarios.offline.moves import change_tool_safely
 from scenarios.realcell.evaluation import Evaluator
@@ -246,3 +251,48 @@ def test_bad_artifacts_and_settings_are_refused() -> None:
         parse_config({"calibration": {"standoff_m": [0.3, 0.2]}})
     with pytest.raises(ConfigError, match=r"calibration\.views_per_sphere"):
         parse_config({"calibration": {"views_per_sphere": 2}})
+
+
+def test_a_view_is_kept_only_if_the_move_to_it_stays_clear() -> None:
+    """The views' moves, not only the views, keep clear of the object. The obstacle here is
+    a wall the first joint may not turn through (a band of its angle), put in a wide gap
+    between the views of the plan made without it, one that a move between the views kept
+    clear of it crosses. With the arm's start given, no move of the plan (a line in joint
+    space: from the start to the first view's approach, from each view to the next's,
+    through home where the plan says so, and home from the last) crosses it: checked
+    exactly, from the moves' ends."""
+    controller, _ = _cell(0)
+    kin = controller.kinematics
+    plan = CalibrationPlan(table_positions_m=(-0.25,), views_per_sphere=12)
+    centres = DEFAULT_ARTIFACT.centres_table + np.array([1.2, -0.25, 0.0])  # table at -0.25
+    home = controller.q_home
+
+    def moves(views: list[View]) -> list[tuple[np.ndarray, np.ndarray]]:
+        path = [home]
+        for view in views:
+            path += [home, view.q - APPROACH_RAD] if view.through_home else [view.q - APPROACH_RAD]
+        return list(itertools.pairwise([*path, home]))
+
+    def crosses(a: np.ndarray, b: np.ndarray, wall: tuple[float, float]) -> bool:
+        low, high = sorted((a[0], b[0]))
+        return bool(low <= wall[1] and high >= wall[0])
+
+    def views(wall: tuple[float, float], start: np.ndarray | None) -> list[View]:
+        def clear(q: np.ndarray, _table_m: float) -> bool:
+            return not wall[0] <= q[0] <= wall[1]
+
+        return plan_views(kin, centres, plan, home, clear, q_start=start)
+
+    free = plan_views(kin, centres, plan, home)
+    assert not any(v.through_home for v in free)
+    angles = np.sort([q[0] for q in [home, *(v.q for v in free)]])
+    walls = [
+        ((3 * a + b) / 4, (a + 3 * b) / 4)  # the middle half of a gap
+        for a, b in sorted(itertools.pairwise(angles), key=lambda g: g[0] - g[1])
+        if (b - a) / 2 > 2 * PATH_STEP_RAD
+    ]
+    wall = next(w for w in walls if any(crosses(a, b, w) for a, b in moves(views(w, None))))
+
+    kept = views(wall, home)
+    assert len(kept) >= 3 * len(centres)  # views of every sphere remain
+    assert not any(crosses(a, b, wall) for a, b in moves(kept))

@@ -321,22 +321,61 @@ def _view_pose(c: np.ndarray, tilt: float, heading: float, roll: float, d: float
 Clear = Callable[[np.ndarray, float], bool]
 
 
+#: The largest joint's step [rad] between the samples at which a calibration move is checked
+#: clear of the object (about 10 mm of the laser's travel at a metre's reach).
+PATH_STEP_RAD = 0.01
+
+
+def path_clear(clear: Clear, q0: np.ndarray, q1: np.ndarray, table_position_m: float) -> bool:
+    """Whether the joint move q0 -> q1 (a line in joint space, as the controller moves),
+    sampled every PATH_STEP_RAD of its largest joint, stays `clear` of the object. A move
+    that starts where the arm is not clear (the arm stands within the margin already) may
+    leave that region, but not enter it again once clear."""
+    q0 = np.asarray(q0, dtype=float)
+    dq = np.asarray(q1, dtype=float) - q0
+    n = max(1, int(np.ceil(float(np.max(np.abs(dq))) / PATH_STEP_RAD)))
+    leaving = not clear(q0, table_position_m)
+    for k in range(1, n + 1):
+        ok = clear(q0 + (k / n) * dq, table_position_m)
+        if not ok and not leaving:
+            return False
+        leaving = leaving and not ok
+    return not leaving
+
+
+@dataclass(frozen=True)
+class View:
+    """A planned view of a sphere: the sphere's index, the joints (6,) [rad] of the view,
+    and whether the arm goes to it through home (the direct move is not clear)."""
+
+    sphere: int
+    q: np.ndarray
+    through_home: bool = False
+
+
 def plan_views(
     kin: Kinematics,
     centres_base: np.ndarray,
     plan: CalibrationPlan,
-    q_seed: np.ndarray,
+    q_home: np.ndarray,
     clear: Clear | None = None,
-) -> list[tuple[int, np.ndarray]]:
-    """(sphere, joints (6,)) of every reachable view (its approach from below included) that
-    stands `clear` of the object on the table (at the plan's table position), spread over
-    tilt, heading, roll and distance (golden-ratio sequences), ordered by heading around
-    each sphere."""
+    q_start: np.ndarray | None = None,
+) -> list[View]:
+    """Every reachable view (its approach from below included) that stands `clear` of the
+    object on the table (at the plan's table position), spread over tilt, heading, roll and
+    distance (golden-ratio sequences), ordered by heading around each sphere; the IK starts
+    from home `q_home`, then from the view before. With `q_start` (the joints the arm starts
+    from), the move to a view from the view before (from `q_start` for the first) must stay
+    clear too: where it does not, the arm goes through home if both legs are clear, and
+    the view is left out if not; so are the last views if the move home from them is not
+    clear."""
     rng = np.random.default_rng(plan.seed)
+    q_from = None if q_start is None else np.asarray(q_start, dtype=float)
     golden = (np.sqrt(5.0) - 1.0) / 2.0
     near, far = plan.standoff_m
     views = []
-    q = np.asarray(q_seed, dtype=float)
+    home = np.asarray(q_home, dtype=float)
+    q = home
     for s, c in enumerate(centres_base):
         start = rng.uniform(0.0, 1.0, 3)
         n = plan.views_per_sphere
@@ -353,12 +392,27 @@ def plan_views(
             if not (r.success and np.all(r.q - APPROACH_RAD >= kin.lower)):
                 continue
             position = plan.table_positions_m[0]
-            if clear is not None and not (
-                clear(r.q, position) and clear(r.q - APPROACH_RAD, position)
-            ):
-                continue
-            views.append((s, r.q))
+            approach = r.q - APPROACH_RAD
+            through_home = False
+            if clear is not None:
+                if not (clear(r.q, position) and clear(approach, position)):
+                    continue
+                if q_from is not None and not path_clear(clear, q_from, approach, position):
+                    # (a move into home is checked from home: home may stand within the
+                    # margin, which the arm may enter there only)
+                    through_home = path_clear(clear, home, q_from, position) and path_clear(
+                        clear, home, approach, position
+                    )
+                    if not through_home:
+                        continue
+            views.append(View(s, r.q, through_home))
             q = r.q
+            q_from = r.q
+    # The arm goes home after the last view: that move must be clear too.
+    while clear is not None and q_start is not None and views:
+        if path_clear(clear, home, views[-1].q, plan.table_positions_m[0]):
+            break
+        views.pop()
     return views
 
 
@@ -378,6 +432,14 @@ def _fetch_laser(controller: Controller) -> np.ndarray:
     return q_lock
 
 
+def _move(controller: Controller, q: np.ndarray, sphere: int, settle_s: float = 0.0) -> None:
+    """A joint move on the way to a view of sphere `sphere`; CalibrationError if it fails."""
+    try:
+        controller.move_joints(q, settle_s=settle_s)
+    except CellError as exc:
+        raise CalibrationError(f"a calibration view of sphere {sphere + 1} failed: {exc}") from exc
+
+
 def _view_sphere(
     controller: Controller,
     sphere: int,
@@ -392,14 +454,11 @@ def _view_sphere(
     averaged ray by ray: the mean measured joints, the table readout [m] and the points
     (M, 3) in the laser frame within the sphere's radius + 10 mm of its centre and not on
     its post; None if none is."""
-    try:
-        # Every joint comes to a view from the same side (from below), so that the drives'
-        # lost motion is the same at every view (ISO 9283's unidirectional approach): the
-        # fit sees it as a constant, not as noise.
-        controller.move_joints(q - APPROACH_RAD, settle_s=0.0)
-        controller.move_joints(q, settle_s=0.2)
-    except CellError as exc:
-        raise CalibrationError(f"a calibration view of sphere {sphere + 1} failed: {exc}") from exc
+    # Every joint comes to a view from the same side (from below), so that the drives' lost
+    # motion is the same at every view (ISO 9283's unidirectional approach): the fit sees it
+    # as a constant, not as noise.
+    _move(controller, q - APPROACH_RAD, sphere, settle_s=0.0)
+    _move(controller, q, sphere, settle_s=0.2)
     viewed()
     readings = [controller.read_laser() for _ in range(lines_per_view)]
     ranges = np.array([r.distances for r in readings])
@@ -444,6 +503,10 @@ def measure_spheres(
     margin = artifact.radius_m + 0.01
     n_views = 0
     for k, position in enumerate(plan.table_positions_m):
+        if clear is not None and all(
+            clear(controller.q_home, at) for at in (controller.table_position(), position)
+        ):  # the table moves with the arm at home, where home is clear of the object
+            controller.move_joints(controller.q_home)
         controller.move_table(position)
         T_base_table = nominal_T_base_table(controller.table_position())
         centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
@@ -451,10 +514,15 @@ def measure_spheres(
             (position,), per_position, plan.lines_per_view, plan.standoff_m, plan.max_tilt_rad,
             plan.seed + 1000 * k,
         )  # fmt: skip
-        views = plan_views(kin, centres, sub, controller.q_home, clear)
+        views = plan_views(kin, centres, sub, controller.q_home, clear, controller.read_joints())
         n_views += len(views)
-        for s, q in views:
-            seen = _view_sphere(controller, s, q, plan.lines_per_view, centres[s], artifact, viewed)
+        for view in views:
+            s = view.sphere
+            if view.through_home:
+                _move(controller, controller.q_home, s)
+            seen = _view_sphere(
+                controller, s, view.q, plan.lines_per_view, centres[s], artifact, viewed
+            )
             if seen is None:
                 continue
             q_view, table_position_m, keep_points = seen
