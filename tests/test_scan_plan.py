@@ -310,3 +310,42 @@ def test_a_pass_with_its_own_standoff_looks_from_that_far() -> None:
         for T in (planned.T_table_start, planned.T_table_end):
             assert T[2, 3] - top == pytest.approx(expected, abs=1e-9)
             np.testing.assert_allclose(T[:3, 2], [0.0, 0.0, -1.0], atol=1e-9)
+
+
+@pytest.mark.slow
+def test_a_pass_with_no_clear_way_to_it_is_chosen_again_without() -> None:
+    """The passes are routed once chosen; a chosen pass the arm finds no clear way to (here
+    the cell is told so for the plan's first pass, wherever it stands in the scan) is left
+    out and the passes are chosen again from the other candidates: the job is scanned, not
+    refused. Ground truth: the greedy choice (choose_passes) from the candidates without it."""
+    import scenarios.offline.scan_plan as scan_plan
+
+    part = _d_cylinder(np.array([-1.0, 0.0, 0.0]))
+    z = (part.bounds[1, 2] - part.bounds[0, 2]) / 2
+    targets = np.array([[0.04, 0.03, z], [-0.03, 0.04, z], [0.0, -0.045, z]])
+    section = Scan(plan="auto", min_points=100)
+    first = _plan(part, targets, section)
+    blocked = next(c for c in first.candidates if c.planned.name == first.chosen[0].name)
+    route = scan_plan.route_transits
+
+    def no_way_to_blocked(cell, kin, passes, *args, **kwargs):  # type: ignore[no-untyped-def]
+        line = {blocked.planned.T_table_start[:3, 3].round(6).tobytes(),
+                blocked.planned.T_table_end[:3, 3].round(6).tobytes()}  # fmt: skip
+        for k, p in enumerate(passes):  # the same line, whichever way it is swept
+            if {p.T_table_start[:3, 3].round(6).tobytes(),
+                p.T_table_end[:3, 3].round(6).tobytes()} == line:  # fmt: skip
+                raise scan_plan.TransitError(f"no clear way to {p.name}", k)
+        return route(cell, kin, passes, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(scan_plan, "route_transits", no_way_to_blocked)
+        again = _plan(part, targets, section)
+    names = [c.name for c in again.chosen]
+    assert blocked.planned.name not in names
+    others = tuple(c for c in first.candidates if c is not blocked)
+    goal, budget = section.planning.goal_tre_m, section.planning.budget_s
+    expected, *_ = scan_plan.choose_passes(
+        others, targets, ERRORS, goal, budget, min_gain=section.planning.min_gain
+    )
+    assert names == [c.planned.name for c in expected]
+    assert again.predicted_tre_max_m <= goal

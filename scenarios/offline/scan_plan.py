@@ -64,6 +64,16 @@ class ScanPlanError(UnreachablePlanError):
     """No plan reaches the goal: a target that no reachable pass constrains."""
 
 
+class TransitError(ScanPlanError):
+    """No clear way to the start of the plan's pass `index`, directly or through home."""
+
+    def __init__(self, message: str, index: int) -> None:
+        super().__init__(message)
+        self.index = index
+        #: The candidates the routed plan was made of, in its order (None: not a chosen plan).
+        self.plan: tuple[Candidate, ...] | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class Candidate:
     """One candidate pass: its parameters, its plan (table position, start joints), the
@@ -353,11 +363,11 @@ def route_transits(
     from home to the first start, and from each pass' end, the laser risen, to the next
     start (the table moved first, the arm held where it rose). A transit that comes within
     `margin_m` [m] of anything goes through home instead (the table moving with the arm
-    there); if that does not clear either, ScanPlanError names the pass."""
+    there); if that does not clear either, TransitError names the pass."""
     out: list[PlannedPass] = []
     home = np.asarray(q_home, dtype=float)
     q_from, s_from = home, passes[0].table_position_m if passes else 0.0
-    for planned in passes:
+    for index, planned in enumerate(passes):
         s = planned.table_position_m
         direct = _table_travel_poses(q_from, s_from, s) + _joint_move_poses(
             kin, q_from, planned.q_start, s
@@ -370,7 +380,7 @@ def route_transits(
                 ("home -> pass start", _joint_move_poses(kin, home, planned.q_start, s)),
             )
             if not all(_poses_clear(cell, poses, margin_m) for _, poses in legs):
-                raise ScanPlanError(
+                raise TransitError(
                     f"scan plan: no clear way to {planned.name}: the arm's move to its start "
                     f"comes within {margin_m * 1e3:.0f} mm of the cell, directly and through "
                     f"home ({_blocker(cell, legs, margin_m)}); the job refuses before any "
@@ -378,7 +388,8 @@ def route_transits(
                     "is clear (cell.robot.home_deg), a joint window that keeps the elbow and "
                     "wrist on one branch (cell.robot.limits_deg), or move the arm "
                     "(cell.robot.mount_xyz) or the object (cell.object.placement.xy_m) so "
-                    "that the pass lies within easier reach"
+                    "that the pass lies within easier reach",
+                    index,
                 )
             via = (home,)
         out.append(replace(planned, q_via=via))
@@ -672,7 +683,6 @@ def plan_job_scan(
         f"scan plan: {len(found_all)} of {tried} candidate passes reachable, clear and "
         "seeing the object"
     )
-    goal = section.planning.goal_tre_m
 
     def is_unique(passes: list[Candidate]) -> bool:
         if unambiguous is None:
@@ -681,6 +691,37 @@ def plan_job_scan(
         labels = np.concatenate([np.full(len(c.points_model), k) for k, c in enumerate(passes)])
         return unambiguous(transform_points(where.T_table_object, points), labels)
 
+    # A picked pass the arm finds no clear way to (routed only once the plan is chosen) is
+    # left out of the candidates, and the passes are chosen again without it.
+    usable_now = found_all
+    while True:
+        try:
+            return _choose_plan(
+                where, section, errors, targets_model, usable_now, tried, tell, is_unique,
+                target_names, acceptable_tre_m,
+            )  # fmt: skip
+        except TransitError as blocked:
+            if blocked.plan is None or len(usable_now) <= 1:
+                raise
+            left_out = blocked.plan[blocked.index]
+            tell(f"scan plan: no clear way to {left_out.planned.name}: chosen again without it")
+            usable_now = tuple(c for c in usable_now if c is not left_out)
+
+
+def _choose_plan(
+    where: PlanningCell,
+    section: Scan,
+    errors: ErrorModel,
+    targets_model: np.ndarray,
+    found_all: tuple[Candidate, ...],
+    tried: int,
+    tell: Progress,
+    is_unique: Callable[[list[Candidate]], bool],
+    target_names: tuple[str, ...] | None,
+    acceptable_tre_m: float | None,
+) -> ScanPlan:
+    """plan_job_scan's "auto" plan among the candidates `found_all` (of `tried`)."""
+    goal = section.planning.goal_tre_m
     budget, min_gain = section.planning.budget_s, section.planning.min_gain
     picked, records, tre, unique = choose_passes(
         found_all, targets_model, errors, goal, budget, tell, is_unique, min_gain
@@ -713,7 +754,11 @@ def plan_job_scan(
             f"still ambiguous within the {section.planning.budget_s:g} s budget (a rival "
             "pose or a symmetry fits as well); the job refuses before any motion"
         )
-    return _auto_plan(where, section, picked, records, tre, found_all)
+    try:
+        return _auto_plan(where, section, picked, records, tre, found_all)
+    except TransitError as blocked:
+        blocked.plan = tuple(picked)
+        raise
 
 
 def _fixed_plan(
