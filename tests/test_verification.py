@@ -97,12 +97,14 @@ def test_the_recording_shows_the_verification(short_skull_run: Path, results: di
     assert "/plots/verify/moved_mm" in e and "/plots/verify/allowance_mm" in e
 
 
-def _row(amount: float, outcome: str, move: float, rms: float, trial: int = 0):
+def _row(
+    amount: float, outcome: str, move: float, rms: float, trial: int = 0, run: str = "complete"
+):
     return {
         "trial": str(trial),
         "vary.faults.object_bump": str(amount),
         "status": "ok",
-        "run_status": "complete",
+        "run_status": run,
         "job_rms_m": str(rms),
         "fault.object_bump": outcome,
         "fault.object_bump.target_move_m": str(move),
@@ -118,15 +120,17 @@ def test_the_operating_curve_counts_what_its_rows_hold():
         _row(0.0002, "missed", 0.45e-3, 0.6e-3, trial=1),  # missed without the bump too
         _row(0.0005, "recovered", 0.8e-3, 0.3e-3, trial=0),
         _row(0.0005, "missed", 0.7e-3, 0.4e-3, trial=1),  # beyond the goal and unseen
+        _row(0.0005, "missed", 0.7e-3, 0.6e-3, trial=2, run="at_risk"),  # said, not complete
     ]
     curve = operating_curve(rows, "object_bump", GOAL_M)
     assert [p.amount_m for p in curve.points] == [0.0, 0.0002, 0.0005]
     assert [p.detected for p in curve.points] == [1, 0, 1]
     assert curve.false_alarm_rate == 0.5
-    assert curve.beyond_goal_rate == 0.5  # 2 beyond the goal, 1 detected
-    assert [p.rms_missed for p in curve.points] == [1, 2, 0]
+    assert curve.beyond_goal_rate == pytest.approx(1 / 3)  # 3 beyond the goal, 1 detected
+    assert [p.rms_missed for p in curve.points] == [1, 2, 0]  # an at-risk run is not complete
+    assert [p.at_risk for p in curve.points] == [0, 0, 1]
     assert curve.rms_missed_unseen == 1  # trial 1 missed the goal without the bump
     assert len(curve.meets()) == 3
-    assert curve.table()[2].startswith("| 0 | 2 | 1 (50%) | 0 (0) | 1 (0) | 0.43 | 7.0 |")
+    assert curve.table()[2].startswith("| 0 | 2 | 1 (50%) | 0 (0) | 1 (0) | 0 | 0.43 | 7.0 |")
     with pytest.raises(ValueError, match=r"vary\.faults\.table_stall"):
         operating_curve(rows, "table_stall", GOAL_M)
