@@ -334,18 +334,23 @@ def _scans_figures(folder: Path) -> None:
 
 def _skull_figures(folder: Path) -> None:
     """docs/tutorials/skull-job.md shows seed 0's table: each target's error, registration
-    share and predicted TRE [mm], to the printed 0.001 mm."""
+    share, predicted TRE and error budget's bound [mm], to the printed 0.001 mm."""
     shown = _text_block("docs/tutorials/skull-job.md", "                          skull run")
     (run,) = (folder / "runs").glob("skull-*")  # the page runs the skull job once
     results = json.loads((run / "results.json").read_text())
     by_name = {t["name"]: t for t in results["targets"]}
-    row = r"│ (\w+): error / reg\. share / pred\. TRE \[mm\]\s+│ ([\d.]+) / ([\d.]+) / ([\d.]+)"
+    bounds = {t["name"]: t["bound_m"] for t in results["budget"]["targets"]}
+    row = (
+        r"│ (\w+): error / reg\. share / pred\. TRE / budget \[mm\]\s+│ "
+        r"([\d.]+) / ([\d.]+) / ([\d.]+) / ([\d.]+)"
+    )
     rows = re.findall(row, shown)
     assert len(rows) == len(by_name) == 4, rows
-    for name, error, share, tre in rows:
+    for name, error, share, tre, bound in rows:
         fresh = by_name[name]
         made = [fresh["error_m"], fresh["registration_error_m"], fresh["predicted_tre_m"]]
-        assert [float(error), float(share), float(tre)] == pytest.approx(
+        made.append(bounds[name])
+        assert [float(error), float(share), float(tre), float(bound)] == pytest.approx(
             [1e3 * v for v in made], abs=6e-4
         ), (name, made)
 
