@@ -27,6 +27,12 @@ from scenarios.results.exported import ExportedRun
 from scenarios.results.run import RAN, RunResult
 from scenarios.results.scan_plan import ScanPlanSummary
 
+#: A good match: every target within this of the truth [m], the registration's share and the
+#: achieved tip; a run with no target reached, its pose within GOOD_M and GOOD_DEG [deg] (a
+#: degree moves a point 0.1 m from the origin by 1.7 mm).
+GOOD_M = 2.0e-3
+GOOD_DEG = 1.0
+
 
 def _number(value: float | None) -> float:
     return float("nan") if value is None else float(value)
@@ -100,10 +106,15 @@ def full_row(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
     match = result.match
     reg_errors = [t.registration_error_m for t in targets]
     exec_errors = [t.executed_error_m for t in targets]
-    within = bool(reg_errors) and max(reg_errors + exec_errors) <= 2.0e-3
+    within = bool(reg_errors) and max(reg_errors + exec_errors) <= GOOD_M
     accepted = match is not None and match.verdict == "accepted"
     surface = result.method("surface")
     pose = None if surface is None else surface.pose
+    # A run stopped before its targets (refused by a later check, aborted) has no target
+    # error: its accepted match is judged by the pose itself.
+    wrong_pose = pose is not None and (
+        pose.translation_error_m > GOOD_M or pose.rotation_error_deg > GOOD_DEG
+    )
     reason = result.reason if match is None else match.reason
     if match is None and surface is not None and not surface.accepted:
         reason = surface.reason
@@ -124,8 +135,7 @@ def full_row(result: RunResult, targets: tuple[FullTarget, ...]) -> JsonObject:
         "executed_error_max_m": max(exec_errors) if exec_errors else None,
         "right_object": 1,
         "good": int(within),
-        # A run stopped before its targets (aborted) accepted nothing that moved a tool.
-        "false_accept": int(accepted and bool(reg_errors) and not within),
+        "false_accept": int(accepted and (not within if reg_errors else wrong_pose)),
         "n_targets": len(targets),
         "job_rms_m": result.target_error_rms_m,
         "job_max_m": result.target_error_max_m,
