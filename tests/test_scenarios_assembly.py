@@ -220,3 +220,20 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     # The table's per-move repeatability (0.01 mm sigma) and the part's creep while the
     # table carried it through the probing and the scan separate the two truths.
     assert translation == pytest.approx(reported["translation_error_m"], abs=1e-4)
+
+
+@pytest.mark.slow
+def test_a_half_turned_match_gives_way_to_the_probed_pose(tmp_path: Path) -> None:
+    """Seed 30036: the surface match alone accepts the bracket half a turn round (180 deg,
+    40 mm off: the run was refused only because that pose's program collides). Held against
+    the IR edges probed before the scan, it is matched again from the probe's pose, which
+    fits the scan as well, and the run completes with its screws within the goal. Ground
+    truth: the evaluator's pose and screw errors."""
+    folder, _ = run_job(_assembly(30036), out=tmp_path, options=RunOptions(rrd=False))
+    results = json.loads((folder / "results.json").read_text())
+    assert results["status"] == "complete", results["reason"]
+    surface = results["methods"]["surface"]
+    assert surface["rotation_error_deg"] < 0.5 and surface["translation_error_m"] < 0.5e-3
+    assert results["target_error_max_m"] < 0.5e-3
+    said = [(event["code"], event["stage"]) for event in results["supervision"]]
+    assert ("match_disagrees", "register") in said, said

@@ -22,6 +22,17 @@ if TYPE_CHECKING:
 
 Progress = Callable[[str], None]
 
+#: How far a surface match may lie from the IR probing's pose before the two disagree: about
+#: the vertical [deg] and sideways at the model's centre [m]. On the assembly job each method
+#: is within 0.25 deg and 0.4 mm of the truth (docs/benchmarks.md); a wrong match (the part
+#: half a turn round, a fit on a feature's mirror image) lies tens of degrees or millimetres
+#: away. The probe sees neither height nor tilt, which are not compared.
+AGREE_DEG = 2.0
+AGREE_M = 3.0e-3
+#: A match again from the probe's pose that fits the scan within this factor of the first
+#: match's RMS fits it as well: the scan cannot tell the two apart, and the probe decides.
+SAME_FIT = 1.2
+
 
 @dataclass(frozen=True, eq=False)
 class LocatedPose:
@@ -85,6 +96,60 @@ def surface_pose(
     return LocatedPose("surface", located.T_table_object, accepted, m.reason, localization=located)
 
 
+def disagreement(
+    T_a_table_object: np.ndarray, T_b_table_object: np.ndarray, centre_object: np.ndarray
+) -> tuple[float, float]:
+    """How far two poses of the object (4, 4, nominal table frame) lie apart as a 2D probe
+    sees them: the heading about the vertical [deg] and the model's centre (3,) [m]
+    sideways [m]."""
+
+    def heading(T: np.ndarray) -> float:
+        return float(np.arctan2(T[1, 0], T[0, 0]))
+
+    turn = (heading(T_a_table_object) - heading(T_b_table_object) + np.pi) % (2 * np.pi) - np.pi
+    a = T_a_table_object[:3, :3] @ centre_object + T_a_table_object[:3, 3]
+    b = T_b_table_object[:3, :3] @ centre_object + T_b_table_object[:3, 3]
+    return float(np.degrees(abs(turn))), float(np.linalg.norm((a - b)[:2]))
+
+
+def against_probe(
+    pose: LocatedPose,
+    T_probe_table_object: np.ndarray,
+    rematch: Callable[[np.ndarray], LocatedPose],
+    centre_object: np.ndarray,
+    detect: Callable[[str, str, str], None],
+) -> LocatedPose:
+    """An accepted surface `pose` held against the IR probing's pose (4, 4): where they
+    disagree (AGREE_DEG, AGREE_M), the scan is matched again from the probe's pose
+    (`rematch(prior)`); that match is taken where it is accepted, agrees with the probe and
+    fits the scan as well as the first (SAME_FIT: the scan cannot tell them apart, the probe
+    does); otherwise the pose is refused, with both fits said."""
+    assert pose.T_table_object is not None and pose.localization is not None
+    turn, shift = disagreement(pose.T_table_object, T_probe_table_object, centre_object)
+    if turn <= AGREE_DEG and shift <= AGREE_M:
+        return pose
+    said = (
+        f"the surface match lies {turn:.1f} deg and {shift * 1e3:.1f} mm from the IR probing's pose"
+    )
+    detect("match_disagrees", said, "matched again from the probe's pose")
+    again = rematch(T_probe_table_object)
+    first_rms = pose.localization.result.rms
+    if again.accepted and again.localization is not None and again.T_table_object is not None:
+        again_rms = again.localization.result.rms
+        turn2, shift2 = disagreement(again.T_table_object, T_probe_table_object, centre_object)
+        fits = (
+            f"rms {again_rms * 1e3:.3f} mm from the probe's pose, {first_rms * 1e3:.3f} mm "
+            "as first matched"
+        )
+        if turn2 <= AGREE_DEG and shift2 <= AGREE_M and again_rms <= SAME_FIT * first_rms:
+            reason = f"{again.reason}; {said}, and the scan fits the probe's as well ({fits})"
+            return LocatedPose("surface", again.T_table_object, True, reason, again.localization)
+        why = f"{said}, and matched from the probe's pose the scan fits worse ({fits})"
+    else:
+        why = f"{said}, and matched from the probe's pose it is not accepted: {again.reason}"
+    return LocatedPose("surface", pose.T_table_object, False, why, pose.localization)
+
+
 def stray_message(points_table: np.ndarray, virtual: ObjectModel, located: Localization) -> str:
     """What the match says of the scan's returns (M, 3) that lie off the matched model
     (spurious returns, or something else on the table), or "" if none do."""
@@ -133,6 +198,21 @@ class Register:
         pose = surface_pose(
             scanned.points_table, labels, ctx.virtual, ctx.settings, prior, hooks.say
         )
+        registration = ctx.settings.localization.registration
+        if pose.accepted and prior is not None and registration.mode != "refine":
+            refine = ctx.settings.model_copy(
+                update={"localization": ctx.settings.localization.model_copy(
+                    update={"registration": registration.model_copy(update={"mode": "refine"})}
+                )}
+            )  # fmt: skip
+
+            def rematch(T_prior: np.ndarray) -> LocatedPose:
+                return surface_pose(
+                    scanned.points_table, labels, ctx.virtual, refine, T_prior, hooks.say
+                )
+
+            centre = np.asarray(ctx.virtual.mesh.vertices, dtype=float).mean(axis=0)
+            pose = against_probe(pose, prior, rematch, centre, hooks.detect)
         if not pose.accepted:
             hooks.detect("match_refused", pose.reason, "refused")
         if pose.localization is not None:
