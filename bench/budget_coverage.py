@@ -15,7 +15,7 @@ With --write NAME, each target's terms and true error go to bench/data/budget_NA
 --short: the sets kept in bench/data/budget_*.csv (docs/concepts/faults.md's figures; no
 job is run): skull_calibration (seeds 76000-76039), skull (74000-74059), ur5 (the UR5
 cell, 74000-74059), ur5e (examples/ur5e_cell.yaml, 74000-74059) and my_cell
-(examples/my_cell, 74000-74019). With --page, the table
+(examples/my_cell, 74000-74059). With --page, the table
 goes into docs/concepts/faults.md between its `<!-- table:budget -->` markers
 (tests/test_budget.py checks the page against the sets).
 """
