@@ -12,7 +12,7 @@ from scenarios.results.run import RunResult
 #: The assembly job, seed 30036, as its run wrote results.json: the scan matched the bracket
 #: half-turned (the evaluator's truth: 180 deg and 40 mm off), the match was accepted, and the
 #: check stage refused the corrected program (it collides) before any motion to the part.
-HALF_TURNED = Path(__file__).parent / "data" / "runs" / "assembly_seed30036_half_turned.json"
+HALF_TURNED = Path(__file__).parent / "data" / "results" / "assembly_seed30036_half_turned.json"
 
 
 def test_a_wrong_pose_stopped_before_its_targets_is_a_false_accept() -> None:
