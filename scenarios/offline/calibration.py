@@ -474,6 +474,29 @@ def _view_sphere(
     return q_view, readings[0].table_position_m, p_laser[keep]
 
 
+def _station(
+    controller: Controller,
+    kin: Kinematics,
+    artifact: SphereArtifact,
+    plan: CalibrationPlan,
+    clear: Clear | None,
+) -> tuple[np.ndarray, list[View]]:
+    """Move the table to the one position of `plan` (with the arm at home first, where home
+    is clear of the object at both table positions); the spheres' nominal centres (S, 3) in
+    the base frame there and the views planned from where the arm stands."""
+    (position,) = plan.table_positions_m
+    if clear is not None and all(
+        clear(controller.q_home, at) for at in (controller.table_position(), position)
+    ):
+        controller.move_joints(controller.q_home)
+    controller.move_table(position)
+    T_base_table = nominal_T_base_table(controller.table_position())
+    centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
+    return centres, plan_views(
+        kin, centres, plan, controller.q_home, clear, controller.read_joints()
+    )
+
+
 def measure_spheres(
     controller: Controller,
     artifact: SphereArtifact,
@@ -503,18 +526,11 @@ def measure_spheres(
     margin = artifact.radius_m + 0.01
     n_views = 0
     for k, position in enumerate(plan.table_positions_m):
-        if clear is not None and all(
-            clear(controller.q_home, at) for at in (controller.table_position(), position)
-        ):  # the table moves with the arm at home, where home is clear of the object
-            controller.move_joints(controller.q_home)
-        controller.move_table(position)
-        T_base_table = nominal_T_base_table(controller.table_position())
-        centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
         sub = CalibrationPlan(
             (position,), per_position, plan.lines_per_view, plan.standoff_m, plan.max_tilt_rad,
             plan.seed + 1000 * k,
         )  # fmt: skip
-        views = plan_views(kin, centres, sub, controller.q_home, clear, controller.read_joints())
+        centres, views = _station(controller, kin, artifact, sub, clear)
         n_views += len(views)
         for view in views:
             s = view.sphere
