@@ -294,8 +294,19 @@ def _assert_goals(command: Command, folder: Path, at_risk: bool = False) -> None
         pytest.fail(f"{command}: {exc}")
 
 
+# The served twin starts with SIGINT at its default whatever this process inherited (a
+# shell's background job ignores SIGINT, and so would its children), as a user's Ctrl-C finds
+# it in a terminal.
+RESET_SIGINT = (
+    "import os, signal, sys\n"
+    "signal.signal(signal.SIGINT, signal.SIG_DFL)\n"
+    "os.execvp(sys.argv[1], sys.argv[1:])\n"
+)
+
+
 def _serve(command: Command, folder: Path) -> subprocess.Popen[str]:
-    process = subprocess.Popen(shlex.split(command.text), cwd=folder, env=_env(), text=True,
+    argv = [sys.executable, "-c", RESET_SIGINT, *shlex.split(command.text)]
+    process = subprocess.Popen(argv, cwd=folder, env=_env(), text=True,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
     assert process.stdout is not None and process.stderr is not None
     ready, _, _ = select.select([process.stdout], [], [], 300.0)  # the cell built, served
@@ -307,8 +318,15 @@ def _serve(command: Command, folder: Path) -> subprocess.Popen[str]:
 
 
 def _stop(process: subprocess.Popen[str]) -> None:
+    """Ctrl-C stops the served twin within a minute; one that does not is killed, not left
+    holding its port."""
     process.send_signal(signal.SIGINT)
-    out, err = process.communicate(timeout=60)
+    try:
+        out, err = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.communicate()
+        pytest.fail("twincell serve did not stop within 60 s of SIGINT; killed")
     assert process.returncode == 0, err
     assert "stopped;" in out, out
 
