@@ -18,7 +18,9 @@ from cell import Controller
 from cell.sim import CellConfig, make_cell
 from cell.sim.faults import Fault
 from cell.sim.truth import CellTruth
+from scenarios.jobs.config import fault_assignment
 from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.offline.budget import tool_term
 from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
 from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.tcp_check import check_tcp
@@ -50,6 +52,33 @@ def test_a_tool_is_called_off_only_beyond_its_tolerance_and_four_sigma(
         assert f"checked to {K_SIGMA * sigma_mm:.2f} mm only" in check.summary()
     back = TcpCheck.from_json(json.loads(json.dumps(check.to_json())))
     assert back == check
+
+
+@pytest.mark.parametrize(
+    ("off_mm", "referenced", "corrected"),
+    [
+        (0.05, True, False),  # within three of its 0.02 mm: a good seat's scatter
+        (0.10, True, True),  # beyond three, within the tolerance: the seat shifted
+        (0.10, False, False),  # against the tooldata: the arm's error is in the reading
+        (0.20, True, False),  # off: re-seated, not corrected
+    ],
+)
+def test_a_seat_shifted_within_its_tolerance_corrects_the_tcp(
+    off_mm: float, referenced: bool, corrected: bool
+) -> None:
+    check = TcpCheck("screwer", (0.0, off_mm * 1e-3), 1.65e-4, 0, 2e-5, referenced)
+    assert check.corrected == corrected
+    expected = np.eye(4)
+    if corrected:
+        expected[1, 3] = off_mm * 1e-3
+    np.testing.assert_allclose(check.T_tcp_measured, expected)
+    assert ("TCP corrected" in check.summary()) == corrected
+    assert check.to_json()["corrected"] == corrected
+    # What the budget keeps of the tool: the correction's own uncertainty, or the reading.
+    left = tool_term(check, 1.65e-4)
+    assert left == pytest.approx(
+        np.sqrt(2) * 2e-5 if corrected else np.hypot(check.off_m, np.sqrt(2) * 2e-5)
+    )
 
 
 def _copy_and_faulty(
@@ -120,6 +149,28 @@ def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
         assert check.tolerance_m == 1.0e-5 and check.sigma_m == pytest.approx(1.0e-6)
         assert 1.0e-5 < check.off_m < 1.0e-3  # the uncalibrated arm's error at the beam
     assert not (folder / COMMISSIONING_FILE).exists()
+
+
+@pytest.mark.slow
+def test_a_seat_a_tenth_off_is_corrected_at_every_target(tmp_path: Path) -> None:
+    """The skull job, seed 95014, the screwer seated 0.1 mm off: within the check's 0.165
+    mm tolerance, beyond three of its standard deviations. The job corrects the screwer's
+    TCP by the reading, and every target's true error (the evaluator's) lies within 0.03
+    mm of the same cell's run with the screwer seated right. Uncorrected, the seat moved
+    them by 0.06-0.10 mm and the target RMS from 0.41 to 0.49 mm."""
+    errors = {}
+    for seat_m in (0.0, 1.0e-4):
+        overrides: dict[str, object] = {"output.plots": False}
+        if seat_m:
+            overrides |= dict([fault_assignment(f"tool_lock_fail={seat_m}")])
+        folder, _ = run_job("skull", seed=95014, out=tmp_path / str(seat_m), overrides=overrides,
+                            options=RunOptions(rrd=False))  # fmt: skip
+        results = RunResult.read(folder)
+        assert results.status in RAN, results.reason
+        (check,) = results.tool_checks
+        assert check.corrected == bool(seat_m), check.summary()
+        errors[seat_m] = np.array([t.error_m for t in results.targets])
+    assert np.abs(errors[1.0e-4] - errors[0.0]).max() < 3.0e-5, errors
 
 
 @pytest.mark.slow

@@ -65,10 +65,12 @@ def local_model_error(
 
 def tool_term(check: TcpCheck | None, tolerance_m: float) -> float:
     """What the tool's check left of its error [m]: its reading and its standard deviation
-    on both axes in quadrature; without a check, the tolerance the job allows a tool
-    (`tolerance_m` [m])."""
+    on both axes in quadrature, or only the latter where the job corrected the TCP by the
+    reading; without a check, the tolerance the job allows a tool (`tolerance_m` [m])."""
     if check is None:
         return tolerance_m
+    if check.corrected:
+        return float(np.sqrt(2.0) * check.sigma_m)
     off = check.off_m if np.isfinite(check.off_m) else check.resolves_m
     return float(np.hypot(off, np.sqrt(2.0) * check.sigma_m))
 

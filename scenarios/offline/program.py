@@ -227,9 +227,12 @@ def execute_program(
     touch_speed_m_s: float,
     on_touch: Callable[[str], None] | None = None,
     on_move: Callable[[str], None] | None = None,
+    T_flange_tcp: np.ndarray | None = None,
 ) -> tuple[ExecutedOperation, ...]:
     """Change to the program's tool, move the table, then for each operation: joint move to
-    the approach, straight move to the touch, `on_touch(name)`, straight move back."""
+    the approach, straight move to the touch, `on_touch(name)`, straight move back. The
+    straight moves take the tool's TCP as `T_flange_tcp` (4, 4) has it (a TCP measured at
+    the beam), else its tooldata."""
     touched = on_touch or (lambda _name: None)
     moved = on_move or (lambda _what: None)
     change_tool_safely(controller, program.tool)
@@ -242,12 +245,17 @@ def execute_program(
         try:
             controller.move_joints(planned.q_approach)
             moved(f"{name}: approach")
-            controller.move_linear(planned.T_base_touch, speed_m_s=touch_speed_m_s)
+            controller.move_linear(
+                planned.T_base_touch, speed_m_s=touch_speed_m_s, T_flange_tcp=T_flange_tcp
+            )
         except CellError as exc:
             raise UnreachablePlanError(f"operation {name!r} failed on the cell: {exc}") from exc
         touched(name)
         moved(f"{name}: touch")
-        done.append(ExecutedOperation(name, controller.T_base_tcp(), controller.time_s))
-        controller.move_linear(planned.T_base_approach, speed_m_s=0.1)
+        T_base_tcp = controller.T_base_tcp()
+        if T_flange_tcp is not None:
+            T_base_tcp = controller.kinematics.fk(controller.read_joints()) @ T_flange_tcp
+        done.append(ExecutedOperation(name, T_base_tcp, controller.time_s))
+        controller.move_linear(planned.T_base_approach, speed_m_s=0.1, T_flange_tcp=T_flange_tcp)
         moved(f"{name}: retract")
     return tuple(done)

@@ -159,6 +159,10 @@ ToolDecision = Literal["seated", "off", "unresolved"]
 #: A tool is called off only beyond this many standard deviations of its check's reading: a
 #: seated tool's reading (two-dimensional, Gaussian) goes beyond 4 sigma once in 3000 checks.
 K_SIGMA = 4.0
+#: A seated tool read beyond this many of its standard deviations has shifted on its seat
+#: since commissioning (a good seat reads that far once in 90 checks): the job corrects the
+#: tool's TCP by the reading, as a BullsEye station updates the tooldata [-].
+K_CORRECT = 3.0
 
 
 @dataclass(frozen=True)
@@ -173,7 +177,8 @@ class TcpCheck:
 
     A tool is off only beyond both the tolerance and K_SIGMA sigma; where K_SIGMA sigma is
     beyond the tolerance, a reading within it is "unresolved": the tool is checked to that
-    much only."""
+    much only. A seated tool whose referenced reading lies beyond K_CORRECT sigma is
+    `corrected`: the job moves its TCP by the reading."""
 
     tool: str
     offset_m: tuple[float, float]
@@ -209,6 +214,26 @@ class TcpCheck:
         return self.decision != "off"
 
     @property
+    def corrected(self) -> bool:
+        """Whether the job corrects the tool's TCP by this reading: the tool is seated and
+        its reading, against the commissioning reference, lies beyond K_CORRECT standard
+        deviations: a shift of the seat, not the reading's scatter. A reading against the
+        tooldata holds the arm's own error and corrects nothing."""
+        return (
+            self.referenced and self.decision == "seated" and self.off_m > K_CORRECT * self.sigma_m
+        )
+
+    @property
+    def T_tcp_measured(self) -> np.ndarray:
+        """(4, 4) the TCP as this check measured it, in the tooldata's TCP frame: shifted
+        sideways by the reading where the check corrects it (`corrected`), else the
+        identity."""
+        T = np.eye(4)
+        if self.corrected:
+            T[:2, 3] = self.offset_m
+        return T
+
+    @property
     def T_flange_tool(self) -> np.ndarray:
         """(4, 4) where the tool sits on the flange, as measured: shifted sideways."""
         T = np.eye(4)
@@ -227,6 +252,8 @@ class TcpCheck:
         )
         if self.decision == "unresolved":
             text += f"; checked to {self.resolves_m * 1e3:.2f} mm only"
+        if self.corrected:
+            text += "; its TCP corrected by the reading"
         return text
 
     def to_json(self) -> JsonObject:
@@ -241,6 +268,7 @@ class TcpCheck:
             "referenced": self.referenced,
             "attempt": self.attempt,
             "decision": self.decision,
+            "corrected": self.corrected,
             "ok": self.ok,
         }
 

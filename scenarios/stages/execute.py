@@ -107,9 +107,11 @@ def execute_stage(ctx: StageContext, programs: ProgramStage) -> tuple[TcpCheck, 
             if section.kind == "screw":
                 controller.spin_screwer(section.screw_speed_rad_s, section.screw_s)
 
-        execute_program(
-            controller, program, section.touch_speed_m_s, on_touch=at_target, on_move=hooks.moved
-        )
+        T_flange_tcp = None
+        if made and made[-1].corrected:  # the seat's shift the beam measured
+            T_flange_tcp = controller.T_flange_tcp(program.tool) @ made[-1].T_tcp_measured
+        execute_program(controller, program, section.touch_speed_m_s, on_touch=at_target,
+                        on_move=hooks.moved, T_flange_tcp=T_flange_tcp)  # fmt: skip
         hooks.say(
             f"{method}: {len(program.operations)} operations at table {program.table_position_m} m"
         )
