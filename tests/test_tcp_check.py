@@ -155,9 +155,10 @@ def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
 def test_a_seat_a_tenth_off_is_corrected_at_every_target(tmp_path: Path) -> None:
     """The skull job, seed 95014, the screwer seated 0.1 mm off: within the check's 0.165
     mm tolerance, beyond three of its standard deviations. The job corrects the screwer's
-    TCP by the reading, and every target's true error (the evaluator's) lies within 0.03
-    mm of the same cell's run with the screwer seated right. Uncorrected, the seat moved
-    them by 0.06-0.10 mm and the target RMS from 0.41 to 0.49 mm."""
+    TCP by the reading and says so (a supervision event), and every target's true error
+    (the evaluator's) lies within 0.03 mm of the same cell's run with the screwer seated
+    right. Uncorrected, the seat moved them by 0.06-0.10 mm and the target RMS from 0.41 to
+    0.49 mm."""
     errors = {}
     for seat_m in (0.0, 1.0e-4):
         overrides: dict[str, object] = {"output.plots": False}
@@ -169,6 +170,8 @@ def test_a_seat_a_tenth_off_is_corrected_at_every_target(tmp_path: Path) -> None
         assert results.status in RAN, results.reason
         (check,) = results.tool_checks
         assert check.corrected == bool(seat_m), check.summary()
+        said = [e.action for e in results.supervision if e.code == "tcp_check"]
+        assert said == (["corrected the TCP by the reading"] if seat_m else []), said
         errors[seat_m] = np.array([t.error_m for t in results.targets])
     assert np.abs(errors[1.0e-4] - errors[0.0]).max() < 3.0e-5, errors
 

@@ -169,8 +169,9 @@ def checked_tool(
     """Change to `tool` and `check(controller, attempt)` it at the beam; each check made is
     handed to `checked` as it is made. A tool called off is put back and taken again once
     (`detect(code, message, action)` hears of it); still off, the cell stops
-    (SupervisionError "tcp_check"). Returns the checks made (none for a tool without a
-    pointer)."""
+    (SupervisionError "tcp_check"). A tool seated but shifted (`TcpCheck.corrected`) is
+    told to `detect` too, its TCP corrected by the reading. Returns the checks made (none
+    for a tool without a pointer)."""
     checks: list[TcpCheck] = []
     for attempt in range(2):
         change_tool_safely(controller, tool)
@@ -181,6 +182,8 @@ def checked_tool(
         checked(made)
         if made.ok:
             say(f"TCP check: {made.summary()}")
+            if made.corrected:
+                detect("tcp_check", made.summary(), "corrected the TCP by the reading")
             return tuple(checks)
         if attempt == 0:
             detect("tcp_check", made.summary(), "re-seated the tool")
