@@ -72,7 +72,7 @@ def test_a_seat_shifted_within_its_tolerance_corrects_the_tcp(
     if corrected:
         expected[1, 3] = off_mm * 1e-3
     np.testing.assert_allclose(check.T_tcp_measured, expected)
-    assert ("TCP corrected" in check.summary()) == corrected
+    assert check.verdict == ("seated, TCP corrected" if corrected else check.decision)
     assert check.to_json()["corrected"] == corrected
     # What the budget keeps of the tool: the correction's own uncertainty, or the reading.
     left = tool_term(check, 1.65e-4)

@@ -181,7 +181,8 @@ def checked_tool(
         checks.append(made)
         checked(made)
         if made.ok:
-            say(f"TCP check: {made.summary()}")
+            corrected = "; its TCP corrected by the reading" if made.corrected else ""
+            say(f"TCP check: {made.summary()}{corrected}")
             if made.corrected:
                 detect("tcp_check", made.summary(), "corrected the TCP by the reading")
             return tuple(checks)

@@ -81,7 +81,7 @@ def _check_rows(result: RunResult) -> Rows:
     rows = [
         (
             f"TCP check {c.tool} (attempt {c.attempt + 1}): read / resolves [mm]",
-            f"{c.decision}: {_mm(c.off_m)} / {_mm(c.resolves_m)}"
+            f"{c.verdict}: {_mm(c.off_m)} / {_mm(c.resolves_m)}"
             + (" (checked to that only)" if c.decision == "unresolved" else ""),
         )
         for c in result.tool_checks

@@ -252,9 +252,12 @@ class TcpCheck:
         )
         if self.decision == "unresolved":
             text += f"; checked to {self.resolves_m * 1e3:.2f} mm only"
-        if self.corrected:
-            text += "; its TCP corrected by the reading"
         return text
+
+    @property
+    def verdict(self) -> str:
+        """The decision as a user reads it: "seated, TCP corrected" where it was."""
+        return "seated, TCP corrected" if self.corrected else self.decision
 
     def to_json(self) -> JsonObject:
         finite = bool(np.isfinite(self.off_m))

@@ -82,5 +82,5 @@ def log_tool_check(stream: Stream, time_s: float, check: TcpCheck) -> None:
     colour = TOOL_COLOURS[check.decision]
     stream.log("plots/tool_check", rr.BarChart(np.array(bars) * 1e3, color=list(colour)))
     level = "INFO" if check.ok else "WARN"
-    text = f"TCP check, attempt {check.attempt + 1}: {check.decision}: {check.summary()}"
+    text = f"TCP check, attempt {check.attempt + 1}: {check.verdict}: {check.summary()}"
     stream.log("log", rr.TextLog(text, level=level))
