@@ -5,9 +5,11 @@ The case: a real single range view of the Stanford dragon (tests/data/stanford/d
 scan_stand000: 35,000 points, the largest shipped view) against the dragon's reconstructed
 mesh (34,636 vertices, 70,214 faces): the shipped pair closest to a 40,000-point scan against
 a 35,000-vertex mesh. The scan is given as the shipped binary PLY, as an xyz text file, as an
-ascii PLY of its points, and as an ascii PLY as a range scanner writes one (normals, a
-confidence, an intensity and the triangles between neighbouring points), written once into a
-temporary folder; the model as its PLY file or as a prepared model (.twm, written by
+ascii PLY of its points, as an ascii PLY as a range scanner writes one (normals, a
+confidence, an intensity and the triangles between neighbouring points), and as a
+Cyberware range image as the Stanford 3D Scanning Repository keeps its scans (the points,
+then a `range_grid` element of one list per grid cell), written once into a temporary
+folder; the model as its PLY file or as a prepared model (.twm, written by
 `twincell prepare`).
 
 Forms, each timed as a fresh process (the same launcher for all: `python -c "from
@@ -157,12 +159,34 @@ def inputs(folder: Path) -> dict[str, Path]:
     normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
     extra = np.c_[normals, rng.uniform(0.5, 1.0, len(points)), rng.integers(0, 255, len(points))]
     _write_ascii_ply(scanner_ply, points, extra, triangles)
+    grid_ply = folder / "scan_range_grid.ply"
+    _write_range_grid(grid_ply, points)
     return {
         "xyz": xyz,
         "PLY (binary)": SCAN,
         "PLY (ascii)": ascii_ply,
         "PLY (ascii, scanner's)": scanner_ply,
+        "PLY (ascii, range grid)": grid_ply,
     }
+
+
+def _write_range_grid(path: Path, points: np.ndarray, columns: int = 512) -> None:
+    """The points (N, 3) as a Cyberware range image's PLY (the Stanford bunny's bun000.ply):
+    the vertices, then a `range_grid` of `columns` times as many rows as the points need,
+    each cell "0" (nothing seen) or "1 INDEX", the points spread over the cells in order."""
+    cells = columns * int(np.ceil(5 * len(points) / columns))
+    seen = np.full(cells, -1)
+    seen[np.linspace(0, cells - 1, len(points)).astype(int)] = np.arange(len(points))
+    header = (
+        f"ply\nformat ascii 1.0\nobj_info num_cols {columns}\n"
+        f"obj_info num_rows {cells // columns}\nelement vertex {len(points)}\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        f"element range_grid {cells}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    with path.open("w") as f:
+        f.write(header)
+        np.savetxt(f, points, fmt="%.9g")
+        f.write("\n".join("0" if i < 0 else f"1 {i}" for i in seen) + "\n")
 
 
 def write_xyz(folder: Path, points: np.ndarray) -> Path:

@@ -2,11 +2,12 @@
 byte order), in one array operation per element.
 
 This covers what scanners and mesh tools write: a vertex element of scalar properties
-(x, y, z among them, any others ignored) and an optional face element whose one list
-property (vertex_indices or vertex_index) holds three indices per face. A file beyond that
-(polygons other than triangles, list properties elsewhere, a header this reader does not
-know, faces cut short) is left to trimesh (`read_ply` returns None), which reads every PLY
-the project accepted before and says what is wrong with the others.
+(x, y, z among them, any others ignored), an optional face element whose one list property
+(vertex_indices or vertex_index) holds three indices per face, and any other elements,
+skipped wherever they stand (a range scanner's `range_grid`, edges, materials). A file
+beyond that (polygons other than triangles, a list property of the vertices, a header this
+reader does not know, faces cut short) is left to trimesh (`read_ply` returns None), which
+reads every PLY the project accepted before and says what is wrong with the others.
 """
 
 from __future__ import annotations
@@ -143,11 +144,13 @@ def _binary(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | Non
     offset = header.data_start
     vertices: Array | None = None
     faces: Array | None = None
+    wanted = _wanted(header)
     for element in header.elements:
-        if element.name not in ("vertex", "face"):
-            if vertices is not None and faces is not None:
-                break
-            raise _BeyondError(f"element {element.name!r} before the vertices or faces")
+        if vertices is not None and (faces is not None or "face" not in wanted):
+            break
+        if element.name not in wanted:
+            offset = _skip(data, offset, element, order)
+            continue
         record = _record(element, order)
         available = (len(data) - offset) // record.itemsize
         if available < element.count:
@@ -167,39 +170,76 @@ def _binary(p: Path, data: bytes, header: PlyHeader) -> tuple[Array, Array | Non
     return vertices, faces
 
 
-def _ascii(p: Path, data: bytes, header: PlyHeader, faces: bool) -> tuple[Array, Array | None]:
-    """An ascii PLY: one line per vertex, then one per face (three indices after the
-    count); without `faces`, the face lines are counted, not read."""
+def _wanted(header: PlyHeader) -> dict[str, PlyElement]:
+    """The vertex element and the face element if there is one; any other is skipped."""
     names = [element.name for element in header.elements]
-    if names[:1] != ["vertex"] or names[1:2] not in ([], ["face"]):
+    if names.count("vertex") != 1 or names.count("face") > 1:
         raise _BeyondError(f"elements {names}")
-    vertex = header.elements[0]
+    return {e.name: e for e in header.elements if e.name in ("vertex", "face")}
+
+
+def _skip(data: bytes, offset: int, element: PlyElement, order: str) -> int:
+    """The offset past a binary element this reader does not read: its records' sizes, a
+    list property's counts read record by record."""
+    if all(prop.count_type is None for prop in element.properties):
+        size = sum(np.dtype(prop.type).itemsize for prop in element.properties)
+        return offset + element.count * size
+    view = memoryview(data)
+    for _ in range(element.count):
+        for prop in element.properties:
+            size = np.dtype(prop.type).itemsize
+            if prop.count_type is None:
+                offset += size
+                continue
+            count_type = np.dtype(order + prop.count_type)
+            if offset + count_type.itemsize > len(data):
+                raise _BeyondError(f"element {element.name!r} cut short")
+            count = int(np.frombuffer(view, count_type, 1, offset)[0])
+            offset += count_type.itemsize + count * size
+    return offset
+
+
+def _ascii(p: Path, data: bytes, header: PlyHeader, faces: bool) -> tuple[Array, Array | None]:
+    """An ascii PLY: one line per record of each element, in the header's order; the vertex
+    lines read, the face lines (three indices after the count) read if `faces`, those of
+    any other element skipped."""
+    wanted = _wanted(header)
+    vertex = wanted["vertex"]
     if any(prop.count_type is not None for prop in vertex.properties):
         raise _BeyondError("a list property of the vertices")
     if vertex.count == 0:
         return np.zeros((0, 3)), None
+    first: dict[str, int] = {}  # each element's first line
+    line = 0
+    for element in header.elements:
+        first[element.name] = line
+        line += element.count
     body = data[header.data_start :]
     # Where each line ends (a last line without its newline ends at the end of the file).
     ends = np.flatnonzero(np.frombuffer(body, np.uint8) == ord("\n"))
     if body and not body.endswith(b"\n"):
         ends = np.append(ends, len(body))
-    if len(ends) < vertex.count:
-        raise _truncated(p, vertex, len(ends))
-    split = int(ends[vertex.count - 1]) + 1
-    table = _table(body[:split], vertex.count, len(vertex.properties))
+
+    def block(name: str) -> bytes:
+        start, count = first[name], wanted[name].count
+        begin = int(ends[start - 1]) + 1 if start else 0
+        return body[begin : int(ends[start + count - 1]) + 1]
+
+    if len(ends) < first["vertex"] + vertex.count:
+        raise _truncated(p, vertex, max(len(ends) - first["vertex"], 0))
+    table = _table(block("vertex"), vertex.count, len(vertex.properties))
     vertices = _vertices(vertex, table, "columns")
-    if len(header.elements) == 1 or header.elements[1].count == 0:
+    face = wanted.get("face")
+    if face is None or face.count == 0:
         return vertices, None
-    face = header.elements[1]
     props = face.properties
     if len(props) != 1 or props[0].count_type is None or props[0].name not in _FACE_LISTS:
         raise _BeyondError("face properties other than one list of indices")
-    if len(ends) < vertex.count + face.count:
+    if len(ends) < first["face"] + face.count:
         raise _BeyondError("faces cut short")
     if not faces:
         return vertices, None
-    stop = int(ends[vertex.count + face.count - 1]) + 1
-    table = _table(body[split:stop], face.count, 4)
+    table = _table(block("face"), face.count, 4)
     if not (table[:, 0] == 3).all() or not (table == np.round(table)).all():
         raise _BeyondError("faces other than triangles")
     return vertices, table[:, 1:].astype(np.int64)
