@@ -57,7 +57,7 @@ def pose_error(T_estimate: Array, T_truth: Array) -> tuple[float, float]:
 
 def quat_wxyz_to_R(q: Array) -> Array:
     """Rotation (3, 3) of a scalar-first (w, x, y, z) quaternion: the convention of MuJoCo and
-    of ABB RAPID (scipy and rerun are scalar-last; convert here, nowhere else)."""
+    of ABB RAPID (scipy's `from_quat` and rerun take scalar-last unless told otherwise)."""
     return Rotation.from_quat(np.asarray(q, dtype=float), scalar_first=True).as_matrix()
 
 

@@ -9,8 +9,9 @@ SETUP = "setup"
 
 class StageTracker:
     """The current stage of one run, by name (`current`): "setup" at first, then each stage
-    the job enters; a cell job's are "calibrate", "probe", "scan", "register", "verify",
-    "execute" and "export" (scenarios.jobs.pipeline), those it runs, in that order."""
+    the job enters; a cell job's are "calibrate", "probe", "scan", "register", "check",
+    "verify", "execute" and "export" (scenarios.jobs.pipeline), those it runs, in that
+    order."""
 
     def __init__(self, initial: str = SETUP) -> None:
         self.current = initial

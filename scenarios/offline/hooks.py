@@ -40,28 +40,3 @@ class StageHooks(Protocol):
     def commissioning(self) -> Commissioning | None:
         """The cell's commissioning record (its tools' reference readings at the beam) for
         the arm's model the controller moves with now; None if the cell has none."""
-
-
-class NoHooks:
-    """Hooks that do nothing (a stage run on its own)."""
-
-    def moment(self, name: str, tool: str) -> None:
-        return None
-
-    def moved(self, what: str) -> None:
-        return None
-
-    def say(self, message: str) -> None:
-        return None
-
-    def detect(self, code: str, message: str, action: str) -> None:
-        return None
-
-    def checked(self, check: TcpCheck) -> None:
-        return None
-
-    def budgeted(self, budget: ErrorBudget) -> None:
-        return None
-
-    def commissioning(self) -> Commissioning | None:
-        return None

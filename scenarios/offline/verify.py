@@ -133,18 +133,6 @@ def rank_strips(
     return tuple(sorted(spreads, key=lambda k: spreads[k]))
 
 
-def choose_strip(
-    scan: ScanData,
-    keep: np.ndarray,
-    shape: MeshModel,
-    T_table_object: np.ndarray,
-    targets_model: np.ndarray,
-) -> int:
-    """The pass of `scan` (its object points `keep` (N,)) whose points alone locate the
-    targets best."""
-    return rank_strips(scan, keep, shape, T_table_object, targets_model)[0]
-
-
 @dataclass(frozen=True, eq=False)
 class RegisteredTargets:
     """The registration to verify: the object's pose T_table_object (4, 4) [m] in the nominal
