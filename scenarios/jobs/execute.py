@@ -32,9 +32,9 @@ from scenarios.jobs.config import JobConfig, load_config
 from scenarios.jobs.exported import (
     EXECUTION_FILE,
     ExecutionResult,
-    _nominal_tools,
     execute_in_cell,
     job_targets,
+    nominal_tools,
     read_program,
 )
 from scenarios.jobs.pipeline import job_cell
@@ -119,7 +119,7 @@ def execute_run(
     t0 = time.perf_counter()
     module = read_program(module_file)
     plan = plan_execution(
-        module, robot.kinematics(), _nominal_tools(), robot.q_home, robot.joint_speed
+        module, robot.kinematics(), nominal_tools(), robot.q_home, robot.joint_speed
     )
     timings["plan"] = time.perf_counter() - t0
     say(f"{module_file.name}: {len(plan.moves)} moves, {len(plan.touches)} touches planned")

@@ -29,7 +29,7 @@ from scenarios.rapid.executor import (
 )
 from scenarios.rapid.module import RapidError, RapidModule, read_module
 from scenarios.rapid.task import RapidTask, read_task
-from scenarios.rapid.writer import _identifier
+from scenarios.rapid.writer import rapid_identifier
 from scenarios.realcell.setup import JobCell
 from scenarios.results.edge import JsonObject
 from scenarios.results.evaluations import TargetEvaluation
@@ -192,7 +192,7 @@ def job_targets(config: JobConfig, virtual: ObjectModel, user: UserProgram | Non
     for hole in virtual.burr_holes:
         names[_fold(hole.name)] = hole.name
         for prefix in prefixes:
-            names[_fold(f"{_identifier(prefix + hole.name, 'p')}Touch"[:32])] = hole.name
+            names[_fold(f"{rapid_identifier(prefix + hole.name, 'p')}Touch"[:32])] = hole.name
     offset = 0.0 if user is not None else config.operations.touch_offset_m
     return JobTargets(virtual, offset, names)
 
@@ -207,7 +207,7 @@ def read_program(path: Path) -> RapidModule | RapidTask:
         raise RapidError(message) from None
 
 
-def _nominal_tools() -> dict[str, np.ndarray]:
+def nominal_tools() -> dict[str, np.ndarray]:
     """The cell's tools and their nominal TCPs (what `cell_tools` reads from a controller)."""
     return {t.name: np.array(t.T_tool_tcp) for t in TOOLS}
 

@@ -51,7 +51,7 @@ from scenarios.rapid.flow import Step, execution_order, program_error
 from scenarios.rapid.instructions import is_instruction, is_motion
 from scenarios.rapid.module import RapidError, RapidModule, ToolData
 from scenarios.rapid.task import ModuleScope, RapidTask, task_of
-from scenarios.rapid.writer import _identifier, configuration
+from scenarios.rapid.writer import configuration, rapid_identifier
 
 #: Predefined speeddata: name -> (v_tcp [mm/s], v_ori [deg/s]) (v_leax, v_reax unused here).
 SPEEDS: dict[str, tuple[float, float]] = {
@@ -258,7 +258,7 @@ def _match_tool(
 ) -> str:
     """The cell's tool a tooldata stands for (see TOOL_MATCH_M)."""
     for name in tools:
-        if tool.name.casefold() in (name.casefold(), _identifier(name, "t").casefold()):
+        if tool.name.casefold() in (name.casefold(), rapid_identifier(name, "t").casefold()):
             return name
     near = []
     for name, T in tools.items():

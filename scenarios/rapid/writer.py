@@ -60,7 +60,10 @@ def configuration(kin: Kinematics, q: np.ndarray) -> tuple[int, int, int, int]:
     return _quadrant(q[0]), _quadrant(q[3]), _quadrant(q[5]), cfx
 
 
-def _identifier(name: str, prefix: str) -> str:
+def rapid_identifier(name: str, prefix: str) -> str:
+    """A RAPID name for `name`: `prefix` (e.g. "p" for a robtarget, "t" for a tooldata), the
+    name's first letter upper-cased, any character RAPID does not allow an underscore, 32
+    characters at most."""
     body = re.sub(r"[^A-Za-z0-9_]", "_", name)
     return f"{prefix}{body[:1].upper()}{body[1:]}"[:32]
 
@@ -73,7 +76,7 @@ def tooldata_text(tool: str, T_flange_tcp: np.ndarray | None = None) -> str:
     T = spec.T_tool_tcp if T_flange_tcp is None else T_flange_tcp
     cog = _num(spec.p_tool_tcp[2] * 1e3 / 2)
     return (
-        f"PERS tooldata {_identifier(tool, 't')} := [TRUE,{_pose_text(T)},"
+        f"PERS tooldata {rapid_identifier(tool, 't')} := [TRUE,{_pose_text(T)},"
         f"[{_num(spec.mass)},[0,0,{cog}],[1,0,0,0],0,0,0]];"
     )
 
@@ -149,7 +152,7 @@ def program_module(
     T_base_uframe = nominal_T_base_table(program.table_position_m) @ T_table_object_nominal
     T_uframe_oframe = np.linalg.inv(T_table_object_nominal) @ program.T_table_object
     T_base_wobj = T_base_uframe @ T_uframe_oframe
-    tool = _identifier(program.tool, "t")
+    tool = rapid_identifier(program.tool, "t")
     wobj = "wobjObject"
     eax = f"[{_num(program.table_position_m * 1e3)},{','.join([_UNUSED] * 5)}]"
     T_tcp = None if filtered is None else filtered.T_flange_tcp(program.tool)
@@ -188,7 +191,7 @@ def program_module(
     ]
     names = []
     for planned, (T_app, q_app, T_touch, q_touch) in zip(program.operations, written, strict=True):
-        base = _identifier(planned.operation.name, "p")
+        base = rapid_identifier(planned.operation.name, "p")
         for suffix, T_object, q in (("App", T_app, q_app), ("Touch", T_touch, q_touch)):
             cf = ",".join(str(v) for v in configuration(kin, q))
             target = f"{base}{suffix}"[:32]
