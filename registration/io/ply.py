@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -184,18 +185,25 @@ def _skip(data: bytes, offset: int, element: PlyElement, order: str) -> int:
     if all(prop.count_type is None for prop in element.properties):
         size = sum(np.dtype(prop.type).itemsize for prop in element.properties)
         return offset + element.count * size
-    view = memoryview(data)
+    # Per property: its item size, and for a list its count's size and signedness.
+    layout = [
+        (
+            np.dtype(prop.type).itemsize,
+            None if prop.count_type is None else np.dtype(prop.count_type).itemsize,
+            prop.count_type is not None and np.dtype(prop.count_type).kind == "i",
+        )
+        for prop in element.properties
+    ]
+    byteorder: Literal["little", "big"] = "big" if order == ">" else "little"
     for _ in range(element.count):
-        for prop in element.properties:
-            size = np.dtype(prop.type).itemsize
-            if prop.count_type is None:
+        for size, count_size, signed in layout:
+            if count_size is None:
                 offset += size
                 continue
-            count_type = np.dtype(order + prop.count_type)
-            if offset + count_type.itemsize > len(data):
+            if offset + count_size > len(data):
                 raise _BeyondError(f"element {element.name!r} cut short")
-            count = int(np.frombuffer(view, count_type, 1, offset)[0])
-            offset += count_type.itemsize + count * size
+            count = int.from_bytes(data[offset : offset + count_size], byteorder, signed=signed)
+            offset += count_size + count * size
     return offset
 
 

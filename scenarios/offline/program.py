@@ -252,9 +252,8 @@ def execute_program(
             raise UnreachablePlanError(f"operation {name!r} failed on the cell: {exc}") from exc
         touched(name)
         moved(f"{name}: touch")
-        T_base_tcp = controller.T_base_tcp()
-        if T_flange_tcp is not None:
-            T_base_tcp = controller.kinematics.fk(controller.read_joints()) @ T_flange_tcp
+        T_tcp = controller.T_flange_tcp() if T_flange_tcp is None else T_flange_tcp
+        T_base_tcp = controller.kinematics.fk(controller.read_joints()) @ T_tcp
         done.append(ExecutedOperation(name, T_base_tcp, controller.time_s))
         controller.move_linear(planned.T_base_approach, speed_m_s=0.1, T_flange_tcp=T_flange_tcp)
         moved(f"{name}: retract")

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from models.model import ObjectModel
-from registration import Acceptance, MeshModel
+from registration import Acceptance, MeshModel, transform_points
 from scenarios.offline.localization import Localization, localize, scan_passes, stray_returns
 from scenarios.offline.probing import ProbeResult
 from scenarios.offline.settings import PlanningSettings
@@ -107,8 +107,9 @@ def disagreement(
         return float(np.arctan2(T[1, 0], T[0, 0]))
 
     turn = (heading(T_a_table_object) - heading(T_b_table_object) + np.pi) % (2 * np.pi) - np.pi
-    a = T_a_table_object[:3, :3] @ centre_object + T_a_table_object[:3, 3]
-    b = T_b_table_object[:3, :3] @ centre_object + T_b_table_object[:3, 3]
+    a, b = (
+        transform_points(T, centre_object[None])[0] for T in (T_a_table_object, T_b_table_object)
+    )
     return float(np.degrees(abs(turn))), float(np.linalg.norm((a - b)[:2]))
 
 
@@ -125,9 +126,14 @@ def against_probe(
     fits the scan as well as the first (SAME_FIT: the scan cannot tell them apart, the probe
     does); otherwise the pose is refused, with both fits said."""
     assert pose.T_table_object is not None and pose.localization is not None
-    turn, shift = disagreement(pose.T_table_object, T_probe_table_object, centre_object)
-    if turn <= AGREE_DEG and shift <= AGREE_M:
+
+    def agrees(T_table_object: np.ndarray) -> bool:
+        turn, shift = disagreement(T_table_object, T_probe_table_object, centre_object)
+        return turn <= AGREE_DEG and shift <= AGREE_M
+
+    if agrees(pose.T_table_object):
         return pose
+    turn, shift = disagreement(pose.T_table_object, T_probe_table_object, centre_object)
     said = (
         f"the surface match lies {turn:.1f} deg and {shift * 1e3:.1f} mm from the IR probing's pose"
     )
@@ -136,12 +142,11 @@ def against_probe(
     first_rms = pose.localization.result.rms
     if again.accepted and again.localization is not None and again.T_table_object is not None:
         again_rms = again.localization.result.rms
-        turn2, shift2 = disagreement(again.T_table_object, T_probe_table_object, centre_object)
         fits = (
             f"rms {again_rms * 1e3:.3f} mm from the probe's pose, {first_rms * 1e3:.3f} mm "
             "as first matched"
         )
-        if turn2 <= AGREE_DEG and shift2 <= AGREE_M and again_rms <= SAME_FIT * first_rms:
+        if agrees(again.T_table_object) and again_rms <= SAME_FIT * first_rms:
             reason = f"{again.reason}; {said}, and the scan fits the probe's as well ({fits})"
             return LocatedPose("surface", again.T_table_object, True, reason, again.localization)
         why = f"{said}, and matched from the probe's pose the scan fits worse ({fits})"
