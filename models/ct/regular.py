@@ -24,45 +24,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from models.ct.volume import Volume, VolumeError
+from models.ct.volume import STEP_TOLERANCE, Resampling, Volume, VolumeError
 
 #: The largest step between neighbouring slices that is interpolated over [mm]: wider is a
 #: gap of missing slices (clinical CT slices are at most 5-7.5 mm apart).
 MAX_GAP_MM = 10.0
-#: Steps that differ from their median by less than this fraction are even.
-STEP_TOLERANCE = 0.01
 #: Slice origins that drift across the plane by less than this fraction of a pixel over the
 #: whole series are no tilt.
 DRIFT_TOLERANCE = 0.05
 #: Two slices closer than this along the normal are the same slice twice [mm].
 SAME_SLICE_MM = 1e-3
-
-
-@dataclass(frozen=True)
-class Resampling:
-    """How a series was put onto a regular grid: its slice steps along the normal, smallest
-    and largest [mm]; the tilt of its slices' stacking direction from their normal [deg]
-    (the gantry tilt); the regular grid's voxel size (i, j, k) [mm] and shape; the slices
-    read."""
-
-    step_min_mm: float
-    step_max_mm: float
-    tilt_deg: float
-    voxel_mm: tuple[float, float, float]
-    shape: tuple[int, int, int]
-    slices: int
-
-    def __str__(self) -> str:
-        steps = (
-            f"slice steps {self.step_min_mm:.2f}-{self.step_max_mm:.2f} mm"
-            if self.step_max_mm - self.step_min_mm > STEP_TOLERANCE * self.step_min_mm
-            else f"even slice steps {self.step_min_mm:.2f} mm"
-        )
-        grid = " x ".join(f"{v:.2f}" for v in self.voxel_mm)
-        return (
-            f"resampled: {steps}, tilt {self.tilt_deg:.1f} deg -> regular {grid} mm grid "
-            f"({self.slices} slices -> {self.shape[2]})"
-        )
 
 
 @dataclass(frozen=True, eq=False)

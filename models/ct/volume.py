@@ -11,18 +11,16 @@ a plan of the same volume always agree.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from models.errors import ModelError
 
-if TYPE_CHECKING:
-    from models.ct.regular import Resampling
-
 #: RAS = RAS_FROM_LPS @ LPS (and back: it is its own inverse).
 RAS_FROM_LPS = np.diag([-1.0, -1.0, 1.0, 1.0])
 FRAMES = ("LPS", "RAS")
+#: Steps that differ from their median by less than this fraction are even.
+STEP_TOLERANCE = 0.01
 
 
 class VolumeError(ModelError, ValueError):
@@ -47,6 +45,33 @@ class SkippedFiles:
         more = len(self.files) - self.SHOWN
         rest = f", and {more} more" if more > 0 else ""
         return f"{len(self.files)} of {self.total} files in {self.folder} skipped: {shown}{rest}"
+
+
+@dataclass(frozen=True)
+class Resampling:
+    """How a series was put onto a regular grid: its slice steps along the normal, smallest
+    and largest [mm]; the tilt of its slices' stacking direction from their normal [deg]
+    (the gantry tilt); the regular grid's voxel size (i, j, k) [mm] and shape; the slices
+    read."""
+
+    step_min_mm: float
+    step_max_mm: float
+    tilt_deg: float
+    voxel_mm: tuple[float, float, float]
+    shape: tuple[int, int, int]
+    slices: int
+
+    def __str__(self) -> str:
+        steps = (
+            f"slice steps {self.step_min_mm:.2f}-{self.step_max_mm:.2f} mm"
+            if self.step_max_mm - self.step_min_mm > STEP_TOLERANCE * self.step_min_mm
+            else f"even slice steps {self.step_min_mm:.2f} mm"
+        )
+        grid = " x ".join(f"{v:.2f}" for v in self.voxel_mm)
+        return (
+            f"resampled: {steps}, tilt {self.tilt_deg:.1f} deg -> regular {grid} mm grid "
+            f"({self.slices} slices -> {self.shape[2]})"
+        )
 
 
 @dataclass(frozen=True, eq=False)
