@@ -44,6 +44,7 @@ from scenarios.twin.elog import EventLog
 from scenarios.twin.errors import ControllerError, bad_request, not_allowed, not_found
 from scenarios.twin.files import FileService
 from scenarios.twin.signals import SIGNALS, SignalSpec, parse_value
+from scenarios.twin.snapshot import Snapshot
 from scenarios.twin.symbols import Symbol, find, set_value
 
 #: The controller's control period: snapshots, EGM messages [s].
@@ -56,20 +57,6 @@ STALE_S = 0.1
 #: remote client reads but neither starts programs nor writes: on an IRC5 that needs the
 #: FlexPendant, or remote mastership its user grants there).
 OPMODES = ("AUTO", "MANR")
-
-
-@dataclass(frozen=True, eq=False)
-class Snapshot:
-    """What the controller knows at its time `time_s` [s]: the encoders q (6,) [rad], the
-    joints it commands q_ref (6,) [rad], the flange T_base_flange (4, 4) [m] (nominal
-    kinematics), the table's readout [m] and the tool in hand."""
-
-    time_s: float
-    q: np.ndarray
-    q_ref: np.ndarray
-    T_base_flange: np.ndarray
-    table_m: float
-    tool: str | None
 
 
 @dataclass
@@ -188,7 +175,9 @@ class TwinController:
         q = self.cell.read_joints()
         self.snapshot = self._snapshot(q, self._q_ref, time_s)
         if self.egm is not None:
-            self.egm.feedback(self)
+            self.egm.feedback(
+                self.snapshot, self.ctrlstate == "motoron", self.execstate == "running"
+            )
         wall0, sim0 = self._anchor
         due = wall0 + (time_s - sim0) / self.speed
         now = time.monotonic()
@@ -456,6 +445,11 @@ class TwinController:
         self._refresh()
 
     # -- EGM --------------------------------------------------------------------------------
+    def _solve_flange(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """The joints (6,) [rad] that put the flange at `T_base_flange` on the nominal arm,
+        from the joints commanded now."""
+        return self.cell.nominal_kinematics.solve(T_base_flange, self.snapshot.q_ref, np.eye(4))
+
     def _egm_tick(self) -> None:
         """One control period of streamed guidance (on the worker): follow the reference if
         one is fresh, the motors on and no program running; else hold."""
@@ -464,7 +458,7 @@ class TwinController:
             return
         if self.execstate == "running":
             return
-        reference = link.reference(self, STALE_S)
+        reference = link.reference(self._solve_flange, STALE_S)
         if reference is not None and self.ctrlstate == "motoron":
             self._q_ref = reference
         try:

@@ -16,16 +16,15 @@ from __future__ import annotations
 import socket
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from cell.errors import CellError
 from registration.rigid import make_T, quat_wxyz_to_R
 from scenarios.twin.egm_proto import EgmHeader, EgmRobot, EgmSensor
-
-if TYPE_CHECKING:
-    from scenarios.twin.controller import TwinController
+from scenarios.twin.snapshot import Snapshot
 
 _DATA = EgmHeader.MessageType.Value("MSGTYPE_DATA")
 _MOTORS = {True: 1, False: 2}  # EgmMotorState: MOTORS_ON, MOTORS_OFF
@@ -101,9 +100,12 @@ class EgmServer:
             else:
                 self.refused += 1
 
-    def reference(self, twin: TwinController, max_age_s: float) -> np.ndarray | None:
-        """The newest joint reference (6,) [rad] not older than `max_age_s` [s] (a pose
-        solved on the nominal arm from the joints commanded now); None if none."""
+    def reference(
+        self, solve: Callable[[np.ndarray], np.ndarray], max_age_s: float
+    ) -> np.ndarray | None:
+        """The newest joint reference (6,) [rad] not older than `max_age_s` [s]: the joints
+        sent, or the pose sent solved by `solve` (flange pose (4, 4) -> joints, the nominal
+        arm's); None if none."""
         now = time.monotonic()
         with self._lock:
             joints, pose = self._joints, self._pose
@@ -111,7 +113,7 @@ class EgmServer:
             return joints[1]
         if pose is not None and now - pose[0] <= max_age_s:
             try:
-                return twin.cell.nominal_kinematics.solve(pose[1], twin.snapshot.q_ref, np.eye(4))
+                return solve(pose[1])
             except CellError:
                 self.refused += 1
                 with self._lock:
@@ -125,9 +127,8 @@ class EgmServer:
         self.refused += 1
 
     # -- feedback ---------------------------------------------------------------------------
-    def feedback(self, twin: TwinController) -> None:
-        """Send an EgmRobot message of the twin's snapshot to the client."""
-        snap = twin.snapshot
+    def feedback(self, snap: Snapshot, motors_on: bool, rapid_running: bool) -> None:
+        """Send an EgmRobot message of the controller's snapshot `snap` to the client."""
         message: Any = EgmRobot()
         self._seq += 1
         message.header.seqno = self._seq
@@ -139,9 +140,9 @@ class EgmServer:
         feedback.time.sec = int(snap.time_s)
         feedback.time.usec = int((snap.time_s % 1.0) * 1e6)
         message.planned.joints.joints.extend(np.rad2deg(snap.q_ref).tolist())
-        message.motorState.state = _MOTORS[twin.ctrlstate == "motoron"]
+        message.motorState.state = _MOTORS[motors_on]
         message.mciState.state = _MCI_RUNNING
-        message.rapidExecState.state = _RAPID[twin.execstate == "running"]
+        message.rapidExecState.state = _RAPID[rapid_running]
         try:
             self.sock.sendto(message.SerializeToString(), self.client)
             self.sent += 1
