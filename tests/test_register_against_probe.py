@@ -10,7 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from scenarios.offline.localization import Localization
-from scenarios.stages.register import LocatedPose, against_probe, disagreement
+from scenarios.stages.register import against_probe, disagreement
+from scenarios.stages.state import LocatedPose
 
 CENTRE = np.array([0.05, 0.02, 0.01])  # the model's centre in its frame [m]
 

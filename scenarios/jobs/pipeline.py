@@ -22,7 +22,8 @@ import numpy as np
 from cell.robots import Robot
 from cell.sim.faults import FAULT_KINDS, Fault
 from models.model import ObjectModel
-from scenarios.jobs.config import JobConfig
+from scenarios.configuration.job_config import JobConfig
+from scenarios.jobs.job_run import JobRun
 from scenarios.jobs.plan import JobPlan, plan_job
 from scenarios.jobs.report import finish_job
 from scenarios.jobs.run_log import RunLog
@@ -31,27 +32,26 @@ from scenarios.offline.cell_model import CellModel
 from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
 from scenarios.offline.operations import target_operations
 from scenarios.offline.tcp_check import POINTERS
-from scenarios.outputs import files as outputs
 from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.cell_log import CellLog
-from scenarios.realcell.evaluation import Evaluator, PoseEvaluation
+from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.beam import Commissioning
 from scenarios.results.budget import ErrorBudget
 from scenarios.results.run import RunResult
-from scenarios.results.verification import TcpCheck, Verification
-from scenarios.stages.calibrate import Calibrate, Calibrated
+from scenarios.results.verification import TcpCheck
+from scenarios.stages.calibrate import Calibrate
 from scenarios.stages.context import StageContext
 from scenarios.stages.execute import Execute
-from scenarios.stages.export import Export, Exported
+from scenarios.stages.export import Export
 from scenarios.stages.loop import run_stages
-from scenarios.stages.probe import Probe, Probed
+from scenarios.stages.probe import Probe
 from scenarios.stages.program import Check
-from scenarios.stages.register import LocatedPose, Register, Registered
-from scenarios.stages.scan import Scan, Scanned
-from scenarios.stages.stage import Outcome, Stage
+from scenarios.stages.register import Register
+from scenarios.stages.scan import Scan
+from scenarios.stages.stage import Stage
 from scenarios.stages.state import JobState
-from scenarios.stages.verify import Verified, Verify
+from scenarios.stages.verify import Verify
 
 Progress = Callable[[str], None]
 
@@ -147,93 +147,6 @@ def job_stages(config: JobConfig, plan: JobPlan) -> tuple[Stage, ...]:
     stages.append(Execute(f"the program corrected by the {methods[0]} pose"))
     stages.append(Export(config.export.compensation))
     return tuple(stages)
-
-
-class JobRun:
-    """The runner's side of one job's stage loop: as each stage begins, the run enters it
-    (the stage tracker, the evaluator's fault injection, the recording's phase), and the
-    poses are measured against the truth before the execution moves the part; as each ends,
-    its time is kept and what it found is recorded (the recording, scan.ply)."""
-
-    def __init__(
-        self, cell: JobCell, run: RunLog, plan: JobPlan, folder: Path, recording: Any | None
-    ) -> None:
-        self.cell, self.run, self.folder, self.recording = cell, run, folder, recording
-        self.virtual = plan.virtual
-        self.methods = plan.settings.localization.methods
-        self.timings: dict[str, float] = {}
-        self.pose_errors: dict[str, PoseEvaluation] | None = None
-        self.time_at_verdict_s = cell.controller.time_s
-        self.exported = Exported()
-        self.verifications: list[Verification] = []
-        self._t0 = time.perf_counter()
-
-    def enter(self, stage: Stage, state: JobState) -> None:
-        if stage.name == "execute":  # before the part moves (a pick)
-            self.pose_errors = self.measure(state.ordered(self.methods), state.model)
-        self.run.enter(stage.name)
-        self.cell.log.phase(stage.name, stage.title)
-        self._t0 = time.perf_counter()
-
-    def saw(self, stage: Stage, outcome: Outcome, state: JobState) -> None:
-        elapsed = time.perf_counter() - self._t0
-        self.timings[stage.name] = self.timings.get(stage.name, 0.0) + elapsed
-        controller, log, recording = self.cell.controller, self.cell.log, self.recording
-        if isinstance(outcome, Calibrated):
-            log.moved("view")
-            if recording is not None:
-                recording.log_calibration(controller.time_s, outcome.calibration)
-        elif isinstance(outcome, Probed):
-            log.moved("view")
-            self.time_at_verdict_s = controller.time_s
-        elif isinstance(outcome, Scanned):
-            if recording is not None:
-                recording.log_scan(outcome.scan.scan, outcome.scan.keep)
-            log.moved("view")
-            outputs.write_ply(self.folder / "scan.ply", outcome.scan.points_table)
-        elif isinstance(outcome, Registered):
-            self.time_at_verdict_s = controller.time_s
-            self._log_registration(outcome.pose, state)
-        elif isinstance(outcome, Verified):
-            self._log_verification(outcome)
-        elif isinstance(outcome, Exported):
-            self.exported = outcome
-
-    def measure(
-        self, poses: tuple[LocatedPose, ...], model: CellModel
-    ) -> dict[str, PoseEvaluation]:
-        """Each method's pose against the truth, now (a pick may move the part later)."""
-        s0 = self.cell.controller.table_position()
-        return {
-            p.method: self.cell.evaluator.pose_error(model.T_base_table(s0) @ p.T_table_object)
-            for p in poses
-            if p.T_table_object is not None
-        }
-
-    def _log_verification(self, outcome: Verified) -> None:
-        self.verifications.append(outcome.verification)
-        if self.recording is None:
-            return
-        targets_model = np.array([h.p_entry for h in self.virtual.burr_holes]).reshape(-1, 3)
-        T = outcome.T_table_object
-        self.recording.log_verification(
-            self.cell.controller.time_s,
-            outcome.verification,
-            targets_model @ T[:3, :3].T + T[:3, 3],
-            outcome.strip_table,
-        )
-
-    def _log_registration(self, pose: LocatedPose, state: JobState) -> None:
-        located, scanned = pose.localization, state.scanned
-        if self.recording is None or located is None or scanned is None:
-            return
-        self.recording.log_registration(
-            self.cell.controller.time_s,
-            located.result,
-            self.virtual,
-            scanned.points_table,
-            located.points_used,
-        )
 
 
 class Commissioner:

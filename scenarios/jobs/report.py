@@ -11,7 +11,6 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,7 +19,7 @@ from cell.robots import Robot
 from models.atomic import write_text
 from models.cache import used_key
 from models.model import ObjectModel
-from scenarios.jobs.config import JobConfig
+from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.exported import (
     EXECUTION_FILE,
     JobTargets,
@@ -28,6 +27,7 @@ from scenarios.jobs.exported import (
     job_targets,
     read_program,
 )
+from scenarios.jobs.job_run import JobRun
 from scenarios.jobs.plan import JobPlan
 from scenarios.offline.program import OfflineProgram
 from scenarios.outputs import exports
@@ -45,11 +45,7 @@ from scenarios.results.evaluations import (
 from scenarios.results.exported import ExportedRun
 from scenarios.results.run import GoalCheck, MatchReport, MethodReport, RunResult, RunStatus
 from scenarios.stages.loop import StagesRun
-from scenarios.stages.register import LocatedPose
-from scenarios.stages.state import JobState
-
-if TYPE_CHECKING:
-    from scenarios.jobs.pipeline import JobRun
+from scenarios.stages.state import JobState, LocatedPose
 
 Progress = Callable[[str], None]
 

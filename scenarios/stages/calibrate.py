@@ -5,16 +5,13 @@ object by the fixture's tolerance."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.premotion import clear_of, job_virtual_cell, placement_uncertainty_m
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
-
-if TYPE_CHECKING:
-    from scenarios.stages.state import JobState
+from scenarios.stages.state import JobState
 
 
 def calibrate_stage(ctx: StageContext) -> CalibrationResult:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,9 +21,7 @@ from scenarios.offline.hooks import StageHooks
 from scenarios.offline.operations import UserProgram
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.settings import PlanningSettings
-
-if TYPE_CHECKING:
-    from scenarios.stages.state import JobState
+from scenarios.stages.state import JobState
 
 
 @dataclass(frozen=True, eq=False)

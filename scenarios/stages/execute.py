@@ -18,8 +18,8 @@ from scenarios.offline.tcp_check import TOLERANCE_M, check_tcp, checked_tool
 from scenarios.results.budget import ErrorBudget
 from scenarios.results.verification import TcpCheck
 from scenarios.stages.context import StageContext
-from scenarios.stages.program import ProgramStage
 from scenarios.stages.stage import Outcome
+from scenarios.stages.state import ProgramStage
 
 #: The least tolerance a goal leaves a tool [m]: a pointer's own manufacturing tolerance
 #: (ISO 2768-f over its 0.2 m, +-0.15 mm as three standard deviations).

@@ -4,15 +4,11 @@ pose of the part in the nominal table frame."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from scenarios.offline.probing import probe_part
 from scenarios.stages.context import StageContext
-from scenarios.stages.register import LocatedPose
 from scenarios.stages.stage import Outcome
-
-if TYPE_CHECKING:
-    from scenarios.stages.state import JobState
+from scenarios.stages.state import JobState, LocatedPose
 
 
 def probe_stage(ctx: StageContext) -> LocatedPose:

@@ -4,7 +4,6 @@ with the controller's kinematics, and checked in the virtual cell before they mo
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.operations import grasp_operation, program_operations, target_operations
@@ -16,19 +15,8 @@ from scenarios.offline.premotion import (
 )
 from scenarios.offline.program import OfflineProgram, plan_program
 from scenarios.stages.context import StageContext
-from scenarios.stages.register import LocatedPose
 from scenarios.stages.stage import Outcome
-
-if TYPE_CHECKING:
-    from scenarios.stages.state import JobState
-
-
-@dataclass(frozen=True, eq=False)
-class ProgramStage:
-    """The corrected programs: the pick (if any) and the operations, by method."""
-
-    pick: OfflineProgram | None
-    operations: dict[str, OfflineProgram]
+from scenarios.stages.state import JobState, LocatedPose, ProgramStage
 
 
 def program_stage(

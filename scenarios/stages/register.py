@@ -5,20 +5,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from models.model import ObjectModel
 from registration import Acceptance, MeshModel, transform_points
 from scenarios.offline.localization import Localization, localize, scan_passes, stray_returns
-from scenarios.offline.probing import ProbeResult
 from scenarios.offline.settings import PlanningSettings
+from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
-
-if TYPE_CHECKING:
-    from scenarios.stages.context import StageContext
-    from scenarios.stages.state import JobState
+from scenarios.stages.state import JobState, LocatedPose
 
 Progress = Callable[[str], None]
 
@@ -32,19 +28,6 @@ AGREE_M = 3.0e-3
 #: A match again from the probe's pose that fits the scan within this factor of the first
 #: match's RMS fits it as well: the scan cannot tell the two apart, and the probe decides.
 SAME_FIT = 1.2
-
-
-@dataclass(frozen=True, eq=False)
-class LocatedPose:
-    """One localization method's pose of the object in the nominal table frame (4, 4), or
-    None; whether it may drive a program, and why not."""
-
-    method: str
-    T_table_object: np.ndarray | None
-    accepted: bool
-    reason: str
-    localization: Localization | None = None
-    probe: ProbeResult | None = None
 
 
 def acceptance(settings: PlanningSettings) -> Acceptance:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,8 +16,6 @@ from scenarios.offline.localization import localize, scan_passes
 from scenarios.offline.premotion import job_virtual_cell
 from scenarios.offline.scan import (
     ObjectBox,
-    PlannedPass,
-    ScanData,
     crop_to_object,
     execute_scan,
     plan_scan,
@@ -28,23 +25,9 @@ from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.context import StageContext
 from scenarios.stages.register import acceptance
 from scenarios.stages.stage import Outcome
-
-if TYPE_CHECKING:
-    from scenarios.stages.state import JobState
+from scenarios.stages.state import JobState, ScanStage
 
 Progress = Callable[[str], None]
-
-
-@dataclass(frozen=True, eq=False)
-class ScanStage:
-    """The scan: what the laser measured, which points were kept as the object's (N,),
-    those points (M, 3) in the nominal table frame, and the passes it ran."""
-
-    scan: ScanData
-    keep: np.ndarray
-    points_table: np.ndarray
-    plan: tuple[PlannedPass, ...] = ()
-    scan_time_s: float = 0.0
 
 
 def scan_stage(

@@ -11,11 +11,10 @@ leaves no trace in the run.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
-if TYPE_CHECKING:
-    from scenarios.stages.context import StageContext
-    from scenarios.stages.state import JobState
+from scenarios.stages.context import StageContext
+from scenarios.stages.state import JobState
 
 
 @dataclass(frozen=True)

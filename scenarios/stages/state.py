@@ -1,15 +1,52 @@
-"""What a job's stages have found so far: the state each stage's outcome moves on
-(scenarios.stages.stage)."""
+"""What a job's stages have found so far: each localization method's pose (`LocatedPose`),
+the latest scan (`ScanStage`), the corrected programs (`ProgramStage`), and the state each
+stage's outcome moves on (`JobState`, scenarios.stages.stage)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.cell_model import CellModel
-from scenarios.stages.program import ProgramStage
-from scenarios.stages.register import LocatedPose
-from scenarios.stages.scan import ScanStage
+from scenarios.offline.localization import Localization
+from scenarios.offline.probing import ProbeResult
+from scenarios.offline.program import OfflineProgram
+from scenarios.offline.scan import PlannedPass, ScanData
+
+
+@dataclass(frozen=True, eq=False)
+class LocatedPose:
+    """One localization method's pose of the object in the nominal table frame (4, 4), or
+    None; whether it may drive a program, and why not."""
+
+    method: str
+    T_table_object: np.ndarray | None
+    accepted: bool
+    reason: str
+    localization: Localization | None = None
+    probe: ProbeResult | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ScanStage:
+    """The scan: what the laser measured, which points were kept as the object's (N,),
+    those points (M, 3) in the nominal table frame, and the passes it ran."""
+
+    scan: ScanData
+    keep: np.ndarray
+    points_table: np.ndarray
+    plan: tuple[PlannedPass, ...] = ()
+    scan_time_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramStage:
+    """The corrected programs: the pick (if any) and the operations, by method."""
+
+    pick: OfflineProgram | None
+    operations: dict[str, OfflineProgram]
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,7 +5,6 @@ job's goal leaves (scenarios.offline.verify)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,13 +20,8 @@ from scenarios.offline.verify import (
     verify_registration,
 )
 from scenarios.stages.context import StageContext
-from scenarios.stages.program import ProgramStage
-from scenarios.stages.register import LocatedPose
-from scenarios.stages.scan import ScanStage
 from scenarios.stages.stage import Outcome, Stage
-
-if TYPE_CHECKING:
-    from scenarios.stages.state import JobState
+from scenarios.stages.state import JobState, LocatedPose, ProgramStage, ScanStage
 
 #: The arm's accuracy per axis [m] when the job does not tell the matcher (the configuration's
 #: default, a data sheet's 0.3 mm in all): the verification needs it.
