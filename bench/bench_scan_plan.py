@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import job_robot, object_models
 from scenarios.offline.operations import target_operations
 from scenarios.offline.placement import nominal_pose

@@ -40,7 +40,7 @@ from rich.table import Table
 from cell import FixedMesh, nominal_T_base_table
 from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import object_models
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.localization import localize

@@ -74,7 +74,7 @@ def _settings(
 ) -> PlanningSettings:
     """The planning settings of `job` in `cell` ("-": the job's own) as they are now."""
     if (job, cell) not in cache:
-        from scenarios.jobs.config import load_config
+        from scenarios.configuration.config_files import load_config
 
         beside = ROOT / cell  # a cell file of the repository (examples/...), from anywhere
         where = beside if cell != "-" and beside.is_file() else cell

@@ -13,8 +13,8 @@ import mkdocs_gen_files
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-import scenarios.jobs.config as config_module
-from scenarios.jobs.config import JobConfig
+import scenarios.configuration as config_module
+from scenarios.configuration.job_config import JobConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -78,11 +78,12 @@ def config_page() -> str:
         "# Configuration keys",
         "",
         "Every key of a job's YAML (and of a cell file's `cell:` keys), read from the job",
-        "configuration's schema (`scenarios.jobs.config.JobConfig`, pydantic) when this site is",
-        "built. A key is given in a YAML file or on the command line as a dotted key:",
-        "`twincell run skull --set cell.noise.laser_sigma_m=2e-4`. An unknown key or a value out",
-        "of range is refused, naming the key and the keys valid there. Units follow the key's",
-        "name: `_m` metres, `_rad` radians, `_deg` degrees, `_s` seconds; the rest is SI.",
+        "configuration's schema (`scenarios.configuration.job_config.JobConfig`, pydantic)",
+        "when this site is built. A key is given in a YAML file or on the command line as a",
+        "dotted key: `twincell run skull --set cell.noise.laser_sigma_m=2e-4`. An unknown key",
+        "or a value out of range is refused, naming the key and the keys valid there. Units",
+        "follow the key's name: `_m` metres, `_rad` radians, `_deg` degrees, `_s` seconds; the",
+        "rest is SI.",
         "",
     ]
     for path, model in sections(JobConfig, ""):

@@ -24,7 +24,7 @@ from cell.robots import make_robot
 from models.registry import builtin_model, load_model
 from models.targets import frame_from_z
 from registration.shapes.mesh import MeshModel
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.offline.placement import nominal_pose
 from scenarios.rapid.module import pose_text
 from scenarios.rapid.writer import configuration

@@ -1,9 +1,10 @@
 """Runnable jobs and everything around them. Each part is imported from its own package:
 
-- `scenarios.jobs`: the job configurations (`scenarios.jobs.config.load_config`), the runner
-  (`scenarios.jobs.runner.run_job`, `RunOptions`), the job planned in its virtual cell, the
-  pipeline of a cell job (its stages run in one loop) and its report against the truth, the
-  seed paper's experiments;
+- `scenarios.configuration`: the job configurations
+  (`scenarios.configuration.config_files.load_config`);
+- `scenarios.jobs`: the runner (`scenarios.jobs.runner.run_job`, `RunOptions`), the job
+  planned in its virtual cell, the pipeline of a cell job (its stages run in one loop) and
+  its report against the truth, the seed paper's experiments;
 - `scenarios.stages`: the job's stages, each handed a context that holds the controller API,
   the virtual model, its planning settings and the job so far;
 - `scenarios.offline`: the planning the stages use (scan planning, calibration, programs,

@@ -24,8 +24,8 @@ from cell.robots import (
     ur5_urdf,
 )
 from cell.virtual import VirtualCell
+from scenarios.configuration.config_files import load_config
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import load_config
 from scenarios.jobs.plan import file_arm, object_models
 from scenarios.jobs.tables import file_arm_rows, numbers, readme_table
 from scenarios.offline.arm_setup import (

@@ -20,7 +20,7 @@ from scenarios.campaign import (
 )
 from scenarios.campaign import trials as trials_module
 from scenarios.campaign.register_job import CASES, register_base
-from scenarios.jobs.config import RegisterCase
+from scenarios.configuration.register_trial_sections import RegisterCase
 
 
 def test_parse_vary_reads_yaml_scalars() -> None:

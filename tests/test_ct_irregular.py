@@ -203,7 +203,7 @@ def test_cli_says_how_it_resampled(tmp_path: Path, capsys) -> None:
 def test_a_jobs_object_from_an_irregular_series_says_how_it_was_resampled(tmp_path: Path) -> None:
     """The job's virtual model of a CT series (`cell.object.model`): resampled at
     `model.ct.resample_mm`, and its source says so."""
-    from scenarios.jobs.config import CTSection
+    from scenarios.configuration.cell_sections import CTSection
     from scenarios.offline.operations import virtual_model
 
     write_tilted_series(tmp_path / "ct", STEPS_MM, 15.0)

@@ -144,7 +144,7 @@ def _repo_path(name: str) -> str:
 
 def _check_job(params: dict[str, Any], command: Command) -> None:
     from scenarios.cli.app import run_overrides
-    from scenarios.jobs.config import load_config
+    from scenarios.configuration.config_files import load_config
 
     options = ("model", "units", "targets", "program", "assign", "fault")
     overrides = run_overrides(**{name: params[name] for name in options})

@@ -12,7 +12,8 @@ import pytest
 
 from cell import nominal_T_base_table
 from models.registry import load_model
-from scenarios.jobs.config import JobConfig, load_config
+from scenarios.configuration.config_files import load_config
+from scenarios.configuration.job_config import JobConfig
 from scenarios.offline.operations import check_program_frame, read_user_program
 from scenarios.offline.placement import nominal_pose
 

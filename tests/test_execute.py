@@ -22,7 +22,7 @@ from cell.robots import irb2400
 from cell.sim import CellConfig, make_cell
 from models.robot import TOOLS
 from scenarios.cli.app import main
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.execute import execute_in_cell, job_program, job_targets, rebuild_job_cell
 from scenarios.jobs.plan import job_robot, object_models
 from scenarios.rapid.executor import ExecutionError, execute_plan, plan_execution

@@ -51,7 +51,7 @@ PROBES = {
     "from cell.sim.truth import CellTruth\n",
     "the evaluator": "from scenarios.realcell.evaluation import Evaluator\n",
     "the runner": "from scenarios.jobs.pipeline import run_cell_job\n",
-    "the job's configuration": "from scenarios.jobs.config import JobConfig\n",
+    "the job's configuration": "from scenarios.configuration.job_config import JobConfig\n",
 }
 
 

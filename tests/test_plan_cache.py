@@ -19,7 +19,8 @@ from pydantic import BaseModel
 from cell.robots import irb2400
 from models.mesh import TriangleMesh
 from models.model import ObjectModel
-from scenarios.jobs.config import JobConfig, load_config
+from scenarios.configuration.config_files import load_config
+from scenarios.configuration.job_config import JobConfig
 from scenarios.offline import plan_cache
 from scenarios.offline.scan import PlannedPass
 from scenarios.offline.scan_plan import Candidate, ChosenPass, ScanPlan

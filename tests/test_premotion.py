@@ -17,7 +17,7 @@ from cell.robots import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, SCREWER, TABLE_TOP_POS, ArmGeometry
 from registration import transform_points
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import object_models
 from scenarios.offline.operations import target_operations
 from scenarios.offline.placement import nominal_pose

@@ -20,7 +20,7 @@ from models.model import ObjectModel
 from models.robot import RACK_POS, SCREWER
 from models.targets import BurrHole
 from registration import transform_points
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import object_models
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.premotion import PremotionCheck, check_program, job_virtual_cell

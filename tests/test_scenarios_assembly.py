@@ -17,7 +17,7 @@ from cell import FixedMesh, LooseMesh, nominal_T_base_table
 from cell.sim import CellConfig, make_cell
 from models.registry import builtin_model
 from registration import pose_error
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.probing import EdgeNotFoundError, pose_from_edges, probe_part
 

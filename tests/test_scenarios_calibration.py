@@ -16,7 +16,8 @@ from scipy.spatial.transform import Rotation
 from cell import Controller, Kinematics, LaserConfig, nominal_T_base_slot
 from cell.sim import CellConfig, CellTruth, make_cell
 from models.robot import LASER, SCREWER
-from scenarios.jobs.config import ConfigError, parse_config
+from scenarios.configuration.config_error import ConfigError
+from scenarios.configuration.config_files import parse_config
 from scenarios.offline.calibration import (
     APPROACH_RAD,
     DEFAULT_ARTIFACT,

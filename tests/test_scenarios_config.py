@@ -10,16 +10,15 @@ import pytest
 import yaml
 
 from scenarios.cli.app import main
-from scenarios.jobs.config import (
-    CellSection,
-    ConfigError,
-    JobConfig,
-    ObjectSection,
+from scenarios.configuration.cell_sections import CellSection, ObjectSection
+from scenarios.configuration.config_error import ConfigError
+from scenarios.configuration.config_files import (
     config_yaml,
     load_config,
     parse_config,
     shipped_names,
 )
+from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.calibration_step import calibration_plan, calibration_priors
 

@@ -14,7 +14,7 @@ import pytest
 from models.registry import builtin_model
 from registration import MeshModel
 from scenarios.cli.app import main
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import object_models
 
 #: Each test meshes simulated CT volumes of the phantom; one runs the job on the mesh.

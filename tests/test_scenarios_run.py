@@ -15,7 +15,7 @@ import yaml
 from cell import FixedMesh
 from cell.sim import make_cell
 from models import cache
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import object_models
 from scenarios.offline import plan_cache
 from scenarios.outputs.files import read_ply

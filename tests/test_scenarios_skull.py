@@ -10,7 +10,7 @@ from igl import point_mesh_squared_distance
 from cell import FixedMesh, nominal_T_base_table
 from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
-from scenarios.jobs.config import JobConfig
+from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.plan import object_models
 from scenarios.offline.localization import localize
 from scenarios.offline.placement import nominal_pose

@@ -14,9 +14,10 @@ import pinocchio as pin
 import pytest
 
 from scenarios.cli.app import main
+from scenarios.configuration.config_error import ConfigError
+from scenarios.configuration.config_files import load_config
 from scenarios.errors import ScenarioError
 from scenarios.jobs import pipeline
-from scenarios.jobs.config import ConfigError, load_config
 from scenarios.jobs.runner import RunOptions, run_job
 
 #: The skull goals (README): target error RMS and max against the true targets [m].

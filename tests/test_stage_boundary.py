@@ -10,7 +10,7 @@ import dataclasses
 import pytest
 from pydantic import BaseModel
 
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.offline.premotion import placement_uncertainty_m
 from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.context import StageContext

@@ -18,7 +18,7 @@ from cell import Controller
 from cell.sim import CellConfig, make_cell
 from cell.sim.faults import Fault
 from cell.sim.truth import CellTruth
-from scenarios.jobs.config import fault_assignment
+from scenarios.configuration.config_files import fault_assignment
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.budget import tool_term
 from scenarios.offline.commissioning import COMMISSIONING_FILE, commission

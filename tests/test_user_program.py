@@ -18,7 +18,7 @@ from cell import nominal_T_base_table
 from cell.robots import irb2400
 from models.registry import builtin_model
 from scenarios.cli.app import main
-from scenarios.jobs.config import load_config
+from scenarios.configuration.config_files import load_config
 from scenarios.offline.placement import nominal_pose
 from scenarios.rapid.writer import configuration
 

@@ -35,7 +35,7 @@ from scenarios.campaign.register_job import (
 from scenarios.campaign.store import ResultStore
 from scenarios.campaign.sweep import Sweep, parse_vary, set_dotted, sweep_points
 from scenarios.campaign.trials import STAGES, Trial, trial_id
-from scenarios.jobs.config import read_yaml_mapping
+from scenarios.configuration.config_files import read_yaml_mapping
 from scenarios.results.edge import JsonObject
 
 Backend = Literal["local", "dask"]
@@ -89,7 +89,7 @@ def base_config(name: str, stage: str, cell: str | None = None) -> JsonObject:
         data.setdefault("name", path.stem)
         return parse_register_job(data, str(path)).job.model_dump(mode="json")
     if stage == "full":
-        from scenarios.jobs.config import load_config
+        from scenarios.configuration.config_files import load_config
 
         config = load_config(name, cell=cell).model_dump(mode="json")
         if "output" in config:
@@ -144,7 +144,8 @@ def resolve_config(spec: CampaignSpec, values: JsonObject) -> JsonObject:
     label = ", ".join(f"{k}={v}" for k, v in values.items()) or "base"
     if register:
         return parse_register_job(config, f"sweep point {label}").job.model_dump(mode="json")
-    from scenarios.jobs.config import ConfigError, parse_config
+    from scenarios.configuration.config_error import ConfigError
+    from scenarios.configuration.config_files import parse_config
 
     try:
         return parse_config(config, f"sweep point {label}").model_dump(mode="json")

@@ -85,7 +85,7 @@ class FullRow:
 def run_full_trial(config: JsonObject, seed: int) -> FullRow:
     """Run the scenario `config` (a scenario config dict) with `seed`, without recording or
     figures; its row, from the run's results.json read back."""
-    from scenarios.jobs.config import parse_config
+    from scenarios.configuration.config_files import parse_config
     from scenarios.jobs.runner import RunOptions, run_job
 
     t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""A register trial's configuration: a cell job's (scenarios.jobs.config.JobConfig).
+"""A register trial's configuration: a cell job's (scenarios.configuration.job_config.JobConfig).
 
 A register trial (scenarios.campaign.register_stage) reads what a job already has from the
 job's own sections, and what only a simulated-scan trial has from `register_trial`:
@@ -30,13 +30,10 @@ from pydantic import ValidationError
 
 from cell.sim.faults import FAULT_KINDS
 from scenarios.campaign.errors import CampaignError
-from scenarios.jobs.config import (
-    BuiltinModel,
-    FaultSetting,
-    JobConfig,
-    RegisterTrialSection,
-    describe_validation_error,
-)
+from scenarios.configuration.config_files import describe_validation_error
+from scenarios.configuration.fault_sections import FaultSetting
+from scenarios.configuration.job_config import JobConfig
+from scenarios.configuration.register_trial_sections import BuiltinModel, RegisterTrialSection
 from scenarios.results.edge import JsonObject
 
 #: The built-in models a register trial can match and scan.

@@ -2,11 +2,11 @@
 match the scan to the virtual model, evaluate against the truth. One typed row per trial
 (scenarios.campaign.register_row).
 
-The trial is configured by a cell job (scenarios.jobs.config.JobConfig): what it reads of
-the job's sections and of its `register_trial` section is in scenarios.campaign.register_job.
-The virtual model and its MeshModel (the expensive part) are built once per worker process
-and cached; the real entity (model error) and everything random are drawn from the trial's
-seed.
+The trial is configured by a cell job (scenarios.configuration.job_config.JobConfig): what
+it reads of the job's sections and of its `register_trial` section is in
+scenarios.campaign.register_job. The virtual model and its MeshModel (the expensive part)
+are built once per worker process and cached; the real entity (model error) and everything
+random are drawn from the trial's seed.
 """
 
 from __future__ import annotations

@@ -13,8 +13,8 @@ from typing import Any
 import yaml
 
 from scenarios.campaign.errors import CampaignError
-from scenarios.jobs.config import ConfigError
-from scenarios.jobs.config import set_dotted as config_set_dotted
+from scenarios.configuration.config_error import ConfigError
+from scenarios.configuration.config_files import set_dotted as config_set_dotted
 from scenarios.results.edge import JsonObject
 
 Sweep = tuple[tuple[str, tuple[Any, ...]], ...]
@@ -72,7 +72,8 @@ def sweep_points(sweep: Sweep) -> list[JsonObject]:
 
 def set_dotted(config: JsonObject, key: str, value: Any) -> JsonObject:
     """A deep copy of `config` with the dotted `key` set to `value` (see
-    scenarios.jobs.config.set_dotted); a typo raises CampaignError naming the keys that exist."""
+    scenarios.configuration.config_files.set_dotted); a typo raises CampaignError naming the
+    keys that exist."""
     try:
         return config_set_dotted(config, key, value)
     except ConfigError as exc:

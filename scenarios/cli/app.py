@@ -483,7 +483,7 @@ def run_overrides(
 ) -> dict[str, object]:
     """The dotted configuration keys `twincell run`'s options set: the object's model and
     units, its targets file, the program, each `--set KEY=VALUE` and each `--fault`."""
-    from scenarios.jobs.config import fault_assignment, parse_assignment
+    from scenarios.configuration.config_files import fault_assignment, parse_assignment
 
     overrides: dict[str, object] = {}
     if model is not None:

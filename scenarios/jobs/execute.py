@@ -27,8 +27,9 @@ from typing import Any
 from cell.robots import Robot
 from models.atomic import write_text
 from models.model import ObjectModel
+from scenarios.configuration.config_files import load_config
+from scenarios.configuration.job_config import JobConfig
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import JobConfig, load_config
 from scenarios.jobs.exported import (
     EXECUTION_FILE,
     ExecutionResult,

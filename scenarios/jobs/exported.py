@@ -17,7 +17,7 @@ import numpy as np
 
 from models.model import ObjectModel
 from models.robot import TOOLS
-from scenarios.jobs.config import JobConfig
+from scenarios.configuration.job_config import JobConfig
 from scenarios.offline.operations import UserProgram
 from scenarios.rapid.executor import (
     ExecutedMove,

@@ -18,8 +18,9 @@ from models.cache import enabled as cache_enabled
 from models.ct.readers import is_volume
 from models.model import ObjectModel
 from models.registry import real_model
+from scenarios.configuration.cell_sections import RobotSection
+from scenarios.configuration.job_config import JobConfig
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import JobConfig, RobotSection
 from scenarios.offline.arm_setup import (
     ArmSetupError,
     arm_setups,

@@ -21,16 +21,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from scenarios.errors import ScenarioError
-from scenarios.jobs.config import (
-    Config,
-    JobConfig,
-    PaperConfig,
+from scenarios.configuration.config_files import (
     cell_overrides,
     config_yaml,
     load_config,
     with_overrides,
 )
+from scenarios.configuration.job_config import Config, JobConfig, PaperConfig
+from scenarios.errors import ScenarioError
 from scenarios.jobs.interrupt import RunInterrupted, SignalGuard
 from scenarios.jobs.paper import PaperResult
 from scenarios.jobs.stages import StageTracker

@@ -21,8 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from models.atomic import write_text
+from scenarios.configuration.config_files import load_config
+from scenarios.configuration.job_config import JobConfig
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import JobConfig, load_config
 from scenarios.jobs.execute import job_program, rebuild_job_cell
 from scenarios.jobs.exported import (
     ExecutionResult,

@@ -1,12 +1,12 @@
 """The planning settings: what the stages that plan, scan, localize, calibrate, program,
 verify and execute are told, validated by pydantic (an unknown key or a bad value is named).
 
-These are the sections of a job's configuration (scenarios.jobs.config) that belong to the
+These are the sections of a job's configuration (scenarios.configuration) that belong to the
 planner: the scan and its planning, the registration's acceptance, the calibration and its
 priors, the probing, the operations and the pick, the verification, and what the planner
 believes of the object's placement: its nominal pose and the fixture's tolerance (a data
 sheet's number). Nothing here says how the real cell errs: its noise, its faults and the
-ranges the simulation draws the real placement from are the job's (scenarios.jobs.config).
+ranges the simulation draws the real placement from are the job's (scenarios.configuration).
 Values are SI ([m], [rad] where the key says so, degrees only in keys ending in `_deg`).
 """
 

@@ -10,8 +10,8 @@ import numpy as np
 
 from models.ct import CTSettings, bone_model, ct_scan
 from models.model import ObjectModel
+from scenarios.configuration.cell_sections import CTSection
 from scenarios.errors import ScenarioError
-from scenarios.jobs.config import CTSection
 
 
 def ct_virtual_model(real: ObjectModel, section: CTSection, seed: int) -> ObjectModel:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenarios.jobs.config import Placement
+from scenarios.configuration.cell_sections import Placement
 from scenarios.offline.placement import resting_pose
 
 

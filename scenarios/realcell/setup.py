@@ -26,7 +26,8 @@ from cell.sim.faults import Fault
 from models.model import ObjectModel
 from models.model_error import ModelErrorSpec
 from models.robot import RACK_POS
-from scenarios.jobs.config import JobConfig, Noise
+from scenarios.configuration.cell_sections import Noise
+from scenarios.configuration.job_config import JobConfig
 from scenarios.offline.calibration import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
 from scenarios.offline.placement import nominal_pose
