@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import queue
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,14 +42,13 @@ from scenarios.twin.egm import EgmServer
 from scenarios.twin.elog import EventLog
 from scenarios.twin.errors import ControllerError, bad_request, not_allowed, not_found
 from scenarios.twin.files import FileService
+from scenarios.twin.pacing import WallClockPacer
 from scenarios.twin.signals import SIGNALS, SignalSpec, parse_value
 from scenarios.twin.snapshot import Snapshot
 from scenarios.twin.symbols import Symbol, find, set_value
 
 #: The controller's control period: snapshots, EGM messages [s].
 PERIOD_S = 0.004
-#: Behind the wall clock by more than this, the cell is lagging [s].
-LAG_S = 0.25
 #: A streamed reference older than this is not followed (the arm holds) [s].
 STALE_S = 0.1
 #: The operation modes the twin runs in: automatic, and manual reduced speed (where a
@@ -94,7 +92,6 @@ class TwinController:
         if opmode not in OPMODES:
             raise bad_request(f"operation mode {opmode!r}: give {' or '.join(OPMODES)}")
         self.cell = controller
-        self.speed = speed
         self.files = FileService(folder / "files")
         self.task_folder = folder / "task"
         self.task_folder.mkdir(parents=True, exist_ok=True)
@@ -116,9 +113,7 @@ class TwinController:
         self._commands: queue.Queue[Callable[[], None]] = queue.Queue()
         self._halt = threading.Event()
         self._closing = threading.Event()
-        self._anchor = (time.monotonic(), controller.time_s)
-        self._lagging_since: float | None = None
-        self.lag_events = 0
+        self.pacer = WallClockPacer(speed, controller.time_s, self._lagging)
         self.egm: EgmServer | None = None
         q = controller.read_joints()
         self._q_ref = q
@@ -144,7 +139,7 @@ class TwinController:
                 if not streaming:
                     continue
                 if not streamed:
-                    self._relock()
+                    self.pacer.relock(self.cell.time_s)
                 streamed = True
                 command = self._egm_tick
             try:
@@ -165,10 +160,6 @@ class TwinController:
         self._worker.join(timeout=10.0)
         self.cell.pace(None)
 
-    def _relock(self) -> None:
-        """Lock the controller's time to the wall clock from now."""
-        self._anchor = (time.monotonic(), self.cell.time_s)
-
     def _clock(self, time_s: float) -> str | None:
         """Every 4 ms of the controller's time while the cell moves: publish a snapshot,
         stream EGM feedback, keep pace with the wall clock, halt on a stop request."""
@@ -178,29 +169,14 @@ class TwinController:
             self.egm.feedback(
                 self.snapshot, self.ctrlstate == "motoron", self.execstate == "running"
             )
-        wall0, sim0 = self._anchor
-        due = wall0 + (time_s - sim0) / self.speed
-        now = time.monotonic()
-        if due > now:
-            time.sleep(due - now)
-        elif now - due > LAG_S:
-            self._lagging(now - due)
+        self.pacer.keep_pace(time_s)
         if self._halt.is_set():
             return "stop requested by a client"
         return None
 
-    def _lagging(self, behind_s: float) -> None:
-        now = time.monotonic()
-        if self._lagging_since is None or now - self._lagging_since > 10.0:
-            self.lag_events += 1
-            message = (
-                f"the cell runs {behind_s:.2f} s behind the wall clock at speed {self.speed:g}; "
-                "clients see it slower than a controller"
-            )
-            self.elog.add("lagging", message)
-            self._say(message)
-            self._lagging_since = now
-        self._relock()
+    def _lagging(self, message: str) -> None:
+        self.elog.add("lagging", message)
+        self._say(message)
 
     def _snapshot(self, q: np.ndarray, q_ref: np.ndarray, time_s: float | None = None) -> Snapshot:
         cell = self.cell
@@ -379,7 +355,7 @@ class TwinController:
     def _run(self, execution: Execution) -> None:
         """Run the program from its pointer (on the worker)."""
         cell, plan = self.cell, execution.plan
-        self._relock()
+        self.pacer.relock(self.cell.time_s)
         ended = False
         message = ""
         try:
@@ -440,7 +416,7 @@ class TwinController:
         self._changed(f"signal:{spec.name}", str(value))
 
     def _gripper(self, opening_mm: float) -> None:
-        self._relock()
+        self.pacer.relock(self.cell.time_s)
         self.cell.set_gripper(opening_mm * 1e-3)
         self._refresh()
 

@@ -16,12 +16,7 @@ answers them (JSON with `json=1`: the state under `_embedded._state`, each item 
 
 from __future__ import annotations
 
-import contextlib
-import itertools
-import queue
 import re
-import socket
-import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -32,8 +27,9 @@ from scenarios.rapid.executor import cell_tools
 from scenarios.twin.controller import TwinController
 from scenarios.twin.elog import ElogEntry
 from scenarios.twin.errors import bad_request, not_found
-from scenarios.twin.http import NO_CONTENT, Request, Response, state, ws_closed, ws_send
+from scenarios.twin.http import NO_CONTENT, Request, Response, state
 from scenarios.twin.signals import SIGNALS, spec, text_of
+from scenarios.twin.subscriptions import Subscriptions
 
 Handler = Callable[[Request, str], Response]
 
@@ -345,113 +341,3 @@ def _elog_item(e: ElogEntry) -> dict[str, str]:
             "msgtype": str(e.msgtype), "code": str(e.code),
             "tstamp": e.time.strftime("%Y-%m-%d T  %H:%M:%S"), "title": e.title, "desc": e.desc,
             "conseqs": "", "causes": "", "actions": "", "argc": "0"}  # fmt: skip
-
-
-# -- subscriptions ------------------------------------------------------------------------------
-class Subscriptions:
-    """The subscriptions: their resources and the events waiting for their websocket."""
-
-    def __init__(self, twin: TwinController) -> None:
-        self._numbers = itertools.count(1)
-        self._lock = threading.Lock()
-        self._resources: dict[int, list[str]] = {}
-        self._queues: dict[int, queue.Queue[str]] = {}
-        twin.listeners.append(self._changed)
-        twin.elog.listeners.append(self._logged)
-
-    def add(self, resources: list[str]) -> int:
-        number = next(self._numbers)
-        with self._lock:
-            self._resources[number] = resources
-            self._queues[number] = queue.Queue(maxsize=1000)
-        return number
-
-    def _push(self, resource: str, event: str) -> None:
-        with self._lock:
-            wanted = [
-                n
-                for n, rs in self._resources.items()
-                if any(resource.casefold() == r.casefold() for r in rs)
-            ]
-            for n in wanted:
-                with contextlib.suppress(queue.Full):
-                    self._queues[n].put_nowait(event)
-
-    def _changed(self, resource: str, value: str) -> None:
-        if resource == "execution":
-            self._push(
-                "/rw/rapid/execution;ctrlexecstate",
-                _li(
-                    "rap-ctrlexecstate-ev",
-                    "/rw/rapid/execution;ctrlexecstate",
-                    "ctrlexecstate",
-                    value,
-                ),
-            )
-        elif resource == "ctrlstate":
-            self._push(
-                "/rw/panel/ctrlstate",
-                _li("pnl-ctrlstate-ev", "/rw/panel/ctrlstate", "ctrlstate", value),
-            )
-        elif resource.startswith("signal:"):
-            name = resource[7:]
-            lvalue = text_of(spec(name), float(value))
-            for path in (
-                f"/rw/iosystem/signals/Local/DRV_1/{name};state",
-                f"/rw/iosystem/signals/{name};state",
-            ):
-                self._push(
-                    path,
-                    _li(
-                        "ios-signalstate-ev",
-                        f"/rw/iosystem/signals/Local/DRV_1/{name};state",
-                        "lvalue",
-                        lvalue,
-                    ),
-                )
-        elif resource.startswith("rapid:"):
-            url = resource[6:]
-            module_less = re.sub(r"^RAPID/T_ROB1/[^/]+/", "RAPID/T_ROB1/", url)
-            for path in (url, module_less):
-                self._push(
-                    f"/rw/rapid/symbol/data/{path};value",
-                    _li("rap-data", f"/rw/rapid/symbol/data/{module_less};value", "value", value),
-                )
-
-    def _logged(self, entry: ElogEntry) -> None:
-        self._push(
-            "/rw/elog/0",
-            _li("elog-message-ev", f"/rw/elog/0/{entry.seqnum}", "seqnum", str(entry.seqnum)),
-        )
-
-    def serve(self, path: str, sock: socket.socket) -> None:
-        """Push a subscription's events on its websocket until the client closes it."""
-        match = re.fullmatch(r"poll/(\d+)", path)
-        number = int(match.group(1)) if match else -1
-        with self._lock:
-            events = self._queues.get(number)
-        if events is None:
-            sock.close()
-            return
-        try:
-            with contextlib.suppress(OSError):  # the client went away mid-send
-                while not ws_closed(sock):
-                    try:
-                        event = events.get(timeout=0.2)
-                    except queue.Empty:
-                        continue
-                    ws_send(sock, _page(event))
-        finally:
-            with self._lock:
-                self._resources.pop(number, None)
-                self._queues.pop(number, None)
-
-
-def _li(kind: str, href: str, span: str, value: str) -> str:
-    link = f'<a href="{href}" rel="self"/>'
-    return f'<li class="{kind}" title="{kind}">{link}<span class="{span}">{value}</span></li>'
-
-
-def _page(item: str) -> str:
-    head = '<?xml version="1.0" encoding="utf-8"?><html xmlns="http://www.w3.org/1999/xhtml">'
-    return f'{head}<head></head><body><div class="state"><ul>{item}</ul></div></body></html>'
