@@ -7,9 +7,11 @@ checkout, and their results.json compared key by key, timings aside.
     PYTHONPATH=/path/to/after  python bench/same_figures.py run /tmp/after
     python bench/same_figures.py compare /tmp/before /tmp/after
 
-`compare` prints each run's verdict and every key that differs (exit status 1 if any does).
-Keys that hold wall-clock time, the run's folder or the code's version are not figures and are
-left out (`IGNORED`). Runs take about a minute each; `--jobs 2` runs two at a time.
+`compare` prints a table of the runs (keys compared, keys that differ) and every key that
+differs (exit status 1 if any does). Keys that hold wall-clock time, the run's folder or the
+code's version are not figures and are left out (`IGNORED`). Runs take about a minute each;
+`--jobs 2` runs two at a time. `--short` makes the paper's run twice with the checkout on the
+path and compares the two (a run is the same when made again: what the comparison rests on).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import math
 import os
 import subprocess
 import sys
+import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -45,7 +48,7 @@ IGNORED = {
 }  # fmt: skip
 
 
-def run(out: Path, jobs: int) -> None:
+def run(out: Path, jobs: int, names: list[str]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, TWINCELL_NO_CACHE="1")
 
@@ -57,7 +60,7 @@ def run(out: Path, jobs: int) -> None:
         return f"{name}: exit {done.returncode}"
 
     with ThreadPoolExecutor(jobs) as pool:
-        for line in pool.map(one, RUNS):
+        for line in pool.map(one, names):
             print(line, flush=True)
 
 
@@ -66,6 +69,14 @@ def _results(folder: Path) -> dict[str, Any]:
     if not found:
         raise SystemExit(f"no results.json under {folder}")
     return dict(json.loads(found[-1].read_text()))
+
+
+def _leaves(a: Any) -> int:
+    if isinstance(a, dict):
+        return sum(_leaves(v) for k, v in a.items() if k not in IGNORED)
+    if isinstance(a, list):
+        return sum(_leaves(v) for v in a)
+    return 1
 
 
 def _differences(a: Any, b: Any, where: str = "") -> list[str]:
@@ -90,16 +101,17 @@ def _differences(a: Any, b: Any, where: str = "") -> list[str]:
     return [] if a == b else [f"{where}: {a!r} before, {b!r} after"]
 
 
-def compare(before: Path, after: Path) -> int:
-    failed = 0
-    for name in RUNS:
+def compare(before: Path, after: Path, names: list[str]) -> int:
+    print("| run | keys compared | keys that differ |\n|---|---:|---:|")
+    found = {}
+    for name in names:
         a, b = _results(before / name), _results(after / name)
-        diffs = _differences(a, b)
-        print(f"{name}: {'same' if not diffs else f'{len(diffs)} keys differ'}")
+        found[name] = _differences(a, b)
+        print(f"| {name} | {_leaves(a)} | {len(found[name])} |")
+    for name, diffs in found.items():
         for d in diffs[:20]:
-            print(f"  {d}")
-        failed += bool(diffs)
-    return 1 if failed else 0
+            print(f"{name}: {d}")
+    return 1 if any(found.values()) else 0
 
 
 def main() -> int:
@@ -111,11 +123,20 @@ def main() -> int:
     c = sub.add_parser("compare", help="compare two folders of runs key by key")
     c.add_argument("before", type=Path)
     c.add_argument("after", type=Path)
-    args = parser.parse_args()
+    s = sub.add_parser("short", help="the paper's run made twice and compared")
+    s.add_argument("--out", type=Path, default=None)
+    short = sys.argv[1:2] == ["--short"]
+    args = parser.parse_args(["short", *sys.argv[2:]] if short else None)
     if args.command == "run":
-        run(args.out, args.jobs)
+        run(args.out, args.jobs, list(RUNS))
         return 0
-    return compare(args.before, args.after)
+    if args.command == "compare":
+        return compare(args.before, args.after, list(RUNS))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = args.out or Path(tmp)
+        run(out / "first", 1, ["paper-0"])
+        run(out / "again", 1, ["paper-0"])
+        return compare(out / "first", out / "again", ["paper-0"])
 
 
 if __name__ == "__main__":
