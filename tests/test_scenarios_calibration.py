@@ -18,18 +18,22 @@ from cell.sim import CellConfig, CellTruth, make_cell
 from models.robot import LASER, SCREWER
 from scenarios.configuration.config_error import ConfigError
 from scenarios.configuration.config_files import parse_config
-from scenarios.offline.calibration import (
-    APPROACH_RAD,
+from scenarios.offline.calibration_artifact import (
     DEFAULT_ARTIFACT,
-    PATH_STEP_RAD,
     CalibrationError,
-    CalibrationPlan,
-    CalibrationPriors,
     SphereArtifact,
-    View,
-    _Layout,
+)
+from scenarios.offline.calibration_identification import (
+    CalibrationPriors,
+    ParameterLayout,
     cell_model,
     identify,
+)
+from scenarios.offline.calibration_measurement import (
+    APPROACH_RAD,
+    PATH_STEP_RAD,
+    CalibrationPlan,
+    View,
     measure_spheres,
     plan_views,
 )
@@ -50,7 +54,7 @@ def calibrated() -> dict:
     measured = measure_spheres(controller, DEFAULT_ARTIFACT, CalibrationPlan())
     priors = CalibrationPriors()
     fit = identify(measured, controller.robot, priors)
-    layout = _Layout.of(controller.robot, priors, measured.stations)
+    layout = ParameterLayout.of(controller.robot, priors, measured.stations)
     return {
         "controller": controller,
         "truth": truth,

@@ -11,15 +11,10 @@ from collections.abc import Callable
 import numpy as np
 
 from cell import Controller
-from scenarios.offline.calibration import (
-    DEFAULT_ARTIFACT,
-    CalibrationError,
-    CalibrationPlan,
-    CalibrationPriors,
-    CalibrationResult,
-    Clear,
-    calibrate,
-)
+from scenarios.offline.calibration import CalibrationResult, calibrate
+from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT, CalibrationError
+from scenarios.offline.calibration_identification import CalibrationPriors
+from scenarios.offline.calibration_measurement import CalibrationPlan, Clear
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.settings import Calibration
 

@@ -46,7 +46,7 @@ from cell.trajectory import straight_path
 from cell.virtual import EXACT_BAND_M, Contact, VirtualCell
 from models.model import ObjectModel
 from scenarios.errors import ScenarioError
-from scenarios.offline.calibration import DEFAULT_ARTIFACT
+from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
 from scenarios.offline.program import OfflineProgram
 from scenarios.offline.settings import FixtureTolerance
 

@@ -158,11 +158,12 @@ class Registration(Section):
 
 
 class CalibrationPriorsSection(Section):
-    """What the data sheets say before the calibration (scenarios.offline.calibration.
-    CalibrationPriors): the arm's kinematic parameters [m, rad], its joint 2 and 3
-    stiffness [N m/rad] and its relative spread, the laser's mounting [m, rad] and range
-    linearity, where the table stops beyond its readout [m] and its guideway's angles
-    [rad], the laser's range noise [m]. Never the simulated cell's own figures."""
+    """What the data sheets say before the calibration (scenarios.offline.
+    calibration_identification.CalibrationPriors): the arm's kinematic parameters [m, rad],
+    its joint 2 and 3 stiffness [N m/rad] and its relative spread, the laser's mounting
+    [m, rad] and range linearity, where the table stops beyond its readout [m] and its
+    guideway's angles [rad], the laser's range noise [m]. Never the simulated cell's own
+    figures."""
 
     length_sigma_m: float = Field(1.0e-3, gt=0.0, le=0.1)
     offset_sigma_rad: float = Field(1.0e-3, gt=0.0, le=0.1)

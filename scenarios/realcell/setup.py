@@ -28,7 +28,7 @@ from models.model_error import ModelErrorSpec
 from models.robot import RACK_POS
 from scenarios.configuration.cell_sections import Noise
 from scenarios.configuration.job_config import JobConfig
-from scenarios.offline.calibration import DEFAULT_ARTIFACT
+from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.scan import ObjectBox
