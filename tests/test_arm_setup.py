@@ -34,8 +34,8 @@ from scenarios.offline.arm_setup import (
     choose_arm_setup,
     joint_window,
 )
+from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.placement import nominal_pose
-from scenarios.offline.premotion import job_virtual_cell
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The sweeps' step [rad]: a bound is found to within it.

@@ -19,14 +19,11 @@ from models.robot import RACK_POS, SCREWER, TABLE_TOP_POS, ArmGeometry
 from registration import transform_points
 from scenarios.configuration.config_files import load_config
 from scenarios.jobs.plan import object_models
+from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.operations import target_operations
 from scenarios.offline.placement import nominal_pose
-from scenarios.offline.premotion import (
-    PremotionError,
-    PremotionLimits,
-    check_program,
-    job_virtual_cell,
-)
+from scenarios.offline.premotion import check_program
+from scenarios.offline.premotion_verdict import PremotionError, PremotionLimits
 from scenarios.offline.program import OfflineProgram, Operation, PlannedOperation, plan_program
 
 #: The screwer's solids along its axis (models/robot/tools.py): the changer plate every tool

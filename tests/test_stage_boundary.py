@@ -11,7 +11,7 @@ import pytest
 from pydantic import BaseModel
 
 from scenarios.configuration.config_files import load_config
-from scenarios.offline.premotion import placement_uncertainty_m
+from scenarios.offline.job_cell import placement_uncertainty_m
 from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.context import StageContext
 from scenarios.stages.state import JobState

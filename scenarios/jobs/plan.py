@@ -27,6 +27,7 @@ from scenarios.offline.arm_setup import (
     joint_window,
     no_home_message,
 )
+from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.moves import UnreachablePlanError
 from scenarios.offline.operations import (
     UserProgram,
@@ -40,7 +41,6 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.plan_cache import cached_plan, plan_key
-from scenarios.offline.premotion import job_virtual_cell
 from scenarios.offline.program import Operation
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox

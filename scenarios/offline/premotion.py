@@ -34,192 +34,32 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
-from cell import FixedMesh, FixedPrimitive, Kinematics
-from cell.robots import Robot
+from cell import Kinematics
 from cell.trajectory import straight_path
-from cell.virtual import EXACT_BAND_M, Contact, VirtualCell
-from models.model import ObjectModel
-from scenarios.errors import ScenarioError
-from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
+from cell.virtual import Contact, VirtualCell
+from scenarios.offline.premotion_verdict import (
+    CheckedMove,
+    Kind,
+    PremotionCheck,
+    PremotionError,
+    PremotionLimits,
+    Problem,
+)
 from scenarios.offline.program import OfflineProgram
-from scenarios.offline.settings import FixtureTolerance
 
-Kind = Literal["reach", "joint_limit", "singularity", "collision"]
-KINDS: tuple[str, ...] = ("reach", "joint_limit", "singularity", "collision")
 #: A line's IK solution may not move a joint more than this between samples [rad] (the
 #: controller's own test for a configuration flip).
 FLIP_RAD = 0.5
 #: A joint move's end must put the TCP this close to the program's approach [m], [rad].
 APPROACH_TOL_M = 1e-4
 APPROACH_TOL_RAD = 1e-3
-_VERBS = {
-    "collision": "collides",
-    "reach": "leaves the arm's reach",
-    "joint_limit": "runs into joint limits",
-    "singularity": "passes near a singularity",
-}
 
 
-class PremotionError(ScenarioError, ValueError):
-    """A pre-motion check asked with bad settings or a bad start."""
-
-
-@dataclass(frozen=True)
-class PremotionLimits:
-    """How finely and how strictly the check looks (see the module's docstring).
-
-    `step_m` [m] of TCP travel and `step_rad` [rad] of the largest joint's motion between
-    samples; `clearance_m` [m] the least distance between the moving side and anything else;
-    `touch_clearance_m` [m] that between the tool in hand and the touched object on the lines
-    into and out of a touch (0: they may not penetrate); `joint_margin_rad` [rad] inside the
-    joint limits; `min_singular_value` of the flange's Jacobian; `watch_m` [m]: distances up
-    to this are measured, so that the closest approach of each move is reported.
-    """
-
-    step_m: float = 0.005
-    step_rad: float = 0.02
-    clearance_m: float = 0.002
-    touch_clearance_m: float = 0.0
-    joint_margin_rad: float = float(np.deg2rad(1.0))
-    min_singular_value: float = 0.04
-    watch_m: float = 0.1
-
-    def __post_init__(self) -> None:
-        for name in ("step_m", "step_rad"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0.0):
-                raise PremotionError(f"PremotionLimits.{name} must be > 0, got {value!r}")
-        for name in (
-            "clearance_m",
-            "touch_clearance_m",
-            "joint_margin_rad",
-            "min_singular_value",
-            "watch_m",
-        ):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0.0):
-                raise PremotionError(f"PremotionLimits.{name} must be >= 0, got {value!r}")
-        if max(self.clearance_m, self.touch_clearance_m) > 0.5:
-            raise PremotionError(
-                "PremotionLimits: clearances beyond 0.5 m are not a clearance, got "
-                f"{self.clearance_m!r}, {self.touch_clearance_m!r}"
-            )
-
-
-@dataclass(frozen=True)
-class Problem:
-    """Why a move may not run: `move` its name ("kocher_left: approach -> touch"), `kind` one
-    of KINDS, `detail` what and where ("tool_screwer touches object (2.7 mm deep) from 40 % to
-    100 %")."""
-
-    move: str
-    kind: Kind
-    detail: str
-
-    def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise PremotionError(f"problem kind {self.kind!r} is not one of {KINDS}")
-
-    def __str__(self) -> str:
-        return f"{self.move}: {self.detail}"
-
-
-@dataclass(frozen=True)
-class CheckedMove:
-    """A move the check followed: its name, `joint` or `linear`, the poses sampled on it
-    (its start excluded: the previous move's end), its closest approach (the smallest
-    distance checked against the clearance, within `PremotionLimits.watch_m`; None: nothing
-    that near), and on a line into or out of a touch the smallest gap between the tool in
-    hand and the touched object [m] (None elsewhere, or nothing that near)."""
-
-    name: str
-    kind: Literal["joint", "linear"]
-    samples: int
-    closest: Contact | None
-    touch_gap_m: float | None = None
-
-
-@dataclass(frozen=True)
-class PremotionCheck:
-    """The check's verdict: `ok` when no move has a problem; the `problems` in the order of
-    the moves; the `moves` followed; the `limits` applied; the wall time [s]."""
-
-    ok: bool
-    problems: tuple[Problem, ...]
-    moves: tuple[CheckedMove, ...]
-    limits: PremotionLimits
-    seconds: float = field(default=0.0, compare=False)
-
-    @property
-    def samples(self) -> int:
-        """The poses checked, over all moves."""
-        return sum(m.samples for m in self.moves)
-
-    @property
-    def closest(self) -> tuple[str, Contact] | None:
-        """The program's closest approach: the move and the contact, or None."""
-        near = [(m.name, c) for m in self.moves if (c := m.closest) is not None]
-        return min(near, key=lambda item: item[1].distance_m) if near else None
-
-    def kinds(self) -> tuple[str, ...]:
-        """The kinds of the problems found, in KINDS' order."""
-        return tuple(k for k in KINDS if any(p.kind == k for p in self.problems))
-
-    @property
-    def summary(self) -> str:
-        """One line: why the program is refused, or what the check found."""
-        if self.ok:
-            closest = self.closest
-            near = (
-                f"; closest: {closest[1].body} {closest[1].distance_m * 1e3:.1f} mm from "
-                f"{closest[1].other} ({closest[0]})"
-                if closest is not None
-                else ""
-            )
-            return (
-                f"the corrected program passes the pre-motion check: {len(self.moves)} moves, "
-                f"{self.samples} poses, clearance {self.limits.clearance_m * 1e3:g} mm{near}"
-            )
-        verbs = " and ".join(_VERBS[k] for k in self.kinds())
-        shown = "; ".join(str(p) for p in self.problems[:6])
-        more = len(self.problems) - 6
-        return f"the corrected program {verbs}: {shown}" + (
-            f" (and {more} more)" if more > 0 else ""
-        )
-
-
-# -- what the pipeline hands the check ----------------------------------------------------------
-def job_virtual_cell(
-    robot: Robot,
-    rack_xyz: tuple[float, float, float],
-    virtual: ObjectModel,
-    T_table_object: np.ndarray,
-    calibrates: bool = False,
-    name: str = "object",
-    exact_band_m: float = EXACT_BAND_M,
-) -> VirtualCell:
-    """The virtual cell a job's program is checked in: the job's arm (nominal) and rack at
-    `rack_xyz` [m], the virtual model `virtual` (its convex pieces for contact) at the pose
-    T_table_object (4, 4) the program was corrected with, named `name`, and the calibration
-    spheres at their design places if the job `calibrates`; near the object (within
-    `exact_band_m` [m] of its pieces) the arm and tool are measured against its own mesh
-    (cell.virtual)."""
-    pieces = tuple(p.vertices for p in virtual.convex_pieces)
-    fixtures: tuple[FixedMesh | FixedPrimitive, ...] = (
-        FixedMesh(name, virtual.mesh.vertices, virtual.mesh.faces, T_table_object, pieces),
-    )
-    if calibrates:
-        fixtures = (*fixtures, *DEFAULT_ARTIFACT.fixtures())
-    return VirtualCell.of(robot, rack_xyz, fixtures, exact_band_m)
-
-
-# -- the check ----------------------------------------------------------------------------------
 def _count(steps: float) -> int:
     """Samples for a move `steps` steps long (at least one; a whole number of steps is not
     rounded up by its last bit)."""
@@ -450,7 +290,7 @@ def check_program(
         kinematics: the arm's kinematics the program was solved with (the controller's
             `kinematics`, nominal or calibrated); its joint ranges for the program's tool.
         cell: the virtual cell, the object where the program believes it is
-            (`job_virtual_cell`); posed here (joints, table, tool).
+            (scenarios.offline.job_cell.job_virtual_cell); posed here (joints, table, tool).
         q_start: (6,) [rad] the joints the first joint move starts from: home after a tool
             change (`change_tool_safely` ends there), else where the arm stands.
         T_flange_tcp: (4, 4) the tool's TCP in the flange frame (its tooldata).
@@ -480,31 +320,3 @@ def check_program(
             f"{name}: touch -> approach", q, planned.T_base_approach, planned.q_approach
         )
     return checker.result(time.perf_counter() - t0)
-
-
-def placement_uncertainty_m(tolerance: FixtureTolerance, lift_m: float, radius_m: float) -> float:
-    """How far [m] a point of an object of `radius_m` (its footprint about its centre) may
-    be from where its nominal pose puts it, given the fixture's `tolerance` (sideways, about
-    the vertical, tilted) and its nominal lift `lift_m` [m] off the table."""
-    return float(
-        np.hypot(tolerance.xy_m, tolerance.xy_m)
-        + 2.0 * radius_m * np.sin(np.deg2rad(tolerance.yaw_deg) / 2.0)
-        + radius_m * np.sin(np.deg2rad(tolerance.tilt_deg))
-        + lift_m
-    )
-
-
-def clear_of(
-    cell: VirtualCell, tool: str, name: str, margin_m: float
-) -> Callable[[np.ndarray, float], bool]:
-    """Whether the arm with `tool` at joints q (6,), the table at a position [m], keeps
-    `margin_m` [m] from the object `name` in the virtual `cell` (the object at its nominal
-    pose; the margin holds how far the real one may be from it)."""
-
-    def clear(q: np.ndarray, table_position_m: float) -> bool:
-        cell.set_table(table_position_m)
-        cell.set_tool(tool)
-        cell.set_joints(q)
-        return not any(c.other == name for c in cell.contacts(margin_m))
-
-    return clear

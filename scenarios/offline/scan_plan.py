@@ -36,7 +36,8 @@ from registration.quality import ResidualCorrelation, ScanPasses, pose_covarianc
 from registration.rigid import invert
 from scenarios.offline.localization import voxel_thin
 from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
-from scenarios.offline.premotion import PremotionLimits, joint_move_samples
+from scenarios.offline.premotion import joint_move_samples
+from scenarios.offline.premotion_verdict import PremotionLimits
 from scenarios.offline.scan import (
     RETREAT_M,
     RETREAT_SPEED_M_S,

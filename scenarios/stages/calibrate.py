@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
-from scenarios.offline.premotion import clear_of, job_virtual_cell, placement_uncertainty_m
+from scenarios.offline.job_cell import clear_of, job_virtual_cell, placement_uncertainty_m
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
 from scenarios.stages.state import JobState

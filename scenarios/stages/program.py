@@ -6,13 +6,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from scenarios.offline.cell_model import CellModel
+from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.operations import grasp_operation, program_operations, target_operations
-from scenarios.offline.premotion import (
-    PremotionCheck,
-    PremotionLimits,
-    check_program,
-    job_virtual_cell,
-)
+from scenarios.offline.premotion import check_program
+from scenarios.offline.premotion_verdict import PremotionCheck, PremotionLimits
 from scenarios.offline.program import OfflineProgram, plan_program
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome

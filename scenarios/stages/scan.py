@@ -12,8 +12,8 @@ from cell.robots import Robot
 from models.model import ObjectModel
 from registration import MeshModel, transform_points
 from scenarios.offline.cell_model import CellModel
+from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.localization import localize, scan_passes
-from scenarios.offline.premotion import job_virtual_cell
 from scenarios.offline.scan import (
     ObjectBox,
     crop_to_object,
