@@ -23,7 +23,9 @@ from scenarios.configuration.config_files import load_config
 from scenarios.configuration.job_config import JobConfig
 from scenarios.offline import plan_cache
 from scenarios.offline.scan import PlannedPass
-from scenarios.offline.scan_plan import Candidate, ChosenPass, ScanPlan
+from scenarios.offline.scan_candidates import Candidate
+from scenarios.offline.scan_choice import ChosenPass
+from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import ScanPass
 
 

@@ -21,8 +21,10 @@ from scenarios.campaign import plan_campaign, run_campaign
 from scenarios.jobs import pipeline
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.scan import ObjectBox
-from scenarios.offline.scan_plan import ErrorModel, PlanningCell, ScanPlanError, plan_job_scan
+from scenarios.offline.scan_candidates import PlanningCell, ScanPlanError
+from scenarios.offline.scan_plan import plan_job_scan
 from scenarios.offline.settings import Scan
+from scenarios.offline.tre_prediction import ErrorModel
 
 #: The planner's errors for the test parts: the configuration's defaults (laser noise, model
 #: error over 2 cm, the arm's pass offset), thinned to 3 mm.
@@ -127,7 +129,7 @@ def test_a_goal_out_of_reach_is_scanned_short_of_it_when_the_match_accepts_that(
     left would), in under half the budget (the whole budget buys 5 % lower), and is scanned
     since the match accepts up to 1 mm;
     with the match accepting only 0.1 mm, the same plan is refused, naming the targets."""
-    from scenarios.offline.scan_plan import predict_tre
+    from scenarios.offline.tre_prediction import predict_tre
 
     section = Scan.model_validate(
         {"plan": "auto", "min_points": 100, "planning": {"goal_tre_m": 5e-5}}
@@ -236,7 +238,8 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
     way clears; a transit that clears keeps its direct move. Ground truth: the virtual
     cell's contacts, sampled finely along the joint moves."""
     from cell import nominal_T_base_table
-    from scenarios.offline.scan_plan import _retreat_q, candidates, route_transits
+    from scenarios.offline.scan_candidates import candidates
+    from scenarios.offline.scan_transits import retreat_q, route_transits
 
     post = trimesh.creation.box((0.12, 0.12, 0.25))  # a tall post: low passes turn around it
     T = np.eye(4)
@@ -277,7 +280,7 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
                 continue
             if touches(home, home, s) or touches(home, a.planned.q_start, s):
                 continue
-            q_up = _retreat_q(kin, a.planned, nominal_T_base_table)
+            q_up = retreat_q(kin, a.planned, nominal_T_base_table)
             if q_up is None:
                 continue
             direct = touches(q_up, b.planned.q_start, s)
@@ -326,6 +329,8 @@ def test_a_pass_with_no_clear_way_to_it_is_chosen_again_without() -> None:
     out and the passes are chosen again from the other candidates: the job is scanned, not
     refused. Ground truth: the greedy choice (choose_passes) from the candidates without it."""
     import scenarios.offline.scan_plan as scan_plan
+    from scenarios.offline.scan_choice import choose_passes
+    from scenarios.offline.scan_transits import TransitError, route_transits
 
     part = _d_cylinder(np.array([-1.0, 0.0, 0.0]))
     z = (part.bounds[1, 2] - part.bounds[0, 2]) / 2
@@ -333,7 +338,6 @@ def test_a_pass_with_no_clear_way_to_it_is_chosen_again_without() -> None:
     section = Scan(plan="auto", min_points=100)
     first = _plan(part, targets, section)
     blocked = next(c for c in first.candidates if c.planned.name == first.chosen[0].name)
-    route = scan_plan.route_transits
 
     def no_way_to_blocked(cell, kin, passes, *args, **kwargs):  # type: ignore[no-untyped-def]
         line = {blocked.planned.T_table_start[:3, 3].round(6).tobytes(),
@@ -341,17 +345,17 @@ def test_a_pass_with_no_clear_way_to_it_is_chosen_again_without() -> None:
         for k, p in enumerate(passes):  # the same line, whichever way it is swept
             if {p.T_table_start[:3, 3].round(6).tobytes(),
                 p.T_table_end[:3, 3].round(6).tobytes()} == line:  # fmt: skip
-                raise scan_plan.TransitError(f"no clear way to {p.name}", k)
-        return route(cell, kin, passes, *args, **kwargs)
+                raise TransitError(f"no clear way to {p.name}", k)
+        return route_transits(cell, kin, passes, *args, **kwargs)
 
-    with pytest.MonkeyPatch.context() as patch:
+    with pytest.MonkeyPatch.context() as patch:  # where the plan routes its passes
         patch.setattr(scan_plan, "route_transits", no_way_to_blocked)
         again = _plan(part, targets, section)
     names = [c.name for c in again.chosen]
     assert blocked.planned.name not in names
     others = tuple(c for c in first.candidates if c is not blocked)
     goal, budget = section.planning.goal_tre_m, section.planning.budget_s
-    expected, *_ = scan_plan.choose_passes(
+    expected, *_ = choose_passes(
         others, targets, ERRORS, goal, budget, min_gain=section.planning.min_gain
     )
     assert names == [c.planned.name for c in expected]

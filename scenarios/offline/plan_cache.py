@@ -39,7 +39,9 @@ from models import cache
 from models.atomic import write_atomic
 from models.model import ObjectModel
 from scenarios.offline.scan import PlannedPass
-from scenarios.offline.scan_plan import Candidate, ChosenPass, ScanPlan
+from scenarios.offline.scan_candidates import Candidate
+from scenarios.offline.scan_choice import ChosenPass
+from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import PlanningSettings, ScanPass
 
 log = logging.getLogger(__name__)

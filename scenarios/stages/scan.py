@@ -20,8 +20,10 @@ from scenarios.offline.scan import (
     execute_scan,
     plan_scan,
 )
-from scenarios.offline.scan_plan import PlanningCell, ScanPlan, error_model, plan_job_scan, replan
+from scenarios.offline.scan_candidates import PlanningCell
+from scenarios.offline.scan_plan import ScanPlan, plan_job_scan, replan
 from scenarios.offline.settings import PlanningSettings
+from scenarios.offline.tre_prediction import error_model
 from scenarios.stages.context import StageContext
 from scenarios.stages.register import acceptance
 from scenarios.stages.stage import Outcome
