@@ -1,6 +1,10 @@
 """ABB RAPID, in and out: the one place the project reads, models, writes and runs RAPID.
 
-- `scenarios.rapid.parser`: the tokenizer and parser of a module's text (its syntax);
+- `scenarios.rapid.syntax`: a module's syntax (its nodes, declarations, calls, routines) and
+  `RapidError`;
+- `scenarios.rapid.lexer`: a module's text checked to be text and cut into tokens;
+- `scenarios.rapid.expression_parser` and `scenarios.rapid.parser`: the parser of a module's
+  tokens into its syntax (expressions and arguments; declarations, routines, statements);
 - `scenarios.rapid.module`: the reader (names and values resolved) and the module's
   model (`RapidModule`: its data, moves, tools and work objects), and `with_oframe`, which
   writes a module back with one work object's object frame corrected;

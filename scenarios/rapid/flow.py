@@ -19,7 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from scenarios.rapid.module import MOVES, Move, RapidModule
-from scenarios.rapid.parser import RapidError, _Arg, _Call, _Parser
+from scenarios.rapid.parser import Parser
+from scenarios.rapid.syntax import Arg, Call, RapidError
 from scenarios.rapid.task import ModuleScope, RapidTask, task_of
 
 # Statements a sequence of instructions may hold besides instruction calls.
@@ -64,10 +65,10 @@ class _Statement:
     routine: str
     line: int
     kind: str  # _CALL, _DECLARATION, _LABEL, "assignment", "late-bound call" or a flow word
-    call: _Call | None
+    call: Call | None
 
 
-class _StatementParser(_Parser):
+class _StatementParser(Parser):
     """The reader's parser, recording the top-level statements of each routine's body (the
     statements nested in IF, FOR, WHILE and TEST are parsed by the reader as usual)."""
 
@@ -129,7 +130,7 @@ class _Program:
     names: dict[str, str]
     moves: dict[int, Move]
 
-    def text(self, arg: _Arg) -> str:
+    def text(self, arg: Arg) -> str:
         """An argument as written."""
         return self.module.text[arg.start : arg.end]
 
@@ -226,7 +227,7 @@ def _check_call(
     callee_program: _Program,
     callee: str,
     s: _Statement,
-    call: _Call,
+    call: Call,
     chain: tuple[str, ...],
 ) -> None:
     """Refuse a call (statement `s` of `program`, through `chain`) of the routine `callee` of
@@ -256,7 +257,7 @@ def _check_call(
         )
 
 
-def _step(program: _Program, s: _Statement, call: _Call, chain: tuple[str, ...]) -> Step:
+def _step(program: _Program, s: _Statement, call: Call, chain: tuple[str, ...]) -> Step:
     """The instruction `call` of statement `s`, reached through `chain`."""
     return Step(
         call.name,

@@ -24,19 +24,18 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenarios.rapid.parser import (
+from scenarios.rapid.parser import Parser, parse_module
+from scenarios.rapid.syntax import (
+    Arg,
+    Call,
+    Decl,
     ModuleText,
+    Node,
+    ParsedModule,
     RapidError,
     Routine,
-    _Arg,
-    _as_float,
-    _Call,
-    _Decl,
-    _Node,
-    _Parsed,
-    _Parser,
-    _where,
-    parse_module,
+    as_float,
+    location,
 )
 
 # Moves whose leading arguments are: target(s), speed, zone, tool [\WObj]: name -> targets.
@@ -204,14 +203,14 @@ class TouchOperation:
 # Values: literals, poses
 
 
-def _literal(node: _Node | None) -> object:
+def _literal(node: Node | None) -> object:
     """The Python value of a literal (float, bool, str, nested tuples), None if not one."""
     if node is None:
         return None
     if node.kind in ("num", "str", "bool"):
         return node.value
     if node.kind == "unary" and node.value in ("-", "+") and node.items[0].kind == "num":
-        value = _as_float(node.items[0].value)
+        value = as_float(node.items[0].value)
         return -value if node.value == "-" else value
     if node.kind == "agg":
         items = tuple(_literal(item) for item in node.items)
@@ -332,14 +331,14 @@ _RUNTIME = "run-time"  # a name bound only when the program runs (parameter, FOR
 
 class _Builder:
     def __init__(
-        self, parsed: _Parsed, text: str, source: str | None, outer: dict[str, _Decl]
+        self, parsed: ParsedModule, text: str, source: str | None, outer: dict[str, Decl]
     ) -> None:
         self.text = text
         self.source = source
         self.params = parsed.params
         self.outer = outer
-        self.module_decls: dict[str, _Decl] = {}
-        self.local_decls: dict[tuple[str, str], _Decl] = {}
+        self.module_decls: dict[str, Decl] = {}
+        self.local_decls: dict[tuple[str, str], Decl] = {}
         for decl in parsed.decls:
             key = decl.name.casefold()
             if decl.routine is not None:
@@ -356,7 +355,7 @@ class _Builder:
             value = _literal(decl.value)
             if decl.array or value is None:
                 continue
-            where = _where(source, decl.line)
+            where = location(source, decl.line)
             kind = decl.datatype.casefold()
             if kind == "robtarget":
                 self.targets[decl.name] = _robtarget(decl.name, value, where, decl.line)
@@ -366,9 +365,9 @@ class _Builder:
                 self.wobjs[decl.name] = _wobj(decl.name, value, where, decl.line)
 
     def error(self, line: int, message: str) -> RapidError:
-        return RapidError(f"{_where(self.source, line)}: {message}")
+        return RapidError(f"{location(self.source, line)}: {message}")
 
-    def lookup(self, name: str, scope: _Scope) -> _Decl | str | None:
+    def lookup(self, name: str, scope: _Scope) -> Decl | str | None:
         """The declaration of a plain name seen from `scope`: _RUNTIME for a parameter or a
         FOR variable, the predefined data type for tool0 / wobj0 / load0, None if undeclared."""
         key = name.casefold()
@@ -381,7 +380,7 @@ class _Builder:
         )
         return decl if decl is not None else _PREDEFINED.get(key)
 
-    def check_declared(self, node: _Node, datatype: str, role: str, call: _Call) -> None:
+    def check_declared(self, node: Node, datatype: str, role: str, call: Call) -> None:
         """A name used as `role` (a tooldata, wobjdata, jointtarget) must be declared as one."""
         if node.kind != "name":
             return
@@ -390,16 +389,16 @@ class _Builder:
         found = self.lookup(base.group(), _Scope(call.routine, call.loop_vars))
         if found is None:
             raise self.error(node.line, f"the {role} {base.group()} of {call.name} is not declared")
-        kind = found.datatype if isinstance(found, _Decl) else found
+        kind = found.datatype if isinstance(found, Decl) else found
         if found != _RUNTIME and kind.casefold() != datatype and base.group() == node.value:
             raise self.error(
                 node.line, f"the {role} {node.value} of {call.name} is a {kind}, not a {datatype}"
             )
 
-    def number(self, node: _Node, scope: _Scope, call: _Call) -> float | None:
+    def number(self, node: Node, scope: _Scope, call: Call) -> float | None:
         """A numeric argument [as written], None if known only at run time."""
         if node.kind == "num":
-            return _as_float(node.value)
+            return as_float(node.value)
         if node.kind == "unary" and node.value in ("-", "+"):
             x = self.number(node.items[0], scope, call)
             return None if x is None else (-x if node.value == "-" else x)
@@ -412,23 +411,23 @@ class _Builder:
             found = self.lookup(str(node.value), scope)
             if found is None:
                 raise self.error(node.line, f"{node.value} in {call.name} is not declared")
-            if isinstance(found, _Decl) and found.datatype.casefold() == "num":
+            if isinstance(found, Decl) and found.datatype.casefold() == "num":
                 value = _literal(found.value)
                 return value if isinstance(value, float) else None
             if found == _RUNTIME:
                 return None
-            kind = found.datatype if isinstance(found, _Decl) else found
+            kind = found.datatype if isinstance(found, Decl) else found
             raise self.error(node.line, f"{node.value} in {call.name} is a {kind}, not a num")
         return None
 
-    def target_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
+    def target_pose(self, node: Node, scope: _Scope, call: Call) -> np.ndarray | None:
         """T_wobj_tcp (4, 4) [m] of a move's target: a robtarget's name, an inline robtarget,
         Offs(...) or RelTool(...); None if known only at run time."""
         if node.kind == "agg":
             value = _literal(node)
             if value is None:
                 return None
-            where = _where(self.source, node.line)
+            where = location(self.source, node.line)
             return _robtarget("(inline)", value, where, node.line).T_wobj_tcp
         if node.kind == "name":
             return self.named_pose(node, scope, call)
@@ -438,12 +437,12 @@ class _Builder:
             return None  # a function known at run time (CRobT, ...), or not written yet
         raise self.error(node.line, f"cannot read the target of {call.name}: {self.slice(node)}")
 
-    def named_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
+    def named_pose(self, node: Node, scope: _Scope, call: Call) -> np.ndarray | None:
         """T_wobj_tcp (4, 4) [m] of a robtarget named in a move (declared in the module or in
         the routine); None for a parameter, an array element or a field."""
         self.check_declared(node, "robtarget", "target", call)
         found = self.lookup(str(node.value), scope)  # None: an element or a field
-        if not isinstance(found, _Decl) or found.array:
+        if not isinstance(found, Decl) or found.array:
             return None
         if found.routine is None and self.module_decls.get(found.name.casefold()) is found:
             target = self.targets.get(found.name)
@@ -451,10 +450,10 @@ class _Builder:
         value = _literal(found.value)  # declared in the routine, or in another module
         if value is None:
             return None
-        where = _where(self.source, node.line)
+        where = location(self.source, node.line)
         return _robtarget(found.name, value, where, node.line).T_wobj_tcp
 
-    def offset_pose(self, node: _Node, scope: _Scope, call: _Call) -> np.ndarray | None:
+    def offset_pose(self, node: Node, scope: _Scope, call: Call) -> np.ndarray | None:
         """T_wobj_tcp (4, 4) [m] of Offs(target, x, y, z) or RelTool(target, x, y, z [\\Rx]
         [\\Ry] [\\Rz]) (distances [mm], angles [deg]); None if known only at run time."""
         function = str(node.value)
@@ -484,10 +483,10 @@ class _Builder:
             T = T @ _rotation(axis, angles.get(f"r{axis}") or 0.0)
         return T
 
-    def slice(self, item: _Node | _Arg) -> str:
+    def slice(self, item: Node | Arg) -> str:
         return self.text[item.start : item.end]
 
-    def move(self, call: _Call) -> Move:
+    def move(self, call: Call) -> Move:
         n_targets = MOVES[call.name.casefold()]
         positional = [a.value for a in call.args if not a.optional and a.value is not None]
         if len(positional) < n_targets + 3:
@@ -527,7 +526,7 @@ class _Builder:
             poses[0] if n_targets == 2 else None,
         )
 
-    def declaration(self, decl: _Decl) -> Declaration:
+    def declaration(self, decl: Decl) -> Declaration:
         text = None if decl.value is None else self.slice(decl.value)
         return Declaration(
             decl.name,
@@ -540,7 +539,7 @@ class _Builder:
         )
 
 
-def build_module(source: ModuleText, outer: dict[str, _Decl] | None = None) -> RapidModule:
+def build_module(source: ModuleText, outer: dict[str, Decl] | None = None) -> RapidModule:
     """The typed module of a parsed text, its names resolved in its own module and then in
     `outer` (the data other modules of its task make visible to it, by case-folded name).
     Raises RapidError naming the file and line for a move whose target, tool or work object
@@ -586,7 +585,7 @@ def _label(module: RapidModule) -> str:
 
 
 def _module_error(module: RapidModule, line: int, message: str) -> RapidError:
-    return RapidError(f"{_where(_label(module), line)}: {message}")
+    return RapidError(f"{location(_label(module), line)}: {message}")
 
 
 def _find_wobj(module: RapidModule, wobj: str) -> WobjData:
@@ -745,7 +744,7 @@ def with_oframe(module: RapidModule, wobj: str, T_uframe_oframe: np.ndarray) -> 
     the result back with the encoding the file was read with."""
     T = _check_transform(T_uframe_oframe)
     data = _find_wobj(module, wobj)
-    parser = _Parser(module.text, _label(module))
+    parser = Parser(module.text, _label(module))
     parser.module()
     decl = next(
         d for d in parser.decls if d.routine is None and d.name.casefold() == data.name.casefold()
@@ -763,7 +762,7 @@ def with_value(module: RapidModule, name: str, value: str) -> str:
     the old initializer replaced, or `:= value` added to a declaration that has none. Every
     other character is kept. Raises RapidError if the module declares no such datum; the
     caller reads the result again to check that the value is what the type needs."""
-    parser = _Parser(module.text, _label(module))
+    parser = Parser(module.text, _label(module))
     parser.module()
     decl = next(
         (d for d in parser.decls if d.routine is None and d.name.casefold() == name.casefold()),
@@ -780,7 +779,7 @@ def with_value(module: RapidModule, name: str, value: str) -> str:
     found = pattern.search(line)
     if found is None:
         raise RapidError(
-            f"{_where(_label(module), decl.line)}: the declaration of {decl.name} spans lines; "
+            f"{location(_label(module), decl.line)}: the declaration of {decl.name} spans lines; "
             "give it an initial value in the module"
         )
     written = f"{found.group(1)} := {value};"

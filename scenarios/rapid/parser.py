@@ -1,219 +1,36 @@
 """The RAPID parser: a module's text (a file's bytes checked to be text, not an encrypted or
-binary module) tokenized and parsed by recursive descent into its syntax: data declarations,
-routines (PROC, FUNC, TRAP with their handlers), RECORD and ALIAS types, the `%%%` header,
-the module's attributes, and every instruction statement whatever its name. It resolves no
-name: scenarios.rapid.module builds a typed module from the syntax, scenarios.rapid.task
-resolves names across the modules of a task, scenarios.rapid.flow follows the statements.
+binary module: scenarios.rapid.lexer) tokenized and parsed by recursive descent into its
+syntax (scenarios.rapid.syntax): data declarations, routines (PROC, FUNC, TRAP with their
+handlers), RECORD and ALIAS types, the `%%%` header, the module's attributes, and every
+instruction statement whatever its name; its expressions and arguments are parsed by
+scenarios.rapid.expression_parser. It resolves no name: scenarios.rapid.module builds a
+typed module from the syntax, scenarios.rapid.task resolves names across the modules of a
+task, scenarios.rapid.flow follows the statements.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import ClassVar
 
-from scenarios.errors import ScenarioError
-
-
-def _words(text: str) -> frozenset[str]:
-    return frozenset(text.split())
-
-
-# RAPID's reserved words (not names of data or instructions).
-_RESERVED = _words(
-    "ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR ENDFUNC ENDIF "
-    "ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FALSE FOR FROM FUNC GOTO "
-    "IF INOUT LOCAL MOD MODULE NOSTEPIN NOT NOVIEW OR PERS PROC RAISE READONLY RECORD RETRY "
-    "RETURN STEP SYSMODULE TASK TEST THEN TO TRAP TRUE TRYNEXT UNDO VAR VIEWONLY WHILE WITH "
-    "XOR"
-)
-# Words that open or close a routine or a block: a statement never starts with one.
-_BLOCK_WORDS = _words(
-    "MODULE ENDMODULE PROC ENDPROC FUNC ENDFUNC TRAP ENDTRAP RECORD ENDRECORD ENDIF ELSE "
-    "ELSEIF ENDFOR ENDWHILE ENDTEST CASE DEFAULT BACKWARD ERROR UNDO THEN DO"
+from scenarios.rapid.expression_parser import ExpressionParser
+from scenarios.rapid.lexer import BLOCK_WORDS, RESERVED, Token, check_text, read_text
+from scenarios.rapid.syntax import (
+    MODULE_ATTRIBUTES,
+    Call,
+    Decl,
+    ModuleText,
+    ParsedModule,
+    RapidError,
+    Routine,
 )
 
 
-class RapidError(ScenarioError, ValueError):
-    """A RAPID module that cannot be read or used: the message names the file (if any), the
-    line and what is wrong."""
-
-
-@dataclass(frozen=True)
-class Routine:
-    """A routine of a module: its kind ("PROC", "FUNC" or "TRAP"), its name as declared,
-    whether it is LOCAL (visible in its own module only), its parameters (case-folded) and
-    the line it starts at."""
-
-    kind: str
-    name: str
-    local: bool
-    parameters: frozenset[str]
-    line: int
-
-
-#: The attributes a MODULE may declare.
-MODULE_ATTRIBUTES = ("SYSMODULE", "NOSTEPIN", "VIEWONLY", "READONLY", "NOVIEW")
-
-
-# ---------------------------------------------------------------------------------------------
-# Tokens
-
-
-@dataclass(frozen=True)
-class _Token:
-    kind: str  # "name", "num", "str", "op" or "eof"
-    text: str
-    start: int
-    end: int
-    line: int
-
-    def word(self) -> str:
-        """The upper-case text of a name (RAPID's keywords are case-insensitive), else ""."""
-        return self.text.upper() if self.kind == "name" else ""
-
-    def describe(self) -> str:
-        return "the end of the file" if self.kind == "eof" else f"{self.text!r} at line {self.line}"
-
-
-_TOKEN = re.compile(
-    r"(?P<space>[ \t\r\n\f\v\ufeff]+)"
-    r"|(?P<comment>![^\n]*)"
-    r"|(?P<num>0[xX][0-9A-Fa-f]+|0[bB][01]+|0[oO][0-7]+|(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
-    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
-    r'|(?P<str>"(?:[^"\\\n]|""|\\.)*")'
-    r"|(?P<op>:=|<>|<=|>=|[\[\](){},;:\\.+\-*/<>=%?|])"
-)
-
-
-def _where(source: str | None, line: int) -> str:
-    return f"{source}, line {line}" if source else f"line {line}"
-
-
-def _tokenize(text: str, source: str | None) -> list[_Token]:
-    tokens, pos, line = [], 0, 1
-    while pos < len(text):
-        m = _TOKEN.match(text, pos)
-        if m is None:
-            what = "unterminated string" if text[pos] == '"' else f"unexpected {text[pos]!r}"
-            raise RapidError(f"{_where(source, line)}: {what}")
-        kind = m.lastgroup
-        assert kind is not None
-        if kind == "num" and re.match(r"[A-Za-z_]", text[m.end() : m.end() + 1]):
-            word = re.match(r"\w+", text[pos:])
-            assert word is not None
-            raise RapidError(
-                f"{_where(source, line)}: the name {word.group()!r} starts with a digit (a "
-                "RAPID name starts with a letter)"
-            )
-        if kind not in ("space", "comment"):
-            tokens.append(_Token(kind, m.group(), m.start(), m.end(), line))
-        line += m.group().count("\n")
-        pos = m.end()
-    tokens.append(_Token("eof", "", len(text), len(text), line))
-    return tokens
-
-
-# ---------------------------------------------------------------------------------------------
-# Syntax tree: expressions, arguments, declarations, instruction calls
-
-
-@dataclass(frozen=True)
-class _Node:
-    """An expression: "num", "str", "bool" (value), "placeholder" (value: its text, e.g.
-    "<EXP>"), "name" (value: the text, with any
-    .field / {index}), "agg" (items), "call" (value: the function, args), "unary" (value: the
-    operator, items: the operand) or "binary" (value: the operator, items: both operands).
-    start:end is its text."""
-
-    kind: str
-    start: int
-    end: int
-    line: int
-    value: object = None
-    items: tuple[_Node, ...] = ()
-    args: tuple[_Arg, ...] = ()
-
-
-@dataclass(frozen=True)
-class _Arg:
-    """An argument: positional (name None), named (Name := value) or optional (\\Name, with
-    or without := value)."""
-
-    name: str | None
-    optional: bool
-    value: _Node | None
-    start: int
-    end: int
-
-
-@dataclass(frozen=True)
-class _Decl:
-    name: str
-    datatype: str
-    storage: str
-    scope: str
-    array: bool
-    value: _Node | None
-    line: int
-    routine: str | None
-
-
-@dataclass(frozen=True)
-class _Call:
-    name: str
-    args: tuple[_Arg, ...]
-    line: int
-    routine: str
-    loop_vars: frozenset[str]
-
-
-@dataclass
-class _Parsed:
-    name: str
-    decls: list[_Decl]
-    params: dict[str, frozenset[str]]  # routine (casefold) -> its parameters (casefold)
-    calls: list[_Call]
-    routines: list[Routine]
-    records: list[str]
-    attributes: tuple[str, ...]
-    header: tuple[tuple[str, str], ...]
-    placeholders: list[tuple[str, int]]
-
-
-# ---------------------------------------------------------------------------------------------
-# Parser
-
-
-_BINARY = {
-    "OR": 1,
-    "XOR": 1,
-    "AND": 2,
-    "=": 3,
-    "<>": 3,
-    "<": 3,
-    "<=": 3,
-    ">": 3,
-    ">=": 3,
-    "+": 4,
-    "-": 4,
-    "*": 5,
-    "/": 5,
-    "DIV": 5,
-    "MOD": 5,
-}
-
-
-def _as_float(value: object) -> float:
-    """A number literal's value (the parser stores it as a float)."""
-    assert isinstance(value, int | float), value
-    return float(value)
-
-
-class _Parser:
-    """Recursive descent over the tokens of one module:
+class Parser(ExpressionParser):
+    """Recursive descent over the tokens of one module (its expressions and arguments: see
+    ExpressionParser):
 
     file        := ['%%%' {KEY ':' value} '%%%'] module
     module      := MODULE name ['(' attribute {',' attribute} ')'] {item} ENDMODULE
@@ -227,60 +44,17 @@ class _Parser:
                  | target ':=' expr ';' | '%' expr '%' [arguments] ';'
                  | instruction [arguments] ';'   (any name: RAPID's or a procedure's)
                  | placeholder
-    placeholder := '<' NAME '>'   (also for an item, a value or a name: <DDN>, <EXP>, ...)
-    arguments   := argument {',' argument | optional}
-    argument    := optional | [name ':='] expr
-    optional    := '\\' name [':=' expr | '?' name]
-    expr        := unary {binary-operator expr}   (by precedence)
-    primary     := number | string | TRUE | FALSE | '[' expr {',' expr} ']' | '(' expr ')'
-                 | name '(' arguments ')' | name {'.' name | '{' expr {',' expr} '}'}
     """
 
     def __init__(self, text: str, source: str | None) -> None:
-        self.text = text
-        self.source = source
-        self.tokens = _tokenize(text, source)
-        self.i = 0
-        self.decls: list[_Decl] = []
+        super().__init__(text, source)
+        self.decls: list[Decl] = []
         self.params: dict[str, frozenset[str]] = {}
-        self.calls: list[_Call] = []
+        self.calls: list[Call] = []
         self.routines: list[Routine] = []
         self.records: list[str] = []
-        self.placeholders: list[tuple[str, int]] = []
         self.routine: str | None = None
         self.loop_vars: list[str] = []
-
-    # --- tokens
-
-    def peek(self, k: int = 0) -> _Token:
-        return self.tokens[min(self.i + k, len(self.tokens) - 1)]
-
-    def next(self) -> _Token:
-        tok = self.peek()
-        self.i = min(self.i + 1, len(self.tokens) - 1)
-        return tok
-
-    def at(self, *texts: str) -> bool:
-        """The next token is one of these keywords (any case) or operators."""
-        tok = self.peek()
-        if tok.kind == "name":
-            return tok.word() in texts
-        return tok.kind == "op" and tok.text in texts
-
-    def error(self, line: int, message: str) -> RapidError:
-        return RapidError(f"{_where(self.source, line)}: {message}")
-
-    def expect(self, text: str, context: str) -> _Token:
-        if not self.at(text):
-            tok = self.peek()
-            raise self.error(tok.line, f"expected {text!r} {context}, found {tok.describe()}")
-        return self.next()
-
-    def identifier(self, context: str) -> _Token:
-        tok = self.peek()
-        if tok.kind != "name" or tok.word() in _RESERVED:
-            raise self.error(tok.line, f"expected a name {context}, found {tok.describe()}")
-        return self.next()
 
     def end_statement(self, context: str) -> None:
         """The ';' that ends a declaration or a statement."""
@@ -294,7 +68,7 @@ class _Parser:
             )
         raise self.error(last.line, f"missing ';' after {context} (found {tok.describe()})")
 
-    def skip_to(self, closer: str, opener: _Token, what: str) -> None:
+    def skip_to(self, closer: str, opener: Token, what: str) -> None:
         """Skip the tokens up to and including `closer` (a keyword or an operator)."""
         while not self.at(closer):
             if self.peek().kind == "eof":
@@ -304,7 +78,7 @@ class _Parser:
 
     # --- module
 
-    def module(self) -> _Parsed:
+    def module(self) -> ParsedModule:
         header = self.header()
         self.expect("MODULE", "at the start of the module")
         opener = self.tokens[self.i - 1]
@@ -336,7 +110,7 @@ class _Parser:
         end = self.next()
         if self.peek().kind != "eof":
             raise self.error(end.line, f"text after ENDMODULE: {self.peek().describe()}")
-        return _Parsed(
+        return ParsedModule(
             name,
             self.decls,
             self.params,
@@ -423,7 +197,7 @@ class _Parser:
             value = self.expression()
         self.end_statement(f"the declaration of {name.text}")
         self.decls.append(
-            _Decl(
+            Decl(
                 name.text,
                 datatype.text,
                 storage.word(),
@@ -498,7 +272,7 @@ class _Parser:
                 "TRAP",
                 "RECORD",
             )
-            if tok.kind == "eof" or tok.word() in _BLOCK_WORDS or routine_next:
+            if tok.kind == "eof" or tok.word() in BLOCK_WORDS or routine_next:
                 raise self.error(tok.line, f"{what} has no {ends[-1]} (found {tok.describe()})")
             self.statement()
 
@@ -512,12 +286,12 @@ class _Parser:
         elif self.at_placeholder():  # <SMT>: a statement not written yet
             name = self.placeholder()
             assert self.routine is not None
-            self.calls.append(_Call(name, (), tok.line, self.routine, frozenset(self.loop_vars)))
+            self.calls.append(Call(name, (), tok.line, self.routine, frozenset(self.loop_vars)))
         elif tok.kind != "name":
             raise self.error(tok.line, f"expected an instruction, found {tok.describe()}")
         elif word in self._STATEMENTS:
             self._STATEMENTS[word](self)
-        elif word in _RESERVED:
+        elif word in RESERVED:
             raise self.error(tok.line, f"unexpected {tok.describe()}")
         elif self.peek(1).text == ":":  # a label
             self.next()
@@ -639,11 +413,11 @@ class _Parser:
         self.end_statement(f"the {name.text} instruction")
         assert self.routine is not None
         self.calls.append(
-            _Call(name.text, tuple(args), name.line, self.routine, frozenset(self.loop_vars))
+            Call(name.text, tuple(args), name.line, self.routine, frozenset(self.loop_vars))
         )
 
     # The statements that start with a keyword, by keyword.
-    _STATEMENTS: ClassVar[dict[str, Callable[[_Parser], None]]] = {
+    _STATEMENTS: ClassVar[dict[str, Callable[[Parser], None]]] = {
         "IF": if_statement,
         "FOR": for_statement,
         "WHILE": while_statement,
@@ -658,197 +432,6 @@ class _Parser:
         **dict.fromkeys(("PERS", "CONST", "VAR", "LOCAL", "TASK"), local_declaration),
     }
 
-    def arguments(self, closer: str = ";") -> list[_Arg]:
-        args: list[_Arg] = []
-        if self.at(closer):
-            return args
-        while True:
-            start = self.peek()
-            if self.at("\\"):
-                self.next()
-                name = self.identifier("after '\\'").text
-                value = None
-                if self.at(":="):
-                    self.next()
-                    value = self.expression()
-                elif self.at("?"):  # \A?B: passed on only if the caller's B was given
-                    self.next()
-                    value = self.primary()
-                args.append(_Arg(name, True, value, start.start, self.tokens[self.i - 1].end))
-            else:
-                name = None
-                if start.kind == "name" and self.peek(1).text == ":=":
-                    name = self.next().text
-                    self.next()
-                value = self.expression()
-                args.append(_Arg(name, False, value, start.start, value.end))
-            if self.at(","):
-                self.next()
-            elif not self.at("\\"):
-                return args
-
-    # --- expressions
-
-    def expression(self, min_precedence: int = 1) -> _Node:
-        left = self.unary()
-        while True:
-            tok = self.peek()
-            op = tok.word() or (tok.text if tok.kind == "op" else "")
-            if op not in _BINARY or _BINARY[op] < min_precedence:
-                return left
-            self.next()
-            right = self.expression(_BINARY[op] + 1)
-            left = _Node("binary", left.start, right.end, left.line, op, (left, right))
-
-    def unary(self) -> _Node:
-        tok = self.peek()
-        if self.at("-", "+", "NOT"):
-            self.next()
-            operand = self.expression(3) if tok.word() == "NOT" else self.unary()
-            return _Node("unary", tok.start, operand.end, tok.line, tok.text.upper(), (operand,))
-        return self.primary()
-
-    def primary(self) -> _Node:
-        tok = self.next()
-        if tok.kind == "num":
-            return _Node("num", tok.start, tok.end, tok.line, _number(tok.text))
-        if tok.kind == "str":
-            return _Node("str", tok.start, tok.end, tok.line, _string(tok.text))
-        if tok.word() in ("TRUE", "FALSE"):
-            return _Node("bool", tok.start, tok.end, tok.line, tok.word() == "TRUE")
-        if tok.text == "[":
-            items = self.expressions("]", tok)
-            return _Node("agg", tok.start, self.tokens[self.i - 1].end, tok.line, None, items)
-        if tok.text == "(":
-            inner = self.expression()
-            self.close(")", tok)
-            return replace(inner, start=tok.start, end=self.tokens[self.i - 1].end)
-        if tok.kind == "name" and tok.word() not in _RESERVED:
-            if self.at("("):
-                opener = self.next()
-                args = self.arguments(")")
-                self.close(")", opener)
-                end = self.tokens[self.i - 1].end
-                return _Node("call", tok.start, end, tok.line, tok.text, (), tuple(args))
-            while self.at(".", "{"):
-                if self.next().text == ".":
-                    self.identifier("after '.'")
-                else:
-                    self.expressions("}", self.tokens[self.i - 1])
-            end = self.tokens[self.i - 1].end
-            return _Node("name", tok.start, end, tok.line, self.text[tok.start : end])
-        if tok.text == "<" and self.peek().kind == "name" and self.peek(1).text == ">":
-            self.i -= 1  # <EXP>, <VAR>, <ARG>, <ID>: a value or a name not written yet
-            name = self.placeholder()
-            end = self.tokens[self.i - 1].end
-            return _Node("placeholder", tok.start, end, tok.line, name)
-        raise self.error(tok.line, f"expected a value, found {tok.describe()}")
-
-    def at_placeholder(self) -> bool:
-        """The next tokens are a placeholder: '<' NAME '>' (RAPID's marks of what a program
-        does not hold yet: <SMT>, <EXP>, <DDN>, ...)."""
-        return self.at("<") and self.peek(1).kind == "name" and self.peek(2).text == ">"
-
-    def placeholder(self) -> str:
-        """Consume a placeholder; its text ("<SMT>"), recorded with its line. A module with
-        placeholders loads on a controller; reaching one stops the program."""
-        opener = self.next()
-        name = f"<{self.next().text.upper()}>"
-        self.next()
-        self.placeholders.append((name, opener.line))
-        return name
-
-    def expressions(self, closer: str, opener: _Token) -> tuple[_Node, ...]:
-        """expr {',' expr} closer."""
-        items = [self.expression()]
-        while self.at(","):
-            self.next()
-            items.append(self.expression())
-        self.close(closer, opener)
-        return tuple(items)
-
-    def close(self, closer: str, opener: _Token) -> None:
-        if not self.at(closer):
-            raise self.error(
-                opener.line,
-                f"unbalanced brackets: the {opener.text!r} at line {opener.line} is not closed "
-                f"by {closer!r} (found {self.peek().describe()})",
-            )
-        self.next()
-
-
-def _number(text: str) -> float:
-    if text[:2].lower() in ("0x", "0b", "0o"):
-        return float(int(text, 0))
-    return float(text)
-
-
-def _string(text: str) -> str:
-    body = text[1:-1].replace('""', '"')
-    return re.sub(
-        r"\\([0-9A-Fa-f]{2}|\\)", lambda m: "\\" if m[1] == "\\" else chr(int(m[1], 16)), body
-    )
-
-
-# Characters no RAPID text holds (C0 and C1 controls other than blanks), as Latin-1 decodes
-# the bytes of a binary or encrypted file.
-_CONTROL = re.compile(r"[\x00-\x08\x0e-\x1f\x7f-\x9f]")
-_TEXT_SAMPLE = 4096
-
-
-def _check_text(text: str, label: str | None) -> None:
-    """Refuse a file that is not text: a controller's encrypted module or any binary file
-    (a NUL, more than 1 control character in 200, or a first character that is not printable
-    ASCII, where RAPID starts with MODULE, '%%%' or a comment)."""
-    sample = text[:_TEXT_SAMPLE]
-    first = sample.lstrip(" \t\r\n\f\v\ufeff")[:1]
-    controls = len(_CONTROL.findall(sample))
-    if (
-        "\x00" in sample
-        or controls > max(2, len(sample) // 200)
-        or (first and not (first.isascii() and first.isprintable()))
-    ):
-        raise RapidError(
-            f"{label or 'the module'} is encrypted or binary, not RAPID text (an encrypted "
-            "module can only be loaded by a controller)"
-        )
-
-
-def _read_text(path: Path) -> str:
-    """The file's text as it is (line endings kept): UTF-8, else Latin-1; refuses a binary or
-    encrypted file."""
-    raw = path.read_bytes()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
-    _check_text(text, str(path))
-    return text
-
-
-@dataclass(frozen=True, eq=False)
-class ModuleText:
-    """A module's text parsed but not yet resolved: its file (None for a text), the label
-    its messages use, the text and the syntax the parser read (scenarios.rapid.task resolves
-    names across the modules of a task before building each)."""
-
-    path: Path | None
-    label: str | None
-    text: str
-    parsed: _Parsed
-
-    @property
-    def name(self) -> str:
-        return self.parsed.name
-
-    def global_data(self) -> dict[str, _Decl]:
-        """Its module-level data visible to other modules (not LOCAL), by case-folded name."""
-        return {
-            d.name.casefold(): d
-            for d in self.parsed.decls
-            if d.routine is None and d.scope != "LOCAL"
-        }
-
 
 def parse_module(source: str | Path, name: str | None = None) -> ModuleText:
     """Parse a RAPID module (its text, or its file as a Path) without resolving its names;
@@ -856,11 +439,11 @@ def parse_module(source: str | Path, name: str | None = None) -> ModuleText:
     encrypted or binary."""
     if isinstance(source, Path):
         path: Path | None = source
-        text = _read_text(source)
+        text = read_text(source)
         label: str | None = name or str(source)
     elif "\n" not in source and re.search(r"\.(mod|modx|sys|prg)\s*$", source, re.IGNORECASE):
         raise RapidError(f"{source!r} looks like a file name: pass a Path to read a file")
     else:
         path, text, label = None, source, name
-        _check_text(text, label)
-    return ModuleText(path, label, text, _Parser(text, label).module())
+        check_text(text, label)
+    return ModuleText(path, label, text, Parser(text, label).module())

@@ -31,7 +31,8 @@ from scenarios.rapid.module import (
     WobjData,
     build_module,
 )
-from scenarios.rapid.parser import ModuleText, RapidError, Routine, _Decl, parse_module
+from scenarios.rapid.parser import parse_module
+from scenarios.rapid.syntax import Decl, ModuleText, RapidError, Routine
 
 #: The file name endings of RAPID modules (compared case-insensitively).
 RAPID_SUFFIXES = (".mod", ".modx", ".sys", ".prg")
@@ -219,7 +220,7 @@ def read_task(paths: Sequence[str | Path] | str | Path, strict: bool = True) -> 
     texts = _unique(texts, refuse)
     modules: list[RapidModule] = []
     for text in texts:
-        outer: dict[str, _Decl] = {}
+        outer: dict[str, Decl] = {}
         for other in texts:
             if other is not text:
                 outer |= other.global_data()
