@@ -71,7 +71,8 @@ def reason(message: str, path: Path | None = None) -> str:
 
 def read_files(files: list[Path]) -> dict[str, str | None]:
     """file -> None (read) or the error, with `read_module` of whatever code is importable."""
-    from scenarios.rapid.module import RapidError, read_module
+    from scenarios.rapid.reader import read_module
+    from scenarios.rapid.syntax import RapidError
 
     out: dict[str, str | None] = {}
     for file in files:
@@ -114,7 +115,7 @@ def read_after(
 
 def _read_group(files: list[Path], out: dict[str, str | None]) -> None:
     """Read `files` as one task (strict=False); each file -> None or why it was left out."""
-    from scenarios.rapid.module import RapidError
+    from scenarios.rapid.syntax import RapidError
     from scenarios.rapid.task import read_task
 
     try:

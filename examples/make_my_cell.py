@@ -26,7 +26,7 @@ from models.targets import frame_from_z
 from registration.shapes.mesh import MeshModel
 from scenarios.configuration.config_files import load_config
 from scenarios.offline.placement import nominal_pose
-from scenarios.rapid.module import pose_text
+from scenarios.rapid.oframe import pose_text
 from scenarios.rapid.writer import configuration
 
 HERE = Path(__file__).resolve().parent / "my_cell"

@@ -18,13 +18,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from scenarios.rapid.module import (
-    RapidError,
-    RapidModule,
-    read_module,
-    touch_operations,
-    with_oframe,
-)
+from scenarios.rapid.module import RapidModule
+from scenarios.rapid.oframe import with_oframe
+from scenarios.rapid.reader import read_module
+from scenarios.rapid.syntax import RapidError
+from scenarios.rapid.touches import touch_operations
 
 DATA = Path(__file__).parent / "data" / "rapid"
 TOUCH = DATA / "touch_plate.mod"

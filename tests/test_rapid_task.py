@@ -21,7 +21,8 @@ from cell.robots import irb2400
 from models.robot import TOOLS
 from scenarios.cli.app import main
 from scenarios.rapid.executor import plan_execution
-from scenarios.rapid.module import RapidError, read_module
+from scenarios.rapid.reader import read_module
+from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import read_task
 
 ABB_DRIVER = Path(__file__).parent / "data" / "rapid" / "abb_driver_t_rob1"

@@ -31,7 +31,7 @@ from rrd_reader import read_rrd
 
 from scenarios.jobs.execute import execute_run
 from scenarios.jobs.serve import Serving, serve_job
-from scenarios.rapid.module import read_module
+from scenarios.rapid.reader import read_module
 from scenarios.twin.files import MAX_UPLOAD, FileService
 from scenarios.twin.server import ServeOptions
 

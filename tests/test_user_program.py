@@ -134,7 +134,7 @@ def test_the_module_comes_back_with_only_its_oframe_corrected(run: tuple[Path, P
     assert _rapidcheck(folder / "program.mod").returncode == 0
     # The new oframe moves the object frame to the measured pose of the phantom (in the
     # table frame the calibration identified: microns from the nominal one here).
-    from scenarios.rapid.module import read_module
+    from scenarios.rapid.reader import read_module
 
     read = read_module(folder / "program.mod")
     w = read.wobjs["wobjSkull"]

@@ -27,7 +27,9 @@ from scenarios.rapid.executor import (
     execute_plan,
     plan_execution,
 )
-from scenarios.rapid.module import RapidError, RapidModule, read_module
+from scenarios.rapid.module import RapidModule
+from scenarios.rapid.reader import read_module
+from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task
 from scenarios.rapid.writer import rapid_identifier
 from scenarios.realcell.setup import JobCell

@@ -32,7 +32,7 @@ from scenarios.jobs.plan import JobPlan
 from scenarios.offline.program import OfflineProgram
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
-from scenarios.rapid.module import RapidError
+from scenarios.rapid.syntax import RapidError
 from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell
 from scenarios.results.budget import ErrorBudget

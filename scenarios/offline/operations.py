@@ -24,14 +24,10 @@ from scenarios.errors import ScenarioError
 from scenarios.offline.program import Operation, burr_hole_operations
 from scenarios.offline.settings import OperationsSection, Pick
 from scenarios.offline.targets import generate_targets, read_targets, targets_path
-from scenarios.rapid.module import (
-    RapidError,
-    RapidModule,
-    TouchOperation,
-    WobjData,
-    touch_operations,
-)
+from scenarios.rapid.module import RapidModule, WobjData
+from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task
+from scenarios.rapid.touches import TouchOperation, touch_operations
 
 
 class OperationsError(ScenarioError, ValueError):

@@ -5,9 +5,12 @@
 - `scenarios.rapid.lexer`: a module's text checked to be text and cut into tokens;
 - `scenarios.rapid.expression_parser` and `scenarios.rapid.parser`: the parser of a module's
   tokens into its syntax (expressions and arguments; declarations, routines, statements);
-- `scenarios.rapid.module`: the reader (names and values resolved) and the module's
-  model (`RapidModule`: its data, moves, tools and work objects), and `with_oframe`, which
-  writes a module back with one work object's object frame corrected;
+- `scenarios.rapid.module`: the module's model (`RapidModule`: its data, moves, tools and
+  work objects), and `with_value`, which writes one datum's value into its text;
+- `scenarios.rapid.reader`: the reader (`read_module`: names and values resolved);
+- `scenarios.rapid.touches`: the approach/touch operations of one work object;
+- `scenarios.rapid.oframe`: `with_oframe`, which writes a module back with one work object's
+  object frame corrected;
 - `scenarios.rapid.task`: a task read as a controller runs it, a set of modules (a folder, a
   backup's RAPID/TASKn, or several files) whose names resolve across them, LOCAL scope kept;
 - `scenarios.rapid.instructions`: which RAPID instructions move the arm, and which are known;

@@ -49,7 +49,8 @@ from scenarios.offline.moves import change_tool_safely
 from scenarios.rapid.confdata import Conf, honours, solve_in_configuration
 from scenarios.rapid.flow import Step, execution_order, program_error
 from scenarios.rapid.instructions import is_instruction, is_motion
-from scenarios.rapid.module import RapidError, RapidModule, ToolData
+from scenarios.rapid.module import RapidModule, ToolData
+from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import ModuleScope, RapidTask, task_of
 from scenarios.rapid.writer import configuration, rapid_identifier
 

@@ -1,6 +1,6 @@
 """The order in which a controller runs the statements of a RAPID task, from `main`.
 
-`scenarios.rapid.module` reads a module's data and moves but not its control flow:
+`scenarios.rapid.reader` reads a module's data and moves but not its control flow:
 its moves come in the order of the text. A controller runs `main` (wherever in the task it is
 defined) statement by statement and enters each routine it calls, in whichever module of the
 task it is (scenarios.rapid.task resolves the names, LOCAL routines in their own module). This

@@ -1,42 +1,24 @@
-"""An ABB RAPID module written in RobotStudio for the virtual cell: read it, take the
-approach/touch moves of one work object as the operations to correct, and write it back with
-only that work object's object frame (`oframe`) changed.
+"""An ABB RAPID module's model, as scenarios.rapid.reader reads it: its tools, work objects
+and robtargets declared at module level, its moves, every module-level declaration, its
+routines and instruction statements; and `with_value`, its text with one datum's value
+rewritten (the served controller's symbol writes).
 
 RAPID is in millimetres and scalar-first quaternions [q1 = w, q2, q3, q4]; everything read is
-converted at this edge to metres and 4 x 4 homogeneous transforms. A robtarget is the TCP pose
-in its work object's object frame, so the controller moves the TCP to
-uframe @ oframe @ robtarget: correcting `oframe` corrects every target of that work object.
-
-The syntax comes from scenarios.rapid.parser; this module resolves its names and values. It
-does not run the program: data are taken at their declared values, and a target that depends
-on run-time values (a routine parameter, a FOR variable, a function such as CRobT) is kept with
-no pose.
+converted at the reader to metres and 4 x 4 homogeneous transforms. A robtarget is the TCP
+pose in its work object's object frame, so the controller moves the TCP to
+uframe @ oframe @ robtarget.
 """
 
 from __future__ import annotations
 
-import operator
 import re
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from scenarios.rapid.parser import Parser, parse_module
-from scenarios.rapid.syntax import (
-    Arg,
-    Call,
-    Decl,
-    ModuleText,
-    Node,
-    ParsedModule,
-    RapidError,
-    Routine,
-    as_float,
-    location,
-)
+from scenarios.rapid.parser import Parser
+from scenarios.rapid.syntax import RapidError, Routine, location
 
 # Moves whose leading arguments are: target(s), speed, zone, tool [\WObj]: name -> targets.
 MOVES = {
@@ -51,12 +33,6 @@ MOVES = {
     "movelsync": 1,
     "movecsync": 2,
 }
-
-
-# Data every controller declares in its BASE module.
-_PREDEFINED = {"tool0": "tooldata", "wobj0": "wobjdata", "load0": "loaddata"}
-
-_QUATERNION_NORM_TOLERANCE = 1e-3
 
 
 # ---------------------------------------------------------------------------------------------
@@ -186,574 +162,14 @@ class RapidModule:
         return str(self.path) if self.path is not None else f"module {self.name}"
 
 
-@dataclass(frozen=True, eq=False)
-class TouchOperation:
-    """An operation to correct: the approach and touch TCP poses in the work object's object
-    frame T_wobj_approach, T_wobj_touch (4, 4) [m], the touch move's speed as written and its
-    line. The name is the touch target's name (or expression) as written."""
-
-    name: str
-    T_wobj_approach: np.ndarray
-    T_wobj_touch: np.ndarray
-    speed_touch: str
-    line: int
-
-
-# ---------------------------------------------------------------------------------------------
-# Values: literals, poses
-
-
-def _literal(node: Node | None) -> object:
-    """The Python value of a literal (float, bool, str, nested tuples), None if not one."""
-    if node is None:
-        return None
-    if node.kind in ("num", "str", "bool"):
-        return node.value
-    if node.kind == "unary" and node.value in ("-", "+") and node.items[0].kind == "num":
-        value = as_float(node.items[0].value)
-        return -value if node.value == "-" else value
-    if node.kind == "agg":
-        items = tuple(_literal(item) for item in node.items)
-        return None if any(item is None for item in items) else items
-    return None
-
-
-def _numbers(value: object, n: int) -> np.ndarray | None:
-    if isinstance(value, tuple) and len(value) == n and all(isinstance(v, float) for v in value):
-        return np.array(value, dtype=float)
-    return None
-
-
-def _R_from_quaternion(q: np.ndarray, what: str, where: str) -> np.ndarray:
-    """(3, 3) rotation of a scalar-first quaternion [q1 = w, q2, q3, q4], normalised."""
-    norm = float(np.linalg.norm(q))
-    if abs(norm - 1.0) > _QUATERNION_NORM_TOLERANCE:
-        raise RapidError(
-            f"{where}: the quaternion [{','.join(f'{v:g}' for v in q)}] of {what} has norm "
-            f"{norm:.6g}; RAPID needs a unit quaternion (within {_QUATERNION_NORM_TOLERANCE:g})"
-        )
-    return Rotation.from_quat(q / norm, scalar_first=True).as_matrix()
-
-
-def _pose(value: object, what: str, where: str) -> np.ndarray:
-    """(4, 4) [m] of a RAPID pose [[x, y, z], [q1, q2, q3, q4]] in mm."""
-    if isinstance(value, tuple) and len(value) == 2:
-        p, q = _numbers(value[0], 3), _numbers(value[1], 4)
-        if p is not None and q is not None:
-            T = np.eye(4)
-            T[:3, :3] = _R_from_quaternion(q, what, where)
-            T[:3, 3] = p * 1e-3
-            return T
-    raise RapidError(f"{where}: {what} must be a pose [[x,y,z],[q1,q2,q3,q4]]")
-
-
-def _bool(value: object, what: str, where: str) -> bool:
-    if not isinstance(value, bool):
-        raise RapidError(f"{where}: {what} must be TRUE or FALSE")
-    return value
-
-
-def _tool(name: str, value: object, where: str, line: int) -> ToolData:
-    if not (isinstance(value, tuple) and len(value) == 3):
-        raise RapidError(f"{where}: tooldata {name} must be [robhold, tframe, tload]")
-    load = value[2]
-    mass = load[0] if isinstance(load, tuple) and len(load) == 6 else None
-    cog = _numbers(load[1], 3) if isinstance(load, tuple) and len(load) == 6 else None
-    if not isinstance(mass, float) or cog is None:
-        raise RapidError(
-            f"{where}: the tload of tooldata {name} must be [mass, [x,y,z], [q1,q2,q3,q4], "
-            "ix, iy, iz]"
-        )
-    return ToolData(
-        name,
-        _bool(value[0], f"the robhold of tooldata {name}", where),
-        _pose(value[1], f"the tframe of tooldata {name}", where),
-        mass,
-        cog * 1e-3,
-        line,
-    )
-
-
-def _wobj(name: str, value: object, where: str, line: int) -> WobjData:
-    if not (isinstance(value, tuple) and len(value) == 5 and isinstance(value[2], str)):
-        raise RapidError(
-            f"{where}: wobjdata {name} must be [robhold, ufprog, ufmec, uframe, oframe]"
-        )
-    return WobjData(
-        name,
-        _bool(value[0], f"the robhold of wobjdata {name}", where),
-        _bool(value[1], f"the ufprog of wobjdata {name}", where),
-        value[2],
-        _pose(value[3], f"the uframe of wobjdata {name}", where),
-        _pose(value[4], f"the oframe of wobjdata {name}", where),
-        line,
-    )
-
-
-def _robtarget(name: str, value: object, where: str, line: int) -> RobTarget:
-    if isinstance(value, tuple) and len(value) == 4:
-        conf, eax = _numbers(value[2], 4), _numbers(value[3], 6)
-        if conf is not None and eax is not None and np.all(conf == np.round(conf)):
-            T = _pose(value[:2], f"robtarget {name}", where)
-            return RobTarget(name, T, conf.astype(int), eax, line)
-    raise RapidError(
-        f"{where}: robtarget {name} must be "
-        "[[x,y,z],[q1,q2,q3,q4],[cf1,cf4,cf6,cfx],[eax_a,eax_b,eax_c,eax_d,eax_e,eax_f]] "
-        "with integer configuration"
-    )
-
-
-def _translation(d_m: np.ndarray) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, 3] = d_m
-    return T
-
-
-def _rotation(axis: str, angle_deg: float) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = Rotation.from_euler(axis, angle_deg, degrees=True).as_matrix()
-    return T
-
-
-# ---------------------------------------------------------------------------------------------
-# From the syntax tree to the typed module
-
-
-@dataclass(frozen=True)
-class _Scope:
-    routine: str
-    loop_vars: frozenset[str]
-
-
-_ARITHMETIC = {"+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv}
-_RUNTIME = "run-time"  # a name bound only when the program runs (parameter, FOR variable)
-
-
-class _Builder:
-    def __init__(
-        self, parsed: ParsedModule, text: str, source: str | None, outer: dict[str, Decl]
-    ) -> None:
-        self.text = text
-        self.source = source
-        self.params = parsed.params
-        self.outer = outer
-        self.module_decls: dict[str, Decl] = {}
-        self.local_decls: dict[tuple[str, str], Decl] = {}
-        for decl in parsed.decls:
-            key = decl.name.casefold()
-            if decl.routine is not None:
-                self.local_decls[(decl.routine.casefold(), key)] = decl
-            elif key in self.module_decls:
-                first = self.module_decls[key].line
-                raise self.error(decl.line, f"{decl.name} is declared twice (also at line {first})")
-            else:
-                self.module_decls[key] = decl
-        self.targets: dict[str, RobTarget] = {}
-        self.tools: dict[str, ToolData] = {}
-        self.wobjs: dict[str, WobjData] = {}
-        for decl in self.module_decls.values():
-            value = _literal(decl.value)
-            if decl.array or value is None:
-                continue
-            where = location(source, decl.line)
-            kind = decl.datatype.casefold()
-            if kind == "robtarget":
-                self.targets[decl.name] = _robtarget(decl.name, value, where, decl.line)
-            elif kind == "tooldata":
-                self.tools[decl.name] = _tool(decl.name, value, where, decl.line)
-            elif kind == "wobjdata":
-                self.wobjs[decl.name] = _wobj(decl.name, value, where, decl.line)
-
-    def error(self, line: int, message: str) -> RapidError:
-        return RapidError(f"{location(self.source, line)}: {message}")
-
-    def lookup(self, name: str, scope: _Scope) -> Decl | str | None:
-        """The declaration of a plain name seen from `scope`: _RUNTIME for a parameter or a
-        FOR variable, the predefined data type for tool0 / wobj0 / load0, None if undeclared."""
-        key = name.casefold()
-        if key in scope.loop_vars or key in self.params.get(scope.routine.casefold(), ()):
-            return _RUNTIME
-        decl = (
-            self.local_decls.get((scope.routine.casefold(), key))
-            or self.module_decls.get(key)
-            or self.outer.get(key)
-        )
-        return decl if decl is not None else _PREDEFINED.get(key)
-
-    def check_declared(self, node: Node, datatype: str, role: str, call: Call) -> None:
-        """A name used as `role` (a tooldata, wobjdata, jointtarget) must be declared as one."""
-        if node.kind != "name":
-            return
-        base = re.match(r"[A-Za-z_]\w*", str(node.value))
-        assert base is not None
-        found = self.lookup(base.group(), _Scope(call.routine, call.loop_vars))
-        if found is None:
-            raise self.error(node.line, f"the {role} {base.group()} of {call.name} is not declared")
-        kind = found.datatype if isinstance(found, Decl) else found
-        if found != _RUNTIME and kind.casefold() != datatype and base.group() == node.value:
-            raise self.error(
-                node.line, f"the {role} {node.value} of {call.name} is a {kind}, not a {datatype}"
-            )
-
-    def number(self, node: Node, scope: _Scope, call: Call) -> float | None:
-        """A numeric argument [as written], None if known only at run time."""
-        if node.kind == "num":
-            return as_float(node.value)
-        if node.kind == "unary" and node.value in ("-", "+"):
-            x = self.number(node.items[0], scope, call)
-            return None if x is None else (-x if node.value == "-" else x)
-        if node.kind == "binary" and node.value in _ARITHMETIC:
-            a, b = (self.number(item, scope, call) for item in node.items)
-            if a is None or b is None or (node.value == "/" and b == 0.0):
-                return None
-            return _ARITHMETIC[str(node.value)](a, b)
-        if node.kind == "name" and re.fullmatch(r"[A-Za-z_]\w*", str(node.value)):
-            found = self.lookup(str(node.value), scope)
-            if found is None:
-                raise self.error(node.line, f"{node.value} in {call.name} is not declared")
-            if isinstance(found, Decl) and found.datatype.casefold() == "num":
-                value = _literal(found.value)
-                return value if isinstance(value, float) else None
-            if found == _RUNTIME:
-                return None
-            kind = found.datatype if isinstance(found, Decl) else found
-            raise self.error(node.line, f"{node.value} in {call.name} is a {kind}, not a num")
-        return None
-
-    def target_pose(self, node: Node, scope: _Scope, call: Call) -> np.ndarray | None:
-        """T_wobj_tcp (4, 4) [m] of a move's target: a robtarget's name, an inline robtarget,
-        Offs(...) or RelTool(...); None if known only at run time."""
-        if node.kind == "agg":
-            value = _literal(node)
-            if value is None:
-                return None
-            where = location(self.source, node.line)
-            return _robtarget("(inline)", value, where, node.line).T_wobj_tcp
-        if node.kind == "name":
-            return self.named_pose(node, scope, call)
-        if node.kind == "call" and str(node.value).casefold() in ("offs", "reltool"):
-            return self.offset_pose(node, scope, call)
-        if node.kind in ("call", "placeholder"):
-            return None  # a function known at run time (CRobT, ...), or not written yet
-        raise self.error(node.line, f"cannot read the target of {call.name}: {self.slice(node)}")
-
-    def named_pose(self, node: Node, scope: _Scope, call: Call) -> np.ndarray | None:
-        """T_wobj_tcp (4, 4) [m] of a robtarget named in a move (declared in the module or in
-        the routine); None for a parameter, an array element or a field."""
-        self.check_declared(node, "robtarget", "target", call)
-        found = self.lookup(str(node.value), scope)  # None: an element or a field
-        if not isinstance(found, Decl) or found.array:
-            return None
-        if found.routine is None and self.module_decls.get(found.name.casefold()) is found:
-            target = self.targets.get(found.name)
-            return None if target is None else target.T_wobj_tcp.copy()
-        value = _literal(found.value)  # declared in the routine, or in another module
-        if value is None:
-            return None
-        where = location(self.source, node.line)
-        return _robtarget(found.name, value, where, node.line).T_wobj_tcp
-
-    def offset_pose(self, node: Node, scope: _Scope, call: Call) -> np.ndarray | None:
-        """T_wobj_tcp (4, 4) [m] of Offs(target, x, y, z) or RelTool(target, x, y, z [\\Rx]
-        [\\Ry] [\\Rz]) (distances [mm], angles [deg]); None if known only at run time."""
-        function = str(node.value)
-        positional = [a.value for a in node.args if not a.optional and a.value is not None]
-        if len(positional) != 4:
-            raise self.error(node.line, f"{function} needs a target and three distances")
-        T_p = self.target_pose(positional[0], scope, call)
-        d = [self.number(arg, scope, call) for arg in positional[1:]]
-        angles = {
-            a.name.casefold(): self.number(a.value, scope, call)
-            for a in node.args
-            if a.optional and a.name and a.value is not None
-        }
-        if T_p is None or any(x is None for x in d + list(angles.values())):
-            return None
-        d_m = np.array(d, dtype=float) * 1e-3
-        if function.casefold() == "offs":
-            # Offs: the displacement is along the work object's axes; orientation kept.
-            T_p[:3, 3] += d_m
-            return T_p
-        # RelTool: translation along the target's own (tool) axes first, then rotations
-        # about the tool's x, then the new y, then the new z axis (ABB's RelTool
-        # reference; RoboDK's robomath.RelTool, written to match it, computes
-        # pose * transl(x, y, z) * rotx(rx) * roty(ry) * rotz(rz)).
-        T = T_p @ _translation(d_m)
-        for axis in ("x", "y", "z"):
-            T = T @ _rotation(axis, angles.get(f"r{axis}") or 0.0)
-        return T
-
-    def slice(self, item: Node | Arg) -> str:
-        return self.text[item.start : item.end]
-
-    def move(self, call: Call) -> Move:
-        n_targets = MOVES[call.name.casefold()]
-        positional = [a.value for a in call.args if not a.optional and a.value is not None]
-        if len(positional) < n_targets + 3:
-            needs = "circle point, target" if n_targets == 2 else "target"
-            raise self.error(
-                call.line,
-                f"{call.name} needs {needs}, speed, zone and tool (found "
-                f"{len(positional)} arguments)",
-            )
-        scope = _Scope(call.routine, call.loop_vars)
-        *targets, speed, zone, tool = positional[: n_targets + 3]
-        self.check_declared(tool, "tooldata", "tool", call)
-        wobj = next(
-            (a for a in call.args if a.optional and (a.name or "").casefold() == "wobj"), None
-        )
-        if wobj is not None:
-            if wobj.value is None:
-                raise self.error(call.line, f"\\WObj of {call.name} needs := and a work object")
-            self.check_declared(wobj.value, "wobjdata", "work object", call)
-        if call.name.casefold() == "moveabsj":
-            self.check_declared(targets[0], "jointtarget", "target", call)
-            poses: list[np.ndarray | None] = [None]
-        else:
-            poses = [self.target_pose(t, scope, call) for t in targets]
-        return Move(
-            call.name,
-            self.slice(targets[-1]),
-            poses[-1],
-            self.slice(speed),
-            self.slice(zone),
-            self.slice(tool),
-            None if wobj is None or wobj.value is None else self.slice(wobj.value),
-            call.line,
-            call.routine,
-            tuple(self.slice(a) for a in call.args if a.optional),
-            self.slice(targets[0]) if n_targets == 2 else None,
-            poses[0] if n_targets == 2 else None,
-        )
-
-    def declaration(self, decl: Decl) -> Declaration:
-        text = None if decl.value is None else self.slice(decl.value)
-        return Declaration(
-            decl.name,
-            decl.datatype,
-            decl.storage,
-            decl.scope,
-            _literal(decl.value),
-            text,
-            decl.line,
-        )
-
-
-def build_module(source: ModuleText, outer: dict[str, Decl] | None = None) -> RapidModule:
-    """The typed module of a parsed text, its names resolved in its own module and then in
-    `outer` (the data other modules of its task make visible to it, by case-folded name).
-    Raises RapidError naming the file and line for a move whose target, tool or work object
-    is declared nowhere, or data that are not what their type needs."""
-    parsed, text, label = source.parsed, source.text, source.label
-    builder = _Builder(parsed, text, label, outer or {})
-    moves = tuple(builder.move(c) for c in parsed.calls if c.name.casefold() in MOVES)
-    return RapidModule(
-        parsed.name,
-        text,
-        builder.tools,
-        builder.wobjs,
-        builder.targets,
-        moves,
-        source.path,
-        {d.name: builder.declaration(d) for d in builder.module_decls.values()},
-        tuple(parsed.routines),
-        tuple(Instruction(c.name, c.line, c.routine) for c in parsed.calls),
-        tuple(parsed.records),
-        parsed.attributes,
-        parsed.header,
-        tuple(parsed.placeholders),
-    )
-
-
-def read_module(source: str | Path, name: str | None = None) -> RapidModule:
-    """Read one RAPID module: `source` is its text (str) or its file (Path); `name` is what
-    error messages call it (default: the file's path). Every instruction is read whatever its
-    name (scenarios.rapid.task names the procedures defined nowhere). Raises RapidError on a
-    syntax error, an encrypted or binary file, a move whose target, tool or work object is
-    not declared in the module, or data that are not what their type needs (e.g. a
-    quaternion off unit length by more than 1e-3). A task of several modules:
-    scenarios.rapid.task.read_task."""
-    return build_module(parse_module(source, name))
-
-
-# ---------------------------------------------------------------------------------------------
-# Operations: approach / touch pairs of one work object
-
-
-def _label(module: RapidModule) -> str:
-    return str(module.path) if module.path is not None else f"module {module.name}"
-
-
-def _module_error(module: RapidModule, line: int, message: str) -> RapidError:
-    return RapidError(f"{location(_label(module), line)}: {message}")
-
-
-def _find_wobj(module: RapidModule, wobj: str) -> WobjData:
+def find_wobj(module: RapidModule, wobj: str) -> WobjData:
+    """The module's wobjdata named `wobj` (any case); raises RapidError naming those declared
+    if it has none."""
     for name, data in module.wobjs.items():
         if name.casefold() == wobj.casefold():
             return data
     declared = ", ".join(module.wobjs) or "none"
-    raise RapidError(f"{_label(module)}: no wobjdata {wobj!r} is declared (declared: {declared})")
-
-
-def _same(a: str, b: str) -> bool:
-    """Two targets as written are the same (RAPID names are case-insensitive)."""
-    return re.sub(r"\s", "", a).casefold() == re.sub(r"\s", "", b).casefold()
-
-
-_PAIRS_HINT = "list the (approach, touch) target pairs of this work object in the config"
-
-
-def touch_operations(
-    module: RapidModule, wobj: str, pairs: Sequence[tuple[str, str]] | None = None
-) -> tuple[TouchOperation, ...]:
-    """The approach/touch operations of the moves that use work object `wobj`.
-
-    Without `pairs`, read from the program's pattern, in the order of the text: within one
-    routine, a MoveL with a `fine` zone is a touch, and the move before it with the same work
-    object (a MoveJ or a MoveL that is not itself a touch) its approach; a move right after a
-    touch is the move back (or a transit); moves with another work object separate the
-    patterns. With `pairs`, each (approach, touch) names a robtarget or a target expression
-    as written in a move with `wobj` (e.g. "Offs(p10,0,0,50)"). Raises RapidError when the
-    work object is not declared or no move uses it, or when the pattern cannot be read (then:
-    list the pairs in the config)."""
-    data = _find_wobj(module, wobj)
-    moves = [
-        m for m in module.moves if m.wobj is not None and m.wobj.casefold() == data.name.casefold()
-    ]
-    mine = {id(m) for m in moves}
-    if not any(m.instruction.casefold() != "moveabsj" for m in moves):
-        raise _module_error(
-            module, data.line, f"the work object {data.name} holds no robtarget used in any move"
-        )
-    if pairs is not None:
-        return tuple(_paired(module, moves, data, pair) for pair in pairs)
-    operations: list[TouchOperation] = []
-    previous: Move | None = None  # the move before, in the same routine, with the same wobj
-    touch: TouchOperation | None = None  # the operation `previous` touched, if it is a touch
-    for m in module.moves:
-        if id(m) not in mine or (previous is not None and previous.routine != m.routine):
-            previous = touch = None
-            if id(m) not in mine:
-                continue
-        if not (m.instruction.casefold() == "movel" and m.zone.casefold() == "fine"):
-            previous, touch = m, None
-            continue
-        if touch is not None and previous is not None:
-            if m.T_wobj_tcp is not None and np.allclose(m.T_wobj_tcp, touch.T_wobj_approach):
-                previous, touch = m, None  # the move back to the approach, stopping there
-                continue
-            raise _module_error(
-                module,
-                m.line,
-                f"{m.instruction} {m.target} with a fine zone follows the touch at line "
-                f"{previous.line} and does not go back to its approach: cannot tell approach "
-                f"from touch; {_PAIRS_HINT}",
-            )
-        if previous is None or previous.instruction.casefold() not in ("movej", "movel"):
-            raise _module_error(
-                module,
-                m.line,
-                f"the touch {m.instruction} {m.target} has no MoveJ or MoveL approach with "
-                f"{data.name} before it; {_PAIRS_HINT}",
-            )
-        if previous.T_wobj_tcp is None or m.T_wobj_tcp is None:
-            late = previous if previous.T_wobj_tcp is None else m
-            raise _module_error(
-                module,
-                late.line,
-                f"the target {late.target} is known only at run time; {_PAIRS_HINT} with "
-                "targets declared in the module",
-            )
-        touch = TouchOperation(m.target, previous.T_wobj_tcp, m.T_wobj_tcp, m.speed, m.line)
-        operations.append(touch)
-        previous = m
-    if not operations:
-        raise _module_error(
-            module,
-            data.line,
-            f"no approach/touch pattern (a MoveL with a fine zone after a MoveJ or MoveL) "
-            f"among the moves with {data.name}; {_PAIRS_HINT}",
-        )
-    return tuple(operations)
-
-
-def _paired(
-    module: RapidModule, moves: list[Move], data: WobjData, pair: tuple[str, str]
-) -> TouchOperation:
-    approach, touch = pair
-    touch_move = next((m for m in moves if _same(m.target, touch)), None)
-    if touch_move is None or touch_move.T_wobj_tcp is None:
-        raise _module_error(
-            module,
-            data.line,
-            f"no move with {data.name} goes to the touch target {touch!r} of the pair "
-            f"({approach!r}, {touch!r})",
-        )
-    approach_move = next((m for m in moves if _same(m.target, approach)), None)
-    if approach_move is not None and approach_move.T_wobj_tcp is not None:
-        T_approach = approach_move.T_wobj_tcp
-    else:
-        target = next((t for n, t in module.targets.items() if _same(n, approach)), None)
-        if target is None:
-            raise _module_error(
-                module,
-                data.line,
-                f"the approach target {approach!r} of the pair ({approach!r}, {touch!r}) is "
-                f"neither a declared robtarget nor the target of a move with {data.name}",
-            )
-        T_approach = target.T_wobj_tcp
-    return TouchOperation(
-        touch_move.target, T_approach, touch_move.T_wobj_tcp, touch_move.speed, touch_move.line
-    )
-
-
-# ---------------------------------------------------------------------------------------------
-# Writer
-
-
-def _format(x: float, decimals: int) -> str:
-    text = f"{x:.{decimals}f}".rstrip("0").rstrip(".")
-    return "0" if text in ("", "-0", "-") else text
-
-
-def pose_text(T: np.ndarray, separator: str = ",") -> str:
-    """A RAPID pose [[x,y,z],[q1,q2,q3,q4]] of T (4, 4) [m]: mm to 4 decimals, the
-    scalar-first unit quaternion to 8 decimals with q1 >= 0, trailing zeros dropped."""
-    q = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
-    q = q if q[0] >= 0 else -q
-    p = separator.join(_format(v, 4) for v in T[:3, 3] * 1e3)
-    return f"[[{p}]{separator}[{separator.join(_format(v, 8) for v in q)}]]"
-
-
-def _check_transform(T: np.ndarray) -> np.ndarray:
-    T = np.asarray(T, dtype=float)
-    if T.shape != (4, 4) or not np.allclose(T[3], [0, 0, 0, 1]):
-        raise ValueError(f"T_uframe_oframe must be a (4, 4) homogeneous transform, got {T}")
-    R = T[:3, :3]
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
-        raise ValueError("the rotation of T_uframe_oframe is not a proper rotation")
-    return T
-
-
-def with_oframe(module: RapidModule, wobj: str, T_uframe_oframe: np.ndarray) -> str:
-    """The module's text with only the `oframe` of work object `wobj` replaced by
-    T_uframe_oframe (4, 4) [m], written in mm and a scalar-first quaternion (see pose_text),
-    with the separator the old oframe used (", " or ","). Every other character (names,
-    order, comments, whitespace, line endings) is kept; a CONST wobjdata is edited too. Write
-    the result back with the encoding the file was read with."""
-    T = _check_transform(T_uframe_oframe)
-    data = _find_wobj(module, wobj)
-    parser = Parser(module.text, _label(module))
-    parser.module()
-    decl = next(
-        d for d in parser.decls if d.routine is None and d.name.casefold() == data.name.casefold()
-    )
-    assert decl.value is not None and decl.value.kind == "agg"  # read_module checked it
-    oframe = decl.value.items[4]
-    old = module.text[oframe.start : oframe.end]
-    new = pose_text(T, ", " if ", " in old else ",")
-    return module.text[: oframe.start] + new + module.text[oframe.end :]
+    raise RapidError(f"{module.label}: no wobjdata {wobj!r} is declared (declared: {declared})")
 
 
 def with_value(module: RapidModule, name: str, value: str) -> str:
@@ -762,14 +178,14 @@ def with_value(module: RapidModule, name: str, value: str) -> str:
     the old initializer replaced, or `:= value` added to a declaration that has none. Every
     other character is kept. Raises RapidError if the module declares no such datum; the
     caller reads the result again to check that the value is what the type needs."""
-    parser = Parser(module.text, _label(module))
+    parser = Parser(module.text, module.label)
     parser.module()
     decl = next(
         (d for d in parser.decls if d.routine is None and d.name.casefold() == name.casefold()),
         None,
     )
     if decl is None:
-        raise RapidError(f"{_label(module)}: no module-level datum {name!r} is declared")
+        raise RapidError(f"{module.label}: no module-level datum {name!r} is declared")
     text = module.text
     if decl.value is not None:
         return text[: decl.value.start] + value + text[decl.value.end :]
@@ -779,7 +195,7 @@ def with_value(module: RapidModule, name: str, value: str) -> str:
     found = pattern.search(line)
     if found is None:
         raise RapidError(
-            f"{location(_label(module), decl.line)}: the declaration of {decl.name} spans lines; "
+            f"{location(module.label, decl.line)}: the declaration of {decl.name} spans lines; "
             "give it an initial value in the module"
         )
     written = f"{found.group(1)} := {value};"

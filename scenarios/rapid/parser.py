@@ -3,7 +3,7 @@ binary module: scenarios.rapid.lexer) tokenized and parsed by recursive descent 
 syntax (scenarios.rapid.syntax): data declarations, routines (PROC, FUNC, TRAP with their
 handlers), RECORD and ALIAS types, the `%%%` header, the module's attributes, and every
 instruction statement whatever its name; its expressions and arguments are parsed by
-scenarios.rapid.expression_parser. It resolves no name: scenarios.rapid.module builds a
+scenarios.rapid.expression_parser. It resolves no name: scenarios.rapid.reader builds a
 typed module from the syntax, scenarios.rapid.task resolves names across the modules of a
 task, scenarios.rapid.flow follows the statements.
 """

@@ -2,7 +2,7 @@
 expression and argument nodes, the data declarations, the instruction calls and routines of a
 module, the module's syntax as a whole (`ParsedModule`) and its text with it (`ModuleText`),
 and `RapidError`, the error every read of RAPID raises. Nothing here resolves a name:
-scenarios.rapid.module builds the typed module from this syntax.
+scenarios.rapid.reader builds the typed module from this syntax.
 """
 
 from __future__ import annotations

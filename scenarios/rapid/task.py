@@ -29,9 +29,9 @@ from scenarios.rapid.module import (
     RobTarget,
     ToolData,
     WobjData,
-    build_module,
 )
 from scenarios.rapid.parser import parse_module
+from scenarios.rapid.reader import build_module
 from scenarios.rapid.syntax import Decl, ModuleText, RapidError, Routine
 
 #: The file name endings of RAPID modules (compared case-insensitively).

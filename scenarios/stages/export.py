@@ -18,7 +18,7 @@ from scenarios.offline.operations import UserProgram
 from scenarios.offline.program import OfflineProgram
 from scenarios.outputs import exports
 from scenarios.outputs.files import write_program
-from scenarios.rapid.module import with_oframe
+from scenarios.rapid.oframe import with_oframe
 from scenarios.rapid.writer import Filter
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome

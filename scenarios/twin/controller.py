@@ -36,7 +36,9 @@ from scenarios.rapid.executor import (
     run_move,
     start_plan,
 )
-from scenarios.rapid.module import RapidError, RapidModule, read_module
+from scenarios.rapid.module import RapidModule
+from scenarios.rapid.reader import read_module
+from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task
 from scenarios.twin.egm import EgmServer
 from scenarios.twin.elog import EventLog

@@ -9,7 +9,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from scenarios.rapid.module import Declaration, RapidError, RapidModule, read_module, with_value
+from scenarios.rapid.module import Declaration, RapidModule, with_value
+from scenarios.rapid.reader import read_module
+from scenarios.rapid.syntax import RapidError
 from scenarios.twin.errors import ControllerError, bad_request, forbidden, not_found
 
 _NINE = "9E+09"
