@@ -25,7 +25,8 @@ from scenarios.cli.app import main
 from scenarios.configuration.config_files import load_config
 from scenarios.jobs.execute import execute_in_cell, job_program, job_targets, rebuild_job_cell
 from scenarios.jobs.plan import job_robot, object_models
-from scenarios.rapid.executor import ExecutionError, execute_plan, plan_execution
+from scenarios.rapid.executor import ExecutionError, execute_plan
+from scenarios.rapid.planner import plan_execution
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.writer import configuration

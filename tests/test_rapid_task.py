@@ -20,7 +20,7 @@ import pytest
 from cell.robots import irb2400
 from models.robot import TOOLS
 from scenarios.cli.app import main
-from scenarios.rapid.executor import plan_execution
+from scenarios.rapid.planner import plan_execution
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import read_task

@@ -6,7 +6,7 @@ The run folder's config.yaml rebuilds the job's real cell exactly as `twincell r
 (the same seed: the same real arm, the same true placement of the object), with the
 controller moving its nominal arm: no calibration and no absolute accuracy, the arm's
 kinematics as its data sheet gives them. The program (program.mod, or `--program`) is planned
-on that nominal arm before the cell is built (scenarios.rapid.executor): a program that
+on that nominal arm before the cell is built (scenarios.rapid.planner): a program that
 cannot run is refused without any motion. Then it runs, and at each touch (a MoveL to a stop
 point) the evaluator records the truth; a touch whose robtarget stands for one of the job's
 targets (the writer's p<Name>Touch, or a user program's own touch robtarget) is measured
@@ -41,7 +41,7 @@ from scenarios.jobs.exported import (
 from scenarios.jobs.pipeline import job_cell
 from scenarios.jobs.plan import job_robot, object_models
 from scenarios.offline.operations import UserProgram, read_user_program
-from scenarios.rapid.executor import plan_execution
+from scenarios.rapid.planner import plan_execution
 from scenarios.realcell.setup import JobCell
 from scenarios.results.run import RunNotEndedError, RunResult
 from scenarios.stages.export import TASK_FOLDER

@@ -19,15 +19,10 @@ from models.model import ObjectModel
 from models.robot import TOOLS
 from scenarios.configuration.job_config import JobConfig
 from scenarios.offline.operations import UserProgram
-from scenarios.rapid.executor import (
-    ExecutedMove,
-    ExecutionPlan,
-    ExecutionRecord,
-    cell_tools,
-    execute_plan,
-    plan_execution,
-)
+from scenarios.rapid.execution_plan import ExecutionPlan
+from scenarios.rapid.executor import ExecutedMove, ExecutionRecord, execute_plan
 from scenarios.rapid.module import RapidModule
+from scenarios.rapid.planner import cell_tools, plan_execution
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task

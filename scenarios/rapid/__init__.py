@@ -18,6 +18,9 @@
 - `scenarios.rapid.writer`: the corrected offline program written as a module (program.mod);
 - `scenarios.rapid.flow`: the order in which a controller runs a task's statements;
 - `scenarios.rapid.confdata`: a robtarget's configuration data, and the solution it asks for;
-- `scenarios.rapid.executor`: a module or a task run on the cell's controller the way an IRC5
-  without absolute accuracy runs it (the job's exported program and `twincell execute`).
+- `scenarios.rapid.planner`: a module or a task planned for the cell's controller the way an
+  IRC5 without absolute accuracy runs it (the job's exported program and `twincell execute`),
+  each move's data resolved by `scenarios.rapid.move_data` and its joints by
+  `scenarios.rapid.nominal_motion`, into an `scenarios.rapid.execution_plan`;
+- `scenarios.rapid.executor`: that plan run on the cell's controller.
 """

@@ -3,11 +3,11 @@ the program pointer, execution, speed ratio, I/O, event log) over the cell's con
 and the one thread that moves the cell.
 
 The cell is moved by one worker thread only: a RAPID program started by a client runs there
-on the executor `twincell execute` uses (scenarios.rapid.executor: planned on the nominal
-arm when the program pointer is reset, then move by move), and so does the streaming of
-an external guidance (EGM). Requests from clients never touch the cell: they read the
-snapshot the worker publishes every 4 ms of the controller's time (encoders, flange, table,
-tool) and hand commands to the worker.
+on the executor `twincell execute` uses (planned on the nominal arm when the program pointer
+is reset: scenarios.rapid.planner; then run move by move: scenarios.rapid.executor), and so
+does the streaming of an external guidance (EGM). Requests from clients never touch the cell:
+they read the snapshot the worker publishes every 4 ms of the controller's time (encoders,
+flange, table, tool) and hand commands to the worker.
 
 Time: the worker paces the cell's simulated time to the wall clock (`speed` times faster),
 so that clients that poll and time out see a controller's timing. Time runs while something
@@ -26,17 +26,16 @@ from pathlib import Path
 import numpy as np
 
 from cell import CellError, Controller, MotionHaltedError, SupervisionError
+from scenarios.rapid.execution_plan import ExecutionPlan
 from scenarios.rapid.executor import (
     ExecutedMove,
     ExecutionError,
-    ExecutionPlan,
     ExecutionRecord,
-    cell_tools,
-    plan_execution,
     run_move,
     start_plan,
 )
 from scenarios.rapid.module import RapidModule
+from scenarios.rapid.planner import cell_tools, plan_execution
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task

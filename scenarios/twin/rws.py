@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenarios.rapid.executor import cell_tools
+from scenarios.rapid.planner import cell_tools
 from scenarios.twin.controller import TwinController
 from scenarios.twin.elog import ElogEntry
 from scenarios.twin.errors import bad_request, not_found
