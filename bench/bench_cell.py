@@ -32,7 +32,7 @@ from cell.scene import RAY_GROUPS
 from cell.sim import CellConfig, make_cell
 from models.robot import Q_HOME
 from registration.rigid import make_T
-from scenarios.offline.moves import change_tool_safely
+from scenarios.program.tool_change import change_tool_safely
 
 R_DOWN = np.diag([1.0, -1.0, -1.0])
 #: Flange positions [m] in the base frame, pointing down, 25-40 cm above the table top

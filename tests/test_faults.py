@@ -18,8 +18,8 @@ from cell import ToolChangerError
 from cell.sim import CellConfig, make_cell
 from cell.sim.faults import Fault
 from scenarios.jobs.runner import RunOptions, run_job
-from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.tcp_check import check_tcp
+from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.events import FaultOutcome
 from scenarios.results.run import RunResult
 

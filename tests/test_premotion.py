@@ -24,7 +24,8 @@ from scenarios.offline.operations import target_operations
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionError, PremotionLimits
-from scenarios.offline.program import OfflineProgram, Operation, PlannedOperation, plan_program
+from scenarios.offline.program import plan_program
+from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
 
 #: The screwer's solids along its axis (models/robot/tools.py): the changer plate every tool
 #: has (radius 32 mm, 16 mm thick at the flange), then its body (radius 30 mm, to 136 mm);

@@ -26,7 +26,8 @@ from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionCheck
-from scenarios.offline.program import OfflineProgram, burr_hole_operations, plan_program
+from scenarios.offline.program import burr_hole_operations, plan_program
+from scenarios.program.program_types import OfflineProgram
 
 #: The screwer's pointer: a 3 mm ball whose centre is the TCP (models/robot/tools.py).
 TIP_RADIUS_M = 0.003

@@ -37,7 +37,7 @@ from scenarios.offline.calibration_measurement import (
     measure_spheres,
     plan_views,
 )
-from scenarios.offline.moves import change_tool_safely
+from scenarios.program.tool_change import change_tool_safely
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.setup import artifact_fixtures
 

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from cell import nominal_kinematics, nominal_T_base_table
-from scenarios.offline.program import OfflineProgram, Operation, PlannedOperation
+from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
 from scenarios.rapid.writer import configuration, program_module
 
 _NUM = r"[-+0-9.Ee]+"

@@ -28,7 +28,6 @@ from scenarios.offline.arm_setup import (
     no_home_message,
 )
 from scenarios.offline.job_cell import job_virtual_cell
-from scenarios.offline.moves import UnreachablePlanError
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -41,11 +40,12 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.placement import nominal_pose
 from scenarios.offline.plan_cache import cached_plan, plan_key
-from scenarios.offline.program import Operation
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan import ObjectBox
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import PlanningSettings
+from scenarios.offline.table_candidates import UnreachablePlanError
+from scenarios.program.program_types import Operation
 from scenarios.realcell.ct import ct_virtual_model
 from scenarios.realcell.setup import model_error
 from scenarios.stages.scan import job_scan_plan, plan_summary

@@ -29,9 +29,9 @@ from scenarios.jobs.exported import (
 )
 from scenarios.jobs.job_run import JobRun
 from scenarios.jobs.plan import JobPlan
-from scenarios.offline.program import OfflineProgram
 from scenarios.outputs import exports
 from scenarios.outputs import files as outputs
+from scenarios.program.program_types import OfflineProgram
 from scenarios.rapid.syntax import RapidError
 from scenarios.realcell.evaluation import Evaluator, calibration_report
 from scenarios.realcell.setup import JobCell

@@ -13,8 +13,8 @@ of itself without the faults that the job will meet (scenarios.jobs.pipeline).
 from __future__ import annotations
 
 from cell import Controller
-from scenarios.offline.moves import change_tool_safely
 from scenarios.offline.tcp_check import POINTERS, read_beam
+from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.beam import BeamReading, Commissioning
 
 #: The commissioning record's file in a run folder.

@@ -21,9 +21,10 @@ from models.registry import load_model
 from models.targets import BurrHole
 from registration.rigid import pose_error
 from scenarios.errors import ScenarioError
-from scenarios.offline.program import Operation, burr_hole_operations
+from scenarios.offline.program import burr_hole_operations
 from scenarios.offline.settings import OperationsSection, Pick
 from scenarios.offline.targets import generate_targets, read_targets, targets_path
+from scenarios.program.program_types import Operation
 from scenarios.rapid.module import RapidModule, WobjData
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task

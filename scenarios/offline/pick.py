@@ -6,9 +6,10 @@ from __future__ import annotations
 
 from cell import Controller
 from scenarios.offline.hooks import StageHooks
-from scenarios.offline.moves import change_tool_safely
-from scenarios.offline.program import OfflineProgram, execute_program
+from scenarios.offline.program import execute_program
 from scenarios.offline.settings import Pick
+from scenarios.program.program_types import OfflineProgram
+from scenarios.program.tool_change import change_tool_safely
 
 
 def execute_pick(

@@ -50,7 +50,7 @@ from scenarios.offline.premotion_verdict import (
     PremotionLimits,
     Problem,
 )
-from scenarios.offline.program import OfflineProgram
+from scenarios.program.program_types import OfflineProgram
 
 #: A line's IK solution may not move a joint more than this between samples [rad] (the
 #: controller's own test for a configuration flip).

@@ -16,7 +16,7 @@ import numpy as np
 from cell import Controller, nominal_T_base_table
 from models.targets import ProbeLine
 from scenarios.errors import ScenarioError
-from scenarios.offline.moves import change_tool_safely
+from scenarios.program.tool_change import change_tool_safely
 
 Progress = Callable[[str], None]
 #: The IR sensor looks straight down (TCP z = -table z).

@@ -18,10 +18,11 @@ from cell import nominal_T_base_slot
 from cell.controller import RACK_APPROACH_M
 from cell.robots import Robot
 from models.robot import TOOLS
-from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError
-from scenarios.offline.program import Operation, plan_program
+from scenarios.offline.program import plan_program
 from scenarios.offline.scan import ObjectBox, plan_scan
 from scenarios.offline.settings import PlanningSettings
+from scenarios.offline.table_candidates import TABLE_CANDIDATES_M, UnreachablePlanError
+from scenarios.program.program_types import Operation
 
 _TCP = {t.name: t.T_tool_tcp for t in TOOLS}
 

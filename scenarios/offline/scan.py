@@ -20,8 +20,9 @@ from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.moves import TABLE_CANDIDATES_M, UnreachablePlanError, change_tool_safely
 from scenarios.offline.settings import Scan, ScanPass
+from scenarios.offline.table_candidates import TABLE_CANDIDATES_M, UnreachablePlanError
+from scenarios.program.tool_change import change_tool_safely
 
 Progress = Callable[[str], None]
 #: Table positions tried, in order, for a pass or an operation that the arm cannot reach [m].

@@ -17,10 +17,10 @@ from cell.virtual import VirtualCell
 from models.robot import LASER
 from registration import transform_points
 from registration.rigid import invert
-from scenarios.offline.moves import UnreachablePlanError
 from scenarios.offline.scan import ObjectBox, PlannedPass, plan_pass
 from scenarios.offline.scan_timing import joint_move_s, pass_seconds
 from scenarios.offline.settings import Scan, ScanPass
+from scenarios.offline.table_candidates import UnreachablePlanError
 
 #: Laser lines [m] apart along a candidate's sweep in its prediction (the real pass reads
 #: one every speed x period, about 1 mm: the prediction needs the surface, not the density).

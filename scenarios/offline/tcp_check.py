@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from cell import Controller, SupervisionError
-from scenarios.offline.moves import change_tool_safely
+from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.beam import BeamCrossing, BeamReading, as_joints
 from scenarios.results.verification import TcpCheck
 

@@ -46,7 +46,6 @@ from registration import Acceptance, MeshModel, invert, transform_points
 from registration.quality import ScanPasses
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.localization import localize
-from scenarios.offline.moves import TABLE_CANDIDATES_M
 from scenarios.offline.scan import (
     ObjectBox,
     PlannedPass,
@@ -56,6 +55,7 @@ from scenarios.offline.scan import (
     execute_scan,
 )
 from scenarios.offline.settings import Scan
+from scenarios.offline.table_candidates import TABLE_CANDIDATES_M
 from scenarios.results.verification import TargetCheck, Verification
 
 Progress = Callable[[str], None]

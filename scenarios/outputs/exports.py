@@ -18,7 +18,7 @@ from models.atomic import write_text
 from models.robot import TOOLS
 from models.robot.urdf import urdf_text
 from registration.rigid import R_to_quat_wxyz
-from scenarios.offline.program import OfflineProgram
+from scenarios.program.program_types import OfflineProgram
 from scenarios.rapid.writer import tooldata_text
 
 

@@ -11,10 +11,10 @@ import numpy as np
 from cell import Kinematics, nominal_kinematics
 from models.atomic import write_atomic
 from models.model import ObjectModel
-from scenarios.offline.program import OfflineProgram
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.registration_figure import TargetMark, write_registration_figure
 from scenarios.outputs.scan_plan_figure import write_scan_plan_figure
+from scenarios.program.program_types import OfflineProgram
 from scenarios.rapid.writer import Filter, program_module
 
 if TYPE_CHECKING:

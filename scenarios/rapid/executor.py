@@ -20,7 +20,7 @@ from cell import Controller
 from cell.controller import SETTLE_S
 from cell.errors import CellError, MotionHaltedError
 from scenarios.errors import ScenarioError
-from scenarios.offline.moves import change_tool_safely
+from scenarios.program.tool_change import change_tool_safely
 from scenarios.rapid.execution_plan import ExecutionPlan, PlannedMove
 
 

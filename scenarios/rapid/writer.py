@@ -20,7 +20,7 @@ from cell import Kinematics, nominal_T_base_table
 from cell.controller import RACK_APPROACH_M
 from models.robot import TOOLS
 from registration.rigid import R_to_quat_wxyz
-from scenarios.offline.program import OfflineProgram
+from scenarios.program.program_types import OfflineProgram
 
 _UNUSED = "9E+09"
 

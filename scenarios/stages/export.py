@@ -15,9 +15,9 @@ from cell.robots import Robot
 from models.atomic import write_text
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.operations import UserProgram
-from scenarios.offline.program import OfflineProgram
 from scenarios.outputs import exports
 from scenarios.outputs.files import write_program
+from scenarios.program.program_types import OfflineProgram
 from scenarios.rapid.oframe import with_oframe
 from scenarios.rapid.writer import Filter
 from scenarios.stages.context import StageContext

@@ -10,7 +10,8 @@ from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.operations import grasp_operation, program_operations, target_operations
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionCheck, PremotionLimits
-from scenarios.offline.program import OfflineProgram, plan_program
+from scenarios.offline.program import plan_program
+from scenarios.program.program_types import OfflineProgram
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
 from scenarios.stages.state import JobState, LocatedPose, ProgramStage

@@ -33,10 +33,10 @@ from models.robot.visuals import LinkVisual
 from registration import MatchResult
 from registration.quality import target_covariance
 from scenarios.offline.calibration import CalibrationResult
-from scenarios.offline.program import OfflineProgram
 from scenarios.offline.scan import ScanData
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.residuals import colour_scale, residual_colours
+from scenarios.program.program_types import OfflineProgram
 from scenarios.realcell.evaluation import TargetEvaluation
 from scenarios.realcell.recording.budget import log_budget
 from scenarios.realcell.recording.layout import blueprint, serve_blueprint

@@ -1,17 +1,9 @@
-"""What the offline stages share about moving the arm in the cell: the table positions tried
-for reach, the error when none serves, and the safe tool change."""
+"""The safe tool change: through the home pose before and after, the one motion both the
+planning's stages and the RAPID executor make on a controller."""
 
 from __future__ import annotations
 
 from cell import Controller
-from scenarios.errors import ScenarioError
-
-#: Table positions tried, in order, for a pass or an operation the arm must reach [m].
-TABLE_CANDIDATES_M = (0.0, -0.1, 0.1, -0.2, 0.2, -0.3, 0.3, -0.4, 0.4)
-
-
-class UnreachablePlanError(ScenarioError, ValueError):
-    """No table position lets the arm reach a planned pass or operation."""
 
 
 def change_tool_safely(controller: Controller, tool: str) -> None:
