@@ -22,7 +22,8 @@ want them.
 from registration.errors import FormatError, InputError, RegistrationError
 from registration.io import load_model, load_points
 from registration.kernels import L2, Kernel, Trimmed, Tukey
-from registration.matcher import MODES, match
+from registration.match_request import MODES
+from registration.matcher import match
 from registration.prepare import prepare
 from registration.prepared import load_prepared, save_prepared
 from registration.result import MatchResult

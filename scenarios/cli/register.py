@@ -29,7 +29,7 @@ from registration import (
     match,
 )
 from registration.io import load_targets
-from registration.matcher import Mode, is_mode
+from registration.match_request import Mode, is_mode
 from registration.prepared import (
     ModelSource,
     check_target,

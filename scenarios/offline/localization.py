@@ -17,7 +17,7 @@ from registration import (
     match,
     transform_points,
 )
-from registration.matcher import Mode
+from registration.match_request import Mode
 from registration.quality import ScanPasses
 from registration.search import SearchSettings
 
