@@ -20,7 +20,7 @@ import argparse
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from cell.robots import example_robot_data_share
+from cell.ur5_arm import example_robot_data_share
 from scenarios.jobs.tables import (
     ASSEMBLY_HEADER,
     FILE_ARMS_HEADER,

@@ -24,6 +24,7 @@ from cell.errors import (
     UnknownNameError,
     UnreachableTargetError,
 )
+from cell.irb2400_arm import nominal_kinematics
 from cell.kinematics import IKResult, Kinematics
 from cell.laser import laser_points_base, points_in_table_frame
 from cell.layout import (
@@ -36,7 +37,8 @@ from cell.layout import (
     LoosePart,
 )
 from cell.readings import LaserReading
-from cell.robots import Robot, nominal_kinematics, ur5_kinematics
+from cell.robot_arm import Robot
+from cell.ur5_arm import ur5_kinematics
 from cell.virtual import Contact, VirtualCell
 
 __all__ = [

@@ -22,7 +22,7 @@ from cell.kinematics import Kinematics
 from cell.laser import laser_points_base
 from cell.layout import LaserConfig
 from cell.readings import LaserReading
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.robot import RACK_POS, SLOT_QUAT, TABLE_SPEED, TABLE_TOP_POS, TOOLS, slot_pos
 from registration.rigid import make_T, quat_wxyz_to_R
 
@@ -144,7 +144,7 @@ class Controller(ABC):
 
     @property
     def robot(self) -> Robot:
-        """The arm's model as its data sheet gives it (cell.robots): the nominal kinematics,
+        """The arm's model as its data sheet gives it (cell.robot_arm): the nominal kinematics,
         the parameters its calibration identifies, home, speeds; nothing of the real arm."""
         return self._robot
 

@@ -12,7 +12,8 @@ from typing import Literal
 import numpy as np
 
 from cell.errors import CellConfigError
-from cell.robots import Robot, irb2400
+from cell.irb2400_arm import irb2400
+from cell.robot_arm import Robot
 from models.robot import RACK_POS
 
 
@@ -235,7 +236,7 @@ class LoosePart:
 
 @dataclass(frozen=True)
 class CellLayout:
-    """The cell as it is designed: its `robot` (cell.robots, its data sheet), where its tool
+    """The cell as it is designed: its `robot` (cell.robot_arm, its data sheet), where its tool
     rack stands (`rack_xyz` [m], the rack frame; the slots are 0.25 m apart along x and 0.8 m
     above it), the laser's data sheet, and the objects on the table at the poses given."""
 

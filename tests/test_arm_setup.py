@@ -16,13 +16,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cell.robots import (
-    UR5_HOME,
-    UR5_MOUNT_XYZ,
-    example_robot_data_share,
-    make_robot,
-    ur5_urdf,
-)
+from cell.robots import make_robot
+from cell.ur5_arm import UR5_HOME, UR5_MOUNT_XYZ, example_robot_data_share, ur5_urdf
 from cell.virtual import VirtualCell
 from scenarios.configuration.config_files import load_config
 from scenarios.errors import ScenarioError

@@ -10,18 +10,13 @@ import mujoco
 import numpy as np
 import pytest
 
+from cell.arm_file import DEFAULT_SPEED_RAD_S, load_arm_model
 from cell.errors import CellConfigError
-from cell.robots import (
-    DEFAULT_SPEED_RAD_S,
-    JointLimits,
-    irb2400,
-    load_arm_model,
-    make_robot,
-    robot_from_file,
-    ur5,
-    ur5_urdf,
-)
+from cell.file_robot import JointLimits, robot_from_file
+from cell.irb2400_arm import irb2400
+from cell.robots import make_robot
 from cell.sim import CellConfig, make_cell
+from cell.ur5_arm import ur5, ur5_urdf
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS
 from scenarios.outputs.exports import write_robot_urdf

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from cell.robots import irb2400
+from cell.irb2400_arm import irb2400
 from cell.sim import CellConfig, make_cell
 from models.robot import TOOLS
 from scenarios.cli.app import main

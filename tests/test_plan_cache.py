@@ -16,7 +16,7 @@ import pytest
 import trimesh
 from pydantic import BaseModel
 
-from cell.robots import irb2400
+from cell.irb2400_arm import irb2400
 from models.mesh import TriangleMesh
 from models.model import ObjectModel
 from scenarios.configuration.config_files import load_config

@@ -13,7 +13,7 @@ import pytest
 from igl import point_mesh_squared_distance
 
 from cell.errors import UnknownNameError
-from cell.robots import irb2400
+from cell.irb2400_arm import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, SCREWER, TABLE_TOP_POS, ArmGeometry
 from registration import transform_points

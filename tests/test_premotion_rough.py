@@ -13,7 +13,7 @@ import igl
 import numpy as np
 import pytest
 
-from cell.robots import irb2400
+from cell.irb2400_arm import irb2400
 from models.convex import convex_pieces
 from models.mesh import TriangleMesh
 from models.model import ObjectModel

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.robots import irb2400
+from cell.irb2400_arm import irb2400
 from models.robot import TOOLS
 from scenarios.cli.app import main
 from scenarios.rapid.planner import plan_execution

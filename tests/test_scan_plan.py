@@ -13,8 +13,8 @@ import pytest
 import trimesh
 from rrd_reader import read_rrd
 
+from cell.irb2400_arm import irb2400
 from cell.layout import FixedMesh
-from cell.robots import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, TABLE_TOP_POS
 from scenarios.campaign import plan_campaign, run_campaign

@@ -151,7 +151,7 @@ def test_bad_cells_are_refused_naming_what_is_valid(tmp_path: Path) -> None:
 def test_a_cell_file_names_its_arm_beside_it(tmp_path: Path) -> None:
     """A user's cell: the UR5's URDF as a file next to the cell YAML (relative path), with
     its flange, mount, home and joint ranges; the job's arm is that file's."""
-    from cell.robots import UR5_HOME, UR5_LIMITS, ur5, ur5_urdf
+    from cell.ur5_arm import UR5_HOME, UR5_LIMITS, ur5, ur5_urdf
     from scenarios.jobs.plan import job_robot
 
     (tmp_path / "arms").mkdir()

@@ -15,7 +15,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from cell import nominal_T_base_table
-from cell.robots import irb2400
+from cell.irb2400_arm import irb2400
 from models.registry import builtin_model
 from scenarios.cli.app import main
 from scenarios.configuration.config_files import load_config

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from cell.errors import CellConfigError
+from cell.irb2400_arm import irb2400
 from cell.layout import (
     CellLayout,
     FixedMesh,
@@ -22,7 +23,7 @@ from cell.layout import (
     LoosePart,
     nonneg,
 )
-from cell.robots import Robot, irb2400
+from cell.robot_arm import Robot
 from cell.sim.faults import Fault
 from models.robot import RACK_POS
 
@@ -32,7 +33,7 @@ class ArmErrors:
     """Kinematic deviations of the real arm from its nominal model (drawn once per cell).
 
     `length_sigma_m` per length deviation (the built-in arm's six link lengths; another arm's
-    joint axis positions) and `offset_sigma_rad` per joint zero offset (see cell.robots).
+    joint axis positions) and `offset_sigma_rad` per joint zero offset (see cell.robot_arm).
     The defaults give an industrial arm's absolute accuracy, about 0.2-0.5 mm at the TCP.
     """
 
@@ -195,7 +196,7 @@ class TableErrors:
 
 @dataclass(frozen=True)
 class CellConfig:
-    """Everything that defines a simulated cell: its `robot` (cell.robots), where its tool
+    """Everything that defines a simulated cell: its `robot` (cell.robot_arm), where its tool
     rack stands (`rack_xyz` [m], the rack frame; the slots are 0.25 m apart along x and 0.8 m
     above it), the error sources, the objects on the table, the faults it will have
     (cell.sim.faults). `seed` draws the real cell's errors."""

@@ -30,9 +30,10 @@ from cell.errors import (
     SupervisionError,
     UnreachableTargetError,
 )
+from cell.irb2400_arm import irb2400
 from cell.kinematics import Kinematics
 from cell.readings import LaserReading
-from cell.robots import Robot, irb2400
+from cell.robot_arm import Robot
 from cell.sim.devices import Encoders, TableAxis
 from cell.sim.drives import Drives
 from cell.sim.sensors import IRSensor, LaserScanner, LightBeam

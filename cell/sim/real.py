@@ -23,7 +23,7 @@ class RealParameters:
     """The real cell's hidden parameters drawn from the config (the truth).
 
     Attributes:
-        deviations: the real arm's kinematic deviations from the nominal (see cell.robots).
+        deviations: the real arm's kinematic deviations from the nominal (see cell.robot_arm).
         table_bias_m: the table axis' constant positioning error [m].
         stiffness_nm_rad: (2,) the real stiffness of joints 2 and 3 [N m/rad] (0: rigid).
         T_tool_tcp: each tool's true TCP in its frame (4, 4) (the laser's: its optical frame,

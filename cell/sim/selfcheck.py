@@ -18,9 +18,9 @@ from rich.table import Table
 
 from cell.controller import Controller
 from cell.errors import CellConfigError, CellError
+from cell.irb2400_arm import nominal_kinematics
 from cell.kinematics import Kinematics
 from cell.layout import FixedPrimitive
-from cell.robots import nominal_kinematics
 from cell.sim.config import CellConfig
 from cell.sim.factory import make_cell
 from cell.sim.real import build_real_model

@@ -47,7 +47,7 @@ class CellTruth:
 
     @property
     def deviations(self) -> np.ndarray:
-        """The real arm's kinematic deviations from its nominal (see cell.robots)."""
+        """The real arm's kinematic deviations from its nominal (see cell.robot_arm)."""
         return self.params.deviations
 
     def watch(

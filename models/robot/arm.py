@@ -153,7 +153,7 @@ def arm_document(
     its servos (`actuators`, servo_actuators) and a `home` keyframe at `q_home` (6,)
     [rad]. Visual geoms in group 2 coloured `rgba`, collision geoms in group 3. The one
     writer of arm models: the built-in arm (arm_xml) and any arm from its file
-    (cell.robots) are both written here."""
+    (cell.arm_mjcf) are both written here."""
 
     def chain(k: int, indent: str) -> str:
         link = links[k]

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.atomic import write_text
 from models.model import ObjectModel
 from scenarios.configuration.config_files import load_config

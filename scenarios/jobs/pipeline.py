@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from cell.sim.faults import FAULT_KINDS, Fault
 from models.model import ObjectModel
 from scenarios.configuration.job_config import JobConfig

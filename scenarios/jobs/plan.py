@@ -13,7 +13,8 @@ import numpy as np
 
 from cell import nominal_T_base_table
 from cell.errors import CellConfigError
-from cell.robots import BUILTIN, Robot, make_robot
+from cell.robot_arm import Robot
+from cell.robots import BUILTIN, make_robot
 from models.cache import enabled as cache_enabled
 from models.ct.readers import is_volume
 from models.model import ObjectModel

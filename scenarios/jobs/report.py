@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from cell.errors import SupervisionError
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.atomic import write_text
 from models.cache import used_key
 from models.model import ObjectModel

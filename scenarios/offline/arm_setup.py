@@ -39,7 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from cell import Kinematics
-from cell.robots import motion_axis
+from cell.arm_file import motion_axis
 from cell.virtual import VirtualCell
 
 #: Sweep step [rad] of the joint-window bounds.

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models import cache
 from models.atomic import write_atomic
 from models.model import ObjectModel

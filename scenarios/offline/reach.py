@@ -16,7 +16,7 @@ import numpy as np
 
 from cell import nominal_T_base_slot
 from cell.controller import RACK_APPROACH_M
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.robot import TOOLS
 from scenarios.offline.program import plan_program
 from scenarios.offline.scan import ObjectBox, plan_scan

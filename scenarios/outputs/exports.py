@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from cell import Kinematics
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.atomic import write_text
 from models.robot import TOOLS
 from models.robot.urdf import urdf_text

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from cell import Controller, FixedMesh, FixedPrimitive, LaserConfig, LooseMesh
-from cell.robots import Robot, irb2400
+from cell.irb2400_arm import irb2400
+from cell.robot_arm import Robot
 from cell.sim import (
     ArmErrors,
     CellConfig,

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from cell import Controller, Kinematics
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.atomic import write_text
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.operations import UserProgram

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from cell.robots import Robot
+from cell.robot_arm import Robot
 from models.model import ObjectModel
 from registration import MeshModel, transform_points
 from scenarios.offline.cell_model import CellModel
