@@ -2,12 +2,12 @@
 
 It drives the simulation's servos, reads its encoders, laser, IR sensor and table axis, and
 supervises the motion the way an industrial controller does (contact force, the lock sensor,
-the load check, the table's in-position window, the encoders' second channel).
+the load check, the table's in-position window, the encoders' second channel). The set-points
+of a straight TCP move are cell.trajectory's (linear_trajectory); this runs them.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -28,7 +28,6 @@ from cell.errors import (
     JointLimitError,
     MotionHaltedError,
     SupervisionError,
-    UnreachableTargetError,
 )
 from cell.irb2400_arm import irb2400
 from cell.kinematics import Kinematics
@@ -40,12 +39,10 @@ from cell.sim.sensors import IRSensor, LaserScanner, LightBeam
 from cell.sim.simulation import MotionStoppedError, Simulation
 from cell.sim.supervision import ContactSensing
 from cell.sim.toolchanger import ToolChanger
-from cell.trajectory import joint_trajectory, quintic, straight_path
+from cell.trajectory import joint_trajectory, linear_trajectory
 from models.robot import FINGER_TRAVEL, RACK_POS, TABLE_SPEED, TABLE_TRAVEL, beam_line
 
 Reading = TypeVar("Reading")
-#: Control period of linear moves: the IK is solved at this period [s].
-LINEAR_PERIOD_S = 0.01
 #: How much of its path the arm backs off after a supervision stop [s].
 BACK_OFF_S = 0.3
 
@@ -267,43 +264,16 @@ class SimController(Controller):
             )
         T_base_tcp = np.asarray(T_base_tcp, dtype=float)
         T_tcp = self.T_flange_tcp() if T_flange_tcp is None else np.asarray(T_flange_tcp, float)
-        sim, kin = self._sim, self.kinematics
-        q0 = self._drives.motor.copy()
-        T0 = kin.fk(q0) @ T_tcp
-        dist = float(np.linalg.norm(T_base_tcp[:3, 3] - T0[:3, 3]))
-        R_rel = T0[:3, :3].T @ T_base_tcp[:3, :3]
-        angle = float(np.arccos(np.clip((np.trace(R_rel) - 1) / 2, -1, 1)))
-        duration = 1.875 * max(dist / speed_m_s, angle / angular_speed_rad_s, LINEAR_PERIOD_S)
-        for _ in range(4):
-            n = max(2, math.ceil(duration / LINEAR_PERIOD_S))
-            s, _ds = quintic(n)
-            qs = np.empty((n + 1, 6))
-            qs[0] = q0
-            for k, T in enumerate(straight_path(T0, T_base_tcp, s)):
-                # Seeded where the joints were heading: one Newton step from there, not two.
-                seed = qs[k] if k == 0 else 2.0 * qs[k] - qs[k - 1]
-                r = kin.ik(T, seed, T_tcp, extra_seeds=0)
-                if not r.success or np.max(np.abs(r.q - qs[k])) > 0.5:
-                    p = T[:3, 3]
-                    raise UnreachableTargetError(
-                        f"linear move to p_base = [{p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}] m fails at "
-                        f"{100 * s[k]:.0f}% of the line: residual {r.position_error_m:.3g} m, "
-                        f"{r.rotation_error_rad:.3g} rad (or a configuration flip)"
-                        + kin.at_limits(r.q)
-                    )
-                qs[k + 1] = r.q
-            peak = np.max(np.abs(np.diff(qs, axis=0)) / (duration / n) / self._robot.joint_speed)
-            if peak <= 1.0:
-                break
-            duration *= peak * 1.05
-        # Linear interpolation of the IK samples at the physics step, velocity by differences.
-        t_samples = np.linspace(0.0, duration, n + 1)
-        n_steps = max(1, round(duration / sim.dt))
-        t = np.arange(1, n_steps + 1) * (duration / n_steps)
-        q = np.stack([np.interp(t, t_samples, qs[:, j]) for j in range(6)], axis=1)
-        qd = np.gradient(q, t, axis=0) if n_steps > 1 else np.zeros_like(q)
-        qd[-1] = 0.0
-        return q, qd
+        return linear_trajectory(
+            self.kinematics,
+            self._drives.motor.copy(),
+            T_base_tcp,
+            T_tcp,
+            speed_m_s,
+            angular_speed_rad_s,
+            self._robot.joint_speed,
+            self._sim.dt,
+        )
 
     # -- tool changer -------------------------------------------------------------------------
     def lock(self) -> str:
