@@ -21,12 +21,11 @@ from scenarios.results.evaluations import (
 )
 from scenarios.results.events import FaultOutcome, Injection, SupervisionEvent
 from scenarios.results.exported import ExportedRun, TargetError
+from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.run import (
     SCHEMA_VERSION,
     GoalCheck,
     IncompleteRun,
-    MatchReport,
-    MethodReport,
     ResultsError,
     RunNotEndedError,
     RunResult,

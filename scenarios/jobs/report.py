@@ -43,7 +43,8 @@ from scenarios.results.evaluations import (
     TargetEvaluation,
 )
 from scenarios.results.exported import ExportedRun
-from scenarios.results.run import GoalCheck, MatchReport, MethodReport, RunResult, RunStatus
+from scenarios.results.method_reports import MatchReport, MethodReport
+from scenarios.results.run import GoalCheck, RunResult, RunStatus
 from scenarios.stages.loop import StagesRun
 from scenarios.stages.state import JobState, LocatedPose
 

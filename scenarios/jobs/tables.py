@@ -15,7 +15,8 @@ from pathlib import Path
 
 from scenarios.errors import ScenarioError
 from scenarios.jobs.runner import RunOptions, run_job
-from scenarios.results.run import MethodReport, RunResult
+from scenarios.results.method_reports import MethodReport
+from scenarios.results.run import RunResult
 
 Progress = Callable[[str], None]
 

@@ -1,7 +1,9 @@
 """The typed results of a run, from the stage that makes them to results.json and back.
 
 - `scenarios.results.run`: `RunResult` (the whole cell job; `to_json`, `from_json`,
-  `read`), with its method and match reports, and the schema version of results.json;
+  `read`), with its goals' checks, and the schema version of results.json;
+- `scenarios.results.method_reports`: the run's surface match and each localization
+  method's report;
 - `scenarios.results.evaluations`: what the evaluator measured against the truth (targets,
   poses, the pick) and the calibration's figures;
 - `scenarios.results.events`: what the supervision and the stages' checks saw, and each

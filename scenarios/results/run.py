@@ -7,7 +7,8 @@ program ran with its goals within reach of the error budget, "at_risk" when it r
 budget does not put its goals within reach (the reason says which and why), "refused" when
 the localization or its verification was not accepted (no motion towards the object),
 "aborted" when the controller's supervision stopped the cell.
-A run that failed or was interrupted leaves an `IncompleteRun` instead.
+A run that failed or was interrupted leaves an `IncompleteRun` instead. The reports of its
+localization (the surface match, each method) are scenarios.results.method_reports'.
 """
 
 from __future__ import annotations
@@ -17,19 +18,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-import numpy as np
-
 from scenarios.errors import ScenarioError
 from scenarios.results.budget import ErrorBudget
-from scenarios.results.edge import JsonObject, unbounded
-from scenarios.results.evaluations import (
-    CalibrationFigures,
-    PickEvaluation,
-    PoseEvaluation,
-    TargetEvaluation,
-)
+from scenarios.results.edge import JsonObject
+from scenarios.results.evaluations import CalibrationFigures, PickEvaluation, TargetEvaluation
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported import ExportedRun
+from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.scan_plan import ScanPlanSummary
 from scenarios.results.verification import TcpCheck, Verification
 
@@ -47,113 +42,6 @@ class ResultsError(ScenarioError, ValueError):
 
 class RunNotEndedError(ResultsError):
     """The results.json of a run that failed or was interrupted (status "incomplete")."""
-
-
-@dataclass(frozen=True, eq=False)
-class MatchReport:
-    """The surface match: its figures (registration.MatchResult) and the pose it gave,
-    T_table_object (4, 4)."""
-
-    rms_m: float
-    ambiguity: float
-    verdict: str
-    reason: str
-    seconds: float
-    points_used: int
-    inlier_fraction: float
-    T_table_object: np.ndarray
-    starts: int = 1
-
-    def to_json(self) -> JsonObject:
-        return {
-            "rms_m": self.rms_m,
-            "ambiguity": self.ambiguity,
-            "verdict": self.verdict,
-            "reason": self.reason,
-            "seconds": self.seconds,
-            "points_used": self.points_used,
-            "inlier_fraction": self.inlier_fraction,
-            "T_table_object": self.T_table_object.tolist(),
-            "starts": self.starts,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> MatchReport:
-        return cls(
-            float(data["rms_m"]),
-            float(data["ambiguity"]),
-            str(data["verdict"]),
-            str(data["reason"]),
-            float(data["seconds"]),
-            int(data["points_used"]),
-            float(data["inlier_fraction"]),
-            np.array(data["T_table_object"], dtype=float),
-            int(data["starts"]),
-        )
-
-
-@dataclass(frozen=True, eq=False)
-class MethodReport:
-    """One localization method: its pose against the truth (None if it found none), whether
-    its pose was accepted and why not, the targets executed with its pose, the predicted TRE
-    at each target [m] (surface matching only), and the IR readings (probing only)."""
-
-    method: str
-    accepted: bool
-    reason: str
-    pose: PoseEvaluation | None
-    targets: tuple[TargetEvaluation, ...] = ()
-    predicted_tre_m: tuple[float, ...] = ()
-    readings: int | None = None
-
-    def errors(self) -> np.ndarray:
-        """Achieved tip errors of the method's targets (K,) [m]."""
-        return np.array([t.error_m for t in self.targets])
-
-    @property
-    def rms_m(self) -> float | None:
-        return _rms(self.errors())
-
-    @property
-    def max_m(self) -> float | None:
-        errors = self.errors()
-        return float(errors.max()) if len(errors) else None
-
-    def predicted(self, name: str) -> float | None:
-        """The predicted TRE at the target `name` [m], or None."""
-        by_name = dict(zip((t.name for t in self.targets), self.predicted_tre_m, strict=False))
-        return by_name.get(name)
-
-    def to_json(self) -> JsonObject:
-        out: JsonObject = {
-            "accepted": self.accepted,
-            "reason": self.reason,
-            "rotation_error_deg": None if self.pose is None else self.pose.rotation_error_deg,
-            "translation_error_m": None if self.pose is None else self.pose.translation_error_m,
-            "targets": [t.to_json() for t in self.targets],
-            "predicted_tre_m": list(self.predicted_tre_m),
-            "target_error_rms_m": self.rms_m,
-            "target_error_max_m": self.max_m,
-        }
-        if self.readings is not None:
-            out["ir_readings"] = self.readings
-        return out
-
-    @classmethod
-    def from_json(cls, method: str, data: JsonObject) -> MethodReport:
-        rotation = data["rotation_error_deg"]
-        pose = None
-        if rotation is not None:
-            pose = PoseEvaluation(float(rotation), float(data["translation_error_m"]))
-        return cls(
-            method,
-            bool(data["accepted"]),
-            str(data["reason"]),
-            pose,
-            tuple(TargetEvaluation.from_json(t) for t in data["targets"]),
-            tuple(unbounded(t) for t in data["predicted_tre_m"]),
-            data.get("ir_readings"),
-        )
 
 
 @dataclass(frozen=True)
@@ -452,7 +340,3 @@ class IncompleteRun:
             "stage": self.stage,
             "seconds": self.seconds,
         }
-
-
-def _rms(errors: np.ndarray) -> float | None:
-    return float(np.sqrt(np.mean(errors**2))) if len(errors) else None
