@@ -28,7 +28,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cell import FixedMesh, LaserConfig, nominal_kinematics
-from cell.scene import RAY_GROUPS
+from cell.scene_builder import RAY_GROUPS
 from cell.sim import CellConfig, make_cell
 from models.robot import Q_HOME
 from registration.rigid import make_T

@@ -147,7 +147,7 @@ def inputs(folder: Path) -> dict[str, Path]:
     triangulation of the points seen along the scanner's z axis)."""
     from scipy.spatial import Delaunay
 
-    from registration.io.mesh import read_mesh
+    from registration.io.mesh_files import read_mesh
 
     points, _ = read_mesh(SCAN, points_only=True)
     xyz = write_xyz(folder, points)
@@ -295,7 +295,7 @@ def readme_table(rows: list[Timing]) -> str:
 def short(folder: Path) -> None:
     """One case: the .twm form on the xyz file (twice, the second with the bytecode
     cached); its output must be a result."""
-    from registration.io.mesh import read_mesh
+    from registration.io.mesh_files import read_mesh
 
     xyz = write_xyz(folder, read_mesh(SCAN, points_only=True)[0])
     twm = folder / "model.twm"

@@ -48,8 +48,8 @@ from registration import (
     prepare,
     transform_points,
 )
-from registration.io.mesh import read_mesh
-from registration.shapes.mesh import sample_surface
+from registration.io.mesh_files import read_mesh
+from registration.shapes.mesh_shape import sample_surface
 from registration.synthetic import asymmetric_blob, partial_scan
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "stanford"

@@ -16,10 +16,10 @@ import time
 import numpy as np
 
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.plan import job_robot, object_models
+from scenarios.jobs.job_plan import job_robot, object_models
+from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.operations import target_operations
-from scenarios.offline.placement import nominal_pose
-from scenarios.stages.scan import job_scan_plan
+from scenarios.stages.scan_stage import job_scan_plan
 
 
 def main() -> None:

@@ -41,11 +41,11 @@ from cell import FixedMesh, nominal_T_base_table
 from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.plan import object_models
+from scenarios.jobs.job_plan import object_models
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.localization import localize
-from scenarios.outputs.files import read_ply
-from scenarios.realcell.placement import draw_true_pose
+from scenarios.outputs.run_files import read_ply
+from scenarios.realcell.real_placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
 ROOT = Path(__file__).resolve().parent.parent

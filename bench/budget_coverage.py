@@ -1,4 +1,4 @@
-"""How well the error budget (scenarios.offline.budget) covers the true error: over runs of a
+"""How well the error budget (scenarios.offline.error_budget) covers the true error: over runs of a
 job, the share of targets whose true error is within their bound and of runs whose target
 RMS is within the RMS bound; the runs the budget calls at risk, and those that end
 `complete` with a goal missed; the coverage factors that would cover 95 %.
@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from scenarios.offline.budget import error_budget
+from scenarios.offline.error_budget import error_budget
 from scenarios.offline.settings import PlanningSettings
-from scenarios.results.budget import ErrorBudget
+from scenarios.results.budget_result import ErrorBudget
 from scenarios.results.run import RAN
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,14 +7,7 @@ cell that implements the controller, and its truth, are `cell.sim`'s: nothing he
 them.
 """
 
-from cell.controller import (
-    Controller,
-    ControllerEvent,
-    SupervisionLimits,
-    nominal_T_base_slot,
-    nominal_T_base_table,
-)
-from cell.errors import (
+from cell.cell_errors import (
     CellConfigError,
     CellError,
     JointLimitError,
@@ -23,6 +16,13 @@ from cell.errors import (
     ToolChangerError,
     UnknownNameError,
     UnreachableTargetError,
+)
+from cell.controller import (
+    Controller,
+    ControllerEvent,
+    SupervisionLimits,
+    nominal_T_base_slot,
+    nominal_T_base_table,
 )
 from cell.irb2400_arm import nominal_kinematics
 from cell.kinematics import IKResult, Kinematics

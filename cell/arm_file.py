@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 
 
 def load_arm_model(path: str | Path, tip_frame: str) -> pin.Model:

@@ -3,7 +3,7 @@
 It offers what a robot controller offers: joint and linear TCP moves, the tool changer, the
 table axis, encoder, IR and laser readings, its event log. Kinematics is the NOMINAL model
 (Pinocchio on the nominal robot-only MJCF) or the calibrated one it is given. `Controller` is
-abstract: the simulated real cell implements it (cell.sim.controller), and so would a real
+abstract: the simulated real cell implements it (cell.sim.sim_controller), and so would a real
 controller's client. Nothing here can return the simulated truth (true kinematic parameters,
 true poses, noise): that lives in `cell.sim`, for evaluators only.
 """
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.errors import ToolChangerError, UnknownNameError
+from cell.cell_errors import ToolChangerError, UnknownNameError
 from cell.kinematics import Kinematics
 from cell.laser import laser_points_base
 from cell.layout import LaserConfig

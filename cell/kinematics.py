@@ -16,7 +16,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from cell.errors import CellConfigError, JointLimitError, UnknownNameError, UnreachableTargetError
+from cell.cell_errors import (
+    CellConfigError,
+    JointLimitError,
+    UnknownNameError,
+    UnreachableTargetError,
+)
 from registration.rigid import invert
 
 if TYPE_CHECKING:

@@ -11,7 +11,7 @@ from typing import Literal
 
 import numpy as np
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 from cell.irb2400_arm import irb2400
 from cell.robot_arm import Robot
 from models.robot import RACK_POS

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 
 
 @dataclass(frozen=True, eq=False)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 from cell.kinematics import Kinematics
 
 

@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 from cell.file_robot import JointLimits, robot_from_file
 from cell.irb2400_arm import irb2400
 from cell.robot_arm import Robot

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from cell.errors import UnreachableTargetError
+from cell.cell_errors import UnreachableTargetError
 from cell.kinematics import Kinematics
 
 #: Peak of the quintic profile's velocity, relative to the mean velocity.

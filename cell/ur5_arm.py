@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from cell.arm_mjcf import Servo
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 from cell.file_robot import JointLimits, robot_from_file
 from cell.kinematics import Kinematics
 from cell.robot_arm import Robot

@@ -30,10 +30,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from cell.errors import CellConfigError, JointLimitError, UnknownNameError
+from cell.cell_errors import CellConfigError, JointLimitError, UnknownNameError
 from cell.layout import CellLayout, FixedMesh, FixedPrimitive
 from cell.robot_arm import Robot
-from cell.scene import RAY_GROUPS, T_TABLEBODY_TABLE, build_model
+from cell.scene_builder import RAY_GROUPS, T_TABLEBODY_TABLE, build_model
 from cell.surface_distance import GeomPoints, SurfaceDistance, geom_points
 from models.robot import FINGER_TRAVEL, FLANGE_SITE, JOINT_NAMES, TABLE_TRAVEL, TOOLS
 from registration.rigid import R_to_quat_wxyz

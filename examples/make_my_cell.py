@@ -23,9 +23,9 @@ from cell import nominal_T_base_table
 from cell.robots import make_robot
 from models.registry import builtin_model, load_model
 from models.targets import frame_from_z
-from registration.shapes.mesh import MeshModel
+from registration.shapes.mesh_shape import MeshModel
 from scenarios.configuration.config_files import load_config
-from scenarios.offline.placement import nominal_pose
+from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.rapid.oframe import pose_text
 from scenarios.rapid.writer import configuration
 

@@ -11,9 +11,9 @@ mesh libraries):
 
 - `models.check`: `ModelCheck`, `check_model`
 - `models.convex`: `convex_pieces`
-- `models.errors`: `MeshDataError`, `MeshFileError`, `ModelError`, `ModelParameterError`,
+- `models.model_errors`: `MeshDataError`, `MeshFileError`, `ModelError`, `ModelParameterError`,
   `UnknownModelError`
-- `models.export`: `write_mesh`
+- `models.mesh_export`: `write_mesh`
 - `models.mesh`: `TriangleMesh`
 - `models.model`: `ObjectModel`
 - `models.model_error`: `ModelErrorResult`, `ModelErrorSpec`, `apply_model_error`

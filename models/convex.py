@@ -15,8 +15,8 @@ import trimesh
 from scipy.cluster.vq import kmeans2
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
-from models.errors import ModelParameterError
 from models.mesh import TriangleMesh
+from models.model_errors import ModelParameterError
 
 # A mesh whose volume is at least this fraction of its hull's is treated as convex.
 CONVEX_VOLUME_RATIO = 0.97

@@ -13,7 +13,7 @@ import igl
 import numpy as np
 import trimesh
 
-from models.errors import ModelParameterError
+from models.model_errors import ModelParameterError
 
 _COARSE = 4
 _BAND = 2.0

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from models.errors import MeshDataError
+from models.model_errors import MeshDataError
 
 
 def component_labels(mesh: trimesh.Trimesh) -> np.ndarray:

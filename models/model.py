@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import MeshDataError, UnknownModelError
 from models.mesh import TriangleMesh
+from models.model_errors import MeshDataError, UnknownModelError
 from models.surfaces import AnalyticSurface
 from models.targets import BurrHole, OperationFrame, ProbeLine
 

@@ -11,8 +11,8 @@ import numpy as np
 import scipy.sparse as sp
 import trimesh
 
-from models.errors import ModelParameterError
 from models.mesh import TriangleMesh
+from models.model_errors import ModelParameterError
 
 _MODES = 8  # Fourier modes of the smooth deformation
 

@@ -18,10 +18,10 @@ import trimesh
 from models import ellipsoid
 from models.cache import cached
 from models.convex import convex_pieces
-from models.errors import ModelParameterError, UnknownModelError
 from models.mesh import TriangleMesh
 from models.model import ObjectModel
 from models.model_error import ModelErrorResult, ModelErrorSpec, apply_model_error
+from models.model_errors import ModelParameterError, UnknownModelError
 from models.parts import Part, make_bracket, make_housing, make_lid
 from models.skull import make_skull
 from models.surfaces import ellipsoid_radii, ellipsoid_surface

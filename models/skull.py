@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from models.errors import ModelError, ModelParameterError
 from models.implicit import (
     capsule,
     ellipsoid,
@@ -25,6 +24,7 @@ from models.implicit import (
     tube,
 )
 from models.mesh import TriangleMesh, component_labels
+from models.model_errors import ModelError, ModelParameterError
 from models.targets import BurrHole
 
 MM = 1e-3

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models import ellipsoid
-from models.errors import ModelParameterError
+from models.model_errors import ModelParameterError
 
 SurfaceFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 

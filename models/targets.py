@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import MeshDataError
+from models.model_errors import MeshDataError
 
 
 def _vector3(value: np.ndarray, what: str) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from models.errors import ModelParameterError
+from models.model_errors import ModelParameterError
 
 UNIT_SCALES = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "in": 0.0254}
 

@@ -16,9 +16,9 @@ import numpy as np
 import trimesh
 
 from models.convex import convex_pieces
-from models.errors import MeshDataError, MeshFileError
 from models.mesh import TriangleMesh, component_labels
 from models.model import ObjectModel
+from models.model_errors import MeshDataError, MeshFileError
 from models.units import unit_scale
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply")

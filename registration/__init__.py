@@ -19,13 +19,13 @@ registration.search with its `SearchSettings`, registration.result's `Minimum` a
 want them.
 """
 
-from registration.errors import FormatError, InputError, RegistrationError
 from registration.io import load_model, load_points
 from registration.kernels import L2, Kernel, Trimmed, Tukey
 from registration.match_request import MODES
 from registration.matcher import match
 from registration.prepare import prepare
 from registration.prepared import load_prepared, save_prepared
+from registration.registration_errors import FormatError, InputError, RegistrationError
 from registration.result import MatchResult
 from registration.rigid import invert, make_T, pose_error, rotation_angle, transform_points
 from registration.shapes import (

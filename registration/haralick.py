@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from registration.errors import InputError
 from registration.horn import absolute_orientation
 from registration.kernels import Kernel, Tukey
+from registration.registration_errors import InputError
 from registration.rigid import Array, make_T
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from registration.errors import InputError
+from registration.registration_errors import InputError
 from registration.rigid import Array
 
 

@@ -15,9 +15,9 @@ from typing import Literal
 
 import numpy as np
 
-from registration.errors import InputError
 from registration.horn import absolute_orientation
 from registration.kernels import Kernel, Tukey
+from registration.registration_errors import InputError
 from registration.rigid import Array, exp_se3, make_T, transform_points
 from registration.shapes.base import Closest, Shape, check_points
 

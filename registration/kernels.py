@@ -11,7 +11,7 @@ from typing import Protocol
 
 import numpy as np
 
-from registration.errors import InputError
+from registration.registration_errors import InputError
 from registration.rigid import Array
 
 

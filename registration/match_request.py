@@ -12,14 +12,14 @@ from typing import Literal, TypeGuard
 
 import numpy as np
 
-from registration.errors import InputError
 from registration.icp import Variant
 from registration.kernels import Kernel
 from registration.quality import ScanPasses
+from registration.registration_errors import InputError
 from registration.rigid import Array
 from registration.search import SearchSettings
 from registration.shapes.base import Shape, check_points
-from registration.shapes.mesh import MeshModel
+from registration.shapes.mesh_shape import MeshModel
 from registration.shapes.points import PointModel
 from registration.verdict import Acceptance
 

@@ -33,12 +33,12 @@ from typing import Any, cast
 
 import numpy as np
 
-from registration.errors import FormatError, InputError, first_line
 from registration.lookup import VoxelGrid, VoxelLookup
 from registration.prepare import prepare
+from registration.registration_errors import FormatError, InputError, first_line
 from registration.rigid import Array
 from registration.shapes.base import Shape
-from registration.shapes.mesh import MeshModel
+from registration.shapes.mesh_shape import MeshModel
 from registration.shapes.points import PointModel
 from registration.symmetry import Symmetry, SymmetryKind, symmetry_cache
 

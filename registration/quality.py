@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from registration.errors import InputError
+from registration.registration_errors import InputError
 from registration.rigid import Array, skew
 
 

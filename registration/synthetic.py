@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from registration.rigid import Array, invert, random_transform, transform_points
-from registration.shapes.mesh import sample_surface
+from registration.shapes.mesh_shape import sample_surface
 
 
 def icosphere(subdivisions: int) -> tuple[Array, Array]:

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from registration import MeshModel, load_points
-from registration.io.mesh import read_mesh
+from registration.io.mesh_files import read_mesh
 
 STANFORD = Path(__file__).parent / "data" / "stanford"
 

@@ -20,8 +20,7 @@ from cell.robots import make_robot
 from cell.ur5_arm import UR5_HOME, UR5_MOUNT_XYZ, example_robot_data_share, ur5_urdf
 from cell.virtual import VirtualCell
 from scenarios.configuration.config_files import load_config
-from scenarios.errors import ScenarioError
-from scenarios.jobs.plan import file_arm, object_models
+from scenarios.jobs.job_plan import file_arm, object_models
 from scenarios.jobs.tables import file_arm_rows, numbers, readme_table
 from scenarios.offline.arm_setup import (
     SINGULAR_MARGIN_RAD,
@@ -30,7 +29,8 @@ from scenarios.offline.arm_setup import (
     joint_window,
 )
 from scenarios.offline.job_cell import job_virtual_cell
-from scenarios.offline.placement import nominal_pose
+from scenarios.offline.nominal_placement import nominal_pose
+from scenarios.scenario_errors import ScenarioError
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The sweeps' step [rad]: a bound is found to within it.

@@ -16,9 +16,9 @@ import pytest
 
 from models.mesh import TriangleMesh
 from models.model import ObjectModel
-from scenarios.offline.budget import MIN_LOCAL_POINTS, error_budget, local_model_error
+from scenarios.offline.error_budget import MIN_LOCAL_POINTS, error_budget, local_model_error
 from scenarios.offline.settings import PlanningSettings
-from scenarios.results.budget import ErrorBudget, TargetBudget
+from scenarios.results.budget_result import ErrorBudget, TargetBudget
 from scenarios.results.run import RunResult
 
 

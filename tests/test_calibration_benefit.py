@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from scenarios.jobs.runner import RunOptions, run_job
-from scenarios.results.exported import ExportedRun
+from scenarios.results.exported_result import ExportedRun
 from scenarios.results.run import RunResult
 
 #: Two skull jobs a seed.

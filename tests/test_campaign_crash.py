@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 from dask.distributed import LocalCluster
 
-from registration.errors import InputError
+from registration.registration_errors import InputError
 from scenarios.campaign import STAGES, plan_campaign, run_campaign
 from scenarios.campaign.store import read_csv
 from scenarios.cli.app import main

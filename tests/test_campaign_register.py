@@ -11,11 +11,11 @@ from scipy.spatial.transform import Rotation
 from models.registry import builtin_model
 from registration import invert, make_T
 from registration.synthetic import icosphere
-from scenarios.campaign.errors import CampaignError
+from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.campaign.evaluate import evaluate_registration
 from scenarios.campaign.register_job import ScanFaultAmounts, parse_register_job, register_base
 from scenarios.campaign.register_row import ScanFaultOutcome
-from scenarios.campaign.register_stage import longest_pass_gap, run_register_trial
+from scenarios.campaign.register_trial import longest_pass_gap, run_register_trial
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
 
 NO_ERRORS = ScanErrors(range_sigma=0.0, pass_sigma=0.0, pass_rotation_sigma=0.0, jitter_sigma=0.0)

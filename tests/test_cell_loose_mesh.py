@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from cell import CellConfigError, LooseMesh
 from cell.mass import mesh_mass_properties
-from cell.scene import OBJECT_GROUP
+from cell.scene_builder import OBJECT_GROUP
 from cell.sim import CellConfig, make_cell
 from models.registry import builtin_model
 from registration import MeshModel

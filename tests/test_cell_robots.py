@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cell.arm_file import DEFAULT_SPEED_RAD_S, load_arm_model
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 from cell.file_robot import JointLimits, robot_from_file
 from cell.irb2400_arm import irb2400
 from cell.robots import make_robot
@@ -19,7 +19,7 @@ from cell.sim import CellConfig, make_cell
 from cell.ur5_arm import ur5, ur5_urdf
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS
-from scenarios.outputs.exports import write_robot_urdf
+from scenarios.outputs.toolchain_exports import write_robot_urdf
 
 #: MuJoCo and Pinocchio agree to rounding on the same kinematic chain [m].
 FK_TOL_M = 1e-9

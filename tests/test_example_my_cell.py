@@ -14,8 +14,8 @@ from cell import nominal_T_base_table
 from models.registry import load_model
 from scenarios.configuration.config_files import load_config
 from scenarios.configuration.job_config import JobConfig
+from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.operations import check_program_frame, read_user_program
-from scenarios.offline.placement import nominal_pose
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "my_cell"
 

@@ -23,8 +23,13 @@ from cell.sim import CellConfig, make_cell
 from models.robot import TOOLS
 from scenarios.cli.app import main
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.execute import execute_in_cell, job_program, job_targets, rebuild_job_cell
-from scenarios.jobs.plan import job_robot, object_models
+from scenarios.jobs.execute_run_folder import (
+    execute_in_cell,
+    job_program,
+    job_targets,
+    rebuild_job_cell,
+)
+from scenarios.jobs.job_plan import job_robot, object_models
 from scenarios.rapid.executor import ExecutionError, execute_plan
 from scenarios.rapid.planner import plan_execution
 from scenarios.rapid.reader import read_module
@@ -333,7 +338,9 @@ def test_bad_programs_are_refused_naming_the_line_before_any_motion(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     built: list[object] = []
-    monkeypatch.setattr("scenarios.jobs.execute.rebuild_job_cell", lambda *args: built.append(args))
+    monkeypatch.setattr(
+        "scenarios.jobs.execute_run_folder.rebuild_job_cell", lambda *args: built.append(args)
+    )
     before = (folder / "execution.json").read_bytes()
     for label, (text, fragment, message) in _cases((folder / "program.mod").read_text()).items():
         path = tmp_path / f"{label.replace(' ', '_')}.mod"

@@ -28,8 +28,8 @@ import yaml
 from scenarios.cli.app import main
 from scenarios.jobs import runner
 from scenarios.jobs.interrupt import RunInterrupted, SignalGuard
-from scenarios.jobs.stages import StageTracker
-from scenarios.outputs.files import read_ply
+from scenarios.jobs.stage_tracker import StageTracker
+from scenarios.outputs.run_files import read_ply
 
 TWINCELL = Path(sys.executable).with_name("twincell")  # the console script, as a user runs it
 # The child starts with SIGINT and SIGTERM at their defaults whatever this process inherited

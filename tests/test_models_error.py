@@ -6,8 +6,8 @@ import igl
 import numpy as np
 import pytest
 
-from models.errors import ModelParameterError
 from models.model_error import ModelErrorSpec, apply_model_error
+from models.model_errors import ModelParameterError
 from models.registry import builtin_model, real_model
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import models.implicit as implicit
-from models.errors import ModelParameterError
+from models.model_errors import ModelParameterError
 
 
 def _sphere(p: np.ndarray) -> np.ndarray:

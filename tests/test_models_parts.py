@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from models.errors import MeshDataError, UnknownModelError
+from models.model_errors import MeshDataError, UnknownModelError
 from models.registry import builtin_model, builtin_names
 from models.targets import OperationFrame
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from models.errors import ModelParameterError
+from models.model_errors import ModelParameterError
 from models.registry import builtin_model
 from models.skull import make_skull
 

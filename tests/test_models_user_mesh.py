@@ -9,9 +9,9 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from models.errors import MeshDataError, MeshFileError, ModelParameterError, UnknownModelError
-from models.export import write_mesh
 from models.mesh import TriangleMesh
+from models.mesh_export import write_mesh
+from models.model_errors import MeshDataError, MeshFileError, ModelParameterError, UnknownModelError
 from models.registry import builtin_model, load_model
 from models.user_mesh import load_mesh_file
 

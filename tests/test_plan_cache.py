@@ -22,9 +22,9 @@ from models.model import ObjectModel
 from scenarios.configuration.config_files import load_config
 from scenarios.configuration.job_config import JobConfig
 from scenarios.offline import plan_cache
-from scenarios.offline.scan import PlannedPass
 from scenarios.offline.scan_candidates import Candidate
 from scenarios.offline.scan_choice import ChosenPass
+from scenarios.offline.scan_passes import PlannedPass
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import ScanPass
 
@@ -174,10 +174,10 @@ def test_a_plan_round_trip_is_the_same_tree_to_the_bit(cache_dir: Path) -> None:
 
 def test_a_planned_fixed_scan_round_trips(cache_dir: Path) -> None:
     """The skull job's own fixed plan, as the planner makes it, reads back the same."""
-    from scenarios.jobs.plan import job_robot, object_models
+    from scenarios.jobs.job_plan import job_robot, object_models
+    from scenarios.offline.nominal_placement import nominal_pose
     from scenarios.offline.operations import target_operations
-    from scenarios.offline.placement import nominal_pose
-    from scenarios.stages.scan import job_scan_plan
+    from scenarios.stages.scan_stage import job_scan_plan
 
     config = load_config("skull", {"localization.scan.plan": "fixed"})
     assert isinstance(config, JobConfig)

@@ -12,19 +12,19 @@ import numpy as np
 import pytest
 from igl import point_mesh_squared_distance
 
-from cell.errors import UnknownNameError
+from cell.cell_errors import UnknownNameError
 from cell.irb2400_arm import irb2400
 from cell.virtual import VirtualCell
 from models.robot import RACK_POS, SCREWER, TABLE_TOP_POS, ArmGeometry
 from registration import transform_points
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.plan import object_models
+from scenarios.jobs.job_plan import object_models
 from scenarios.offline.job_cell import job_virtual_cell
+from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.operations import target_operations
-from scenarios.offline.placement import nominal_pose
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionError, PremotionLimits
-from scenarios.offline.program import plan_program
+from scenarios.offline.program_plan import plan_program
 from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
 
 #: The screwer's solids along its axis (models/robot/tools.py): the changer plate every tool

@@ -21,12 +21,12 @@ from models.robot import RACK_POS, SCREWER
 from models.targets import BurrHole
 from registration import transform_points
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.plan import object_models
+from scenarios.jobs.job_plan import object_models
 from scenarios.offline.job_cell import job_virtual_cell
-from scenarios.offline.placement import nominal_pose
+from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionCheck
-from scenarios.offline.program import burr_hole_operations, plan_program
+from scenarios.offline.program_plan import burr_hole_operations, plan_program
 from scenarios.program.program_types import OfflineProgram
 
 #: The screwer's pointer: a 3 mm ball whose centre is the TCP (models/robot/tools.py).

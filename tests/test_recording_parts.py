@@ -12,8 +12,8 @@ from scipy.spatial.transform import Rotation
 
 from models.registry import builtin_model
 from scenarios.outputs.residuals import OFF_MODEL_M, signed_residuals
-from scenarios.realcell.recording.scene import MOVED, CellScene
-from scenarios.realcell.recording.targets import ellipsoids, magnification
+from scenarios.realcell.recording.recorded_scene import MOVED, CellScene
+from scenarios.realcell.recording.recorded_targets import ellipsoids, magnification
 
 
 def test_signed_residuals_recover_known_offsets() -> None:

@@ -1,4 +1,4 @@
-"""A surface match held against the IR probing's pose (scenarios.stages.register): one that
+"""A surface match held against the IR probing's pose (scenarios.stages.register_stage): one that
 agrees stands; one that lies half a turn away is matched again from the probe's pose, taken
 where the scan fits that pose as well, and refused where it does not. The poses are made
 here, the agreement bounds (2 deg, 3 mm) are the module's."""
@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from scenarios.offline.localization import Localization
-from scenarios.stages.register import against_probe, disagreement
+from scenarios.stages.register_stage import against_probe, disagreement
 from scenarios.stages.state import LocatedPose
 
 CENTRE = np.array([0.05, 0.02, 0.01])  # the model's centre in its frame [m]

@@ -16,7 +16,7 @@ import pytest
 import trimesh
 
 from registration import FormatError, load_model, load_points, match
-from registration.io.mesh import read_mesh
+from registration.io.mesh_files import read_mesh
 from registration.io.ply import read_ply
 from registration.io.stl import read_binary_stl
 from registration.io.text import read_csv, read_xyz

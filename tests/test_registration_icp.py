@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 from registration import L2, MeshModel, ParametricModel, PointModel, pose_error
 from registration.icp import icp
 from registration.rigid import invert, make_T, transform_points
-from registration.shapes.mesh import sample_surface
+from registration.shapes.mesh_shape import sample_surface
 from registration.synthetic import asymmetric_blob
 
 BLOB_V, BLOB_F = asymmetric_blob(size=0.2, subdivisions=4, seed=2)

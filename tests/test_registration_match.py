@@ -82,7 +82,7 @@ def test_a_scan_of_another_object_is_not_accepted() -> None:
 
 def test_point_model_and_mesh_model_agree() -> None:
     scan = partial_scan(V, F, 800, noise=1e-4, seed=12)
-    from registration.shapes.mesh import sample_surface
+    from registration.shapes.mesh_shape import sample_surface
 
     pts, normals = sample_surface(V, F, 40_000, seed=2)
     r_points = match(scan.points, PointModel(pts, normals), mode="local")

@@ -8,7 +8,7 @@ import pytest
 
 from models import ellipsoid
 from registration import InputError, MeshModel, ParametricModel, PointModel, SegmentModel
-from registration.shapes.mesh import sample_surface
+from registration.shapes.mesh_shape import sample_surface
 from registration.synthetic import asymmetric_blob, icosphere
 
 

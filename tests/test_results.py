@@ -20,7 +20,7 @@ from scenarios.results.evaluations import (
     TcpError,
 )
 from scenarios.results.events import FaultOutcome, Injection, SupervisionEvent
-from scenarios.results.exported import ExportedRun, TargetError
+from scenarios.results.exported_result import ExportedRun, TargetError
 from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.run import (
     SCHEMA_VERSION,
@@ -30,7 +30,7 @@ from scenarios.results.run import (
     RunNotEndedError,
     RunResult,
 )
-from scenarios.results.scan_plan import PassSummary, ScanPlanSummary
+from scenarios.results.scan_plan_result import PassSummary, ScanPlanSummary
 
 
 def _target(name: str, error_m: float) -> TargetEvaluation:

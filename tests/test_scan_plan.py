@@ -20,8 +20,8 @@ from models.robot import RACK_POS, TABLE_TOP_POS
 from scenarios.campaign import plan_campaign, run_campaign
 from scenarios.jobs import pipeline
 from scenarios.jobs.runner import RunOptions, run_job
-from scenarios.offline.scan import ObjectBox
 from scenarios.offline.scan_candidates import PlanningCell, ScanPlanError
+from scenarios.offline.scan_passes import ObjectBox
 from scenarios.offline.scan_plan import plan_job_scan
 from scenarios.offline.settings import Scan
 from scenarios.offline.tre_prediction import ErrorModel
@@ -306,7 +306,7 @@ def test_a_transit_that_would_sweep_the_laser_through_the_object_goes_through_ho
 def test_a_pass_with_its_own_standoff_looks_from_that_far() -> None:
     """From above, the laser's TCP sweeps at the pass' stand-off over the box's top (the
     scan's own where the pass gives none)."""
-    from scenarios.offline.scan import plan_pass
+    from scenarios.offline.scan_passes import plan_pass
     from scenarios.offline.settings import ScanPass
 
     robot = irb2400()

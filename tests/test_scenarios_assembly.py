@@ -186,7 +186,7 @@ def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> 
     from models.model_error import ModelErrorSpec
     from models.registry import real_model
     from scenarios.offline.operations import screw_targets
-    from scenarios.realcell.placement import draw_true_pose
+    from scenarios.realcell.real_placement import draw_true_pose
     from scenarios.realcell.setup import cell_config
 
     config = _assembly(2)

@@ -15,7 +15,7 @@ from models.registry import builtin_model
 from registration import MeshModel
 from scenarios.cli.app import main
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.plan import object_models
+from scenarios.jobs.job_plan import object_models
 
 #: Each test meshes simulated CT volumes of the phantom; one runs the job on the mesh.
 pytestmark = pytest.mark.slow

@@ -16,11 +16,11 @@ from cell import FixedMesh
 from cell.sim import make_cell
 from models import cache
 from scenarios.configuration.config_files import load_config
-from scenarios.jobs.plan import object_models
+from scenarios.jobs.job_plan import object_models
 from scenarios.offline import plan_cache
-from scenarios.outputs.files import read_ply
+from scenarios.outputs.run_files import read_ply
 from scenarios.outputs.run_folder import write_json
-from scenarios.realcell.placement import draw_true_pose
+from scenarios.realcell.real_placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 from scenarios.results.run import RunResult
 

@@ -11,13 +11,13 @@ from cell import FixedMesh, nominal_T_base_table
 from cell.sim import make_cell
 from registration import Acceptance, MeshModel, pose_error, transform_points
 from scenarios.configuration.job_config import JobConfig
-from scenarios.jobs.plan import object_models
+from scenarios.jobs.job_plan import object_models
 from scenarios.offline.localization import localize
-from scenarios.offline.placement import nominal_pose
-from scenarios.offline.program import burr_hole_operations, execute_program, plan_program
-from scenarios.offline.scan import ObjectBox, crop_to_object, execute_scan, plan_scan
+from scenarios.offline.nominal_placement import nominal_pose
+from scenarios.offline.program_plan import burr_hole_operations, execute_program, plan_program
+from scenarios.offline.scan_passes import ObjectBox, crop_to_object, execute_scan, plan_scan
 from scenarios.offline.settings import LocalizationSection, Scan
-from scenarios.realcell.placement import draw_true_pose
+from scenarios.realcell.real_placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
 
 SHORT_SCAN = Scan(speed_m_s=0.25, period_s=0.02)

@@ -11,7 +11,12 @@ import trimesh
 
 from models.mesh import TriangleMesh
 from models.model import ObjectModel
-from scenarios.offline.targets import TargetsFileError, generate_targets, read_targets, targets_path
+from scenarios.offline.mesh_targets import (
+    TargetsFileError,
+    generate_targets,
+    read_targets,
+    targets_path,
+)
 
 
 def test_targets_file_is_read_in_the_mesh_units(tmp_path: Path) -> None:

@@ -16,9 +16,9 @@ import pytest
 from scenarios.cli.app import main
 from scenarios.configuration.config_error import ConfigError
 from scenarios.configuration.config_files import load_config
-from scenarios.errors import ScenarioError
 from scenarios.jobs import pipeline
 from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.scenario_errors import ScenarioError
 
 #: The skull goals (README): target error RMS and max against the true targets [m].
 GOAL_RMS_M, GOAL_MAX_M = 0.5e-3, 1.0e-3
@@ -152,7 +152,7 @@ def test_a_cell_file_names_its_arm_beside_it(tmp_path: Path) -> None:
     """A user's cell: the UR5's URDF as a file next to the cell YAML (relative path), with
     its flange, mount, home and joint ranges; the job's arm is that file's."""
     from cell.ur5_arm import UR5_HOME, UR5_LIMITS, ur5, ur5_urdf
-    from scenarios.jobs.plan import job_robot
+    from scenarios.jobs.job_plan import job_robot
 
     (tmp_path / "arms").mkdir()
     (tmp_path / "arms" / "my_arm.urdf").write_text(ur5_urdf().read_text())

@@ -29,10 +29,10 @@ from abb_robot_client.rws import (
 )
 from rrd_reader import read_rrd
 
-from scenarios.jobs.execute import execute_run
+from scenarios.jobs.execute_run_folder import execute_run
 from scenarios.jobs.serve import Serving, serve_job
 from scenarios.rapid.reader import read_module
-from scenarios.twin.files import MAX_UPLOAD, FileService
+from scenarios.twin.file_service import MAX_UPLOAD, FileService
 from scenarios.twin.server import ServeOptions
 
 NINE = ",".join(["9E+09"] * 6)

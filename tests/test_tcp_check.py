@@ -20,13 +20,13 @@ from cell.sim.faults import Fault
 from cell.sim.truth import CellTruth
 from scenarios.configuration.config_files import fault_assignment
 from scenarios.jobs.runner import RunOptions, run_job
-from scenarios.offline.budget import tool_term
 from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
+from scenarios.offline.error_budget import tool_term
 from scenarios.offline.tcp_check import check_tcp
 from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.beam import Commissioning
 from scenarios.results.run import RAN, RunResult
-from scenarios.results.verification import K_SIGMA, TcpCheck
+from scenarios.results.verification_result import K_SIGMA, TcpCheck
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from scenarios.results.events import FaultOutcome, Injection
-from scenarios.results.exported import ExportedRun
+from scenarios.results.exported_result import ExportedRun
 from scenarios.results.run import GoalCheck, RunResult
 from scenarios.testing import JobRun, assert_detected, assert_goals, assert_targets_within
 

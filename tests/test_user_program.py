@@ -19,7 +19,7 @@ from cell.irb2400_arm import irb2400
 from models.registry import builtin_model
 from scenarios.cli.app import main
 from scenarios.configuration.config_files import load_config
-from scenarios.offline.placement import nominal_pose
+from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.rapid.writer import configuration
 
 SHORT = ["--set", "localization.scan.speed_m_s=0.25", "--set", "localization.scan.period_s=0.02"]

@@ -1,4 +1,4 @@
-"""The verification before the first touch (scenarios.offline.verify): its decisions, the
+"""The verification before the first touch (scenarios.offline.verification): its decisions, the
 allowance taken from the goal, its report in results.json and the recording, and the
 operating curve of a campaign's rows (scenarios.campaign.operating_curve).
 
@@ -19,8 +19,8 @@ from rrd_reader import read_rrd
 
 from scenarios.campaign.operating_curve import operating_curve
 from scenarios.offline.settings import VerifySection
-from scenarios.offline.verify import allowances
-from scenarios.results.verification import TargetCheck, Verification
+from scenarios.offline.verification import allowances
+from scenarios.results.verification_result import TargetCheck, Verification
 
 GOAL_M = 0.5e-3
 

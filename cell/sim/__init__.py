@@ -13,9 +13,9 @@ from cell.sim.config import (
     TableErrors,
     ToolErrors,
 )
-from cell.sim.controller import SimController
 from cell.sim.factory import make_cell
 from cell.sim.faults import Fault
+from cell.sim.sim_controller import SimController
 from cell.sim.truth import CellTruth
 
 __all__ = [

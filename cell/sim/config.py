@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 from cell.irb2400_arm import irb2400
 from cell.layout import (
     CellLayout,

@@ -7,14 +7,14 @@ import numpy as np
 import trimesh
 
 from cell.layout import FixedMesh, LooseMesh
-from cell.scene import T_TABLEBODY_TABLE
+from cell.scene_builder import T_TABLEBODY_TABLE
 from cell.sim.config import CellConfig
-from cell.sim.controller import Devices, SimController
 from cell.sim.devices import Encoders, TableAxis
 from cell.sim.drives import Drives
 from cell.sim.faults import FaultInjector
 from cell.sim.real import build_real_model, draw_real_parameters
 from cell.sim.sensors import IRSensor, LaserScanner
+from cell.sim.sim_controller import Devices, SimController
 from cell.sim.simulation import Simulation
 from cell.sim.toolchanger import ToolChanger
 from cell.sim.truth import CellTruth

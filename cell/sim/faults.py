@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.errors import CellConfigError
+from cell.cell_errors import CellConfigError
 
 
 @dataclass(frozen=True)

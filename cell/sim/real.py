@@ -1,5 +1,5 @@
 """The real cell's hidden parameters (the truth), drawn from its configuration, and its
-MuJoCo model: the scene of its layout (cell.scene) with the real arm, the real tool TCPs and
+MuJoCo model: the scene of its layout (cell.scene_builder) with the real arm, the real tool TCPs and
 what its faults leave in the cell.
 """
 
@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cell.layout import FixedPrimitive
-from cell.scene import build_model
+from cell.scene_builder import build_model
 from cell.sim.config import CellConfig
 from models.robot import TOOLS
 from registration.rigid import make_T

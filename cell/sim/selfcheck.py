@@ -16,8 +16,8 @@ import mujoco
 import numpy as np
 from rich.table import Table
 
+from cell.cell_errors import CellConfigError, CellError
 from cell.controller import Controller
-from cell.errors import CellConfigError, CellError
 from cell.irb2400_arm import nominal_kinematics
 from cell.kinematics import Kinematics
 from cell.layout import FixedPrimitive

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from cell.layout import IRConfig, LaserConfig
-from cell.scene import RAY_GROUPS
+from cell.scene_builder import RAY_GROUPS
 from cell.sim.faults import FaultInjector
 
 #: Radius of a reflective patch that returns spurious ranges (fault laser_spurious) [m].

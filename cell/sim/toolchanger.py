@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from cell.errors import ToolChangerError
+from cell.cell_errors import ToolChangerError
 from cell.sim.faults import FaultInjector
 from cell.sim.simulation import Simulation
 from registration.rigid import R_to_quat_wxyz, invert, pose_error

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from cell.errors import CellConfigError, UnknownNameError
+from cell.cell_errors import CellConfigError, UnknownNameError
 from cell.kinematics import Kinematics, payload_model
 from cell.sim.config import CellConfig
 from cell.sim.devices import TableAxis

@@ -3,10 +3,10 @@ bone segmented and meshed, plans in image coordinates, and a CT scanner simulate
 phantom so that the model error is the one a CT-derived model really has."""
 
 from models.ct.bone import BoneCheck, BoneModel, bone_model
-from models.ct.plan import read_plan
+from models.ct.ct_scanner import CTSettings, ct_scan
 from models.ct.readers import read_volume
-from models.ct.scanner import CTSettings, ct_scan
 from models.ct.volume import Volume, VolumeError
+from models.ct.volume_plan import read_plan
 
 __all__ = [
     "BoneCheck",

@@ -7,9 +7,9 @@ from pathlib import Path
 
 from models.convex import convex_pieces
 from models.ct.bone import ISO_HU, bone_model
-from models.ct.plan import read_plan
 from models.ct.readers import read_volume
 from models.ct.regular import MAX_GAP_MM
+from models.ct.volume_plan import read_plan
 from models.model import ObjectModel
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import ModelError
+from models.model_errors import ModelError
 
 #: RAS = RAS_FROM_LPS @ LPS (and back: it is its own inverse).
 RAS_FROM_LPS = np.diag([-1.0, -1.0, 1.0, 1.0])

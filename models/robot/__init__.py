@@ -17,14 +17,7 @@ from models.robot.arm import (
     arm_xml,
 )
 from models.robot.paths import MODEL_DIR, ROBOT_PATH, SCENE_PATH
-from models.robot.scene import ROBOT_FILE, TIMESTEP, scene_xml
-from models.robot.table import (
-    TABLE_GUIDE_JOINTS,
-    TABLE_HALF,
-    TABLE_SPEED,
-    TABLE_TOP_POS,
-    TABLE_TRAVEL,
-)
+from models.robot.scene_mjcf import ROBOT_FILE, TIMESTEP, scene_xml
 from models.robot.tools import (
     FINGER_TRAVEL,
     GRIPPER,
@@ -38,6 +31,13 @@ from models.robot.tools import (
     ToolSpec,
     beam_line,
     slot_pos,
+)
+from models.robot.worktable import (
+    TABLE_GUIDE_JOINTS,
+    TABLE_HALF,
+    TABLE_SPEED,
+    TABLE_TOP_POS,
+    TABLE_TRAVEL,
 )
 
 __all__ = [

@@ -11,7 +11,7 @@ from pathlib import Path
 from models.atomic import write_text
 from models.robot.arm import arm_xml
 from models.robot.paths import ROBOT_PATH, SCENE_PATH
-from models.robot.scene import scene_xml
+from models.robot.scene_mjcf import scene_xml
 
 
 def generate() -> tuple[Path, Path]:

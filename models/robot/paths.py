@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from models.robot.scene import ROBOT_FILE
+from models.robot.scene_mjcf import ROBOT_FILE
 
 MODEL_DIR = Path(__file__).resolve().parent
 #: The nominal robot-only MJCF (Pinocchio parses it; the scene includes it).

@@ -19,13 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from registration.errors import FormatError, InputError
-from registration.io.mesh import MESH_FORMATS, read_mesh
-from registration.io.scanner import read_e57, read_las, read_pcd
+from registration.io.mesh_files import MESH_FORMATS, read_mesh
+from registration.io.scanner_files import read_e57, read_las, read_pcd
 from registration.io.text import read_csv, read_npy, read_xyz
+from registration.registration_errors import FormatError, InputError
 from registration.rigid import Array
 from registration.shapes.base import Shape, check_points
-from registration.shapes.mesh import MeshModel
+from registration.shapes.mesh_shape import MeshModel
 from registration.shapes.points import PointModel
 
 UNITS: dict[str, float] = {"m": 1.0, "mm": 1e-3}

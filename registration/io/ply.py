@@ -19,7 +19,7 @@ from typing import Literal
 
 import numpy as np
 
-from registration.errors import FormatError
+from registration.registration_errors import FormatError
 from registration.rigid import Array
 
 #: PLY's scalar types and their numpy codes (both the classic and the sized names).

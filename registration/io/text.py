@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from registration.errors import FormatError, first_line
+from registration.registration_errors import FormatError, first_line
 from registration.rigid import Array
 
 #: What the fast path leaves to the line reader: any character other than printable ASCII,

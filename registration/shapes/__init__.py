@@ -1,7 +1,7 @@
 """Model shapes and their closest-point operators (the C operator of the seed paper)."""
 
 from registration.shapes.base import Closest, Shape, estimate_normals
-from registration.shapes.mesh import MeshModel, sample_surface
+from registration.shapes.mesh_shape import MeshModel, sample_surface
 from registration.shapes.parametric import ParametricModel
 from registration.shapes.points import PointModel
 from registration.shapes.segments import SegmentModel

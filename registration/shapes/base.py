@@ -17,9 +17,9 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
-from registration.errors import InputError
 from registration.kernels import Kernel
 from registration.lookup import VoxelLookup
+from registration.registration_errors import InputError
 from registration.rigid import Array
 from registration.starts import farthest_point_sample, local_frame
 

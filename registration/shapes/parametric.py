@@ -12,7 +12,7 @@ from collections.abc import Callable
 import igl
 import numpy as np
 
-from registration.errors import InputError
+from registration.registration_errors import InputError
 from registration.rigid import Array
 from registration.shapes.base import Closest, Shape, check_points
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import igl
 import numpy as np
 
-from registration.errors import InputError
+from registration.registration_errors import InputError
 from registration.rigid import Array
 from registration.shapes.base import Closest, Shape, check_points
 

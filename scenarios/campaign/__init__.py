@@ -19,8 +19,8 @@ from scenarios.campaign.campaign import (
     resolve_config,
     run_campaign,
 )
-from scenarios.campaign.errors import CampaignError
-from scenarios.campaign.report import GroupSummary, campaign_summaries, summarize
+from scenarios.campaign.campaign_errors import CampaignError
+from scenarios.campaign.campaign_report import GroupSummary, campaign_summaries, summarize
 from scenarios.campaign.store import ResultStore, read_csv
 from scenarios.campaign.sweep import parse_vary, set_dotted, sweep_points
 from scenarios.campaign.trials import STAGES, Trial, run_trial

@@ -23,7 +23,7 @@ from typing import Literal
 import yaml
 
 from models.atomic import write_text
-from scenarios.campaign.errors import CampaignError
+from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.campaign.register_job import (
     CASE_KEY,
     CASES,
@@ -266,7 +266,7 @@ def run_campaign(
                 run_dask(todo, collect, scheduler, workers)
     rows = store.rows(t.trial_id for t in trials)
     csv_path = store.write_csv(folder / "results.csv", rows)
-    from scenarios.campaign.report import write_report
+    from scenarios.campaign.campaign_report import write_report
 
     files = (csv_path, *write_report(folder, csv_path, spec.stage, [k for k, _ in spec.sweep]))
     return CampaignOutcome(folder, rows, len(todo), len(trials) - len(todo), files)

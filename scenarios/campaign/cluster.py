@@ -11,7 +11,7 @@ from __future__ import annotations
 import uuid
 from collections.abc import Callable, Sequence
 
-from scenarios.campaign.errors import CampaignError
+from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.campaign.trials import Trial, run_trial
 from scenarios.results.edge import JsonObject
 

@@ -20,12 +20,12 @@ import tempfile
 import time
 from dataclasses import dataclass
 
-from scenarios.campaign.register_stage import MAX_TARGETS
+from scenarios.campaign.register_trial import MAX_TARGETS
 from scenarios.campaign.rows import HARM_M
 from scenarios.results.edge import JsonObject
-from scenarios.results.exported import ExportedRun
+from scenarios.results.exported_result import ExportedRun
 from scenarios.results.run import RAN, RunResult
-from scenarios.results.scan_plan import ScanPlanSummary
+from scenarios.results.scan_plan_result import ScanPlanSummary
 
 #: A good match: every target within this of the truth [m], the registration's share and the
 #: achieved tip; a run with no target reached, its pose within GOOD_M and GOOD_DEG [deg] (a

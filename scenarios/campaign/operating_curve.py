@@ -40,7 +40,7 @@ class CurvePoint:
     the targets [m] was beyond the goal and how many of them were detected; the runs that
     ended complete with the RMS goal missed, and of them those where the fault went unseen;
     the runs that ran their program but said a goal was at risk (their error budget's
-    bound beyond it, scenarios.offline.budget); the median target RMS of the runs that ran
+    bound beyond it, scenarios.offline.error_budget); the median target RMS of the runs that ran
     their program, complete or at risk [m] (nan: none) and the verification's median cell
     time [s] (nan: none)."""
 

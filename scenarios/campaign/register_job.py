@@ -1,6 +1,6 @@
 """A register trial's configuration: a cell job's (scenarios.configuration.job_config.JobConfig).
 
-A register trial (scenarios.campaign.register_stage) reads what a job already has from the
+A register trial (scenarios.campaign.register_trial) reads what a job already has from the
 job's own sections, and what only a simulated-scan trial has from `register_trial`:
 - the object: `cell.object.model` (a built-in model) and the draw of its real placement,
   `cell.object.placement`;
@@ -29,7 +29,7 @@ from typing import get_args
 from pydantic import ValidationError
 
 from cell.sim.faults import FAULT_KINDS
-from scenarios.campaign.errors import CampaignError
+from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.configuration.config_files import describe_validation_error
 from scenarios.configuration.fault_sections import FaultSetting
 from scenarios.configuration.job_config import JobConfig

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from registration.shapes.mesh import sample_surface
+from registration.shapes.mesh_shape import sample_surface
 
 #: Radius of a reflective patch that returns spurious ranges [m] (the cell's laser_spurious).
 PATCH_RADIUS_M = 0.01

@@ -12,7 +12,7 @@ from typing import Any
 
 import yaml
 
-from scenarios.campaign.errors import CampaignError
+from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.configuration.config_error import ConfigError
 from scenarios.configuration.config_files import set_dotted as config_set_dotted
 from scenarios.results.edge import JsonObject

@@ -5,7 +5,7 @@ Trial ids are `p<point>-t<trial>`; the seed of trial k is `seed + k` at every sw
 
 A trial ends in one of three statuses: "ok" (the trial function returned its row, whatever
 the run's verdict: a refused match or an aborted job is a result), "error" (it raised one of
-the project's user errors, scenarios.errors.user_errors: a bad configuration, input the
+the project's user errors, scenarios.scenario_errors.user_errors: a bad configuration, input the
 trial cannot use) or "crash" (it raised anything else: a bug). A crash's row carries its full
 traceback under TRACEBACK_TEXT, which the campaign's store writes to the trial's folder.
 """
@@ -19,9 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from scenarios.campaign.errors import CampaignError
-from scenarios.errors import user_errors
+from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.results.edge import JsonObject
+from scenarios.scenario_errors import user_errors
 
 STATUSES: tuple[str, ...] = ("ok", "error", "crash")
 """A trial row's `status`: returned, stopped by a user error, stopped by a program error."""
@@ -42,7 +42,7 @@ TrialFunction = Callable[[JsonObject, int], TrialRow]
 """(resolved config dict, seed) -> the trial's typed row."""
 
 STAGES: dict[str, str] = {
-    "register": "scenarios.campaign.register_stage:run_register_trial",
+    "register": "scenarios.campaign.register_trial:run_register_trial",
     "full": "scenarios.campaign.full_stage:run_full_trial",
 }
 """Trial function of each stage, as `module:function` (imported where the trial runs)."""

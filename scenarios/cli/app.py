@@ -68,7 +68,7 @@ def _volume_model(
 
     from models.ct import bone_model, read_volume
     from models.ct.regular import voxel_size
-    from models.export import write_mesh
+    from models.mesh_export import write_mesh
 
     volume = read_volume(path, voxel_size(voxel_mm), max_gap_mm)
     if volume.resampled is not None:
@@ -151,7 +151,7 @@ def model(
 
     from models.check import check_model
     from models.ct.readers import is_volume
-    from models.export import write_mesh
+    from models.mesh_export import write_mesh
     from models.registry import load_model
 
     if is_volume(name):
@@ -460,7 +460,7 @@ def run(
         typer.echo(result.table)
         typer.echo(f"run folder: {folder}")
         return
-    from scenarios.results.table import results_table
+    from scenarios.results.result_table import results_table
 
     Console().print(results_table(result))
     typer.echo(f"run folder: {folder}")
@@ -541,7 +541,7 @@ def execute(
 
     from rich.console import Console
 
-    from scenarios.jobs.execute import EXECUTION_FILE, execute_run, execution_table
+    from scenarios.jobs.execute_run_folder import EXECUTION_FILE, execute_run, execution_table
 
     def progress(message: str) -> None:
         if not quiet:
@@ -773,7 +773,7 @@ def main(argv: list[str] | None = None) -> int:
         typer.echo(f"twincell: internal error (an unexpected warning): {exc}", err=True)
         return 1
     except Exception as exc:
-        from scenarios.errors import user_errors
+        from scenarios.scenario_errors import user_errors
 
         if isinstance(exc, user_errors()):
             typer.echo(f"twincell: error: {exc}", err=True)

@@ -13,7 +13,7 @@ A cell job is one configuration of the one pipeline (scenarios.jobs.pipeline):
 - `checks`: the goals the run is held to.
 - `register_trial` (campaigns only, optional): what only a register-stage trial has, a
   simulated scan matched to the virtual model without the cell
-  (scenarios.campaign.register_stage); a job's run ignores it.
+  (scenarios.campaign.register_trial); a job's run ignores it.
 The seed paper's experiments (`kind: paper`) are a job of their own.
 
 Shipped configurations live in `scenarios/configuration/shipped/<name>.yaml` (cells in its

@@ -82,7 +82,7 @@ class ObjectSection(Section):
     NRRD: its bone at `model.ct.iso_hu`), `fixed` on the table or lying `loose` on it (a
     part the gripper picks), at a pose drawn around the nominal one. Its operation targets
     come from the model (burr holes, screw frames), from `targets_file` (for a CT volume, a
-    JSON plan made on it: models.ct.plan), from a `<mesh>.targets.yaml` beside a mesh file,
+    JSON plan made on it: models.ct.volume_plan), from a `<mesh>.targets.yaml` beside a mesh file,
     or are generated on its upper surface."""
 
     model: str = "skull"
@@ -154,7 +154,7 @@ class CellSection(Section):
 
 
 class CTSection(Section):
-    """The simulated CT of the real object (`model.source: ct`; models.ct.scanner): voxel size
+    """The simulated CT of the real object (`model.source: ct`; models.ct.ct_scanner): voxel size
     (i, j, k) [mm] (a clinical head protocol's 0.5 mm in-plane, 1 mm slices), the
     point-spread function's FWHM [mm], the voxel noise [HU]; `iso_hu` is the segmentation's
     bone threshold. `voxel_mm` also takes one size or "AxBxC" (`--vary

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from scenarios.errors import ScenarioError
+from scenarios.scenario_errors import ScenarioError
 
 
 class ConfigError(ScenarioError, ValueError):

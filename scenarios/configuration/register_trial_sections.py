@@ -1,4 +1,4 @@
-"""What only a register-stage trial of a campaign has (scenarios.campaign.register_stage): a
+"""What only a register-stage trial of a campaign has (scenarios.campaign.register_trial): a
 simulated scan matched to the virtual model without the cell; a job's run ignores it."""
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ class RegisterTrialScan(Section):
 
 
 class RegisterTrialSection(Section):
-    """What only a register-stage trial has (scenarios.campaign.register_stage): `case`
+    """What only a register-stage trial has (scenarios.campaign.register_trial): `case`
     labels the campaign's preset of keys; `scanned_model` is what is really on the table
     (None: the job's object, `cell.object.model`; another model makes every accept false);
     `model_seed` shapes the skull (the job's `seed` draws each trial's model error, pose and

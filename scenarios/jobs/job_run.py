@@ -10,21 +10,21 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.jobs.plan import JobPlan
+from scenarios.jobs.job_plan import JobPlan
 from scenarios.jobs.run_log import RunLog
 from scenarios.offline.cell_model import CellModel
-from scenarios.outputs import files as outputs
+from scenarios.outputs import run_files as outputs
 from scenarios.realcell.evaluation import PoseEvaluation
 from scenarios.realcell.setup import JobCell
-from scenarios.results.verification import Verification
-from scenarios.stages.calibrate import Calibrated
-from scenarios.stages.export import Exported
-from scenarios.stages.probe import Probed
-from scenarios.stages.register import Registered
-from scenarios.stages.scan import Scanned
+from scenarios.results.verification_result import Verification
+from scenarios.stages.calibrate_stage import Calibrated
+from scenarios.stages.export_stage import Exported
+from scenarios.stages.probe_stage import Probed
+from scenarios.stages.register_stage import Registered
+from scenarios.stages.scan_stage import Scanned
 from scenarios.stages.stage import Outcome, Stage
 from scenarios.stages.state import JobState, LocatedPose
-from scenarios.stages.verify import Verified
+from scenarios.stages.verify_stage import Verified
 
 
 class JobRun:

@@ -4,7 +4,7 @@ its stages in one loop, and ask the evaluator afterwards what really happened.
 The runner (`run_cell_job`) alone holds the real cell's truth: it sets the cell up
 (scenarios.realcell), hands the stages (scenarios.stages) a context with the controller
 API, the virtual model, the planning settings and the job so far, nothing else, and has the
-job reported against the truth (scenarios.jobs.report). What the run records of the truth
+job reported against the truth (scenarios.jobs.job_report). What the run records of the truth
 (the evaluator's moments, the rerun recording of the bodies) goes through the hooks the
 runner passes to the stages, and through what it does as each stage begins and ends
 (`JobRun`).
@@ -23,11 +23,11 @@ from cell.robot_arm import Robot
 from cell.sim.faults import FAULT_KINDS, Fault
 from models.model import ObjectModel
 from scenarios.configuration.job_config import JobConfig
+from scenarios.jobs.job_plan import JobPlan, plan_job
+from scenarios.jobs.job_report import finish_job
 from scenarios.jobs.job_run import JobRun
-from scenarios.jobs.plan import JobPlan, plan_job
-from scenarios.jobs.report import finish_job
 from scenarios.jobs.run_log import RunLog
-from scenarios.jobs.stages import StageTracker
+from scenarios.jobs.stage_tracker import StageTracker
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
 from scenarios.offline.operations import target_operations
@@ -37,21 +37,21 @@ from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.beam import Commissioning
-from scenarios.results.budget import ErrorBudget
+from scenarios.results.budget_result import ErrorBudget
 from scenarios.results.run import RunResult
-from scenarios.results.verification import TcpCheck
-from scenarios.stages.calibrate import Calibrate
+from scenarios.results.verification_result import TcpCheck
+from scenarios.stages.calibrate_stage import Calibrate
+from scenarios.stages.check_stage import Check
 from scenarios.stages.context import StageContext
-from scenarios.stages.execute import Execute
-from scenarios.stages.export import Export
+from scenarios.stages.execute_stage import Execute
+from scenarios.stages.export_stage import Export
 from scenarios.stages.loop import run_stages
-from scenarios.stages.probe import Probe
-from scenarios.stages.program import Check
-from scenarios.stages.register import Register
-from scenarios.stages.scan import Scan
+from scenarios.stages.probe_stage import Probe
+from scenarios.stages.register_stage import Register
+from scenarios.stages.scan_stage import Scan
 from scenarios.stages.stage import Stage
 from scenarios.stages.state import JobState
-from scenarios.stages.verify import Verify
+from scenarios.stages.verify_stage import Verify
 
 Progress = Callable[[str], None]
 

@@ -9,12 +9,12 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from cell import Controller, ControllerEvent
-from scenarios.jobs.stages import SETUP, StageTracker
+from scenarios.jobs.stage_tracker import SETUP, StageTracker
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
-from scenarios.results.budget import ErrorBudget
+from scenarios.results.budget_result import ErrorBudget
 from scenarios.results.events import SupervisionEvent
-from scenarios.results.verification import TcpCheck
+from scenarios.results.verification_result import TcpCheck
 
 Progress = Callable[[str], None]
 

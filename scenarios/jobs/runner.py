@@ -28,13 +28,13 @@ from scenarios.configuration.config_files import (
     with_overrides,
 )
 from scenarios.configuration.job_config import Config, JobConfig, PaperConfig
-from scenarios.errors import ScenarioError
 from scenarios.jobs.interrupt import RunInterrupted, SignalGuard
 from scenarios.jobs.paper import PaperResult
-from scenarios.jobs.stages import StageTracker
+from scenarios.jobs.stage_tracker import StageTracker
 from scenarios.outputs.run_folder import RunFolder
 from scenarios.results.edge import JsonObject
 from scenarios.results.run import IncompleteRun, RunResult
+from scenarios.scenario_errors import ScenarioError
 
 Progress = Callable[[str], None]
 

@@ -23,23 +23,23 @@ from typing import Any
 from models.atomic import write_text
 from scenarios.configuration.config_files import load_config
 from scenarios.configuration.job_config import JobConfig
-from scenarios.errors import ScenarioError
-from scenarios.jobs.execute import job_program, rebuild_job_cell
-from scenarios.jobs.exported import (
+from scenarios.jobs.execute_run_folder import job_program, rebuild_job_cell
+from scenarios.jobs.exported_run import (
     ExecutionResult,
     JobTargets,
     job_targets,
     measure_execution,
     record_touch,
 )
+from scenarios.jobs.job_plan import job_robot, object_models
 from scenarios.jobs.pipeline import job_cell
-from scenarios.jobs.plan import job_robot, object_models
 from scenarios.rapid.executor import ExecutionRecord
 from scenarios.realcell.setup import JobCell
-from scenarios.stages.export import TASK_FOLDER
-from scenarios.twin.controller import TwinController
+from scenarios.scenario_errors import ScenarioError
+from scenarios.stages.export_stage import TASK_FOLDER
 from scenarios.twin.elog import ElogEntry
 from scenarios.twin.server import ServedController, ServeOptions
+from scenarios.twin.twin_controller import TwinController
 
 Progress = Callable[[str], None]
 

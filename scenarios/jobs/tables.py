@@ -13,10 +13,10 @@ import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from scenarios.errors import ScenarioError
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.results.method_reports import MethodReport
 from scenarios.results.run import RunResult
+from scenarios.scenario_errors import ScenarioError
 
 Progress = Callable[[str], None]
 

@@ -19,7 +19,7 @@ fixes one branch; this module derives one from the arm's kinematics and the layo
 
 Homes come one per branch (the upper arm leaning towards the flange or not, the wrist on
 one side or the other), best first: the window keeps the home's branch, and a job whose
-rack slots, scan passes or transits lie outside it tries the next (scenarios.jobs.plan).
+rack slots, scan passes or transits lie outside it tries the next (scenarios.jobs.job_plan).
 
 Each bound is found by sweeping its joint alone (the others at home) through the file's
 range with the arm's own forward kinematics and the virtual cell's geometry (the tools'

@@ -11,7 +11,7 @@ import numpy as np
 
 from cell import FixedPrimitive
 from registration.rigid import make_T
-from scenarios.errors import ScenarioError
+from scenarios.scenario_errors import ScenarioError
 
 
 class CalibrationError(ScenarioError, ValueError):

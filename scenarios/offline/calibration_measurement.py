@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, Kinematics, nominal_T_base_table
+from cell.cell_errors import CellError
 from cell.controller import RACK_APPROACH_M
-from cell.errors import CellError
 from models.robot import LASER
 from registration.rigid import make_T
 from scenarios.offline.calibration_artifact import CalibrationError, SphereArtifact

@@ -15,7 +15,7 @@ from scenarios.offline.calibration import CalibrationResult, calibrate
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT, CalibrationError
 from scenarios.offline.calibration_identification import CalibrationPriors
 from scenarios.offline.calibration_measurement import CalibrationPlan, Clear
-from scenarios.offline.scan import ObjectBox
+from scenarios.offline.scan_passes import ObjectBox
 from scenarios.offline.settings import Calibration
 
 Progress = Callable[[str], None]

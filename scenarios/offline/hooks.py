@@ -12,8 +12,8 @@ from __future__ import annotations
 from typing import Protocol
 
 from scenarios.results.beam import Commissioning
-from scenarios.results.budget import ErrorBudget
-from scenarios.results.verification import TcpCheck
+from scenarios.results.budget_result import ErrorBudget
+from scenarios.results.verification_result import TcpCheck
 
 
 class StageHooks(Protocol):

@@ -20,15 +20,15 @@ from models.model import ObjectModel
 from models.registry import load_model
 from models.targets import BurrHole
 from registration.rigid import pose_error
-from scenarios.errors import ScenarioError
-from scenarios.offline.program import burr_hole_operations
+from scenarios.offline.mesh_targets import generate_targets, read_targets, targets_path
+from scenarios.offline.program_plan import burr_hole_operations
 from scenarios.offline.settings import OperationsSection, Pick
-from scenarios.offline.targets import generate_targets, read_targets, targets_path
 from scenarios.program.program_types import Operation
 from scenarios.rapid.module import RapidModule, WobjData
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task
 from scenarios.rapid.touches import TouchOperation, touch_operations
+from scenarios.scenario_errors import ScenarioError
 
 
 class OperationsError(ScenarioError, ValueError):
@@ -62,7 +62,7 @@ def virtual_model(
     upper surface), screw frames driven from above for screws. A CT volume's model is its
     bone at `iso_hu` [HU] (an irregular series resampled, at `ct_voxel_mm` if given; a slice
     gap wider than `ct_max_gap_mm` refused), and a JSON `targets_file` is the plan made on it
-    (models.ct.plan)."""
+    (models.ct.volume_plan)."""
     if is_volume(name):  # a CT: its bone, and the plan made on it
         json_plan = targets_file is not None and targets_file.lower().endswith(".json")
         plan = targets_file if json_plan else None

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from cell import Controller
 from scenarios.offline.hooks import StageHooks
-from scenarios.offline.program import execute_program
+from scenarios.offline.program_plan import execute_program
 from scenarios.offline.settings import Pick
 from scenarios.program.program_types import OfflineProgram
 from scenarios.program.tool_change import change_tool_safely

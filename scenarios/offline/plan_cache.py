@@ -38,9 +38,9 @@ from cell.robot_arm import Robot
 from models import cache
 from models.atomic import write_atomic
 from models.model import ObjectModel
-from scenarios.offline.scan import PlannedPass
 from scenarios.offline.scan_candidates import Candidate
 from scenarios.offline.scan_choice import ChosenPass
+from scenarios.offline.scan_passes import PlannedPass
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import PlanningSettings, ScanPass
 

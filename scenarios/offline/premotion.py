@@ -286,7 +286,7 @@ def check_program(
     """Check `program` in the virtual `cell` before it moves (see the module's docstring).
 
     Args:
-        program: the corrected program (scenarios.offline.program.plan_program).
+        program: the corrected program (scenarios.offline.program_plan.plan_program).
         kinematics: the arm's kinematics the program was solved with (the controller's
             `kinematics`, nominal or calibrated); its joint ranges for the program's tool.
         cell: the virtual cell, the object where the program believes it is

@@ -11,7 +11,7 @@ from typing import Literal
 import numpy as np
 
 from cell.virtual import Contact
-from scenarios.errors import ScenarioError
+from scenarios.scenario_errors import ScenarioError
 
 Kind = Literal["reach", "joint_limit", "singularity", "collision"]
 KINDS: tuple[str, ...] = ("reach", "joint_limit", "singularity", "collision")

@@ -15,8 +15,8 @@ import numpy as np
 
 from cell import Controller, nominal_T_base_table
 from models.targets import ProbeLine
-from scenarios.errors import ScenarioError
 from scenarios.program.tool_change import change_tool_safely
+from scenarios.scenario_errors import ScenarioError
 
 Progress = Callable[[str], None]
 #: The IR sensor looks straight down (TCP z = -table z).

@@ -18,8 +18,8 @@ from cell import nominal_T_base_slot
 from cell.controller import RACK_APPROACH_M
 from cell.robot_arm import Robot
 from models.robot import TOOLS
-from scenarios.offline.program import plan_program
-from scenarios.offline.scan import ObjectBox, plan_scan
+from scenarios.offline.program_plan import plan_program
+from scenarios.offline.scan_passes import ObjectBox, plan_scan
 from scenarios.offline.settings import PlanningSettings
 from scenarios.offline.table_candidates import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.program.program_types import Operation

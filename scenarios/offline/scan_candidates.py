@@ -17,7 +17,7 @@ from cell.virtual import VirtualCell
 from models.robot import LASER
 from registration import transform_points
 from registration.rigid import invert
-from scenarios.offline.scan import ObjectBox, PlannedPass, plan_pass
+from scenarios.offline.scan_passes import ObjectBox, PlannedPass, plan_pass
 from scenarios.offline.scan_timing import joint_move_s, pass_seconds
 from scenarios.offline.settings import Scan, ScanPass
 from scenarios.offline.table_candidates import UnreachablePlanError

@@ -33,16 +33,16 @@ import numpy as np
 
 from cell import Kinematics, nominal_T_base_table
 from registration import transform_points
-from scenarios.offline.scan import ObjectBox, PlannedPass, plan_pass
-from scenarios.offline.scan import plan_scan as plan_scan_fixed
 from scenarios.offline.scan_candidates import Candidate, PlanningCell, ScanPlanError, candidates
 from scenarios.offline.scan_choice import ChosenPass, choose_passes
+from scenarios.offline.scan_passes import ObjectBox, PlannedPass, plan_pass
+from scenarios.offline.scan_passes import plan_scan as plan_scan_fixed
 from scenarios.offline.scan_timing import pass_seconds, scan_seconds
 from scenarios.offline.scan_transits import TransitError, route_transits
 from scenarios.offline.settings import Scan, ScanPass
 from scenarios.offline.table_candidates import TABLE_CANDIDATES_M
 from scenarios.offline.tre_prediction import ErrorModel, information_shares, predict_tre
-from scenarios.results.scan_plan import PassSummary, ScanPlanSummary
+from scenarios.results.scan_plan_result import PassSummary, ScanPlanSummary
 
 Progress = Callable[[str], None]
 

@@ -11,7 +11,7 @@ import numpy as np
 from cell.controller import SETTLE_S
 from cell.trajectory import QUINTIC_PEAK
 from models.robot import TABLE_SPEED
-from scenarios.offline.scan import RETREAT_M, RETREAT_SPEED_M_S, PlannedPass
+from scenarios.offline.scan_passes import RETREAT_M, RETREAT_SPEED_M_S, PlannedPass
 from scenarios.offline.settings import Scan
 
 

@@ -17,8 +17,8 @@ from cell.virtual import VirtualCell
 from models.robot import LASER
 from scenarios.offline.premotion import joint_move_samples
 from scenarios.offline.premotion_verdict import PremotionLimits
-from scenarios.offline.scan import PlannedPass, risen
 from scenarios.offline.scan_candidates import Candidate, ScanPlanError
+from scenarios.offline.scan_passes import PlannedPass, risen
 
 
 class TransitError(ScanPlanError):

@@ -314,7 +314,7 @@ class OperationsSection(Section):
 
 
 class BudgetCoverage(Section):
-    """The error budget's coverage factors (scenarios.offline.budget): a target's bound is
+    """The error budget's coverage factors (scenarios.offline.error_budget): a target's bound is
     its standard error times `k_target`, the run's RMS bound the targets' RMS standard error
     times `k_rms`. Calibrated on 100 skull runs (seeds 76000-76039 and 74000-74059) at their
     97.5 % quantiles, so that a campaign of 60 runs, with its own sampling scatter, still
@@ -328,7 +328,7 @@ class BudgetCoverage(Section):
 
 
 class VerifySection(Section):
-    """The checks before the first touch. The correction (scenarios.offline.verify): the
+    """The checks before the first touch. The correction (scenarios.offline.verification): the
     laser scans a strip of the object again, and the object's move since the scan is
     measured at each target and held to what the job's goal leaves; a detected move
     re-scans and re-matches once, then refuses. `max_strips`: strips it scans at most to

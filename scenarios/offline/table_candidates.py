@@ -3,7 +3,7 @@ reach, and the error when none serves."""
 
 from __future__ import annotations
 
-from scenarios.errors import ScenarioError
+from scenarios.scenario_errors import ScenarioError
 
 #: Table positions tried, in order, for a pass or an operation the arm must reach [m].
 TABLE_CANDIDATES_M = (0.0, -0.1, 0.1, -0.2, 0.2, -0.3, 0.3, -0.4, 0.4)

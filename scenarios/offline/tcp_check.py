@@ -28,7 +28,7 @@ import numpy as np
 from cell import Controller, SupervisionError
 from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.beam import BeamCrossing, BeamReading, as_joints
-from scenarios.results.verification import TcpCheck
+from scenarios.results.verification_result import TcpCheck
 
 #: Tools with a pointer the beam can see: the pointer's radius [m] and how far above the TCP
 #: the beam crosses it [m] (the screwer's pointer: a 3 mm ball-ended rod, its TCP the ball's

@@ -1,7 +1,7 @@
 """The offline program as a value: a touch operation as authored on the virtual model
 (`Operation`, in the OBJECT frame), the operation corrected and solved (`PlannedOperation`),
 the corrected program (`OfflineProgram`), and what the controller measured at a touch
-(`ExecutedOperation`). Made by scenarios.offline.program, written as RAPID by
+(`ExecutedOperation`). Made by scenarios.offline.program_plan, written as RAPID by
 scenarios.rapid.writer."""
 
 from __future__ import annotations

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller
+from cell.cell_errors import CellError, MotionHaltedError
 from cell.controller import SETTLE_S
-from cell.errors import CellError, MotionHaltedError
-from scenarios.errors import ScenarioError
 from scenarios.program.tool_change import change_tool_safely
 from scenarios.rapid.execution_plan import ExecutionPlan, PlannedMove
+from scenarios.scenario_errors import ScenarioError
 
 
 class ExecutionError(ScenarioError, RuntimeError):

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from scenarios.errors import ScenarioError
+from scenarios.scenario_errors import ScenarioError
 
 
 class RapidError(ScenarioError, ValueError):

@@ -11,7 +11,7 @@ import numpy as np
 from models.ct import CTSettings, bone_model, ct_scan
 from models.model import ObjectModel
 from scenarios.configuration.cell_sections import CTSection
-from scenarios.errors import ScenarioError
+from scenarios.scenario_errors import ScenarioError
 
 
 def ct_virtual_model(real: ObjectModel, section: CTSection, seed: int) -> ObjectModel:

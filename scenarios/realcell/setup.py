@@ -31,11 +31,11 @@ from scenarios.configuration.cell_sections import Noise
 from scenarios.configuration.job_config import JobConfig
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
-from scenarios.offline.placement import nominal_pose
-from scenarios.offline.scan import ObjectBox
+from scenarios.offline.nominal_placement import nominal_pose
+from scenarios.offline.scan_passes import ObjectBox
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
-from scenarios.realcell.placement import draw_true_pose
+from scenarios.realcell.real_placement import draw_true_pose
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,9 +8,9 @@
   poses, the pick) and the calibration's figures;
 - `scenarios.results.events`: what the supervision and the stages' checks saw, and each
   injected fault with what detected it;
-- `scenarios.results.exported`: the exported program as run by a controller without
-  absolute accuracy; `scenarios.results.scan_plan`: the scan's plan;
-- `scenarios.results.table`: a run's results as a table for the terminal.
+- `scenarios.results.exported_result`: the exported program as run by a controller without
+  absolute accuracy; `scenarios.results.scan_plan_result`: the scan's plan;
+- `scenarios.results.result_table`: a run's results as a table for the terminal.
 
 Nothing here reads the simulation: these are values, written by the runner and read back by
 anyone (`twincell execute`, the campaigns, the README's tables).

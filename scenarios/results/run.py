@@ -18,15 +18,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from scenarios.errors import ScenarioError
-from scenarios.results.budget import ErrorBudget
+from scenarios.results.budget_result import ErrorBudget
 from scenarios.results.edge import JsonObject
 from scenarios.results.evaluations import CalibrationFigures, PickEvaluation, TargetEvaluation
 from scenarios.results.events import FaultOutcome, SupervisionEvent
-from scenarios.results.exported import ExportedRun
+from scenarios.results.exported_result import ExportedRun
 from scenarios.results.method_reports import MatchReport, MethodReport
-from scenarios.results.scan_plan import ScanPlanSummary
-from scenarios.results.verification import TcpCheck, Verification
+from scenarios.results.scan_plan_result import ScanPlanSummary
+from scenarios.results.verification_result import TcpCheck, Verification
+from scenarios.scenario_errors import ScenarioError
 
 #: The version of results.json's layout that this module writes and reads.
 SCHEMA_VERSION = 1
@@ -93,7 +93,7 @@ class RunResult:
             seated off is put back and checked again).
         cell_time_s: the cell's clock at the run's end [s] (its simulated time).
         budget: the targets' error budget, made before the first touch from what the job
-            measured (scenarios.offline.budget), or None (no surface pose drove a program).
+            measured (scenarios.offline.error_budget), or None (no surface pose drove a program).
         verifications: the verification before the first touch, each time it ran (a
             detected move re-scans, re-matches and verifies again), in order.
         model_cache: the key of the built model read from (or written to) the disk cache

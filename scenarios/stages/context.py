@@ -19,7 +19,7 @@ from cell import Controller
 from models.model import ObjectModel
 from scenarios.offline.hooks import StageHooks
 from scenarios.offline.operations import UserProgram
-from scenarios.offline.scan import ObjectBox
+from scenarios.offline.scan_passes import ObjectBox
 from scenarios.offline.settings import PlanningSettings
 from scenarios.stages.state import JobState
 

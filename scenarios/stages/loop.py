@@ -9,7 +9,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
-from cell.errors import SupervisionError
+from cell.cell_errors import SupervisionError
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome, Stage
 from scenarios.stages.state import JobState

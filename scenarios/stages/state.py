@@ -12,7 +12,7 @@ from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.cell_model import CellModel
 from scenarios.offline.localization import Localization
 from scenarios.offline.probing import ProbeResult
-from scenarios.offline.scan import PlannedPass, ScanData
+from scenarios.offline.scan_passes import PlannedPass, ScanData
 from scenarios.program.program_types import OfflineProgram
 
 

@@ -139,7 +139,7 @@ def _found(path: str | Path, request: pytest.FixtureRequest) -> str | Path:
 
 
 def _fail_on_user_error(action: Callable[[], Any]) -> Any:
-    from scenarios.errors import user_errors
+    from scenarios.scenario_errors import user_errors
 
     try:
         return action()

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from cell.errors import CellError
+from cell.cell_errors import CellError
 from registration.rigid import make_T, quat_wxyz_to_R
 from scenarios.twin.egm_proto import EgmHeader, EgmRobot, EgmSensor
 from scenarios.twin.snapshot import Snapshot

@@ -22,7 +22,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 from urllib.parse import parse_qsl, unquote, urlsplit
 
-from scenarios.twin.errors import CODES, ControllerError
+from scenarios.twin.controller_errors import CODES, ControllerError
 
 REALM = "validusers@robapi.abb"
 #: The controller's default user, as an IRC5 ships it.

@@ -1,6 +1,6 @@
 """Robot Web Services 1.0 resources of the served controller, as an IRC5 with RobotWare 6
 answers them (JSON with `json=1`: the state under `_embedded._state`, each item with its
-`_type`; errors under `_embedded.status`), routed over scenarios.twin.controller:
+`_type`; errors under `_embedded.status`), routed over scenarios.twin.twin_controller:
 
 - `rw/panel/ctrlstate`, `opmode`, `speedratio` (and their set actions);
 - `rw/rapid/execution` (start, stop, resetpp), `rw/rapid/tasks[/T_ROB1]` (activate,
@@ -24,12 +24,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from scenarios.rapid.planner import cell_tools
-from scenarios.twin.controller import TwinController
+from scenarios.twin.controller_errors import bad_request, not_found
 from scenarios.twin.elog import ElogEntry
-from scenarios.twin.errors import bad_request, not_found
 from scenarios.twin.http import NO_CONTENT, Request, Response, state
 from scenarios.twin.signals import SIGNALS, spec, text_of
 from scenarios.twin.subscriptions import Subscriptions
+from scenarios.twin.twin_controller import TwinController
 
 Handler = Callable[[Request, str], Response]
 

@@ -1,4 +1,4 @@
-"""A served controller: the twin's state (scenarios.twin.controller) behind RWS on an HTTP
+"""A served controller: the twin's state (scenarios.twin.twin_controller) behind RWS on an HTTP
 port and, if asked, an EGM session with a client's UDP port; started and stopped as one."""
 
 from __future__ import annotations
@@ -7,11 +7,11 @@ import threading
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from scenarios.twin.controller import TwinController
+from scenarios.twin.controller_errors import bad_request
 from scenarios.twin.egm import EgmServer
-from scenarios.twin.errors import bad_request
 from scenarios.twin.http import DEFAULT_USERS, Server
 from scenarios.twin.rws import Rws
+from scenarios.twin.twin_controller import TwinController
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.twin.errors import bad_request, forbidden, not_found
+from scenarios.twin.controller_errors import bad_request, forbidden, not_found
 
 
 @dataclass(frozen=True)

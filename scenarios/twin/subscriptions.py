@@ -12,10 +12,10 @@ import re
 import socket
 import threading
 
-from scenarios.twin.controller import TwinController
 from scenarios.twin.elog import ElogEntry
 from scenarios.twin.http import ws_closed, ws_send
 from scenarios.twin.signals import spec, text_of
+from scenarios.twin.twin_controller import TwinController
 
 
 class Subscriptions:

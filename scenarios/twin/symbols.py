@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from scenarios.rapid.module import Declaration, RapidModule, with_value
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
-from scenarios.twin.errors import ControllerError, bad_request, forbidden, not_found
+from scenarios.twin.controller_errors import ControllerError, bad_request, forbidden, not_found
 
 _NINE = "9E+09"
 #: The value a datum declared without one has, by type.

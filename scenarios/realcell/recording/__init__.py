@@ -33,21 +33,21 @@ from models.robot.visuals import LinkVisual
 from registration import MatchResult
 from registration.quality import target_covariance
 from scenarios.offline.calibration import CalibrationResult
-from scenarios.offline.scan import ScanData
+from scenarios.offline.scan_passes import ScanData
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.outputs.residuals import colour_scale, residual_colours
 from scenarios.program.program_types import OfflineProgram
 from scenarios.realcell.evaluation import TargetEvaluation
-from scenarios.realcell.recording.budget import log_budget
-from scenarios.realcell.recording.layout import blueprint, serve_blueprint
 from scenarios.realcell.recording.match import colour_bar, log_icp, log_registered
-from scenarios.realcell.recording.scan import LaserRays, log_scan
-from scenarios.realcell.recording.scene import CellScene, mesh_archetype
+from scenarios.realcell.recording.recorded_budget import log_budget
+from scenarios.realcell.recording.recorded_scan import LaserRays, log_scan
+from scenarios.realcell.recording.recorded_scene import CellScene, mesh_archetype
+from scenarios.realcell.recording.recorded_targets import log_targets
+from scenarios.realcell.recording.recorded_verification import log_tool_check, log_verification
 from scenarios.realcell.recording.stream import ICP, Stream, pose
-from scenarios.realcell.recording.targets import log_targets
-from scenarios.realcell.recording.verification import log_tool_check, log_verification
-from scenarios.results.budget import ErrorBudget
-from scenarios.results.verification import TcpCheck, Verification
+from scenarios.realcell.recording.viewer_layout import blueprint, serve_blueprint
+from scenarios.results.budget_result import ErrorBudget
+from scenarios.results.verification_result import TcpCheck, Verification
 
 #: The table frame the cell model believes: the table's top, where the object stands.
 TABLE = "world/cell/table/frame"
