@@ -1,8 +1,7 @@
 """The HTTP side of the served controller, as RWS 1.0 on an IRC5 has it: HTTP/1.1 with
-keep-alive, digest authentication (RFC 7616, MD5, qop=auth) against the controller's users,
-a session cookie (ABBCX) that later requests may show instead, bodies limited in size, and
-the websocket (RFC 6455) its subscriptions push events on. Resources are routed by
-scenarios.twin.rws.
+keep-alive, requests let through by digest authentication (scenarios.twin.digest), bodies
+limited in size, and the websocket (RFC 6455) its subscriptions push events on. Resources
+are routed by scenarios.twin.rws.
 """
 
 from __future__ import annotations
@@ -10,29 +9,23 @@ from __future__ import annotations
 import base64
 import hashlib
 import json
-import re
-import secrets
 import select
 import socket
 import struct
-import threading
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 from urllib.parse import parse_qsl, unquote, urlsplit
 
 from scenarios.twin.controller_errors import CODES, ControllerError
+from scenarios.twin.digest import Auth
 
-REALM = "validusers@robapi.abb"
-#: The controller's default user, as an IRC5 ships it.
-DEFAULT_USERS = {"Default User": "robotics"}
 #: A body beyond this is refused (413) [bytes]; up to DRAIN it is read and dropped first, so
 #: that the client reads the answer; beyond that the connection is closed.
 MAX_BODY = 16 * 1024 * 1024 + 4096
 DRAIN = 256 * 1024 * 1024
 _WS_GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"
-_DIGEST_FIELD = re.compile(r'(\w+)=(?:"([^"]*)"|([^,\s]*))')
 
 
 @dataclass(frozen=True)
@@ -78,64 +71,6 @@ def error(exc: ControllerError) -> Response:
 
 NO_CONTENT = Response(204)
 Route = Callable[[Request], Response]
-
-
-@dataclass
-class Auth:
-    """Digest authentication against `users` (name -> password) and the sessions of the
-    clients that passed it."""
-
-    users: dict[str, str]
-    nonces: set[str] = field(default_factory=set)
-    sessions: set[str] = field(default_factory=set)
-    lock: threading.Lock = field(default_factory=threading.Lock)
-
-    def challenge(self) -> str:
-        nonce = secrets.token_hex(16)
-        with self.lock:
-            self.nonces.add(nonce)
-            if len(self.nonces) > 10_000:
-                self.nonces.pop()
-        return f'Digest realm="{REALM}", nonce="{nonce}", qop="auth", algorithm=MD5'
-
-    def check(self, method: str, target: str, header: str | None, cookie: str | None) -> str | None:
-        """The session of a request (to `target`, its path and query) whose cookie is a
-        session's or whose Authorization is a right digest for it (a new session); None if
-        neither."""
-        session = _cookie(cookie, "ABBCX")
-        if session is not None and session in self.sessions:
-            return session
-        if header is None or not header.startswith("Digest "):
-            return None
-        fields = {k: a or b for k, a, b in _DIGEST_FIELD.findall(header[7:])}
-        password = self.users.get(fields.get("username", ""))
-        if password is None or fields.get("nonce") not in self.nonces:
-            return None
-        if fields.get("uri") != target:
-            return None
-        ha1 = _md5(f"{fields['username']}:{REALM}:{password}")
-        ha2 = _md5(f"{method}:{fields.get('uri', '')}")
-        parts = [ha1, fields["nonce"]]
-        if fields.get("qop"):
-            parts += [fields.get("nc", ""), fields.get("cnonce", ""), fields["qop"]]
-        if not secrets.compare_digest(_md5(":".join([*parts, ha2])), fields.get("response", "")):
-            return None
-        session = secrets.token_hex(16)
-        with self.lock:
-            self.sessions.add(session)
-        return session
-
-
-def _md5(text: str) -> str:
-    return hashlib.md5(text.encode(), usedforsecurity=False).hexdigest()
-
-
-def _cookie(header: str | None, name: str) -> str | None:
-    for part in (header or "").split(";"):
-        key, _, value = part.strip().partition("=")
-        if key == name:
-            return value
-    return None
 
 
 class Server(ThreadingHTTPServer):

@@ -8,8 +8,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from scenarios.twin.controller_errors import bad_request
+from scenarios.twin.digest import DEFAULT_USERS
 from scenarios.twin.egm import EgmServer
-from scenarios.twin.http import DEFAULT_USERS, Server
+from scenarios.twin.http import Server
 from scenarios.twin.rws import Rws
 from scenarios.twin.twin_controller import TwinController
 
