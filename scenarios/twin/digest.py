@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 REALM = "validusers@robapi.abb"
 #: The controller's default user, as an IRC5 ships it.
 DEFAULT_USERS = {"Default User": "robotics"}
+#: The session cookie's name.
+SESSION = "ABBCX"
 _DIGEST_FIELD = re.compile(r'(\w+)=(?:"([^"]*)"|([^,\s]*))')
 
 
@@ -35,11 +37,12 @@ class Auth:
                 self.nonces.pop()
         return f'Digest realm="{REALM}", nonce="{nonce}", qop="auth", algorithm=MD5'
 
-    def check(self, method: str, target: str, header: str | None, cookie: str | None) -> str | None:
-        """The session of a request (to `target`, its path and query) whose cookie is a
-        session's or whose Authorization is a right digest for it (a new session); None if
-        neither."""
-        session = _cookie(cookie, "ABBCX")
+    def check(
+        self, method: str, target: str, header: str | None, session: str | None
+    ) -> str | None:
+        """The session of a request (to `target`, its path and query) whose session cookie
+        is a session's or whose Authorization is a right digest for it (a new session); None
+        if neither."""
         if session is not None and session in self.sessions:
             return session
         if header is None or not header.startswith("Digest "):
@@ -65,11 +68,3 @@ class Auth:
 
 def _md5(text: str) -> str:
     return hashlib.md5(text.encode(), usedforsecurity=False).hexdigest()
-
-
-def _cookie(header: str | None, name: str) -> str | None:
-    for part in (header or "").split(";"):
-        key, _, value = part.strip().partition("=")
-        if key == name:
-            return value
-    return None

@@ -1,31 +1,49 @@
-"""The HTTP side of the served controller, as RWS 1.0 on an IRC5 has it: HTTP/1.1 with
-keep-alive, requests let through by digest authentication (scenarios.twin.digest), bodies
-limited in size, and the websocket (RFC 6455) its subscriptions push events on. Resources
-are routed by scenarios.twin.rws.
+"""The HTTP side of the served controller, as RWS 1.0 on an IRC5 has it: requests and
+answers as the resources (scenarios.twin.rws) see them, and the server that takes HTTP/1.1
+with keep-alive, lets requests through by digest authentication (scenarios.twin.digest),
+refuses bodies beyond MAX_BODY (413) and opens the websockets (RFC 6455) the subscriptions
+push their events on.
+
+The server is aiohttp's (aiohttp.web): one well-kept library that is both the HTTP/1.1
+server and the websocket server, parses the requests, limits their bodies
+(`client_max_size`) and runs in an asyncio event loop of our own, with no ASGI server beside
+it. The loop runs in a thread of the server's own, so that the rest of the twin keeps its
+threads and its blocking controller: the resources, which hand commands to the controller's
+worker and wait, are answered on the loop's executor, never on the loop.
 """
 
 from __future__ import annotations
 
-import base64
-import hashlib
+import asyncio
 import json
-import select
-import socket
-import struct
-from collections.abc import Callable, Mapping
+import logging
+import threading
+from collections.abc import Awaitable, Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
-from urllib.parse import parse_qsl, unquote, urlsplit
+from urllib.parse import unquote
 
-from scenarios.twin.controller_errors import CODES, ControllerError
-from scenarios.twin.digest import Auth
+from aiohttp import WSCloseCode, hdrs, web
+from multidict import CIMultiDict
 
-#: A body beyond this is refused (413) [bytes]; up to DRAIN it is read and dropped first, so
-#: that the client reads the answer; beyond that the connection is closed.
+from scenarios.twin.controller_errors import ControllerError
+from scenarios.twin.digest import SESSION, Auth
+
+#: A body beyond this is refused (413) [bytes]; aiohttp reads and drops the rest of it (for
+#: at most ten seconds) so that the client reads the answer.
 MAX_BODY = 16 * 1024 * 1024 + 4096
-DRAIN = 256 * 1024 * 1024
-_WS_GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"
+#: The methods RWS uses; others are not implemented (501).
+METHODS = frozenset({"GET", "POST", "PUT", "DELETE"})
+#: Threads of the executor: the resources answered and the subscriptions waiting at once.
+WORKERS = 64
+#: On close, how long requests under way are given to finish [s].
+SHUTDOWN_S = 2.0
+SERVER = "twincell-rws/1.0"
+#: What aiohttp says of requests it could not handle (one that is not HTTP is answered 400):
+#: nothing, unless the application configures logging.
+log = logging.getLogger(__name__)
+log.addHandler(logging.NullHandler())
 
 
 @dataclass(frozen=True)
@@ -71,113 +89,89 @@ def error(exc: ControllerError) -> Response:
 
 NO_CONTENT = Response(204)
 Route = Callable[[Request], Response]
+#: Serves a websocket, once open, on its path (decoded, no leading slash).
+Upgrade = Callable[[str, web.WebSocketResponse], Awaitable[None]]
 
 
-class Server(ThreadingHTTPServer):
-    """The HTTP server: `route(request)` answers requests, `upgrade(path, socket)` takes a
-    websocket (both called on the request's thread)."""
-
-    daemon_threads = True
-    request_queue_size = 256
-    allow_reuse_address = True
+class Server:
+    """The HTTP server on `address` (port 0: any free one), serving from a thread of its own
+    until `close()`: `route(request)` answers requests (on a thread of the executor),
+    `upgrade(path, websocket)` serves the websockets (on the event loop)."""
 
     def __init__(
-        self,
-        address: tuple[str, int],
-        route: Route,
-        upgrade: Callable[[str, socket.socket], None],
-        users: dict[str, str],
+        self, address: tuple[str, int], route: Route, upgrade: Upgrade, users: dict[str, str]
     ) -> None:
-        super().__init__(address, _Handler)
         self.route = route
         self.upgrade = upgrade
         self.auth = Auth(dict(users))
-
-    @property
-    def base(self) -> str:
-        host, port = self.server_address[:2]
-        return f"http://{host!s}:{port}"
-
-
-class _Handler(BaseHTTPRequestHandler):
-    protocol_version = "HTTP/1.1"
-    server: Server
-    server_version = "twincell-rws/1.0"
-
-    def log_message(self, format: str, *args: Any) -> None:
-        return
-
-    def do_GET(self) -> None:
-        self._serve()
-
-    def do_POST(self) -> None:
-        self._serve()
-
-    def do_PUT(self) -> None:
-        self._serve()
-
-    def do_DELETE(self) -> None:
-        self._serve()
-
-    def _serve(self) -> None:
+        self.base = ""
+        self._websockets: set[web.WebSocketResponse] = set()
+        self._executor = ThreadPoolExecutor(WORKERS, thread_name_prefix="twin-rws")
+        self._loop = asyncio.new_event_loop()
+        self._loop.set_default_executor(self._executor)
+        app = web.Application(client_max_size=MAX_BODY)
+        app.router.add_route("*", "/{path:.*}", self._serve)
+        app.on_response_prepare.append(_server_header)
+        app.on_shutdown.append(self._close_websockets)
+        self._runner = web.AppRunner(app, access_log=None, logger=log, shutdown_timeout=SHUTDOWN_S)
         try:
-            body = self._body()
-        except ControllerError as exc:
-            self._send(error(exc))
-            return
-        if body is None:
-            return
-        session = self.server.auth.check(
-            self.command, self.path, self.headers.get("Authorization"), self.headers.get("Cookie")
+            self._loop.run_until_complete(self._start(address))
+        except BaseException:
+            self._loop.run_until_complete(self._runner.cleanup())
+            self._loop.close()
+            self._executor.shutdown(wait=False)
+            raise
+        self._thread = threading.Thread(target=self._loop.run_forever, name="twin-rws", daemon=True)
+        self._thread.start()
+
+    async def _start(self, address: tuple[str, int]) -> None:
+        await self._runner.setup()
+        site = web.TCPSite(self._runner, *address, backlog=256, reuse_address=True)
+        await site.start()
+        host, port = self._runner.addresses[0][:2]
+        self.base = f"http://{host!s}:{port}"
+
+    def close(self) -> None:
+        """Stop serving: no new connections, the websockets closed, requests under way given
+        SHUTDOWN_S to finish."""
+        asyncio.run_coroutine_threadsafe(self._runner.cleanup(), self._loop).result()
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join()
+        self._loop.close()
+        self._executor.shutdown(wait=False)
+
+    async def _serve(self, request: web.Request) -> web.StreamResponse:
+        if request.method not in METHODS:
+            raise web.HTTPNotImplemented()
+        try:
+            body = await request.read()
+        except web.HTTPRequestEntityTooLarge:
+            return _answer(error(_too_large(request.content_length)))
+        session = self.auth.check(
+            request.method,
+            request.raw_path,
+            request.headers.get(hdrs.AUTHORIZATION),
+            request.cookies.get(SESSION),
         )
         if session is None:
-            self._send(self._unauthorized())
-            return
-        cookie = (("Set-Cookie", f"ABBCX={session}; path=/"),)
-        url = urlsplit(self.path)
-        path = unquote(url.path).strip("/")
-        if self.headers.get("Upgrade", "").lower() == "websocket":
-            self._websocket(path)
-            return
-        request = Request(
-            self.command,
-            path,
-            dict(parse_qsl(url.query, keep_blank_values=True)),
-            _form(self.headers.get("Content-Type", ""), body),
-            body,
-            self.server.base,
+            return _answer(self._unauthorized())
+        path = unquote(request.rel_url.raw_path).strip("/")
+        if request.headers.get(hdrs.UPGRADE, "").lower() == "websocket":
+            return await self._websocket(request, path)
+        resource_request = Request(
+            request.method, path, dict(request.query), await _form(request), body, self.base
         )
-        try:
-            response = self.server.route(request)
-        except ControllerError as exc:
-            response = error(exc)
-        except Exception as exc:  # the server answers and serves on
-            response = error(ControllerError(500, "bad_request", f"internal error: {exc!r}"))
-        self._send(Response(response.status, response.body, response.content_type,
-                            response.headers + cookie))  # fmt: skip
+        loop = asyncio.get_running_loop()
+        response = await loop.run_in_executor(None, self._route, resource_request)
+        return _answer(response, (hdrs.SET_COOKIE, f"{SESSION}={session}; path=/"))
 
-    def _body(self) -> bytes | None:
-        """The request's body; None (the connection closed) for one beyond DRAIN;
-        ControllerError 413 (after reading it) for one beyond MAX_BODY."""
+    def _route(self, request: Request) -> Response:
         try:
-            length = int(self.headers.get("Content-Length") or 0)
-        except ValueError:
-            raise ControllerError(400, "bad_request", "Content-Length is not a number") from None
-        if length < 0:
-            raise ControllerError(400, "bad_request", "Content-Length is negative")
-        if length > DRAIN:
-            self.close_connection = True
-            self._send(error(_too_large(length)))
-            return None
-        if length > MAX_BODY:
-            left = length
-            while left > 0:
-                chunk = self.rfile.read(min(left, 1 << 20))
-                if not chunk:
-                    break
-                left -= len(chunk)
-            raise _too_large(length)
-        return self.rfile.read(length) if length else b""
+            return self.route(request)
+        except ControllerError as exc:
+            return error(exc)
+        except Exception as exc:  # the server answers and serves on
+            return error(ControllerError(500, "bad_request", f"internal error: {exc!r}"))
 
     def _unauthorized(self) -> Response:
         exc = ControllerError(
@@ -186,103 +180,53 @@ class _Handler(BaseHTTPRequestHandler):
             "authentication failed: a user and password of the controller are needed",
         )
         body = error(exc).body
-        return Response(401, body, headers=(("WWW-Authenticate", self.server.auth.challenge()),))
+        return Response(401, body, headers=((hdrs.WWW_AUTHENTICATE, self.auth.challenge()),))
 
-    def _send(self, response: Response) -> None:
-        self.send_response(response.status)
-        if response.status != 204:
-            self.send_header("Content-Type", response.content_type)
-        self.send_header("Content-Length", str(len(response.body)))
-        for key, value in response.headers:
-            self.send_header(key, value)
-        self.end_headers()
-        if response.body and self.command != "HEAD":
-            self.wfile.write(response.body)
+    async def _websocket(self, request: web.Request, path: str) -> web.WebSocketResponse:
+        """The websocket, opened with the first subprotocol the client offers, served by
+        `upgrade` until it closes."""
+        offered = request.headers.get(hdrs.SEC_WEBSOCKET_PROTOCOL)
+        protocols = (offered.split(",")[0].strip(),) if offered else ()
+        websocket = web.WebSocketResponse(protocols=protocols)
+        await websocket.prepare(request)
+        self._websockets.add(websocket)
+        try:
+            await self.upgrade(path, websocket)
+        finally:
+            self._websockets.discard(websocket)
+        return websocket
 
-    def _websocket(self, path: str) -> None:
-        key = self.headers.get("Sec-WebSocket-Key", "")
-        accept = base64.b64encode(
-            hashlib.sha1((key + _WS_GUID).encode(), usedforsecurity=False).digest()
-        )
-        self.send_response(101)
-        self.send_header("Upgrade", "websocket")
-        self.send_header("Connection", "Upgrade")
-        self.send_header("Sec-WebSocket-Accept", accept.decode())
-        protocol = self.headers.get("Sec-WebSocket-Protocol")
-        if protocol:
-            self.send_header("Sec-WebSocket-Protocol", protocol.split(",")[0].strip())
-        self.end_headers()
-        self.wfile.flush()
-        self.close_connection = True
-        self.server.upgrade(path, self.connection)
+    async def _close_websockets(self, app: web.Application) -> None:
+        for websocket in list(self._websockets):
+            await websocket.close(code=WSCloseCode.GOING_AWAY)
 
 
-def _too_large(length: int) -> ControllerError:
+def _answer(response: Response, *headers: tuple[str, str]) -> web.Response:
+    """aiohttp's answer for `response`, with `headers` added."""
+    fields = CIMultiDict(response.headers + headers)
+    if response.status != 204:
+        fields[hdrs.CONTENT_TYPE] = response.content_type
+    return web.Response(status=response.status, body=response.body, headers=fields)
+
+
+async def _server_header(request: web.Request, response: web.StreamResponse) -> None:
+    response.headers[hdrs.SERVER] = SERVER
+
+
+async def _form(request: web.Request) -> dict[str, str]:
+    """The form fields of a urlencoded (or multipart) body; none for other bodies, or for one
+    that does not decode."""
+    try:
+        fields = await request.post()
+    except ValueError:
+        return {}
+    return {key: value for key, value in fields.items() if isinstance(value, str)}
+
+
+def _too_large(length: int | None) -> ControllerError:
     return ControllerError(
         413, "too_large", f"a body of {length} bytes: at most {MAX_BODY} are taken"
     )
 
 
-def _form(content_type: str, body: bytes) -> dict[str, str]:
-    if not body or "json" in content_type or "octet" in content_type:
-        return {}
-    try:
-        return dict(parse_qsl(body.decode("utf-8"), keep_blank_values=True))
-    except UnicodeDecodeError:
-        return {}
-
-
-# -- websocket frames -------------------------------------------------------------------------
-def ws_send(sock: socket.socket, text: str) -> None:
-    """Send one text frame (unmasked, as a server sends)."""
-    data = text.encode()
-    n = len(data)
-    if n < 126:
-        head = struct.pack("!BB", 0x81, n)
-    elif n < 1 << 16:
-        head = struct.pack("!BBH", 0x81, 126, n)
-    else:
-        head = struct.pack("!BBQ", 0x81, 127, n)
-    sock.sendall(head + data)
-
-
-def ws_closed(sock: socket.socket) -> bool:
-    """Whether the client closed the websocket (a close frame, or the connection gone);
-    pings are answered, other frames dropped. Does not block."""
-    readable, _, _ = select.select([sock], [], [], 0)
-    if not readable:
-        return False
-    try:
-        head = sock.recv(2)
-        if len(head) < 2:
-            return True
-        opcode, n = head[0] & 0x0F, head[1] & 0x7F
-        if n == 126:
-            n = struct.unpack("!H", _recv(sock, 2))[0]
-        elif n == 127:
-            n = struct.unpack("!Q", _recv(sock, 8))[0]
-        mask = _recv(sock, 4) if head[1] & 0x80 else b""
-        payload = _recv(sock, n)
-        if mask:
-            payload = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
-        if opcode == 0x9:  # ping
-            sock.sendall(struct.pack("!BB", 0x8A, len(payload)) + payload)
-        if opcode == 0x8:
-            sock.sendall(struct.pack("!BB", 0x88, 0))
-            return True
-    except OSError:
-        return True
-    return False
-
-
-def _recv(sock: socket.socket, n: int) -> bytes:
-    out = b""
-    while len(out) < n:
-        chunk = sock.recv(n - len(out))
-        if not chunk:
-            raise OSError("closed")
-        out += chunk
-    return out
-
-
-__all__ = ["CODES", "NO_CONTENT", "Request", "Response", "Server", "error", "state"]
+__all__ = ["NO_CONTENT", "Request", "Response", "Server", "error", "state"]

@@ -3,7 +3,6 @@ port and, if asked, an EGM session with a client's UDP port; started and stopped
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -41,10 +40,6 @@ class ServedController:
         if options.egm_port is not None:
             self.egm = EgmServer((options.egm_host, options.egm_port), options.host)
             twin.egm = self.egm
-        self._thread = threading.Thread(
-            target=self.http.serve_forever, name="twin-rws", daemon=True
-        )
-        self._thread.start()
 
     @property
     def url(self) -> str:
@@ -53,8 +48,7 @@ class ServedController:
 
     def close(self) -> None:
         """Stop serving, halt what moves, and close the EGM session."""
-        self.http.shutdown()
-        self.http.server_close()
+        self.http.close()
         self.twin.close()
         if self.egm is not None:
             self.egm.close()

@@ -5,15 +5,16 @@ changes turned into RWS events, and each subscription's events pushed on its web
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import itertools
 import queue
 import re
-import socket
 import threading
 
+from aiohttp import web
+
 from scenarios.twin.elog import ElogEntry
-from scenarios.twin.http import ws_closed, ws_send
 from scenarios.twin.signals import spec, text_of
 from scenarios.twin.twin_controller import TwinController
 
@@ -94,27 +95,44 @@ class Subscriptions:
             _li("elog-message-ev", f"/rw/elog/0/{entry.seqnum}", "seqnum", str(entry.seqnum)),
         )
 
-    def serve(self, path: str, sock: socket.socket) -> None:
-        """Push a subscription's events on its websocket until the client closes it."""
+    async def serve(self, path: str, websocket: web.WebSocketResponse) -> None:
+        """Push a subscription's events on its websocket, once open, until the client closes
+        it (aiohttp answers its pings; what else it sends is dropped). The events are waited
+        for on the loop's executor."""
         match = re.fullmatch(r"poll/(\d+)", path)
         number = int(match.group(1)) if match else -1
         with self._lock:
             events = self._queues.get(number)
         if events is None:
-            sock.close()
+            await websocket.close()
             return
+        loop = asyncio.get_running_loop()
+        closed = asyncio.ensure_future(_until_closed(websocket))
         try:
             with contextlib.suppress(OSError):  # the client went away mid-send
-                while not ws_closed(sock):
-                    try:
-                        event = events.get(timeout=0.2)
-                    except queue.Empty:
-                        continue
-                    ws_send(sock, _page(event))
+                while not closed.done():
+                    event = await loop.run_in_executor(None, _next, events)
+                    if event is not None:
+                        await websocket.send_str(_page(event))
         finally:
+            closed.cancel()
             with self._lock:
                 self._resources.pop(number, None)
                 self._queues.pop(number, None)
+
+
+async def _until_closed(websocket: web.WebSocketResponse) -> None:
+    """Read the client's frames until it closes the websocket."""
+    async for _ in websocket:
+        pass
+
+
+def _next(events: queue.Queue[str]) -> str | None:
+    """The next event, or None if none came within 0.2 s."""
+    try:
+        return events.get(timeout=0.2)
+    except queue.Empty:
+        return None
 
 
 def _li(kind: str, href: str, span: str, value: str) -> str:
