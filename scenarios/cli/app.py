@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 if TYPE_CHECKING:
-    from scenarios.cli.register import MatchOptions
+    from scenarios.cli.file_registration import MatchOptions
 
 app = typer.Typer(
     name="twincell",
@@ -259,7 +259,7 @@ def register(
     not stop the others; the exit status is then 2.
     """
     from registration.io import load_pose, unit_scale
-    from scenarios.cli.register import MatchOptions, load_named_targets, model_units_of
+    from scenarios.cli.file_registration import MatchOptions, load_named_targets, model_units_of
 
     named = None
     if targets is not None:
@@ -277,7 +277,7 @@ def _register_one(
     data: str, model: str, options: MatchOptions, model_units: str | None, json_file: str | None
 ) -> None:
     """`twincell register DATA MODEL`: the result as a table, and as JSON with --json."""
-    from scenarios.cli.register import register_files, render_result, write_result_json
+    from scenarios.cli.file_registration import register_files, render_result, write_result_json
 
     result = register_files(data, model, options, model_units)
     render_result(result, options.targets)
@@ -293,7 +293,7 @@ def _register_many(
     json_file: str | None,
 ) -> None:
     """`twincell register DATA... MODEL`: one JSON line per data file, the model read once."""
-    from scenarios.cli.register import load_model_file, register_batch, write_batch
+    from scenarios.cli.file_registration import load_model_file, register_batch, write_batch
 
     options.check()
     shape = load_model_file(model, options.units, model_units)
@@ -330,7 +330,7 @@ def prepare(
     lookup, anchors and symmetries, written to a .twm file that `register` reads back."""
     import time
 
-    from scenarios.cli.register import model_summary, prepare_file
+    from scenarios.cli.file_registration import model_summary, prepare_file
 
     t0 = time.perf_counter()
     written, shape = prepare_file(model, out, units)
