@@ -143,7 +143,7 @@ def _repo_path(name: str) -> str:
 
 
 def _check_job(params: dict[str, Any], command: Command) -> None:
-    from scenarios.cli.app import run_overrides
+    from scenarios.cli.run_command import run_overrides
     from scenarios.configuration.config_files import load_config
 
     options = ("model", "units", "targets", "program", "assign", "fault")

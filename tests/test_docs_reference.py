@@ -35,11 +35,15 @@ def test_every_results_field_is_documented(short_skull_run: Path) -> None:
 
 
 def _exit_statuses_in_code() -> set[int]:
-    app = (ROOT / "scenarios" / "cli" / "app.py").read_text()
-    found = {int(n) for n in re.findall(r"Exit\((\d+)", app)}
-    found |= {int(n) for n in re.findall(r"Exit\(\d+ if .* else (\d+)\)", app)}
-    main = app[app.index("def main(") :]
-    found |= {int(n) for n in re.findall(r"return (\d+)\b", main)}
+    """The exit statuses the commands (scenarios/cli/*_command.py) and the command line's
+    ending (scenarios/cli/exit_status.py) give."""
+    cli = ROOT / "scenarios" / "cli"
+    commands = "\n".join(path.read_text() for path in sorted(cli.glob("*_command.py")))
+    found = {int(n) for n in re.findall(r"Exit\((\d+)", commands)}
+    found |= {int(n) for n in re.findall(r"Exit\(\d+ if .* else (\d+)\)", commands)}
+    ending = (cli / "exit_status.py").read_text()
+    ending = ending[ending.index("def run_command_line(") :]
+    found |= {int(n) for n in re.findall(r"return (\d+)\b", ending)}
     # A run stopped by a signal: 128 + the signal's number (scenarios.jobs.interrupt).
     found |= {128 + signal.SIGINT, 128 + signal.SIGTERM}
     return found
