@@ -3,10 +3,11 @@ file fails here instead of at a user's.
 
 A command is a line of a ```bash block (continuations joined, comments dropped); each one
 is checked in the fast tier without running it: a `twincell` command parses under the real
-command (its subcommand, arguments, options and their choices), a job's `--set`, `--fault`,
-`--cell`, `--model` and `--program` make a configuration the job accepts, a campaign's
-`--vary` keys a campaign it plans; a `python` script exists and takes the options given; a
-`pip install` names extras of pyproject.toml; a `cd` names a folder.
+command (its subcommand, arguments, options and their choices, the paths it takes as the
+page's commands find them: MADE), a job's `--set`, `--fault`, `--cell`, `--model` and
+`--program` make a configuration the job accepts, a campaign's `--vary` keys a campaign it
+plans; a `python` script exists and takes the options given; a `pip install` names extras of
+pyproject.toml; a `cd` names a folder.
 
 Then every page's commands run as written, in order, from a scratch folder that holds the
 repository's `examples/`, `tests/` and `bench/` (the quick pages in the fast tier, the pages
@@ -21,6 +22,7 @@ page can run here is named in ELSEWHERE with the test that runs it.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -30,6 +32,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -113,16 +116,47 @@ def test_command_is_valid(command: Command) -> None:
         check(words, command)
 
 
+#: Paths a page's `twincell` command takes that an earlier command of the page makes (the
+#: options check that a path they take exists): the path, whether it is a folder, and the
+#: command that makes it.
+MADE = {
+    "dragon.twm": (False, "twincell prepare"),
+    "runs/latest": (True, "twincell run"),
+    "ct/phantom_ct.nii.gz": (False, "python examples/make_ct.py"),
+    "ct/plan.json": (False, "python examples/make_ct.py"),
+}
+
+
+@contextlib.contextmanager
+def _page_folder(command: Command) -> Iterator[None]:
+    """In a scratch folder as the page's commands find it: the repository's folders they name
+    (LINKED), and what the page's commands up to this one made (MADE), as empty stand-ins."""
+    before = " && ".join(c.text for c in ALL if c.page == command.page and c.line <= command.line)
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = _scratch(Path(scratch))
+        for path, (is_folder, maker) in MADE.items():
+            if maker in before:
+                made = folder / path
+                made.parent.mkdir(parents=True, exist_ok=True)
+                if is_folder:
+                    made.mkdir()
+                else:
+                    made.touch()
+        with contextlib.chdir(folder):
+            yield
+
+
 def _check_twincell(words: list[str], command: Command) -> None:
     from typer import TyperException  # typer's own click's exceptions derive from it
 
     from scenarios.cli.reference import command as cli
 
     try:
-        context = cli.make_context("twincell", words[1:], resilient_parsing=False)
-        sub = cli.get_command(context, words[1])
-        assert sub is not None, f"{command}: no subcommand {words[1]!r}"
-        sub_context = sub.make_context(words[1], words[2:], parent=context)
+        with _page_folder(command):
+            context = cli.make_context("twincell", words[1:], resilient_parsing=False)
+            sub = cli.get_command(context, words[1])
+            assert sub is not None, f"{command}: no subcommand {words[1]!r}"
+            sub_context = sub.make_context(words[1], words[2:], parent=context)
     except TyperException as exc:
         message: Any = exc  # a click exception, which formats its own message
         pytest.fail(f"{command}: {message.format_message()}")

@@ -267,8 +267,8 @@ def test_a_wrong_or_old_prepared_model_is_refused(prepared, tmp_path, capsys) ->
                      "a damaged prepared model"),
         "bad faces": (_rewritten(twm, tmp_path / "badfaces.twm", faces=np.full((5, 3), 10**7)),
                       "its faces do not index its"),
-        "missing": (tmp_path / "nope.twm", "prepared model file not found"),
     }  # fmt: skip
+    # A missing model is refused by the MODEL argument itself (tests/test_cli.py).
     scan = str(DRAGON / "scan_stand072.ply")
     for label, (path, message) in cases.items():
         out = tmp_path / f"{label}.json"
@@ -284,14 +284,33 @@ def test_a_wrong_or_old_prepared_model_is_refused(prepared, tmp_path, capsys) ->
     assert code == 2 and "was prepared from a model in m" in err, err
 
 
+def test_a_model_that_is_not_a_file_is_named(tmp_path) -> None:
+    """The library's refusal of a model or prepared model that is missing or a folder (the
+    command's MODEL argument refuses them first: tests/test_cli.py)."""
+    for folder in ("scans", "folder.twm"):
+        (tmp_path / folder).mkdir()
+    cases = {
+        "folder as model": (lambda: load_model(tmp_path / "scans", "m"),
+                            "scans is a folder, not a model file; valid: .stl, .obj, .ply"),
+        "missing model": (lambda: load_model(tmp_path / "nope.stl", "m"),
+                          "model file not found"),
+        "folder as prepared model": (lambda: load_prepared(tmp_path / "folder.twm"),
+                                     "folder.twm is a folder, not a prepared model file (.twm)"),
+        "missing prepared model": (lambda: load_prepared(tmp_path / "nope.twm"),
+                                   "prepared model file not found"),
+    }  # fmt: skip
+    for load, message in cases.values():
+        with pytest.raises(FormatError, match=re.escape(message)):
+            load()
+
+
 def test_prepare_refuses_what_it_cannot_write(prepared, tmp_path, capsys) -> None:
     model, twm = prepared
     cases = {
         "not .twm": ([str(model), "--out", str(tmp_path / "model.npz")], "must end in .twm"),
         "no folder": ([str(model), "--out", str(tmp_path / "no" / "m.twm")], "does not exist"),
         "a .twm": ([str(twm)], "already a prepared model"),
-        "no model": ([str(tmp_path / "nope.stl")], "model file not found"),
-    }
+    }  # a missing model: refused by the MODEL argument itself (tests/test_cli.py)
     for label, (args, message) in cases.items():
         code = main(["prepare", *args])
         err = capsys.readouterr().err

@@ -162,7 +162,7 @@ def test_collinear_nan_and_folder_inputs_are_named(files, tmp_path, capsys) -> N
     (tmp_path / "nan_model.obj").write_text(
         "v 0 0 0\nv nan 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 2 3\nf 1 3 4\n"
     )
-    for folder in ("scans", "folder.xyz", "folder.twm"):
+    for folder in ("scans", "folder.xyz"):
         (tmp_path / folder).mkdir()
     n = len(V)
     cases = {
@@ -180,11 +180,8 @@ def test_collinear_nan_and_folder_inputs_are_named(files, tmp_path, capsys) -> N
                              "scans is a folder, not a points file; valid: .xyz, .txt"),
         "folder with a points suffix": ([str(tmp_path / "folder.xyz"), model],
                                         "folder.xyz is a folder, not a points file; valid:"),
-        "folder as model": ([scan, str(tmp_path / "scans")],
-                            "scans is a folder, not a model file; valid: .stl, .obj, .ply"),
-        "folder as prepared model": ([scan, str(tmp_path / "folder.twm")],
-                                     "folder.twm is a folder, not a prepared model file (.twm)"),
     }  # fmt: skip
+    # A folder given as the model is refused by the MODEL argument itself (tests/test_cli.py).
     for label, (args, message) in cases.items():
         err = _refused_in_one_line(["register", *args], message, label, tmp_path, capsys)
         assert "wrong units" not in err and "span nan" not in err and "not found" not in err

@@ -5,24 +5,32 @@ runs, so that `twincell --help` stays fast."""
 from __future__ import annotations
 
 import sys
-from typing import Annotated
+from collections.abc import Callable
+from typing import Annotated, Any
 
 import typer
 
-from scenarios.cli.campaign_command import campaign
-from scenarios.cli.check_command import check
-from scenarios.cli.execute_command import execute
+from scenarios.cli import (
+    campaign_command,
+    check_command,
+    execute_command,
+    model_command,
+    prepare_command,
+    rapid_command,
+    register_command,
+    run_command,
+    serve_command,
+)
 from scenarios.cli.exit_status import run_command_line
-from scenarios.cli.model_command import model
-from scenarios.cli.prepare_command import prepare
-from scenarios.cli.rapid_command import rapid
-from scenarios.cli.register_command import register
-from scenarios.cli.run_command import run
-from scenarios.cli.serve_command import serve
+from scenarios.cli.help_format import TwincellCommand, TwincellGroup, example
 
 app = typer.Typer(
     name="twincell",
     help="Correlate a virtual robot cell with the real one by 3D surface matching.",
+    cls=TwincellGroup,
+    # The help's paragraphs are Markdown: they wrap to the terminal, whatever the docstrings'
+    # line breaks.
+    rich_markup_mode="markdown",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -47,15 +55,20 @@ def _root(
     """twincell: surface matching for robot cells."""
 
 
-app.command("check")(check)
-app.command("model")(model)
-app.command("register")(register)
-app.command("prepare")(prepare)
-app.command("run")(run)
-app.command("execute")(execute)
-app.command("serve")(serve)
-app.command("rapid")(rapid)
-app.command("campaign")(campaign)
+#: The commands in the order `twincell --help` lists them: name, function, examples.
+COMMANDS: tuple[tuple[str, Callable[..., Any], tuple[str, ...]], ...] = (
+    ("check", check_command.check, check_command.EXAMPLES),
+    ("model", model_command.model, model_command.EXAMPLES),
+    ("register", register_command.register, register_command.EXAMPLES),
+    ("prepare", prepare_command.prepare, prepare_command.EXAMPLES),
+    ("run", run_command.run, run_command.EXAMPLES),
+    ("execute", execute_command.execute, execute_command.EXAMPLES),
+    ("serve", serve_command.serve, serve_command.EXAMPLES),
+    ("rapid", rapid_command.rapid, rapid_command.EXAMPLES),
+    ("campaign", campaign_command.campaign, campaign_command.EXAMPLES),
+)
+for command_name, function, examples in COMMANDS:
+    app.command(command_name, cls=TwincellCommand, epilog=example(*examples))(function)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -7,61 +7,99 @@ from typing import Annotated
 
 import typer
 
+from scenarios.cli.help_format import argument, flag, option
+
+# The help's panels of `twincell campaign`.
+TRIALS = "Trials"
+WORKERS = "Workers"
+OUTPUT = "Output"
+
+EXAMPLES = (
+    "twincell campaign skull --trials 20 --vary cell.noise.laser_sigma_m=1e-4,3e-4",
+    "twincell campaign skull --stage full --trials 20 --workers 2",
+)
+
 
 def campaign(
     name: Annotated[
         str,
-        typer.Argument(
-            help="register stage: a model (skull, ellipsoid, ...) or a job CONFIG.yaml "
-            "(with its register_trial section); full stage: a shipped job (skull, assembly) "
-            "or a CONFIG.yaml."
+        argument(
+            "NAME",
+            "register stage: a model (skull, ellipsoid, ...) or a job CONFIG.yaml (with its "
+            "register_trial section); full stage: a shipped job (skull, assembly) or a "
+            "CONFIG.yaml.",
         ),
     ],
-    trials: Annotated[int, typer.Option("--trials", min=1, help="Seeded trials per point.")] = 10,
+    stage: Annotated[
+        str,
+        option(
+            "--stage",
+            "[register|full]",
+            "register (matching alone) or full (the scenario).",
+            TRIALS,
+        ),
+    ] = "register",
+    trials: Annotated[
+        int, option("--trials", "INTEGER", "Seeded trials per point.", TRIALS, min=1)
+    ] = 10,
+    seed: Annotated[
+        int, option("--seed", "INTEGER", "Seed of the first trial.", TRIALS, min=0)
+    ] = 0,
     vary: Annotated[
         list[str] | None,
-        typer.Option("--vary", help="KEY=V1,V2,... (dotted config key); repeat to cross."),
+        option(
+            "--vary",
+            "KEY=V1,V2,...",
+            "The values of a dotted configuration key, one point each; repeat to cross.",
+            TRIALS,
+        ),
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 1,
+    cell: Annotated[
+        str | None,
+        option(
+            "--cell",
+            "CELL",
+            "full stage: the cell to run each trial in, as `twincell run --cell` takes it "
+            "(ur5, or a cell YAML).",
+            TRIALS,
+        ),
+    ] = None,
+    workers: Annotated[
+        int, option("--workers", "INTEGER", "Worker processes.", WORKERS, min=1)
+    ] = 1,
     backend: Annotated[
-        str, typer.Option("--backend", help="local (processes here) or dask (a cluster).")
+        str,
+        option("--backend", "[local|dask]", "local (processes here) or dask (a cluster).", WORKERS),
     ] = "local",
     scheduler: Annotated[
         str | None,
-        typer.Option(
+        option(
             "--scheduler",
-            help="Dask scheduler address (tcp://HOST:8786); none: "
-            "a local Dask cluster of --workers processes.",
-        ),
-    ] = None,
-    stage: Annotated[
-        str, typer.Option("--stage", help="register (matching alone) or full (the scenario).")
-    ] = "register",
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the first trial.")] = 0,
-    cell: Annotated[
-        str | None,
-        typer.Option(
-            "--cell",
-            help="full stage: the cell to run each trial in, as `twincell run --cell` "
-            "takes it (ur5, or a cell YAML).",
+            "ADDRESS",
+            "Dask scheduler address (tcp://HOST:8786); none: a local Dask cluster of --workers "
+            "processes.",
+            WORKERS,
         ),
     ] = None,
     out: Annotated[
         str | None,
-        typer.Option(
+        option(
             "--out",
-            help="Campaign folder (default runs/campaigns/NAME-STAGE-KEYS); "
-            "rerunning into it resumes.",
+            "DIR",
+            "Campaign folder (default runs/campaigns/NAME-STAGE-KEYS); rerunning into it resumes.",
+            OUTPUT,
         ),
     ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+    quiet: Annotated[bool, flag("--quiet", "No progress bar.", OUTPUT)] = False,
 ) -> None:
-    """Run many seeded trials (a sweep), store one row per trial, report reliability.
+    """Run many seeded trials (a sweep) and report their reliability.
 
-    A trial stopped by a user error (a configuration it cannot use) is a failed row; one
-    stopped by a program error (a bug) is a crashed row, its traceback in the campaign
-    folder's trials/ID/traceback.txt, and the command exits 5 once the table and the report
-    are written.
+    Each trial is one row of the campaign's table (results.csv); the report (report.md) gives
+    per point of the sweep the verdicts, the acceptance, the false accepts, the target errors
+    and the calibration of the predicted TRE. A trial stopped by a user error (a configuration
+    it cannot use) is a failed row; one stopped by a program error (a bug) is a crashed row,
+    its traceback in the campaign folder's trials/ID/traceback.txt, and the command exits 5
+    once the table and the report are written.
     """
     from scenarios.campaign import default_out, plan_campaign, run_campaign
 

@@ -6,13 +6,21 @@ from typing import Annotated
 
 import typer
 
+from scenarios.cli.help_format import option
+
+EXAMPLES = ("twincell check --json check.json",)
+
 
 def check(
     json_file: Annotated[
-        str | None, typer.Option("--json", help="Also write the figures to this JSON file.")
+        str | None, option("--json", "FILE", "Also write the figures to this JSON file.")
     ] = None,
 ) -> None:
-    """Self-check of the cell: physics, FK/IK, tool changes, table, laser. Exit 0 if all hold."""
+    """Self-check of the cell: physics, FK/IK, tools, table, laser.
+
+    Checks the physics, the forward and inverse kinematics, the tool changes, the table and the
+    laser. Exit status 0 if all hold, 1 if one does not.
+    """
     from rich.console import Console
 
     from cell.sim.selfcheck import render, run_check, write_json

@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from scenarios.cli.help_format import argument, flag, option
+
 
 def _volume_model(
     path: str, iso: float, units: str, out: str | None, voxel_mm: str | None, max_gap_mm: float
@@ -52,49 +54,70 @@ def _volume_model(
         typer.echo(f"wrote {written} ({len(bone.mesh.faces)} triangles, {units})")
 
 
+# The help's panels of `twincell model`.
+MODEL = "Model"
+CT = "CT volume"
+OUTPUT = "Output"
+
+EXAMPLES = (
+    "twincell model skull --out skull.stl",
+    "twincell model examples/my_cell/phantom.ply --units mm --real",
+)
+
+
 def model(
     name: Annotated[
         str,
-        typer.Argument(
-            help="A built-in model (skull, bracket, housing, lid, ellipsoid), a mesh file "
-            "(.stl, .obj, .ply), or a CT volume (a DICOM series folder, .nii/.nii.gz, "
-            ".nrrd/.nhdr) whose bone surface is segmented and meshed."
+        argument(
+            "NAME",
+            "A built-in model (skull, bracket, housing, lid, ellipsoid), a mesh file (.stl, "
+            ".obj, .ply), or a CT volume (a DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr) "
+            "whose bone surface is segmented and meshed.",
         ),
     ],
     real: Annotated[
-        bool, typer.Option("--real", help="The real entity: the model plus its model error.")
+        bool, flag("--real", "The real entity: the model plus its model error.", MODEL)
     ] = False,
     seed: Annotated[
-        int, typer.Option("--seed", min=0, help="Seed of the skull's shape and the model error.")
+        int,
+        option("--seed", "INTEGER", "Seed of the skull's shape and the model error.", MODEL, min=0),
     ] = 0,
     units: Annotated[
-        str, typer.Option("--units", help="Units of a mesh file and of --out: mm or m.")
+        str, option("--units", "[mm|m]", "Units of a mesh file and of --out.", MODEL)
     ] = "mm",
-    out: Annotated[
-        str | None, typer.Option("--out", help="Write the mesh to this .stl/.obj/.ply file.")
-    ] = None,
-    iso: Annotated[
-        float, typer.Option("--iso", help="Bone threshold of a CT volume [HU].")
-    ] = 300.0,
+    iso: Annotated[float, option("--iso", "FLOAT", "Bone threshold [HU].", CT)] = 300.0,
     voxel_mm: Annotated[
         str | None,
-        typer.Option(
+        option(
             "--voxel-mm",
-            help="Resample a CT volume onto a regular grid of this voxel size [mm] (one size "
-            "or AxBxC). Default: a series with uneven slice steps or a gantry tilt is "
-            "resampled at its pixel spacing and smallest step, a regular one kept.",
+            "SIZE",
+            "Resample the volume onto a regular grid of this voxel size [mm] (one size or "
+            "AxBxC). Default: a series with uneven slice steps or a gantry tilt is resampled at "
+            "its pixel spacing and smallest step, a regular one kept.",
+            CT,
         ),
     ] = None,
     max_gap_mm: Annotated[
         float,
-        typer.Option(
+        option(
             "--max-gap-mm",
-            help="The widest step between a CT series' slices that is interpolated over "
-            "[mm]; wider is refused as missing slices.",
+            "FLOAT",
+            "The widest step between the series' slices that is interpolated over [mm]; wider "
+            "is refused as missing slices.",
+            CT,
         ),
     ] = 10.0,
+    out: Annotated[
+        str | None,
+        option("--out", "FILE", "Write the mesh to this .stl/.obj/.ply file.", OUTPUT),
+    ] = None,
 ) -> None:
-    """Check a model (vertices, faces, watertight, size, volume, convex pieces); export it."""
+    """Check a model and export it: built in, a mesh file or a CT volume.
+
+    Prints the model's vertices, faces, whether it is watertight, its size, volume and convex
+    pieces; of a CT volume, the bone surface segmented at --iso and meshed (an irregular series
+    resampled, and said so). --out writes the mesh.
+    """
     from rich.console import Console
     from rich.table import Table
     from rich.text import Text

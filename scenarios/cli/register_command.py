@@ -4,111 +4,144 @@ table (and JSON), several as JSON Lines."""
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+from scenarios.cli.help_format import argument, flag, option
 
 if TYPE_CHECKING:
     from scenarios.cli.file_registration import MatchOptions
 
 
+# The help's panels of `twincell register`.
+INPUT = "Data and model"
+SEARCH = "Search"
+OUTPUT = "Output"
+
+EXAMPLES = (
+    "twincell register scan.ply model.stl --units mm --json result.json",
+    "twincell register scans/*.ply model.twm --batch --json results.jsonl",
+)
+
 #: The register command's arguments and longer options (typer reads them from the types).
-RegisterData = Annotated[
+DataArgument = Annotated[
     list[str],
-    typer.Argument(
-        help="Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz. "
-        "Several files: each is registered to the one model, one JSON line per file."
+    argument(
+        "DATA...",
+        "Data points: .xyz, .txt, .pts, .csv, .npy, .ply, .pcd, .e57, .las or .laz. Several "
+        "files: each is registered to the one model, one JSON line per file (a file that "
+        "cannot be read is a line with its error).",
     ),
 ]
-RegisterModel = Annotated[
-    str,
-    typer.Argument(
-        help="Model: a mesh (.stl, .obj, .ply, .off), a point file, or a prepared model "
-        "(.twm, from `twincell prepare`)."
+ModelArgument = Annotated[
+    Path,
+    argument(
+        "MODEL",
+        "Model: a mesh (.stl, .obj, .ply, .off), a point file, or a prepared model (.twm, "
+        "from `twincell prepare`).",
+        exists=True,
+        dir_okay=False,
     ),
 ]
-RegisterMode = Annotated[
-    str,
-    typer.Option(
-        "--mode",
-        help="auto (any coverage, the default), global (data cover the whole model), "
-        "local (part of it) or refine (ICP from --init, no search).",
-    ),
-]
-RegisterTargets = Annotated[
-    str | None,
-    typer.Option(
+TargetsOption = Annotated[
+    Path | None,
+    option(
         "--targets",
-        help="Targets in the model frame (JSON {name: \\[x, y, z]} or a point file, in "
-        "the model's units): the verdict is then per target.",
+        "FILE",
+        "Targets in the model frame (JSON {name: [x, y, z]} or a point file, in the model's "
+        "units): the verdict is then per target.",
+        INPUT,
+        exists=True,
+        dir_okay=False,
     ),
 ]
-RegisterInit = Annotated[
-    str | None,
-    typer.Option(
+ModeOption = Annotated[
+    str,
+    option(
+        "--mode",
+        "[auto|global|local|refine]",
+        "auto (any coverage), global (data cover the whole model), local (part of it) or "
+        "refine (ICP from --init, no search).",
+        SEARCH,
+    ),
+]
+InitOption = Annotated[
+    Path | None,
+    option(
         "--init",
-        help="A guess of T_model_data (a 4 x 4 in .txt, .csv, .npy, or .json such as "
-        "this command's --json output; translation in --units): the start of refine, "
-        "one more start in the other modes.",
+        "FILE",
+        "A guess of T_model_data (a 4 x 4 in .txt, .csv, .npy, or .json such as this "
+        "command's --json output; translation in --units): the start of refine, one more "
+        "start in the other modes.",
+        SEARCH,
+        exists=True,
+        dir_okay=False,
     ),
 ]
-RegisterJson = Annotated[
+JsonOption = Annotated[
     str | None,
-    typer.Option(
+    option(
         "--json",
-        help="Write the result to this JSON file (several data files: their JSON Lines, "
-        "one per file, instead of standard output).",
+        "FILE",
+        "Write the result to this JSON file (several data files: their JSON Lines, one per "
+        "file, instead of standard output).",
+        OUTPUT,
     ),
 ]
 
 
 def register(
-    data: RegisterData,
-    model: RegisterModel,
-    mode: RegisterMode = "auto",
+    data: DataArgument,
+    model: ModelArgument,
     units: Annotated[
-        str, typer.Option("--units", help="Units of the data (and of the model): m or mm.")
+        str, option("--units", "[m|mm]", "Units of the data (and of the model).", INPUT)
     ] = "m",
     model_units: Annotated[
         str | None,
-        typer.Option(
+        option(
             "--model-units",
-            help="Units of the model if not --units (a .twm keeps those it was prepared in).",
+            "[m|mm]",
+            "Units of the model if not --units (a .twm keeps those it was prepared in).",
+            INPUT,
         ),
     ] = None,
-    targets: RegisterTargets = None,
+    targets: TargetsOption = None,
     noise: Annotated[
         float | None,
-        typer.Option("--noise", min=0.0, help="The sensor's range noise (sigma), in --units."),
+        option("--noise", "FLOAT", "The sensor's range noise (sigma), in --units.", INPUT, min=0.0),
     ] = None,
-    init: RegisterInit = None,
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the search.")] = 0,
-    json_file: RegisterJson = None,
+    mode: ModeOption = "auto",
+    init: InitOption = None,
+    seed: Annotated[int, option("--seed", "INTEGER", "Seed of the search.", SEARCH, min=0)] = 0,
+    json_file: JsonOption = None,
     batch: Annotated[
-        bool,
-        typer.Option("--batch", help="JSON Lines output even for one data file."),
+        bool, flag("--batch", "JSON Lines output even for one data file.", OUTPUT)
     ] = False,
 ) -> None:
-    """Register data points to a model surface and print the transform and its quality.
+    """Register data points to a model: the transform and its quality.
 
-    With several data files, every file is registered to the one model in this process and
-    each gives one JSON line (its result's fields, or its error): on standard output, or in
-    the --json file with a summary line per file on standard output. A file that fails does
-    not stop the others; the exit status is then 2.
+    One data file: the transform T_model_data and its quality figures as a table (and as JSON
+    with --json). With several data files, every file is registered to the one model in this
+    process and each gives one JSON line (its result's fields, or its error): on standard
+    output, or in the --json file with a summary line per file on standard output. A file that
+    fails does not stop the others; the exit status is then 2.
     """
     from registration.io import load_pose, unit_scale
     from scenarios.cli.file_registration import MatchOptions, load_named_targets, model_units_of
 
+    model_path = str(model)  # the file's name as the results and the messages give it
     named = None
     if targets is not None:
-        named = load_named_targets(targets, model_units_of(model, units, model_units))
+        named = load_named_targets(str(targets), model_units_of(model_path, units, model_units))
     noise_m = None if noise is None or noise == 0 else noise * unit_scale(units)
-    T_init = None if init is None else load_pose(init, units)
+    T_init = None if init is None else load_pose(str(init), units)
     options = MatchOptions(mode, units, seed, named, noise_m, T_init)
     if len(data) == 1 and not batch:
-        _register_one(data[0], model, options, model_units, json_file)
+        _register_one(data[0], model_path, options, model_units, json_file)
     else:
-        _register_many(data, model, options, model_units, json_file)
+        _register_many(data, model_path, options, model_units, json_file)
 
 
 def _register_one(

@@ -4,95 +4,134 @@ set."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Annotated
 
 import typer
 
+from scenarios.cli.help_format import argument, flag, option
+from scenarios.cli.progress_lines import progress_lines
+
+# The help's panels of `twincell run`.
+JOB = "Job"
+CELL = "Cell"
+FAULTS = "Faults and overrides"
+OUTPUT = "Output"
+RECORDING = "Recording"
+
+EXAMPLES = (
+    "twincell run skull --cell ur5 --seed 3",
+    "twincell run skull --fault object_bump --set calibration.enabled=false",
+)
+
 # The options of `twincell run` that take a paragraph to explain.
-_FaultOption = Annotated[
-    list[str] | None,
-    typer.Option(
-        "--fault",
-        help="NAME[=AMOUNT[:OPTION]]: inject a fault into the real cell (see --list-faults), "
-        "the amount in SI units; repeatable.",
-    ),
-]
-_ModelOption = Annotated[
-    str | None,
-    typer.Option(
+ModelOption = Annotated[
+    Path | None,
+    option(
         "--model",
-        help="Replace the job's object by this mesh (.stl, .obj, .ply) or CT volume (a "
-        "DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr: its bone).",
+        "PATH",
+        "Replace the job's object by this mesh (.stl, .obj, .ply) or CT volume (a DICOM series "
+        "folder, .nii/.nii.gz, .nrrd/.nhdr: its bone).",
+        JOB,
+        exists=True,
     ),
 ]
-_TargetsOption = Annotated[
-    str | None,
-    typer.Option(
+TargetsOption = Annotated[
+    Path | None,
+    option(
         "--targets",
-        help="The object's targets: a targets YAML, or for a CT volume the plan made on "
-        "it (plan.json: entry and target points in the volume's frame, mm).",
+        "FILE",
+        "The object's targets: a targets YAML, or for a CT volume the plan made on it "
+        "(plan.json: entry and target points in the volume's frame, mm).",
+        JOB,
+        exists=True,
+        dir_okay=False,
     ),
 ]
-_ProgramOption = Annotated[
-    str | None,
-    typer.Option(
+ProgramOption = Annotated[
+    Path | None,
+    option(
         "--program",
-        help="Your RAPID module (.mod) written for the virtual cell, or a folder of the "
-        "task's modules: its work object's robtargets become the operations, and the run "
-        "writes it back corrected.",
+        "PATH",
+        "Your RAPID module (.mod) written for the virtual cell, or a folder of the task's "
+        "modules: its work object's robtargets become the operations, and the run writes it "
+        "back corrected.",
+        JOB,
+        exists=True,
     ),
 ]
-_CellOption = Annotated[
+NoCacheOption = Annotated[
+    bool,
+    flag(
+        "--no-cache",
+        "Build the skull phantom and plan the scan anew instead of reading them from the "
+        "user's cache folder (TWINCELL_NO_CACHE=1 does the same).",
+        JOB,
+    ),
+]
+CellOption = Annotated[
     str | None,
-    typer.Option(
+    option(
         "--cell",
-        help="The cell to run the job in: a shipped cell (ur5: the UR5 of "
-        "example-robot-data, the rack placed for its reach) or a cell YAML (robot file, "
-        "flange, mount, rack).",
+        "CELL",
+        "The cell to run the job in: a shipped cell (ur5: the UR5 of example-robot-data, the "
+        "rack placed for its reach) or a cell YAML (robot file, flange, mount, rack).",
+        CELL,
     ),
 ]
-_SetOption = Annotated[
+FaultOption = Annotated[
     list[str] | None,
-    typer.Option(
+    option(
+        "--fault",
+        "NAME[=AMOUNT[:OPTION]]",
+        "Inject a fault into the real cell (see --list-faults), the amount in SI units; "
+        "repeatable.",
+        FAULTS,
+    ),
+]
+SetOption = Annotated[
+    list[str] | None,
+    option(
         "--set",
-        help="KEY=VALUE: set any configuration value by its dotted key (e.g. "
-        "cell.noise.laser_sigma_m=2e-4, calibration.enabled=false); repeatable.",
+        "KEY=VALUE",
+        "Set any configuration value by its dotted key (e.g. cell.noise.laser_sigma_m=2e-4, "
+        "calibration.enabled=false); repeatable.",
+        FAULTS,
     ),
 ]
 
 
 def run(
     name: Annotated[
-        str | None,
-        typer.Argument(help="A shipped job (paper, skull, assembly) or a CONFIG.yaml file."),
+        str | None, argument("JOB", "A shipped job (paper, skull, assembly) or a CONFIG.yaml file.")
     ] = None,
     seed: Annotated[
-        int | None, typer.Option("--seed", min=0, help="Seed of all random draws.")
+        int | None, option("--seed", "INTEGER", "Seed of all random draws.", JOB, min=0)
     ] = None,
-    out: Annotated[str, typer.Option("--out", help="Folder that holds the run folders.")] = "runs",
-    fault: _FaultOption = None,
+    model: ModelOption = None,
+    units: Annotated[str, option("--units", "[mm|m]", "Units of --model.", JOB)] = "mm",
+    targets: TargetsOption = None,
+    program: ProgramOption = None,
+    no_cache: NoCacheOption = False,
+    cell: CellOption = None,
+    fault: FaultOption = None,
     list_faults: Annotated[
-        bool, typer.Option("--list-faults", help="List the faults and exit.")
+        bool, flag("--list-faults", "List the faults and exit.", FAULTS)
     ] = False,
-    model: _ModelOption = None,
-    units: Annotated[str, typer.Option("--units", help="Units of --model: mm or m.")] = "mm",
-    targets: _TargetsOption = None,
-    program: _ProgramOption = None,
-    cell: _CellOption = None,
-    assign: _SetOption = None,
-    spawn: Annotated[bool, typer.Option("--spawn", help="Show the run in a rerun viewer.")] = False,
-    no_rrd: Annotated[bool, typer.Option("--no-rrd", help="Do not write run.rrd.")] = False,
-    no_cache: Annotated[
-        bool,
-        typer.Option(
-            "--no-cache",
-            help="Build the skull phantom and plan the scan anew instead of reading them from "
-            "the user's cache folder (TWINCELL_NO_CACHE=1 does the same).",
-        ),
-    ] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
+    assign: SetOption = None,
+    out: Annotated[
+        str, option("--out", "DIR", "Folder that holds the run folders.", OUTPUT)
+    ] = "runs",
+    quiet: Annotated[bool, flag("--quiet", "No progress lines.", OUTPUT)] = False,
+    spawn: Annotated[bool, flag("--spawn", "Show the run in a rerun viewer.", RECORDING)] = False,
+    no_rrd: Annotated[bool, flag("--no-rrd", "Do not write run.rrd.", RECORDING)] = False,
 ) -> None:
-    """Run a job headless and write a run folder (results, table, figures, recording)."""
+    """Run a job headless and write a run folder.
+
+    The run folder holds the results (results.json), the table, the figures and the recording
+    (run.rrd). Exit status 3 when the job refuses, 4 when it aborts, 6 when the program ran but
+    its goal is at risk.
+    """
     from rich.console import Console
 
     from scenarios.jobs.runner import RunOptions, run_job
@@ -105,10 +144,6 @@ def run(
     if no_cache:
         os.environ["TWINCELL_NO_CACHE"] = "1"  # models.cache; campaign workers inherit it
 
-    def progress(message: str) -> None:
-        if not quiet:
-            typer.echo(f"  {message}", err=True)
-
     overrides = run_overrides(
         model=model, units=units, targets=targets, program=program, assign=assign, fault=fault
     )
@@ -116,7 +151,7 @@ def run(
         name,
         seed=seed,
         out=out,
-        progress=progress,
+        progress=progress_lines(quiet),
         overrides=overrides,
         options=RunOptions(rrd=not no_rrd, spawn=spawn),
         cell=cell,
@@ -141,24 +176,25 @@ def run(
 
 def run_overrides(
     *,
-    model: str | None,
+    model: str | Path | None,
     units: str,
-    targets: str | None,
-    program: str | None,
+    targets: str | Path | None,
+    program: str | Path | None,
     assign: list[str] | None,
     fault: list[str] | None,
 ) -> dict[str, object]:
     """The dotted configuration keys `twincell run`'s options set: the object's model and
-    units, its targets file, the program, each `--set KEY=VALUE` and each `--fault`."""
+    units, its targets file, the program (a path as its text), each `--set KEY=VALUE` and
+    each `--fault`."""
     from scenarios.configuration.config_files import fault_assignment, parse_assignment
 
     overrides: dict[str, object] = {}
     if model is not None:
-        overrides |= {"cell.object.model": model, "cell.object.units": units}
+        overrides |= {"cell.object.model": str(model), "cell.object.units": units}
     if targets is not None:
-        overrides["cell.object.targets_file"] = targets
+        overrides["cell.object.targets_file"] = str(targets)
     if program is not None:
-        overrides["operations.program"] = program
+        overrides["operations.program"] = str(program)
     overrides |= dict(parse_assignment(text) for text in assign or [])
     overrides |= dict(fault_assignment(text) for text in fault or [])
     return overrides

@@ -7,75 +7,89 @@ from typing import Annotated, Any
 
 import typer
 
+from scenarios.cli.help_format import argument, flag, option
+from scenarios.cli.progress_lines import progress_lines
+
+# The help's panels of `twincell serve`.
+CONTROLLER = "Controller"
+EGM = "EGM"
+CELL = "Cell"
+OUTPUT = "Output"
+
+EXAMPLES = ("twincell serve skull --speed 5", "twincell serve runs/latest --rws 127.0.0.1:8081")
+
 
 def serve(
     name: Annotated[
-        str,
-        typer.Argument(help="A shipped job (skull, assembly), a CONFIG.yaml, or a run folder."),
+        str, argument("JOB", "A shipped job (skull, assembly), a CONFIG.yaml, or a run folder.")
     ],
     rws: Annotated[
-        str, typer.Option("--rws", help="HOST:PORT the Robot Web Services answer on.")
+        str, option("--rws", "HOST:PORT", "Where the Robot Web Services answer.", CONTROLLER)
     ] = "127.0.0.1:8080",
+    opmode: Annotated[
+        str,
+        option(
+            "--opmode",
+            "[AUTO|MANR]",
+            "The operation mode: AUTO, or MANR (manual: clients read, but neither start "
+            "programs nor write).",
+            CONTROLLER,
+        ),
+    ] = "AUTO",
     host: Annotated[
         str | None,
-        typer.Option("--host", help="Bind to this host instead of --rws's (e.g. 0.0.0.0)."),
+        option(
+            "--host", "HOST", "Bind to this host instead of --rws's (e.g. 0.0.0.0).", CONTROLLER
+        ),
+    ] = None,
+    user: Annotated[
+        list[str] | None,
+        option(
+            "--user",
+            "NAME:PASSWORD",
+            "A user (repeatable; default the controller's Default User:robotics).",
+            CONTROLLER,
+        ),
     ] = None,
     egm_port: Annotated[
         int | None,
-        typer.Option("--egm-port", min=1, max=65535, help="The EGM client's UDP port."),
+        option("--egm-port", "PORT", "The EGM client's UDP port.", EGM, min=1, max=65535),
     ] = None,
     egm_host: Annotated[
-        str, typer.Option("--egm-host", help="The EGM client's host.")
+        str, option("--egm-host", "HOST", "The EGM client's host.", EGM)
     ] = "127.0.0.1",
     seed: Annotated[
-        int | None, typer.Option("--seed", min=0, help="The real cell's seed (default: the job's).")
+        int | None,
+        option("--seed", "INTEGER", "The real cell's seed (default: the job's).", CELL, min=0),
     ] = None,
     speed: Annotated[
         float,
-        typer.Option("--speed", min=0.01, help="The cell's time runs N times the wall clock's."),
+        option(
+            "--speed", "FLOAT", "The cell's time runs N times the wall clock's.", CELL, min=0.01
+        ),
     ] = 1.0,
-    opmode: Annotated[
-        str,
-        typer.Option(
-            "--opmode",
-            help="The operation mode: AUTO, or MANR (manual: clients read, but neither start "
-            "programs nor write).",
-        ),
-    ] = "AUTO",
-    user: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--user",
-            help="NAME:PASSWORD of a user (repeatable; default the "
-            "controller's Default User:robotics).",
-        ),
-    ] = None,
     out: Annotated[
-        str, typer.Option("--out", help="Folder that holds the serve folders.")
+        str, option("--out", "DIR", "Folder that holds the serve folders.", OUTPUT)
     ] = "runs",
     spawn: Annotated[
-        bool, typer.Option("--spawn", help="Show the cell live in a rerun viewer.")
+        bool, flag("--spawn", "Show the cell live in a rerun viewer.", OUTPUT)
     ] = False,
-    rrd: Annotated[
-        bool, typer.Option("--rrd", help="Write serve.rrd into the serve folder.")
-    ] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines.")] = False,
+    rrd: Annotated[bool, flag("--rrd", "Write serve.rrd into the serve folder.", OUTPUT)] = False,
+    quiet: Annotated[bool, flag("--quiet", "No progress lines.", OUTPUT)] = False,
 ) -> None:
-    """Serve a job's real cell as an ABB IRC5 controller: Robot Web Services (HTTP, digest
-    authentication) and EGM (UDP), until Ctrl-C. Programs a client loads and starts run as
-    `twincell execute` runs them; each one run to its end is measured against the truth in
-    the serve folder (executions/)."""
+    """Serve a job's real cell as an ABB IRC5 controller (RWS, EGM).
+
+    Robot Web Services (HTTP, digest authentication) and EGM (UDP), until Ctrl-C. Programs a
+    client loads and starts run as `twincell execute` runs them; each one run to its end is
+    measured against the truth in the serve folder (executions/).
+    """
     from scenarios.jobs.serve import serve_job
     from scenarios.twin.server import ServeOptions, parse_address, parse_users
-
-    def progress(message: str) -> None:
-        if not quiet:
-            typer.echo(f"  {message}", err=True)
 
     rws_host, rws_port = parse_address(rws)
     options = ServeOptions(host or rws_host, rws_port, egm_port, egm_host, parse_users(user or []))
     serving = serve_job(name, options, seed=seed, speed=speed, out=out, spawn=spawn, rrd=rrd,
-                        progress=progress, opmode=opmode.upper())  # fmt: skip
+                        progress=progress_lines(quiet), opmode=opmode.upper())  # fmt: skip
     typer.echo(f"serving {serving.url} (Ctrl-C to stop); serve folder: {serving.folder}")
     _serve_until_stopped(serving)
 
