@@ -5,8 +5,9 @@ A model is stored by its inputs: the builder's name, its seed, and a hash of the
 package's own code, so that a changed generator never reads a file an older one wrote. The
 file is a numpy .npz (no pickle) written atomically, so parallel runs may share the folder.
 Other caches of the project (the scan plans') keep their files in subfolders here.
-`TWINCELL_NO_CACHE=1` turns them all off (`twincell run --no-cache` sets it);
-`TWINCELL_CACHE_DIR` moves it (default: platformdirs' user cache folder, `twincell/models`).
+`TWINCELL_NO_CACHE=1` turns them all off; a caller turns them off for its own use with
+`use_cache=False` (`twincell run --no-cache` does for its run). `TWINCELL_CACHE_DIR` moves
+it (default: platformdirs' user cache folder, `twincell/models`).
 """
 
 from __future__ import annotations
@@ -32,9 +33,10 @@ from models.targets import BurrHole
 FORMAT = 1
 
 
-def enabled() -> bool:
-    """Whether the cache is used (not turned off by TWINCELL_NO_CACHE)."""
-    return os.environ.get("TWINCELL_NO_CACHE", "") in ("", "0")
+def enabled(use_cache: bool = True) -> bool:
+    """Whether the cache is used: the caller's `use_cache`, unless TWINCELL_NO_CACHE turns it
+    off."""
+    return use_cache and os.environ.get("TWINCELL_NO_CACHE", "") in ("", "0")
 
 
 def folder() -> Path:
@@ -62,16 +64,19 @@ def key(name: str, seed: int) -> str:
 CACHED = ("skull",)
 
 
-def used_key(name: str, seed: int) -> str | None:
+def used_key(name: str, seed: int, use_cache: bool = True) -> str | None:
     """The key a run of the built-in model `name` with `seed` reads or writes, or None
-    (the cache is off, or does not hold that model)."""
-    return key(name, seed) if enabled() and name in CACHED else None
+    (the cache is off, see `enabled`, or does not hold that model)."""
+    return key(name, seed) if enabled(use_cache) and name in CACHED else None
 
 
-def cached(name: str, seed: int, build: Callable[[int], ObjectModel]) -> ObjectModel:
+def cached(
+    name: str, seed: int, build: Callable[[int], ObjectModel], use_cache: bool = True
+) -> ObjectModel:
     """The built-in model `name` (seed `seed`) from the cache, or built by `build(seed)` and
-    stored; the same model either way, to the bit."""
-    if not enabled():
+    stored; the same model either way, to the bit. With the cache off (see `enabled`),
+    built and not stored."""
+    if not enabled(use_cache):
         return build(seed)
     path = folder() / f"{key(name, seed)}.npz"
     if path.is_file():

@@ -16,7 +16,7 @@ import numpy as np
 import trimesh
 
 from models import ellipsoid
-from models.cache import cached
+from models.cache import CACHED, cached
 from models.convex import convex_pieces
 from models.mesh import TriangleMesh
 from models.model import ObjectModel
@@ -71,7 +71,7 @@ def _ellipsoid(seed: int) -> ObjectModel:
 
 
 _BUILDERS: dict[str, Callable[[int], ObjectModel]] = {
-    "skull": lambda seed: cached("skull", seed, _skull),  # seconds to build: kept on disk
+    "skull": _skull,  # seconds to build: kept on disk (models.cache.CACHED)
     "bracket": _part(make_bracket),
     "housing": _part(make_housing),
     "lid": _part(make_lid),
@@ -91,19 +91,21 @@ def _check_seed(seed: int) -> int:
 
 
 @lru_cache(maxsize=16)
-def _cached(name: str, seed: int) -> ObjectModel:
-    return _BUILDERS[name](seed)
+def _cached(name: str, seed: int, use_cache: bool) -> ObjectModel:
+    build = _BUILDERS[name]
+    return cached(name, seed, build, use_cache) if name in CACHED else build(seed)
 
 
-def builtin_model(name: str, seed: int = 0) -> ObjectModel:
+def builtin_model(name: str, seed: int = 0, use_cache: bool = True) -> ObjectModel:
     """The built-in model `name` (see `builtin_names()`); `seed` shapes the skull (the others
-    do not depend on it). Results are cached in memory; the values are immutable."""
+    do not depend on it). Results are cached in memory; the values are immutable. The skull
+    is kept on disk too (models.cache), unless `use_cache` is False."""
     if name not in _BUILDERS:
         raise UnknownModelError(
             f"unknown model {name!r}; built-in models are {list(_BUILDERS)}, or give a mesh file "
             f"({', '.join(MESH_SUFFIXES)})"
         )
-    return _cached(name, _check_seed(seed))
+    return _cached(name, _check_seed(seed), use_cache)
 
 
 def _displaced_hole(hole: BurrHole, field: Callable[[np.ndarray], np.ndarray]) -> BurrHole:
@@ -155,15 +157,16 @@ def load_model(
     seed: int = 0,
     units: str | float = "mm",
     spec: ModelErrorSpec | None = None,
+    use_cache: bool = True,
 ) -> tuple[ObjectModel, tuple[str, ...]]:
     """A built-in model by name or a user mesh file by path (in `units`), optionally as its
     real entity (`real=True`, model error seeded by `seed`). Returns the model and the
-    warnings found while loading."""
+    warnings found while loading. `use_cache`: see `builtin_model`."""
     unit_scale(units)  # refuse bad units even when a built-in model does not need them
     warnings: tuple[str, ...] = ()
     name = str(name_or_path)
     if name in _BUILDERS:
-        model = builtin_model(name, seed)
+        model = builtin_model(name, seed, use_cache)
     elif Path(name).suffix or Path(name).exists() or "/" in name:
         model, report = load_mesh_file(name, units)
         warnings = report.warnings

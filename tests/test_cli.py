@@ -3,6 +3,7 @@ checked by the options that take them."""
 
 from __future__ import annotations
 
+import os
 import shlex
 from importlib.metadata import version
 from pathlib import Path
@@ -101,3 +102,25 @@ def test_each_command_has_a_summary_and_examples_that_parse(tmp_path, monkeypatc
             except TyperException as exc:
                 message: Any = exc  # a click exception, which formats its own message
                 pytest.fail(f"{line}: {message.format_message()}")
+
+
+def test_no_cache_is_a_run_option_not_the_environment(tmp_path, monkeypatch) -> None:
+    """`twincell run --no-cache` tells the run (RunOptions.cache), and leaves the process's
+    environment as it was."""
+    from scenarios.jobs import runner
+
+    monkeypatch.delenv("TWINCELL_NO_CACHE", raising=False)
+    told: list[runner.RunOptions | None] = []
+
+    class Experiments:  # what the seed paper's experiments return: a table
+        table = "a table"
+
+    def run_job(name: str, **kwargs: Any) -> tuple[Path, Experiments]:
+        told.append(kwargs["options"])
+        return tmp_path, Experiments()
+
+    monkeypatch.setattr(runner, "run_job", run_job)
+    assert main(["run", "paper", "--no-cache", "--quiet"]) == 0
+    assert main(["run", "paper", "--quiet"]) == 0
+    assert [options.cache for options in told if options is not None] == [False, True]
+    assert "TWINCELL_NO_CACHE" not in os.environ

@@ -163,7 +163,9 @@ def test_a_stop_while_the_recording_closes_discards_it(
         def to_json(self) -> dict[str, Any]:
             return {"status": "complete"}
 
-    def job(config: Any, folder: Path, progress: Any, recording: Any, stages: Any) -> Done:
+    def job(
+        config: Any, folder: Path, progress: Any, recording: Any, stages: Any, use_cache: bool
+    ) -> Done:
         stages.enter("export")
         return Done()
 

@@ -1,5 +1,6 @@
 """The disk cache of the skull phantom (models.cache): what it reads back is the built model
-to the bit; turned off it writes nothing; a damaged file is built anew."""
+to the bit; turned off (by the environment, or by a caller) it writes nothing; a damaged
+file is built anew."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import cache
+from models import cache, registry
 from models.model import ObjectModel
 from models.registry import _skull
 
@@ -65,6 +66,25 @@ def test_turned_off_it_builds_and_writes_nothing(
     assert cache.cached("skull", 3, lambda seed: built) is built
     assert not list(tmp_path.iterdir())
     assert cache.used_key("skull", 3) is None
+
+
+def test_a_caller_turns_it_off_for_its_own_use(
+    built: ObjectModel, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`use_cache=False` (`twincell run --no-cache`) through the registry: built, nothing
+    written, no key; the process's other uses keep the cache."""
+    monkeypatch.setenv("TWINCELL_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("TWINCELL_NO_CACHE", raising=False)
+    monkeypatch.setitem(registry._BUILDERS, "skull", lambda seed: built)
+    registry._cached.cache_clear()
+    try:
+        assert registry.builtin_model("skull", 3, use_cache=False) is built
+        assert not list(tmp_path.iterdir())
+        assert cache.used_key("skull", 3, use_cache=False) is None
+        _same(built, registry.builtin_model("skull", 3))
+        assert [p.name for p in tmp_path.iterdir()] == [f"{cache.used_key('skull', 3)}.npz"]
+    finally:
+        registry._cached.cache_clear()  # the stand-in builder's models are not the skull's
 
 
 def test_a_damaged_file_is_built_anew(

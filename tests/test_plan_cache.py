@@ -116,6 +116,20 @@ def test_turned_off_it_plans_and_writes_nothing(
     assert not list(cache_dir.rglob("*.npz"))
 
 
+def test_a_caller_turns_it_off_for_its_own_use(cache_dir: Path) -> None:
+    """`use_cache=False` (`twincell run --no-cache`): planned each time, nothing written."""
+    calls: list[int] = []
+
+    def plan() -> ScanPlan:
+        calls.append(1)
+        return _plan(1e-4)
+
+    for _ in range(2):
+        assert plan_cache.cached_plan("k3", plan, use_cache=False)[1] is False
+    assert calls == [1, 1]
+    assert not list(cache_dir.rglob("*.npz"))
+
+
 def _same(a: object, b: object, where: str = "plan") -> None:
     """a and b are the same tree of values, to the bit: types, arrays' dtypes and shapes."""
     assert type(a) is type(b), (where, type(a), type(b))

@@ -3,7 +3,6 @@ set."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Annotated
 
@@ -141,9 +140,6 @@ def run(
         return
     if name is None:
         raise typer.BadParameter("give a job (skull, assembly, paper) or a CONFIG.yaml")
-    if no_cache:
-        os.environ["TWINCELL_NO_CACHE"] = "1"  # models.cache; campaign workers inherit it
-
     overrides = run_overrides(
         model=model, units=units, targets=targets, program=program, assign=assign, fault=fault
     )
@@ -153,7 +149,7 @@ def run(
         out=out,
         progress=progress_lines(quiet),
         overrides=overrides,
-        options=RunOptions(rrd=not no_rrd, spawn=spawn),
+        options=RunOptions(rrd=not no_rrd, spawn=spawn, cache=not no_cache),
         cell=cell,
     )
     from scenarios.results.run import RunResult

@@ -16,6 +16,7 @@ from cell.cell_errors import CellConfigError
 from cell.robot_arm import Robot
 from cell.robots import BUILTIN, make_robot
 from models.cache import enabled as cache_enabled
+from models.cache import used_key
 from models.ct.readers import is_volume
 from models.model import ObjectModel
 from models.registry import real_model
@@ -55,12 +56,13 @@ Progress = Callable[[str], None]
 
 
 def object_models(
-    config: JobConfig, user: UserProgram | None = None
+    config: JobConfig, user: UserProgram | None = None, use_cache: bool = True
 ) -> tuple[ObjectModel, ObjectModel]:
     """The job's object: its virtual model with the operations' targets (from the model, or
     the touches of the user's program; what the planner knows) and its real entity (the
     model error drawn from the seed, or with `model.source: ct` the design itself, the
-    virtual model being meshed from its simulated CT: the truth)."""
+    virtual model being meshed from its simulated CT: the truth). `use_cache`: a built-in
+    model may be read from the user's cache folder (models.cache)."""
     obj = config.cell.object
     virtual = virtual_model(
         obj.model,
@@ -71,6 +73,7 @@ def object_models(
         config.model.ct.iso_hu,
         config.model.ct.resample_mm,
         config.model.ct.max_gap_mm,
+        use_cache,
     )
     if user is not None:
         virtual = replace(virtual, burr_holes=program_targets(user))
@@ -168,7 +171,8 @@ class JobPlan:
     """What a job is before its real cell is built: its planning settings, its arm, the
     user's program (if any), the virtual model and the real entity (the truth: for the real
     cell's set-up only), the nominal pose T_table_object (4, 4), the scan plan, and the
-    key it was cached under (None: the cache is off, or the job does not scan)."""
+    keys the scan plan and the model were cached under (None: the cache is off, the job does
+    not scan, the model is not one the cache holds)."""
 
     settings: PlanningSettings
     robot: Robot
@@ -178,12 +182,15 @@ class JobPlan:
     T_table_nominal: np.ndarray
     scan_plan: ScanPlan | None
     plan_cache: str | None = None
+    model_cache: str | None = None
 
 
-def plan_job(config: JobConfig, say: Progress) -> JobPlan:
+def plan_job(config: JobConfig, say: Progress, use_cache: bool = True) -> JobPlan:
     """The job in its virtual cell, before the real one: the models, whether the arm reaches
     the rack slots, the scan and the operations, and the scan's passes (chosen, or for a
-    fixed plan predicted): a job that cannot be done refuses here."""
+    fixed plan predicted): a job that cannot be done refuses here. `use_cache`: the skull
+    phantom and the scan plan may be read from and written to the user's cache folder
+    (models.cache, scenarios.offline.plan_cache)."""
     obj = config.cell.object
     settings = config.planning()  # all that the stages are told of the job
     say(f"model {obj.model!r}: virtual and real entity")
@@ -201,7 +208,7 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
             f"the {robot.name} ({robot.vendor or 'vendor unknown'})"
         )
     user = None if config.operations.program is None else read_user_program(config.operations)
-    virtual, real = object_models(config, user)
+    virtual, real = object_models(config, user, use_cache)
     if is_volume(obj.model):  # what was read, and how its slices were regularised
         say(f"model: {virtual.source}")
     T_table_nominal = nominal_pose(settings.placement, virtual.mesh.vertices)
@@ -217,7 +224,7 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
     while True:
         try:
             scan_plan, plan_cache = _arm_plan(config, robot, user, virtual, T_table_nominal,
-                                              operations, say)  # fmt: skip
+                                              operations, say, use_cache)  # fmt: skip
             break
         except UnreachablePlanError as exc:
             say(f"arm: that home does not do this job: {exc}")
@@ -225,7 +232,9 @@ def plan_job(config: JobConfig, say: Progress) -> JobPlan:
             if robot_next is None:
                 raise
             robot = robot_next
-    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan, plan_cache)
+    model_cache = used_key(obj.model, config.seed, use_cache)
+    return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan, plan_cache,
+                   model_cache)  # fmt: skip
 
 
 def _arm_plan(
@@ -236,10 +245,11 @@ def _arm_plan(
     T_table_nominal: np.ndarray,
     operations: tuple[Operation, ...],
     say: Progress,
+    use_cache: bool = True,
 ) -> tuple[ScanPlan | None, str | None]:
     """Whether `robot` reaches the job's rack slots, scan and operations, and its scan plan
-    and the plan's cache key (None, None without a surface scan); raises
-    UnreachablePlanError naming what it cannot do."""
+    and the plan's cache key (None, None without a surface scan; a key None with the cache
+    off: `use_cache`); raises UnreachablePlanError naming what it cannot do."""
     settings = config.planning()
     reach = check_reach(
         robot,
@@ -266,8 +276,9 @@ def _arm_plan(
     scan_plan, stored = cached_plan(
         key,
         lambda: job_scan_plan(robot, settings, virtual, T_table_nominal, targets, say, names),
+        use_cache,
     )
     if stored:
         say(f"scan plan: this virtual cell's plan, from the cache ({key})")
         say(plan_summary(scan_plan))
-    return scan_plan, key if cache_enabled() else None
+    return scan_plan, key if cache_enabled(use_cache) else None

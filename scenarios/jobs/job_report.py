@@ -17,7 +17,6 @@ import numpy as np
 from cell.cell_errors import SupervisionError
 from cell.robot_arm import Robot
 from models.atomic import write_text
-from models.cache import used_key
 from models.model import ObjectModel
 from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.exported_run import (
@@ -120,7 +119,7 @@ def finish_job(
         scan_plan=None
         if plan.scan_plan is None
         else plan.scan_plan.summary(None if state.scanned is None else state.scanned.scan_time_s),
-        model_cache=used_key(config.cell.object.model, config.seed),
+        model_cache=plan.model_cache,
         plan_cache=plan.plan_cache,
         verifications=tuple(job.verifications),
         tool_checks=tuple(job.run.tool_checks),

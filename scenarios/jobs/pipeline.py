@@ -186,12 +186,14 @@ def run_cell_job(
     progress: Progress | None = None,
     recording: Any | None = None,
     stages: StageTracker | None = None,
+    use_cache: bool = True,
 ) -> RunResult:
     """Run a cell job into `folder`; returns its result (written by the caller). `stages`
-    hears each stage as it begins."""
+    hears each stage as it begins; `use_cache`: the skull phantom and the scan plan may come
+    from the user's cache folder (see plan_job)."""
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
-    plan = plan_job(config, say)
+    plan = plan_job(config, say, use_cache)
     faults = job_faults(config, plan.virtual, plan.T_table_nominal)
     cell = job_cell(config, plan.virtual, plan.real, plan.robot, recording, faults)
     if recording is not None and plan.scan_plan is not None:

@@ -42,10 +42,13 @@ Progress = Callable[[str], None]
 @dataclass(frozen=True)
 class RunOptions:
     """Options of one run that are not part of the scenario: the rerun recording to a file
-    (`rrd`), a live viewer (`spawn`)."""
+    (`rrd`), a live viewer (`spawn`), the user's cache folder read and written (`cache`:
+    False makes the skull phantom and the scan plan anew and stores nothing; see
+    models.cache)."""
 
     rrd: bool = True
     spawn: bool = False
+    cache: bool = True
 
 
 JobResult = RunResult | PaperResult
@@ -93,7 +96,9 @@ def _cell(
 
     recording = _recording(folder, config, options)
     try:
-        result = run_cell_job(config, folder.path, progress, recording, stages=stages)
+        result = run_cell_job(
+            config, folder.path, progress, recording, stages=stages, use_cache=options.cache
+        )
         if recording is not None:
             recording.close(keep=True)
     except BaseException:

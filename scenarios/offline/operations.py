@@ -55,6 +55,7 @@ def virtual_model(
     iso_hu: float = 300.0,
     ct_voxel_mm: tuple[float, float, float] | None = None,
     ct_max_gap_mm: float = MAX_GAP_MM,
+    use_cache: bool = True,
 ) -> ObjectModel:
     """The virtual model of the object `name` (built in, a mesh file in `units`, or a CT
     volume) with its targets for operations of `kind`: burr holes for touches (the model's
@@ -62,7 +63,8 @@ def virtual_model(
     upper surface), screw frames driven from above for screws. A CT volume's model is its
     bone at `iso_hu` [HU] (an irregular series resampled, at `ct_voxel_mm` if given; a slice
     gap wider than `ct_max_gap_mm` refused), and a JSON `targets_file` is the plan made on it
-    (models.ct.volume_plan)."""
+    (models.ct.volume_plan). `use_cache`: a built-in model may be read from the user's cache
+    folder (models.cache)."""
     if is_volume(name):  # a CT: its bone, and the plan made on it
         json_plan = targets_file is not None and targets_file.lower().endswith(".json")
         plan = targets_file if json_plan else None
@@ -70,7 +72,7 @@ def virtual_model(
         if json_plan:
             return model
     else:
-        model, _warnings = load_model(name, seed=seed, units=units)
+        model, _warnings = load_model(name, seed=seed, units=units, use_cache=use_cache)
     if kind == "screw":
         holes = screw_targets(model)
         if not holes:

@@ -106,11 +106,14 @@ def folder() -> Path:
     return cache.folder() / "plans"
 
 
-def cached_plan(key: str, plan: Callable[[], ScanPlan]) -> tuple[ScanPlan, bool]:
+def cached_plan(
+    key: str, plan: Callable[[], ScanPlan], use_cache: bool = True
+) -> tuple[ScanPlan, bool]:
     """The scan plan stored under `key`, or planned by `plan()` and stored; and whether it
-    came from the cache. With the cache off (TWINCELL_NO_CACHE), always planned. A file that
-    does not read back as a plan is reported on this module's logger and replaced."""
-    if not cache.enabled():
+    came from the cache. With the cache off (`use_cache` False, or TWINCELL_NO_CACHE: see
+    models.cache.enabled), always planned. A file that does not read back as a plan is
+    reported on this module's logger and replaced."""
+    if not cache.enabled(use_cache):
         return plan(), False
     path = folder() / f"{key}.npz"
     if path.is_file():
