@@ -2,28 +2,25 @@
 
 from __future__ import annotations
 
-import sys
-
 
 class ScenarioError(Exception):
     """Root of every error raised by `scenarios`."""
 
 
-def user_errors() -> tuple[type[BaseException], ...]:
-    """The root exceptions of the project's packages: bad input a user can fix (one line,
-    not a traceback). Only those of the packages imported by now: the others cannot have
-    raised (importing the cell to check would cost a register call a second)."""
-    errors: list[type[BaseException]] = [ScenarioError]
-    if "registration.registration_errors" in sys.modules:
-        from registration.registration_errors import RegistrationError
+#: The root exceptions of the project's packages, by module and name: bad input a user can
+#: fix (one line, not a traceback). Named, not imported, so that telling an error costs no
+#: import of the packages it did not come from (the cell's costs a register call a second).
+USER_ERROR_ROOTS = frozenset(
+    {
+        "scenarios.scenario_errors.ScenarioError",
+        "registration.registration_errors.RegistrationError",
+        "cell.cell_errors.CellError",
+        "cell.cell_errors.SupervisionError",
+        "models.model_errors.ModelError",
+    }
+)
 
-        errors.append(RegistrationError)
-    if "cell.cell_errors" in sys.modules:
-        from cell.cell_errors import CellError, SupervisionError
 
-        errors += [CellError, SupervisionError]
-    if "models.model_errors" in sys.modules:
-        from models.model_errors import ModelError
-
-        errors.append(ModelError)
-    return tuple(errors)
+def is_user_error(exc: BaseException) -> bool:
+    """Whether `exc` derives from one of the project's user errors (USER_ERROR_ROOTS)."""
+    return any(f"{c.__module__}.{c.__qualname__}" in USER_ERROR_ROOTS for c in type(exc).__mro__)

@@ -5,7 +5,7 @@ Trial ids are `p<point>-t<trial>`; the seed of trial k is `seed + k` at every sw
 
 A trial ends in one of three statuses: "ok" (the trial function returned its row, whatever
 the run's verdict: a refused match or an aborted job is a result), "error" (it raised one of
-the project's user errors, scenarios.scenario_errors.user_errors: a bad configuration, input the
+the project's user errors, scenarios.scenario_errors.is_user_error: a bad configuration, input the
 trial cannot use) or "crash" (it raised anything else: a bug). A crash's row carries its full
 traceback under TRACEBACK_TEXT, which the campaign's store writes to the trial's folder.
 """
@@ -21,7 +21,7 @@ from typing import Protocol
 
 from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.results.edge import JsonObject
-from scenarios.scenario_errors import user_errors
+from scenarios.scenario_errors import is_user_error
 
 STATUSES: tuple[str, ...] = ("ok", "error", "crash")
 """A trial row's `status`: returned, stopped by a user error, stopped by a program error."""
@@ -102,7 +102,7 @@ def _failure(exc: Exception) -> JsonObject:
     last = traceback.extract_tb(exc.__traceback__)[-1]
     where = f"{last.filename.rsplit('/', 1)[-1]}:{last.lineno}"
     line = f"{type(exc).__name__}: {exc} ({where})"
-    if isinstance(exc, user_errors()):
+    if is_user_error(exc):
         return {"status": "error", "error": line}
     text = "".join(traceback.format_exception(exc))
     return {"status": "crash", "error": line, TRACEBACK_TEXT: text}

@@ -8,6 +8,8 @@ from typing import Any
 
 import typer
 
+from scenarios.scenario_errors import is_user_error
+
 
 def run_command_line(app: typer.Typer, argv: list[str] | None = None) -> int:
     """Run the command line `app` on `argv` (default: the process's arguments) and return its
@@ -41,9 +43,7 @@ def run_command_line(app: typer.Typer, argv: list[str] | None = None) -> int:
         typer.echo(f"twincell: internal error (an unexpected warning): {exc}", err=True)
         return 1
     except Exception as exc:
-        from scenarios.scenario_errors import user_errors
-
-        if isinstance(exc, user_errors()):
+        if is_user_error(exc):
             typer.echo(f"twincell: error: {exc}", err=True)
             return 2
         raise

@@ -139,11 +139,13 @@ def _found(path: str | Path, request: pytest.FixtureRequest) -> str | Path:
 
 
 def _fail_on_user_error(action: Callable[[], Any]) -> Any:
-    from scenarios.scenario_errors import user_errors
+    from scenarios.scenario_errors import is_user_error
 
     try:
         return action()
-    except user_errors() as exc:
+    except Exception as exc:
+        if not is_user_error(exc):
+            raise
         message = f"twincell: error: {exc}"
     pytest.fail(message, pytrace=False)  # outside the handler: one line, no chained traceback
 
