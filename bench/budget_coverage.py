@@ -185,7 +185,7 @@ def main() -> None:
     print(HEADER)
     print("\n".join(table))
     if args.short and args.page:
-        from scenarios.jobs.tables import replace_table
+        from bench_support.readme_table_rows import replace_table
 
         PAGE.write_text(replace_table(PAGE.read_text(), "budget", HEADER, table))
         print(f"wrote the table into {PAGE}")

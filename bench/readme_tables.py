@@ -20,8 +20,7 @@ import argparse
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from cell.ur5_arm import example_robot_data_share
-from scenarios.jobs.tables import (
+from bench_support.readme_table_rows import (
     ASSEMBLY_HEADER,
     FILE_ARMS_HEADER,
     GROUPS_HEADER,
@@ -35,6 +34,8 @@ from scenarios.jobs.tables import (
     skull_rows,
     ur5_rows,
 )
+
+from cell.ur5_arm import example_robot_data_share
 
 PAGE = Path(__file__).resolve().parent.parent / "docs" / "benchmarks.md"
 ARMS = Path(__file__).resolve().parent / "arms"

@@ -28,6 +28,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from bench_support.readme_table_rows import replace_table
 
 from scenarios.campaign.operating_curve import (
     DETECTED,
@@ -36,7 +37,6 @@ from scenarios.campaign.operating_curve import (
     Row,
     operating_curve,
 )
-from scenarios.jobs.tables import replace_table
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "bench" / "data"

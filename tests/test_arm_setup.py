@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from bench_support.readme_table_rows import file_arm_rows, numbers, readme_table
 
 from cell.robots import make_robot
 from cell.ur5_arm import UR5_HOME, UR5_MOUNT_XYZ, example_robot_data_share, ur5_urdf
 from cell.virtual import VirtualCell
 from scenarios.configuration.config_files import load_config
 from scenarios.jobs.job_plan import file_arm, object_models
-from scenarios.jobs.tables import file_arm_rows, numbers, readme_table
 from scenarios.offline.arm_setup import (
     SINGULAR_MARGIN_RAD,
     ArmSetupError,

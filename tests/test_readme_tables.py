@@ -12,8 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from scenarios.jobs.tables import (
+from bench_support.readme_table_rows import (
     ASSEMBLY_HEADER,
     groups_rows,
     numbers,

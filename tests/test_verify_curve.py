@@ -13,10 +13,10 @@ import csv
 from pathlib import Path
 
 import pytest
+from bench_support.readme_table_rows import readme_table
 
 from scenarios.campaign import plan_campaign, run_campaign
 from scenarios.campaign.operating_curve import operating_curve
-from scenarios.jobs.tables import readme_table
 from scenarios.results.run import RAN
 
 ROOT = Path(__file__).resolve().parent.parent
