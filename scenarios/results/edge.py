@@ -2,6 +2,7 @@
 trial's row, a configuration and its overrides, the register command's JSON). Only the code
 that reads or writes such a file handles one; everything between is typed."""
 
+import math
 from typing import Any
 
 JsonObject = dict[str, Any]
@@ -13,3 +14,9 @@ def unbounded(value: float | None) -> float:
     predicted TRE of a target no pass constrains, or a joint not modelled as compliant) is
     inf."""
     return float("inf") if value is None else float(value)
+
+
+def finite_or_none(value: float) -> float | None:
+    """A bound as a file holds it: a non-finite number is null (read back as inf by
+    `unbounded`)."""
+    return value if math.isfinite(value) else None

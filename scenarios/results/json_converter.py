@@ -1,0 +1,154 @@
+"""The project's one JSON converter: the typed results (frozen dataclasses) to the mappings
+their files hold (`unstructure`) and back (`structure`), by a cattrs `Converter` configured
+here.
+
+Why cattrs: it works on the frozen dataclasses as they are (no base class, no change to the
+types); structure and unstructure are separate and customisable per class; and it is well
+kept (python-attrs).
+
+What the converter does beyond cattrs' own handling of dataclasses, Optional and Literal:
+numpy arrays are written as (nested) lists and read back as float arrays, numpy scalars as
+Python numbers, tuples as lists; a mapping of the wrong shape raises the plain KeyError,
+TypeError or ValueError that names the key (no detailed validation). A class whose JSON is
+not the plain mapping of its fields registers its layout (`register_writer`,
+`register_reader`, `register_layout`): a key renamed or left out (cattrs.gen's `override`),
+a bound written as null when it is not finite and read back as inf (`unbounded_number`,
+`unbounded_numbers`: the project's edge, scenarios.results.edge), derived values the file
+carries but nothing reads back (`derived`), the order of the keys (`keys`), and the keys a
+file may lack (`may_lack`: those older files lack, or the writer leaves out).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
+from types import EllipsisType
+from typing import Any, TypeVar
+
+import cattrs
+import numpy as np
+from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unstructure_fn, override
+
+from scenarios.results.edge import JsonObject, finite_or_none, unbounded
+
+T = TypeVar("T")
+
+converter = cattrs.Converter(detailed_validation=False, unstruct_collection_overrides={tuple: list})
+converter.register_unstructure_hook(np.ndarray, lambda a: a.tolist())
+converter.register_structure_hook(np.ndarray, lambda v, _: np.array(v, dtype=float))
+converter.register_unstructure_hook_func(
+    lambda t: isinstance(t, type) and issubclass(t, np.generic), lambda v: v.item()
+)
+
+Derived = Callable[[Any], Mapping[str, object]]
+"""An object's derived values, by key: written beside its fields, never read back."""
+
+
+def unstructure(value: object) -> Any:
+    """The JSON value of `value` (a mapping for a dataclass): plain numbers, strings, lists
+    and mappings, None for missing."""
+    return converter.unstructure(value)
+
+
+def structure(data: Any, cls: type[T]) -> T:
+    """The `cls` that the JSON value `data` holds (KeyError, TypeError or ValueError if it
+    holds none)."""
+    return converter.structure(data, cls)
+
+
+def unbounded_number(rename: str | None = None) -> AttributeOverride:
+    """A bound: written as null where it is not finite, null read back as inf."""
+    return override(
+        rename=rename, unstruct_hook=finite_or_none, struct_hook=lambda v, _: unbounded(v)
+    )
+
+
+def unbounded_numbers(rename: str | None = None) -> AttributeOverride:
+    """A tuple of bounds, each as `unbounded_number`."""
+    return override(
+        rename=rename,
+        unstruct_hook=lambda values: [finite_or_none(v) for v in values],
+        struct_hook=lambda values, _: tuple(unbounded(v) for v in values),
+    )
+
+
+def register_writer(
+    cls: type,
+    *,
+    keys: Iterable[str | EllipsisType] | None = None,
+    derived: Derived | None = None,
+    **fields: AttributeOverride,
+) -> None:
+    """Write `cls` as its fields (each renamed, left out or converted by its override in
+    `fields`) and the `derived` values, in the order of `keys` if given: key names, one of
+    which may be `...`, every other key in the order the fields and then the derived values
+    come (without `...`, `keys` must name every key)."""
+    overrides: dict[str, Any] = fields  # by field name (cattrs types them with its options)
+    written: Callable[[Any], JsonObject] = make_dict_unstructure_fn(cls, converter, **overrides)
+    order = None if keys is None else tuple(keys)
+
+    def write(value: object) -> JsonObject:
+        out = written(value)
+        if derived is not None:
+            out.update(derived(value))
+        return out if order is None else _in_order(out, order)
+
+    converter.register_unstructure_hook(cls, write)
+
+
+def register_reader(
+    cls: type,
+    *,
+    read: Callable[[JsonObject], JsonObject] | None = None,
+    may_lack: Iterable[str] = (),
+    **fields: AttributeOverride,
+) -> None:
+    """Read `cls` from its mapping: every key the writer writes (a field's name, or its
+    rename in `fields`) must be there except those the file `may_lack` (keys older files
+    lack, or that the writer leaves out when it has nothing: the field's default then). A
+    field left out of the writing (`omit`) is read from the mapping that `read` makes of
+    the file's (e.g. a pose written as two numbers), or is its default."""
+    reading: dict[str, Any] = {
+        name: override(rename=o.rename, struct_hook=o.struct_hook) for name, o in fields.items()
+    }
+    read_fields: Callable[[JsonObject, type], object] = make_dict_structure_fn(
+        cls, converter, **reading
+    )
+    lack = set(may_lack)
+    required = tuple(
+        key
+        for f in dataclasses.fields(cls)
+        if not (o := fields.get(f.name, override())).omit
+        and (key := o.rename or f.name) not in lack
+    )
+
+    def read_json(data: JsonObject, _: object) -> object:
+        missing = next((key for key in required if key not in data), None)
+        if missing is not None:
+            raise KeyError(missing)
+        return read_fields(data if read is None else read(data), cls)
+
+    converter.register_structure_hook(cls, read_json)
+
+
+def register_layout(
+    cls: type,
+    *,
+    keys: Iterable[str | EllipsisType] | None = None,
+    derived: Derived | None = None,
+    read: Callable[[JsonObject], JsonObject] | None = None,
+    may_lack: Iterable[str] = (),
+    **fields: AttributeOverride,
+) -> None:
+    """`register_writer` and `register_reader` with the same `fields`."""
+    register_writer(cls, keys=keys, derived=derived, **fields)
+    register_reader(cls, read=read, may_lack=may_lack, **fields)
+
+
+def _in_order(out: JsonObject, keys: tuple[str | EllipsisType, ...]) -> JsonObject:
+    named = [k for k in keys if isinstance(k, str)]
+    rest = [k for k in out if k not in named]
+    order = [k for key in keys for k in ((key,) if isinstance(key, str) else rest)]
+    if len(order) != len(out):
+        raise KeyError(f"keys {keys} do not name every key of {list(out)}")
+    return {k: out[k] for k in order}
