@@ -25,6 +25,7 @@ from scenarios.offline.error_budget import tool_term
 from scenarios.offline.tcp_check import check_tcp
 from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.beam import Commissioning
+from scenarios.results.json_converter import structure, unstructure
 from scenarios.results.run import RAN, RunResult
 from scenarios.results.verification_result import K_SIGMA, TcpCheck
 
@@ -117,7 +118,7 @@ def test_the_reference_reads_the_seat_without_the_arms_error(seat_m: float) -> N
     assert alone is not None and not alone.referenced
     assert alone.sigma_m > 1.4e-4 and not alone.resolved
     # The record as commissioning.json keeps it reads back the same.
-    assert Commissioning.from_json(json.loads(json.dumps(record.to_json()))) == record
+    assert structure(json.loads(json.dumps(unstructure(record))), Commissioning) == record
 
 
 @pytest.mark.slow

@@ -38,6 +38,7 @@ from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.beam import Commissioning
 from scenarios.results.budget_result import ErrorBudget
+from scenarios.results.json_converter import unstructure
 from scenarios.results.run import RunResult
 from scenarios.results.verification_result import TcpCheck
 from scenarios.stages.calibrate_stage import Calibrate
@@ -171,7 +172,7 @@ class Commissioner:
             copy.set_absolute_accuracy(job.cell.controller.absolute_accuracy)
             name = f"{plan.robot.name}, seed {config.seed}"
             self._record = commission(copy, (tool,), name)
-            write_json(job.folder / COMMISSIONING_FILE, self._record.to_json())
+            write_json(job.folder / COMMISSIONING_FILE, unstructure(self._record))
             job.timings["commissioning"] = time.perf_counter() - t0
             self._say(
                 f"the cell's commissioning: the {tool} read {len(self._record.references)} "

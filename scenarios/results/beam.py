@@ -10,8 +10,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenarios.results.edge import JsonObject
-
 
 @dataclass(frozen=True)
 class BeamCrossing:
@@ -22,21 +20,6 @@ class BeamCrossing:
     spin_deg: float
     q_first: tuple[float, ...]
     q_last: tuple[float, ...]
-
-    def to_json(self) -> JsonObject:
-        return {
-            "spin_deg": self.spin_deg,
-            "q_first": list(self.q_first),
-            "q_last": list(self.q_last),
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> BeamCrossing:
-        return cls(
-            float(data["spin_deg"]),
-            tuple(float(v) for v in data["q_first"]),
-            tuple(float(v) for v in data["q_last"]),
-        )
 
 
 @dataclass(frozen=True)
@@ -53,21 +36,6 @@ class BeamReading:
         """Every turn's sweep broke the beam."""
         return len(self.crossings) == len(self.spins_deg)
 
-    def to_json(self) -> JsonObject:
-        return {
-            "tool": self.tool,
-            "spins_deg": list(self.spins_deg),
-            "crossings": [c.to_json() for c in self.crossings],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> BeamReading:
-        return cls(
-            str(data["tool"]),
-            tuple(float(s) for s in data["spins_deg"]),
-            tuple(BeamCrossing.from_json(c) for c in data["crossings"]),
-        )
-
 
 @dataclass(frozen=True)
 class Commissioning:
@@ -81,13 +49,6 @@ class Commissioning:
     def readings(self, tool: str) -> tuple[BeamReading, ...]:
         """The reference readings of `tool` (none if the tool was not commissioned)."""
         return tuple(r for r in self.references if r.tool == tool and r.complete)
-
-    def to_json(self) -> JsonObject:
-        return {"cell": self.cell, "references": [r.to_json() for r in self.references]}
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> Commissioning:
-        return cls(str(data["cell"]), tuple(BeamReading.from_json(r) for r in data["references"]))
 
 
 def as_joints(q: np.ndarray) -> tuple[float, ...]:
