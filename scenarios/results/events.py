@@ -5,8 +5,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.results.edge import JsonObject
-
 
 @dataclass(frozen=True)
 class SupervisionEvent:
@@ -22,29 +20,6 @@ class SupervisionEvent:
     action: str
     reading: float | None = None
     limit: float | None = None
-
-    def to_json(self) -> JsonObject:
-        return {
-            "stage": self.stage,
-            "time_s": self.time_s,
-            "code": self.code,
-            "message": self.message,
-            "action": self.action,
-            "reading": self.reading,
-            "limit": self.limit,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> SupervisionEvent:
-        return cls(
-            str(data["stage"]),
-            float(data["time_s"]),
-            str(data["code"]),
-            str(data["message"]),
-            str(data["action"]),
-            data.get("reading"),
-            data.get("limit"),
-        )
 
 
 @dataclass(frozen=True)
@@ -82,35 +57,3 @@ class FaultOutcome:
     @property
     def detected(self) -> bool:
         return self.detected_by not in (MISSED, NOT_INJECTED)
-
-    def to_json(self) -> JsonObject:
-        out: JsonObject = {
-            "name": self.name,
-            "amount": self.amount,
-            "stage": self.stage,
-            "option": self.option,
-        }
-        if self.injected is None:
-            return out | {"injected": None, "detected_by": self.detected_by}
-        i = self.injected
-        return out | {
-            "injected": {"stage": i.stage, "time_s": i.time_s, "what": i.what},
-            "detected_by": self.detected_by,
-            "symptom": self.symptom,
-            "target_move_m": self.target_move_m,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> FaultOutcome:
-        i = data["injected"]
-        injected = None if i is None else Injection(str(i["stage"]), float(i["time_s"]), i["what"])
-        return cls(
-            str(data["name"]),
-            float(data["amount"]),
-            data["stage"],
-            data["option"],
-            injected,
-            str(data["detected_by"]),
-            data.get("symptom"),
-            data.get("target_move_m"),
-        )

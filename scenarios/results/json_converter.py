@@ -30,6 +30,7 @@ import numpy as np
 from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unstructure_fn, override
 
 from scenarios.results.edge import JsonObject, finite_or_none, unbounded
+from scenarios.results.events import FaultOutcome, SupervisionEvent
 
 T = TypeVar("T")
 
@@ -77,12 +78,14 @@ def register_writer(
     *,
     keys: Iterable[str | EllipsisType] | None = None,
     derived: Derived | None = None,
+    left_out: Callable[[Any], Iterable[str]] | None = None,
     **fields: AttributeOverride,
 ) -> None:
     """Write `cls` as its fields (each renamed, left out or converted by its override in
-    `fields`) and the `derived` values, in the order of `keys` if given: key names, one of
-    which may be `...`, every other key in the order the fields and then the derived values
-    come (without `...`, `keys` must name every key)."""
+    `fields`) and the `derived` values, less the keys `left_out` names for the object, in
+    the order of `keys` if given: key names, one of which may be `...`, every other key in
+    the order the fields and then the derived values come (without `...`, `keys` must name
+    every key)."""
     overrides: dict[str, Any] = fields  # by field name (cattrs types them with its options)
     written: Callable[[Any], JsonObject] = make_dict_unstructure_fn(cls, converter, **overrides)
     order = None if keys is None else tuple(keys)
@@ -91,6 +94,8 @@ def register_writer(
         out = written(value)
         if derived is not None:
             out.update(derived(value))
+        for key in () if left_out is None else left_out(value):
+            del out[key]
         return out if order is None else _in_order(out, order)
 
     converter.register_unstructure_hook(cls, write)
@@ -136,12 +141,13 @@ def register_layout(
     *,
     keys: Iterable[str | EllipsisType] | None = None,
     derived: Derived | None = None,
+    left_out: Callable[[Any], Iterable[str]] | None = None,
     read: Callable[[JsonObject], JsonObject] | None = None,
     may_lack: Iterable[str] = (),
     **fields: AttributeOverride,
 ) -> None:
     """`register_writer` and `register_reader` with the same `fields`."""
-    register_writer(cls, keys=keys, derived=derived, **fields)
+    register_writer(cls, keys=keys, derived=derived, left_out=left_out, **fields)
     register_reader(cls, read=read, may_lack=may_lack, **fields)
 
 
@@ -152,3 +158,12 @@ def _in_order(out: JsonObject, keys: tuple[str | EllipsisType, ...]) -> JsonObje
     if len(order) != len(out):
         raise KeyError(f"keys {keys} do not name every key of {list(out)}")
     return {k: out[k] for k in order}
+
+
+# -- results.json's records --------------------------------------------------------------------
+register_reader(SupervisionEvent, may_lack=("reading", "limit"))
+register_layout(
+    FaultOutcome,
+    left_out=lambda f: () if f.injected is not None else ("symptom", "target_move_m"),
+    may_lack=("symptom", "target_move_m"),
+)

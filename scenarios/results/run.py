@@ -23,6 +23,7 @@ from scenarios.results.edge import JsonObject
 from scenarios.results.evaluations import CalibrationFigures, PickEvaluation, TargetEvaluation
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
+from scenarios.results.json_converter import structure, unstructure
 from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.scan_plan_result import ScanPlanSummary
 from scenarios.results.verification_result import TcpCheck, Verification
@@ -196,8 +197,8 @@ class RunResult:
             if self.exported_program is None
             else self.exported_program.to_json(),
             "stage": self.stage,
-            "faults": [f.to_json() for f in self.faults],
-            "supervision": [e.to_json() for e in self.supervision],
+            "faults": [unstructure(f) for f in self.faults],
+            "supervision": [unstructure(e) for e in self.supervision],
             "scan_plan": None if self.scan_plan is None else self.scan_plan.to_json(),
             "model_cache": self.model_cache,
             "plan_cache": self.plan_cache,
@@ -270,8 +271,8 @@ class RunResult:
             program_file=data["program_file"],
             exported_program=None if exported is None else ExportedRun.from_json(exported),
             stage=data["stage"],
-            faults=tuple(FaultOutcome.from_json(f) for f in data["faults"]),
-            supervision=tuple(SupervisionEvent.from_json(e) for e in data["supervision"]),
+            faults=tuple(structure(f, FaultOutcome) for f in data["faults"]),
+            supervision=tuple(structure(e, SupervisionEvent) for e in data["supervision"]),
             scan_plan=None if plan is None else ScanPlanSummary.from_json(plan),
             model_cache=data["model_cache"],
             plan_cache=data.get("plan_cache"),
