@@ -7,8 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from scenarios.results.edge import JsonObject
-
 ExportedStatus = Literal["complete", "refused", "aborted"]
 
 
@@ -33,29 +31,3 @@ class ExportedRun:
     target_error_rms_m: float | None = None
     target_error_max_m: float | None = None
     targets: tuple[TargetError, ...] = ()
-
-    def to_json(self) -> JsonObject:
-        if self.status != "complete":
-            return {"status": self.status, "reason": self.reason}
-        return {
-            "status": self.status,
-            "program": self.program,
-            "compensation": self.compensation,
-            "target_error_rms_m": self.target_error_rms_m,
-            "target_error_max_m": self.target_error_max_m,
-            "targets": [{"name": t.name, "error_m": t.error_m} for t in self.targets],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> ExportedRun:
-        if data["status"] != "complete":
-            return cls(data["status"], str(data["reason"]))
-        return cls(
-            "complete",
-            "",
-            str(data["program"]),
-            str(data["compensation"]),
-            data["target_error_rms_m"],
-            data["target_error_max_m"],
-            tuple(TargetError(str(t["name"]), float(t["error_m"])) for t in data["targets"]),
-        )

@@ -31,6 +31,7 @@ from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unst
 
 from scenarios.results.edge import JsonObject, finite_or_none, unbounded
 from scenarios.results.events import FaultOutcome, SupervisionEvent
+from scenarios.results.exported_result import ExportedRun
 
 T = TypeVar("T")
 
@@ -166,4 +167,12 @@ register_layout(
     FaultOutcome,
     left_out=lambda f: () if f.injected is not None else ("symptom", "target_move_m"),
     may_lack=("symptom", "target_move_m"),
+)
+#: An exported program's run that did not complete is written as its status and reason only,
+#: a complete one without a reason.
+_COMPLETE_ONLY = ("program", "compensation", "target_error_rms_m", "target_error_max_m", "targets")
+register_layout(
+    ExportedRun,
+    left_out=lambda r: ("reason",) if r.status == "complete" else _COMPLETE_ONLY,
+    may_lack=("reason", *_COMPLETE_ONLY),
 )

@@ -193,9 +193,7 @@ class RunResult:
             "home_deg": list(self.home_deg),
             "limits_deg": [list(self.limits_deg[0]), list(self.limits_deg[1])],
             "program_file": self.program_file,
-            "exported_program": None
-            if self.exported_program is None
-            else self.exported_program.to_json(),
+            "exported_program": unstructure(self.exported_program),
             "stage": self.stage,
             "faults": [unstructure(f) for f in self.faults],
             "supervision": [unstructure(e) for e in self.supervision],
@@ -269,7 +267,7 @@ class RunResult:
             home_deg=tuple(float(v) for v in data.get("home_deg", ())),
             limits_deg=_limits(data.get("limits_deg", ((), ()))),
             program_file=data["program_file"],
-            exported_program=None if exported is None else ExportedRun.from_json(exported),
+            exported_program=None if exported is None else structure(exported, ExportedRun),
             stage=data["stage"],
             faults=tuple(structure(f, FaultOutcome) for f in data["faults"]),
             supervision=tuple(structure(e, SupervisionEvent) for e in data["supervision"]),
