@@ -32,6 +32,7 @@ from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unst
 from scenarios.results.edge import JsonObject, finite_or_none, unbounded
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
+from scenarios.results.scan_plan_result import ScanPlanSummary
 
 T = TypeVar("T")
 
@@ -175,4 +176,10 @@ register_layout(
     ExportedRun,
     left_out=lambda r: ("reason",) if r.status == "complete" else _COMPLETE_ONLY,
     may_lack=("reason", *_COMPLETE_ONLY),
+)
+register_layout(
+    ScanPlanSummary,
+    keys=(..., "predicted_tre_m", "chosen"),
+    predicted_tre_max_m=unbounded_number(),
+    predicted_tre_m=unbounded_numbers(),
 )

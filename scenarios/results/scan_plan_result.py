@@ -5,8 +5,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from scenarios.results.edge import JsonObject, unbounded
-
 
 @dataclass(frozen=True)
 class PassSummary:
@@ -24,13 +22,6 @@ class PassSummary:
     seconds: float
     information_share: float
     through_home: bool
-
-    def to_json(self) -> JsonObject:
-        return dict(self.__dict__)
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> PassSummary:
-        return cls(**data)
 
 
 @dataclass(frozen=True)
@@ -54,20 +45,3 @@ class ScanPlanSummary:
     def through_home(self) -> int:
         """How many passes the arm reaches through home."""
         return sum(c.through_home for c in self.chosen)
-
-    def to_json(self) -> JsonObject:
-        return {
-            **{k: v for k, v in self.__dict__.items() if k not in ("predicted_tre_m", "chosen")},
-            "predicted_tre_m": list(self.predicted_tre_m),
-            "chosen": [c.to_json() for c in self.chosen],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> ScanPlanSummary:
-        skip = ("predicted_tre_m", "chosen", "predicted_tre_max_m")
-        return cls(
-            **{k: v for k, v in data.items() if k not in skip},
-            predicted_tre_max_m=unbounded(data["predicted_tre_max_m"]),
-            predicted_tre_m=tuple(unbounded(t) for t in data["predicted_tre_m"]),
-            chosen=tuple(PassSummary.from_json(c) for c in data["chosen"]),
-        )
