@@ -8,8 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenarios.results.edge import JsonObject, unbounded
-
 
 @dataclass(frozen=True, eq=False)
 class TargetEvaluation:
@@ -33,29 +31,6 @@ class TargetEvaluation:
     registration_error_m: float
     p_true_base: np.ndarray
     p_achieved_base: np.ndarray
-
-    def to_json(self) -> JsonObject:
-        return {
-            "name": self.name,
-            "error_m": self.error_m,
-            "axis_error_deg": self.axis_error_deg,
-            "depth_error_m": self.depth_error_m,
-            "registration_error_m": self.registration_error_m,
-            "p_true_base_m": [float(v) for v in self.p_true_base],
-            "p_achieved_base_m": [float(v) for v in self.p_achieved_base],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> TargetEvaluation:
-        return cls(
-            str(data["name"]),
-            float(data["error_m"]),
-            float(data["axis_error_deg"]),
-            float(data["depth_error_m"]),
-            float(data["registration_error_m"]),
-            np.array(data["p_true_base_m"], dtype=float),
-            np.array(data["p_achieved_base_m"], dtype=float),
-        )
 
 
 @dataclass(frozen=True)
@@ -85,23 +60,6 @@ class PickEvaluation:
     slip_m: float
     placed_displacement_m: float
     placed_rotation_deg: float
-
-    def to_json(self) -> dict[str, float]:
-        return {
-            "lifted_m": self.lifted_m,
-            "slip_m": self.slip_m,
-            "placed_displacement_m": self.placed_displacement_m,
-            "placed_rotation_deg": self.placed_rotation_deg,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> PickEvaluation:
-        return cls(
-            float(data["lifted_m"]),
-            float(data["slip_m"]),
-            float(data["placed_displacement_m"]),
-            float(data["placed_rotation_deg"]),
-        )
 
 
 @dataclass(frozen=True)
@@ -137,43 +95,6 @@ class CalibrationSummary:
     laser_scale: float
     table_coefficients: tuple[tuple[float, ...], ...]
 
-    def to_json(self) -> JsonObject:
-        return {
-            "residual_rms_before_m": self.residual_rms_before_m,
-            "residual_rms_after_m": self.residual_rms_after_m,
-            "seconds": self.seconds,
-            "points": self.points,
-            "views": self.views,
-            "table_positions": self.table_positions,
-            "iterations": self.iterations,
-            "groups": list(self.groups),
-            "deviations": dict(self.deviations),
-            "stiffness_nm_rad": list(self.stiffness_nm_rad),
-            "laser_mount_m": list(self.laser_mount_m),
-            "laser_mount_rad": list(self.laser_mount_rad),
-            "laser_scale": self.laser_scale,
-            "table_coefficients": [list(row) for row in self.table_coefficients],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> CalibrationSummary:
-        return cls(
-            float(data["residual_rms_before_m"]),
-            float(data["residual_rms_after_m"]),
-            float(data["seconds"]),
-            int(data["points"]),
-            int(data["views"]),
-            int(data["table_positions"]),
-            int(data["iterations"]),
-            tuple(data["groups"]),
-            {str(k): float(v) for k, v in data["deviations"].items()},
-            tuple(unbounded(v) for v in data["stiffness_nm_rad"]),
-            tuple(float(v) for v in data["laser_mount_m"]),
-            tuple(float(v) for v in data["laser_mount_rad"]),
-            float(data["laser_scale"]),
-            tuple(tuple(float(v) for v in row) for row in data["table_coefficients"]),
-        )
-
 
 @dataclass(frozen=True)
 class CalibrationFigures:
@@ -189,32 +110,3 @@ class CalibrationFigures:
     @property
     def enabled(self) -> bool:
         return self.summary is not None
-
-    def to_json(self) -> JsonObject:
-        out: JsonObject = {"enabled": self.enabled}
-        if self.summary is not None:
-            out.update(self.summary.to_json())
-        for label, e in (("nominal", self.nominal), ("calibrated", self.calibrated)):
-            if e is not None:
-                out[f"tcp_error_{label}_mean_m"] = e.mean_m
-                out[f"tcp_error_{label}_max_m"] = e.max_m
-        out["tcp_error_configurations"] = self.configurations
-        return out
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> CalibrationFigures:
-        def error(label: str) -> TcpError | None:
-            mean = data.get(f"tcp_error_{label}_mean_m")
-            if mean is None:
-                return None
-            return TcpError(float(mean), float(data[f"tcp_error_{label}_max_m"]))
-
-        nominal = error("nominal")
-        if nominal is None:
-            raise KeyError("calibration.tcp_error_nominal_mean_m")
-        return cls(
-            CalibrationSummary.from_json(data) if data["enabled"] else None,
-            nominal,
-            error("calibrated"),
-            int(data["tcp_error_configurations"]),
-        )

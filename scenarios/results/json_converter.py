@@ -30,6 +30,11 @@ import numpy as np
 from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unstructure_fn, override
 
 from scenarios.results.edge import JsonObject, finite_or_none, unbounded
+from scenarios.results.evaluations import (
+    CalibrationFigures,
+    CalibrationSummary,
+    TargetEvaluation,
+)
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
 from scenarios.results.scan_plan_result import ScanPlanSummary
@@ -182,4 +187,49 @@ register_layout(
     keys=(..., "predicted_tre_m", "chosen"),
     predicted_tre_max_m=unbounded_number(),
     predicted_tre_m=unbounded_numbers(),
+)
+register_layout(
+    TargetEvaluation,
+    p_true_base=override(rename="p_true_base_m"),
+    p_achieved_base=override(rename="p_achieved_base_m"),
+)
+register_layout(CalibrationSummary, stiffness_nm_rad=unbounded_numbers())
+
+
+def _calibration_json(c: CalibrationFigures) -> JsonObject:
+    """results.json's "calibration": whether it ran, its summary's figures (if it ran), the
+    TCP errors as tcp_error_<nominal|calibrated>_<mean|max>_m."""
+    out: JsonObject = {"enabled": c.enabled}
+    if c.summary is not None:
+        out.update(unstructure(c.summary))
+    for label, e in (("nominal", c.nominal), ("calibrated", c.calibrated)):
+        if e is not None:
+            out[f"tcp_error_{label}_mean_m"] = e.mean_m
+            out[f"tcp_error_{label}_max_m"] = e.max_m
+    return out
+
+
+def _calibration_fields(data: JsonObject) -> JsonObject:
+    """The fields of CalibrationFigures in results.json's "calibration"."""
+
+    def error(label: str) -> JsonObject | None:
+        mean = data.get(f"tcp_error_{label}_mean_m")
+        return None if mean is None else {"mean_m": mean, "max_m": data[f"tcp_error_{label}_max_m"]}
+
+    nominal = error("nominal")
+    if nominal is None:
+        raise KeyError("calibration.tcp_error_nominal_mean_m")
+    summary = data if data["enabled"] else None
+    return data | {"summary": summary, "nominal": nominal, "calibrated": error("calibrated")}
+
+
+register_layout(
+    CalibrationFigures,
+    keys=("enabled", ..., "tcp_error_configurations"),
+    derived=_calibration_json,
+    read=_calibration_fields,
+    summary=override(omit=True),
+    nominal=override(omit=True),
+    calibrated=override(omit=True),
+    configurations=override(rename="tcp_error_configurations"),
 )

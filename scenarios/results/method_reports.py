@@ -11,6 +11,7 @@ import numpy as np
 
 from scenarios.results.edge import JsonObject, unbounded
 from scenarios.results.evaluations import PoseEvaluation, TargetEvaluation
+from scenarios.results.json_converter import structure, unstructure
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,7 +95,7 @@ class MethodReport:
             "reason": self.reason,
             "rotation_error_deg": None if self.pose is None else self.pose.rotation_error_deg,
             "translation_error_m": None if self.pose is None else self.pose.translation_error_m,
-            "targets": [t.to_json() for t in self.targets],
+            "targets": [unstructure(t) for t in self.targets],
             "predicted_tre_m": list(self.predicted_tre_m),
             "target_error_rms_m": self.rms_m,
             "target_error_max_m": self.max_m,
@@ -114,7 +115,7 @@ class MethodReport:
             bool(data["accepted"]),
             str(data["reason"]),
             pose,
-            tuple(TargetEvaluation.from_json(t) for t in data["targets"]),
+            tuple(structure(t, TargetEvaluation) for t in data["targets"]),
             tuple(unbounded(t) for t in data["predicted_tre_m"]),
             data.get("ir_readings"),
         )

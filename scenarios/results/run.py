@@ -174,7 +174,7 @@ class RunResult:
             "registration": self._registration_json(),
             "methods": {r.method: r.to_json() for r in self.methods},
             "targets": [
-                {**t.to_json(), "predicted_tre_m": primary.predicted(t.name)}
+                {**unstructure(t), "predicted_tre_m": primary.predicted(t.name)}
                 for t in primary.targets
             ],
             "target_error_rms_m": self.target_error_rms_m,
@@ -182,9 +182,9 @@ class RunResult:
             "checks": {
                 name: {"limit_m": c.limit_m, "met": c.met} for name, c in self.checks.items()
             },
-            "pick": None if self.pick is None else self.pick.to_json(),
+            "pick": unstructure(self.pick),
             "grasp_error_m": self.grasp_error_m,
-            "calibration": self.calibration.to_json(),
+            "calibration": unstructure(self.calibration),
             "timings_s": dict(self.timings),
             "motion_after_match_s": self.motion_after_match_s,
             "tool_in_hand": self.tool_in_hand,
@@ -256,9 +256,9 @@ class RunResult:
                 name: GoalCheck(float(c["limit_m"]), bool(c["met"]))
                 for name, c in data["checks"].items()
             },
-            pick=None if pick is None else PickEvaluation.from_json(pick),
+            pick=None if pick is None else structure(pick, PickEvaluation),
             grasp_error_m=data["grasp_error_m"],
-            calibration=CalibrationFigures.from_json(data["calibration"]),
+            calibration=structure(data["calibration"], CalibrationFigures),
             timings={str(k): float(v) for k, v in data["timings_s"].items()},
             motion_after_match_s=float(data["motion_after_match_s"]),
             tool_in_hand=data["tool_in_hand"],
