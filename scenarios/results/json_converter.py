@@ -37,6 +37,7 @@ from scenarios.results.evaluations import (
 )
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
+from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.scan_plan_result import ScanPlanSummary
 
 T = TypeVar("T")
@@ -232,4 +233,41 @@ register_layout(
     nominal=override(omit=True),
     calibrated=override(omit=True),
     configurations=override(rename="tcp_error_configurations"),
+)
+register_reader(MatchReport)
+
+
+def _method_fields(data: JsonObject) -> JsonObject:
+    """A method's report in results.json (its pose as two numbers) as MethodReport's fields
+    (the method's name, its key in "methods", put in by the run's reader)."""
+    rotation = data["rotation_error_deg"]
+    pose = {"rotation_error_deg": rotation, "translation_error_m": data["translation_error_m"]}
+    return data | {"pose": None if rotation is None else pose}
+
+
+register_layout(
+    MethodReport,
+    keys=(
+        "accepted",
+        "reason",
+        "rotation_error_deg",
+        "translation_error_m",
+        "targets",
+        "predicted_tre_m",
+        "target_error_rms_m",
+        "target_error_max_m",
+        ...,
+    ),
+    derived=lambda r: {
+        "rotation_error_deg": None if r.pose is None else r.pose.rotation_error_deg,
+        "translation_error_m": None if r.pose is None else r.pose.translation_error_m,
+        "target_error_rms_m": r.rms_m,
+        "target_error_max_m": r.max_m,
+    },
+    read=_method_fields,
+    may_lack=("ir_readings",),
+    method=override(omit=True),
+    pose=override(omit=True),
+    predicted_tre_m=unbounded_numbers(),
+    readings=override(rename="ir_readings", omit_if_default=True),
 )

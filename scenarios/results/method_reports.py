@@ -1,6 +1,6 @@
 """The localization's part of a run's result: the surface match's figures (`MatchReport`) and
 each localization method's pose, targets and verdict (`MethodReport`), with their JSON in
-results.json ("registration" and "methods", see scenarios.results.run).
+results.json ("registration" and "methods": scenarios.results.json_converter).
 """
 
 from __future__ import annotations
@@ -9,9 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenarios.results.edge import JsonObject, unbounded
 from scenarios.results.evaluations import PoseEvaluation, TargetEvaluation
-from scenarios.results.json_converter import structure, unstructure
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,33 +26,6 @@ class MatchReport:
     inlier_fraction: float
     T_table_object: np.ndarray
     starts: int = 1
-
-    def to_json(self) -> JsonObject:
-        return {
-            "rms_m": self.rms_m,
-            "ambiguity": self.ambiguity,
-            "verdict": self.verdict,
-            "reason": self.reason,
-            "seconds": self.seconds,
-            "points_used": self.points_used,
-            "inlier_fraction": self.inlier_fraction,
-            "T_table_object": self.T_table_object.tolist(),
-            "starts": self.starts,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> MatchReport:
-        return cls(
-            float(data["rms_m"]),
-            float(data["ambiguity"]),
-            str(data["verdict"]),
-            str(data["reason"]),
-            float(data["seconds"]),
-            int(data["points_used"]),
-            float(data["inlier_fraction"]),
-            np.array(data["T_table_object"], dtype=float),
-            int(data["starts"]),
-        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,37 +59,6 @@ class MethodReport:
         """The predicted TRE at the target `name` [m], or None."""
         by_name = dict(zip((t.name for t in self.targets), self.predicted_tre_m, strict=False))
         return by_name.get(name)
-
-    def to_json(self) -> JsonObject:
-        out: JsonObject = {
-            "accepted": self.accepted,
-            "reason": self.reason,
-            "rotation_error_deg": None if self.pose is None else self.pose.rotation_error_deg,
-            "translation_error_m": None if self.pose is None else self.pose.translation_error_m,
-            "targets": [unstructure(t) for t in self.targets],
-            "predicted_tre_m": list(self.predicted_tre_m),
-            "target_error_rms_m": self.rms_m,
-            "target_error_max_m": self.max_m,
-        }
-        if self.readings is not None:
-            out["ir_readings"] = self.readings
-        return out
-
-    @classmethod
-    def from_json(cls, method: str, data: JsonObject) -> MethodReport:
-        rotation = data["rotation_error_deg"]
-        pose = None
-        if rotation is not None:
-            pose = PoseEvaluation(float(rotation), float(data["translation_error_m"]))
-        return cls(
-            method,
-            bool(data["accepted"]),
-            str(data["reason"]),
-            pose,
-            tuple(structure(t, TargetEvaluation) for t in data["targets"]),
-            tuple(unbounded(t) for t in data["predicted_tre_m"]),
-            data.get("ir_readings"),
-        )
 
 
 def _rms(errors: np.ndarray) -> float | None:

@@ -172,7 +172,7 @@ class RunResult:
             "model": self.model,
             "scan_points": self.scan_points,
             "registration": self._registration_json(),
-            "methods": {r.method: r.to_json() for r in self.methods},
+            "methods": {r.method: unstructure(r) for r in self.methods},
             "targets": [
                 {**unstructure(t), "predicted_tre_m": primary.predicted(t.name)}
                 for t in primary.targets
@@ -212,7 +212,7 @@ class RunResult:
         surface pose's error against the truth."""
         out: JsonObject = {"method": self.primary.method, "verdict": "rejected"}
         if self.match is not None:
-            out.update(self.match.to_json())
+            out.update(unstructure(self.match))
         surface = self.method("surface")
         if surface is not None and surface.pose is not None:
             out.update(
@@ -250,8 +250,10 @@ class RunResult:
             seed=int(data["seed"]),
             model=str(data["model"]),
             scan_points=int(data["scan_points"]),
-            match=MatchReport.from_json(registration) if "rms_m" in registration else None,
-            methods=tuple(MethodReport.from_json(m, d) for m, d in data["methods"].items()),
+            match=structure(registration, MatchReport) if "rms_m" in registration else None,
+            methods=tuple(
+                structure({"method": m, **d}, MethodReport) for m, d in data["methods"].items()
+            ),
             checks={
                 name: GoalCheck(float(c["limit_m"]), bool(c["met"]))
                 for name, c in data["checks"].items()
