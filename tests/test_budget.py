@@ -19,6 +19,7 @@ from models.model import ObjectModel
 from scenarios.offline.error_budget import MIN_LOCAL_POINTS, error_budget, local_model_error
 from scenarios.offline.settings import PlanningSettings
 from scenarios.results.budget_result import ErrorBudget, TargetBudget
+from scenarios.results.json_converter import structure, unstructure
 from scenarios.results.run import RunResult
 
 
@@ -101,7 +102,7 @@ def test_a_goal_out_of_reach_is_named_with_its_bound_and_largest_term() -> None:
         "term: tre, 0.600 mm)",
     )
     assert "largest within 1.200 mm" in budget.summary()
-    back = ErrorBudget.from_json(json.loads(json.dumps(budget.to_json())))
+    back = structure(json.loads(json.dumps(unstructure(budget))), ErrorBudget)
     assert back == budget
     unbounded = ErrorBudget((TargetBudget("x", np.inf, 0, 0, 0, np.inf),), 2.0, 1.0, None, 1e-3)
     assert not unbounded.within_reach  # a target no scan constrains is no claim

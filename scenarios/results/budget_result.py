@@ -10,8 +10,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenarios.results.edge import JsonObject, unbounded
-
 #: The budget's terms, in the order results.json, the table and targets.png give them.
 TERMS = ("tre_m", "arm_m", "tool_m", "model_m")
 
@@ -40,18 +38,6 @@ class TargetBudget:
         """The term that weighs most ("tre", "arm", "tool" or "model")."""
         values = {t: getattr(self, t) for t in TERMS}
         return max(values, key=values.__getitem__).removesuffix("_m")
-
-    def to_json(self) -> JsonObject:
-        return {
-            "name": self.name,
-            **{t: getattr(self, t) for t in TERMS},
-            "sigma_m": self.sigma_m,
-            "bound_m": self.bound_m,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> TargetBudget:
-        return cls(str(data["name"]), *(unbounded(data[t]) for t in (*TERMS, "bound_m")))
 
 
 @dataclass(frozen=True)
@@ -113,33 +99,6 @@ class ErrorBudget:
         )
         return text + (
             "; goals within reach" if self.within_reach else "; " + "; ".join(self.risks)
-        )
-
-    def to_json(self) -> JsonObject:
-        return {
-            "k_target": self.k_target,
-            "k_rms": self.k_rms,
-            "goal_rms_m": self.goal_rms_m,
-            "goal_max_m": self.goal_max_m,
-            "rms_bound_m": self.rms_bound_m,
-            "max_bound_m": self.max_bound_m,
-            "within_reach": self.within_reach,
-            "risks": list(self.risks),
-            "targets": [t.to_json() for t in self.targets],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> ErrorBudget:
-        def goal(key: str) -> float | None:
-            value = data[key]
-            return None if value is None else float(value)
-
-        return cls(
-            tuple(TargetBudget.from_json(t) for t in data["targets"]),
-            float(data["k_target"]),
-            float(data["k_rms"]),
-            goal("goal_rms_m"),
-            goal("goal_max_m"),
         )
 
 

@@ -29,6 +29,7 @@ import cattrs
 import numpy as np
 from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unstructure_fn, override
 
+from scenarios.results.budget_result import TERMS, ErrorBudget, TargetBudget
 from scenarios.results.edge import JsonObject, finite_or_none, unbounded
 from scenarios.results.evaluations import (
     CalibrationFigures,
@@ -270,4 +271,24 @@ register_layout(
     pose=override(omit=True),
     predicted_tre_m=unbounded_numbers(),
     readings=override(rename="ir_readings", omit_if_default=True),
+)
+register_layout(
+    TargetBudget,
+    keys=("name", *TERMS, "sigma_m", "bound_m"),
+    derived=lambda b: {"sigma_m": b.sigma_m},
+    tre_m=unbounded_number(),
+    arm_m=unbounded_number(),
+    tool_m=unbounded_number(),
+    model_m=unbounded_number(),
+    bound_m=unbounded_number(),
+)
+register_layout(
+    ErrorBudget,
+    keys=(..., "targets"),
+    derived=lambda b: {
+        "rms_bound_m": b.rms_bound_m,
+        "max_bound_m": b.max_bound_m,
+        "within_reach": b.within_reach,
+        "risks": list(b.risks),
+    },
 )

@@ -203,7 +203,7 @@ class RunResult:
             "verifications": [v.to_json() for v in self.verifications],
             "tool_checks": [c.to_json() for c in self.tool_checks],
             "cell_time_s": self.cell_time_s,
-            "budget": None if self.budget is None else self.budget.to_json(),
+            "budget": unstructure(self.budget),
             "seconds": self.seconds,
         }
 
@@ -279,7 +279,7 @@ class RunResult:
             verifications=tuple(Verification.from_json(v) for v in data.get("verifications", ())),
             tool_checks=tuple(TcpCheck.from_json(c) for c in data.get("tool_checks", ())),
             cell_time_s=data.get("cell_time_s"),
-            budget=None if data.get("budget") is None else ErrorBudget.from_json(data["budget"]),
+            budget=None if data.get("budget") is None else structure(data["budget"], ErrorBudget),
             seconds=data["seconds"],
             schema_version=int(data["schema_version"]),
         )
