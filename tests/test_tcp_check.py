@@ -51,7 +51,7 @@ def test_a_tool_is_called_off_only_beyond_its_tolerance_and_four_sigma(
     assert check.resolves_m == pytest.approx(max(tolerance_mm, K_SIGMA * sigma_mm) * 1e-3)
     if decision == "unresolved":
         assert f"checked to {K_SIGMA * sigma_mm:.2f} mm only" in check.summary()
-    back = TcpCheck.from_json(json.loads(json.dumps(check.to_json())))
+    back = structure(json.loads(json.dumps(unstructure(check))), TcpCheck)
     assert back == check
 
 
@@ -74,7 +74,7 @@ def test_a_seat_shifted_within_its_tolerance_corrects_the_tcp(
         expected[1, 3] = off_mm * 1e-3
     np.testing.assert_allclose(check.T_tcp_measured, expected)
     assert check.verdict == ("seated, TCP corrected" if corrected else check.decision)
-    assert check.to_json()["corrected"] == corrected
+    assert unstructure(check)["corrected"] == corrected
     # What the budget keeps of the tool: the correction's own uncertainty, or the reading.
     left = tool_term(check, 1.65e-4)
     assert left == pytest.approx(

@@ -20,6 +20,7 @@ from rrd_reader import read_rrd
 from scenarios.campaign.operating_curve import operating_curve
 from scenarios.offline.settings import VerifySection
 from scenarios.offline.verification import allowances
+from scenarios.results.json_converter import structure, unstructure
 from scenarios.results.verification_result import TargetCheck, Verification
 
 GOAL_M = 0.5e-3
@@ -60,8 +61,8 @@ def test_the_allowance_is_the_goal_less_the_error_already_there():
 
 def test_the_report_reads_back_as_written():
     v = Verification(("pass 3", "pass 1"), 30000, 14.5, (_check(0.3e-3, 0.1e-3),))
-    back = Verification.from_json(json.loads(json.dumps(v.to_json())))
-    assert back == v and back.to_json()["targets"][0]["decision"] == "moved"
+    back = structure(json.loads(json.dumps(unstructure(v))), Verification)
+    assert back == v and unstructure(back)["targets"][0]["decision"] == "moved"
 
 
 @pytest.fixture(scope="module")

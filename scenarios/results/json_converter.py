@@ -21,6 +21,7 @@ file may lack (`may_lack`: those older files lack, or the writer leaves out).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Iterable, Mapping
 from types import EllipsisType
 from typing import Any, TypeVar
@@ -40,6 +41,7 @@ from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
 from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.scan_plan_result import ScanPlanSummary
+from scenarios.results.verification_result import TargetCheck, TcpCheck, Verification
 
 T = TypeVar("T")
 
@@ -291,4 +293,55 @@ register_layout(
         "within_reach": b.within_reach,
         "risks": list(b.risks),
     },
+)
+register_layout(
+    TargetCheck,
+    keys=("name", "moved_m", "uncertainty_m", "allowance_m", "resolved", ...),
+    derived=lambda c: {"resolved": c.resolved, "decision": c.decision},
+    goal_m=unbounded_number(),
+)
+register_layout(
+    Verification,
+    keys=(..., "targets"),
+    derived=lambda v: {
+        "agrees": v.agrees,
+        "resolved": v.resolved,
+        "verified_to_m": None if not v.checks else v.verified_to_m,
+    },
+    checks=override(rename="targets"),
+)
+
+
+def _offset_read(value: list[float] | None, _: object) -> tuple[float, float]:
+    """A tool's offset as results.json holds it: null where a sweep missed the beam (inf)."""
+    x, y = (math.inf, math.inf) if value is None else value
+    return float(x), float(y)
+
+
+register_layout(
+    TcpCheck,
+    keys=(
+        "tool",
+        "offset_m",
+        "off_m",
+        "sigma_m",
+        "tolerance_m",
+        "resolves_m",
+        "referenced",
+        "attempt",
+        "decision",
+        "corrected",
+        "ok",
+    ),
+    derived=lambda c: {
+        "off_m": finite_or_none(c.off_m),
+        "resolves_m": c.resolves_m,
+        "decision": c.decision,
+        "corrected": c.corrected,
+        "ok": c.ok,
+    },
+    offset_m=override(
+        unstruct_hook=lambda o: list(o) if all(math.isfinite(v) for v in o) else None,
+        struct_hook=_offset_read,
+    ),
 )

@@ -11,8 +11,6 @@ from typing import Literal
 
 import numpy as np
 
-from scenarios.results.edge import JsonObject, unbounded
-
 Decision = Literal["agrees", "moved", "inconsistent", "unresolved"]
 
 
@@ -56,31 +54,6 @@ class TargetCheck:
         if self.disagreement_m > self.disagreement_allowed_m:
             return "inconsistent"
         return "agrees" if self.resolved else "unresolved"
-
-    def to_json(self) -> JsonObject:
-        return {
-            "name": self.name,
-            "moved_m": self.moved_m,
-            "uncertainty_m": self.uncertainty_m,
-            "allowance_m": self.allowance_m,
-            "resolved": self.resolved,
-            "disagreement_m": self.disagreement_m,
-            "disagreement_allowed_m": self.disagreement_allowed_m,
-            "goal_m": None if self.goal_m == float("inf") else self.goal_m,
-            "decision": self.decision,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> TargetCheck:
-        return cls(
-            str(data["name"]),
-            float(data["moved_m"]),
-            float(data["uncertainty_m"]),
-            float(data["allowance_m"]),
-            float(data["disagreement_m"]),
-            float(data["disagreement_allowed_m"]),
-            unbounded(data["goal_m"]),
-        )
 
 
 @dataclass(frozen=True)
@@ -127,26 +100,6 @@ class Verification:
         if not self.resolved:
             text += f"; verified to {self.verified_to_m * 1e3:.2f} mm only"
         return text
-
-    def to_json(self) -> JsonObject:
-        return {
-            "strips": list(self.strips),
-            "points": self.points,
-            "scan_time_s": self.scan_time_s,
-            "agrees": self.agrees,
-            "resolved": self.resolved,
-            "verified_to_m": None if not self.checks else self.verified_to_m,
-            "targets": [c.to_json() for c in self.checks],
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> Verification:
-        return cls(
-            tuple(str(n) for n in data["strips"]),
-            int(data["points"]),
-            float(data["scan_time_s"]),
-            tuple(TargetCheck.from_json(t) for t in data["targets"]),
-        )
 
 
 def _worst_key(c: TargetCheck) -> tuple[int, float]:
@@ -258,32 +211,3 @@ class TcpCheck:
     def verdict(self) -> str:
         """The decision as a user reads it: "seated, TCP corrected" where it was."""
         return "seated, TCP corrected" if self.corrected else self.decision
-
-    def to_json(self) -> JsonObject:
-        finite = bool(np.isfinite(self.off_m))
-        return {
-            "tool": self.tool,
-            "offset_m": list(self.offset_m) if finite else None,
-            "off_m": self.off_m if finite else None,
-            "sigma_m": self.sigma_m,
-            "tolerance_m": self.tolerance_m,
-            "resolves_m": self.resolves_m,
-            "referenced": self.referenced,
-            "attempt": self.attempt,
-            "decision": self.decision,
-            "corrected": self.corrected,
-            "ok": self.ok,
-        }
-
-    @classmethod
-    def from_json(cls, data: JsonObject) -> TcpCheck:
-        offset = data["offset_m"]
-        x, y = (float("inf"), float("inf")) if offset is None else offset
-        return cls(
-            str(data["tool"]),
-            (x, y),
-            float(data["tolerance_m"]),
-            int(data["attempt"]),
-            float(data["sigma_m"]),
-            bool(data["referenced"]),
-        )
