@@ -19,7 +19,8 @@
 
     >>> from scenarios.jobs.runner import RunOptions, run_job
     >>> folder, result = run_job("skull", seed=3, options=RunOptions(rrd=False))
-    >>> RunResult.read(folder).target_error_max_m == result.target_error_max_m
+    >>> from scenarios.results.results_file import read_results
+    >>> read_results(folder).target_error_max_m == result.target_error_max_m
     True
 """
 

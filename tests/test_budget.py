@@ -20,7 +20,7 @@ from scenarios.offline.error_budget import MIN_LOCAL_POINTS, error_budget, local
 from scenarios.offline.settings import PlanningSettings
 from scenarios.results.budget_result import ErrorBudget, TargetBudget
 from scenarios.results.json_converter import structure, unstructure
-from scenarios.results.run import RunResult
+from scenarios.results.results_file import read_results
 
 
 def _plate() -> ObjectModel:
@@ -119,7 +119,7 @@ def test_a_run_whose_budget_puts_its_goal_out_of_reach_ends_at_risk(tmp_path: Pa
         ["run", "skull", "--seed", "3", "--out", str(tmp_path), "--quiet", "--no-rrd",
          "--set", "model.tolerance_m=0.003"]
     )  # fmt: skip
-    result = RunResult.read(tmp_path / "latest")
+    result = read_results(tmp_path / "latest")
     assert code == 6
     assert result.status == "at_risk"
     assert result.reason.startswith("goal at risk: the RMS goal 0.500 mm is within reach only")

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from scenarios.campaign.full_stage import full_row
+from scenarios.results.json_converter import structure
 from scenarios.results.run import RunResult
 
 #: The assembly job, seed 30036, as its run wrote results.json: the scan matched the bracket
@@ -17,7 +18,7 @@ HALF_TURNED = Path(__file__).parent / "data" / "results" / "assembly_seed30036_h
 
 def test_a_wrong_pose_stopped_before_its_targets_is_a_false_accept() -> None:
     data = json.loads(HALF_TURNED.read_text())
-    row = full_row(RunResult.from_json(data), ())
+    row = full_row(structure(data, RunResult), ())
     assert row["run_status"] == "refused" and row["accepted"] == 1 and row["n_targets"] == 0
     assert row["false_accept"] == 1 and row["good"] == 0
 
@@ -27,7 +28,7 @@ def test_a_right_pose_stopped_before_its_targets_is_no_false_accept() -> None:
     data = json.loads(HALF_TURNED.read_text())
     data["methods"]["surface"]["rotation_error_deg"] = 0.9
     data["methods"]["surface"]["translation_error_m"] = 1.9e-3
-    row = full_row(RunResult.from_json(data), ())
+    row = full_row(structure(data, RunResult), ())
     assert row["false_accept"] == 0
     data["methods"]["surface"]["translation_error_m"] = 2.1e-3
-    assert full_row(RunResult.from_json(data), ())["false_accept"] == 1
+    assert full_row(structure(data, RunResult), ())["false_accept"] == 1

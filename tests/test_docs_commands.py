@@ -311,13 +311,13 @@ def run_page(page: str, folder: Path) -> None:
 def _assert_goals(command: Command, folder: Path, at_risk: bool = False) -> None:
     """A job a page runs completes within its goals, as the page says it does (`at_risk`:
     the run said its goal was at risk, as the page does: its goals are still checked)."""
-    from scenarios.results.run import RunResult
+    from scenarios.results.results_file import read_results
     from scenarios.testing import assert_goals
     from scenarios.testing.runs import JobRun
 
     if "checks" not in json.loads((folder / "results.json").read_text()):
         return  # the seed paper's experiments: a table of matches, no goals
-    result = RunResult.read(folder)
+    result = read_results(folder)
     if at_risk:
         missed = [name for name, goal in result.checks.items() if not goal.met]
         assert result.status == "at_risk" and not missed, f"{command}: {result.reason}; {missed}"

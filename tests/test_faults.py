@@ -21,6 +21,7 @@ from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.offline.tcp_check import check_tcp
 from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.events import FaultOutcome
+from scenarios.results.results_file import read_results
 from scenarios.results.run import RunResult
 
 GOAL_MAX_M = 1.0e-3
@@ -31,7 +32,7 @@ def _run(tmp_path: Path, faults: dict[str, Any], calibrate: bool = True, **sets:
     overrides |= {f"faults.{name}": value for name, value in faults.items()}
     folder, _ = run_job("skull", seed=3, out=tmp_path, overrides=overrides,
                         options=RunOptions(rrd=False))  # fmt: skip
-    return RunResult.read(folder)  # as results.json holds it
+    return read_results(folder)  # as results.json holds it
 
 
 def _fault(results: RunResult, name: str) -> FaultOutcome:

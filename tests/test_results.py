@@ -1,5 +1,5 @@
-"""results.json, typed both ways: a run's RunResult written by `to_json` is read back by
-`RunResult.read` field for field; files that are not a finished run of this schema are
+"""results.json, typed both ways: a run's RunResult written by the results' converter is read
+back by `read_results` field for field; files that are not a finished run of this schema are
 refused with the reason."""
 
 from __future__ import annotations
@@ -21,7 +21,9 @@ from scenarios.results.evaluations import (
 )
 from scenarios.results.events import FaultOutcome, Injection, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun, TargetError
+from scenarios.results.json_converter import unstructure
 from scenarios.results.method_reports import MatchReport, MethodReport
+from scenarios.results.results_file import read_results
 from scenarios.results.run import (
     SCHEMA_VERSION,
     GoalCheck,
@@ -79,10 +81,10 @@ def _result() -> RunResult:
 
 def test_a_result_reads_back_as_written(tmp_path: Path) -> None:
     folder = RunFolder(tmp_path, "skull")
-    folder.write_json("results.json", _result().to_json())  # as the runner writes it
+    folder.write_json("results.json", unstructure(_result()))  # as the runner writes it
     written = json.loads(folder.file("results.json").read_text())
-    read = RunResult.read(folder.path)
-    folder.write_json("again.json", read.to_json())
+    read = read_results(folder.path)
+    folder.write_json("again.json", unstructure(read))
     assert json.loads(folder.file("again.json").read_text()) == written
     assert read.schema_version == SCHEMA_VERSION
     assert read.method("probe") is not None and read.method("probe").readings == 6
@@ -99,29 +101,29 @@ def test_a_result_reads_back_as_written(tmp_path: Path) -> None:
 
 
 def test_the_registration_section_is_the_match_and_the_surface_pose() -> None:
-    registration = _result().to_json()["registration"]
+    registration = unstructure(_result())["registration"]
     assert registration["verdict"] == "accepted" and registration["starts"] == 9728
     assert registration["rotation_error_deg"] == 0.04
 
 
 def test_a_run_that_did_not_end_is_refused_with_its_reason(tmp_path: Path) -> None:
     stopped = IncompleteRun("skull", 0, "interrupted (SIGTERM)", "scan")
-    (tmp_path / "results.json").write_text(json.dumps(stopped.to_json()))
+    (tmp_path / "results.json").write_text(json.dumps(unstructure(stopped)))
     with pytest.raises(RunNotEndedError, match=r"did not end \(stage scan\): interrupted"):
-        RunResult.read(tmp_path / "results.json")
+        read_results(tmp_path / "results.json")
 
 
 def test_another_schema_and_a_broken_file_are_refused(tmp_path: Path) -> None:
     path = tmp_path / "results.json"
-    data = _result().to_json()
+    data = unstructure(_result())
     path.write_text(json.dumps({**data, "schema_version": None}))
     with pytest.raises(ResultsError, match=r"schema version None; this twincell reads version 1"):
-        RunResult.read(path)
+        read_results(path)
     path.write_text(json.dumps({k: v for k, v in data.items() if k != "methods"}))
     with pytest.raises(ResultsError, match="missing or bad 'methods'"):
-        RunResult.read(path)
+        read_results(path)
     path.write_text("{")
     with pytest.raises(ResultsError, match="is not JSON"):
-        RunResult.read(path)
+        read_results(path)
     with pytest.raises(ResultsError, match=r"no results\.json"):
-        RunResult.read(tmp_path / "nowhere")
+        read_results(tmp_path / "nowhere")

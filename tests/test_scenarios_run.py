@@ -22,7 +22,8 @@ from scenarios.outputs.run_files import read_ply
 from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.real_placement import draw_true_pose
 from scenarios.realcell.setup import cell_config
-from scenarios.results.run import RunResult
+from scenarios.results.json_converter import unstructure
+from scenarios.results.results_file import read_results
 
 
 @pytest.fixture
@@ -78,11 +79,11 @@ def test_the_scan_plan_is_the_one_cached_under_the_key_results_json_names(folder
 
 
 def test_results_json_reads_back_typed_as_written(folder: Path, tmp_path: Path) -> None:
-    """A real run's results.json, read back (scenarios.results.run.RunResult.read), writes
+    """A real run's results.json, read back (scenarios.results.results_file.read_results), writes
     the same mapping again; its typed figures are the file's."""
     results = json.loads((folder / "results.json").read_text())
-    typed = RunResult.read(folder)
-    write_json(tmp_path / "again.json", typed.to_json())  # as the runner writes it
+    typed = read_results(folder)
+    write_json(tmp_path / "again.json", unstructure(typed))  # as the runner writes it
     assert json.loads((tmp_path / "again.json").read_text()) == results
     assert typed.target_error_max_m == results["target_error_max_m"]
     assert [t.name for t in typed.targets] == [t["name"] for t in results["targets"]]

@@ -26,7 +26,8 @@ from scenarios.offline.tcp_check import check_tcp
 from scenarios.program.tool_change import change_tool_safely
 from scenarios.results.beam import Commissioning
 from scenarios.results.json_converter import structure, unstructure
-from scenarios.results.run import RAN, RunResult
+from scenarios.results.results_file import read_results
+from scenarios.results.run import RAN
 from scenarios.results.verification_result import K_SIGMA, TcpCheck
 
 
@@ -140,7 +141,7 @@ def test_a_run_stopped_by_the_check_keeps_every_check(tmp_path: Path) -> None:
     folder, _ = run_job(
         "skull", seed=3, out=tmp_path, overrides=overrides, options=RunOptions(rrd=False)
     )
-    results = RunResult.read(folder)
+    results = read_results(folder)
     assert results.status == "aborted" and results.stage == "execute"
     assert "TCP check" in (results.reason or "")
     checks = results.tool_checks
@@ -167,7 +168,7 @@ def test_a_seat_a_tenth_off_is_corrected_at_every_target(tmp_path: Path) -> None
             overrides |= dict([fault_assignment(f"tool_lock_fail={seat_m}")])
         folder, _ = run_job("skull", seed=95014, out=tmp_path / str(seat_m), overrides=overrides,
                             options=RunOptions(rrd=False))  # fmt: skip
-        results = RunResult.read(folder)
+        results = read_results(folder)
         assert results.status in RAN, results.reason
         (check,) = results.tool_checks
         assert check.corrected == bool(seat_m), check.summary()
@@ -193,7 +194,7 @@ def test_no_false_abort_on_the_ur5(tmp_path: Path, seed: int) -> None:
         overrides={"output.plots": False},
         options=RunOptions(rrd=False),
     )
-    results = RunResult.read(folder)
+    results = read_results(folder)
     assert results.status in RAN, results.reason
     assert not [e for e in results.supervision if e.action == "stopped"]
     (check,) = results.tool_checks

@@ -12,13 +12,14 @@ import pytest
 
 from scenarios.results.events import FaultOutcome, Injection
 from scenarios.results.exported_result import ExportedRun
-from scenarios.results.run import GoalCheck, RunResult
+from scenarios.results.results_file import read_results
+from scenarios.results.run import GoalCheck
 from scenarios.testing import JobRun, assert_detected, assert_goals, assert_targets_within
 
 
 @pytest.fixture
 def run(short_skull_run: Path) -> JobRun:
-    return JobRun(RunResult.read(short_skull_run), short_skull_run)
+    return JobRun(read_results(short_skull_run), short_skull_run)
 
 
 def test_a_run_within_its_goals_passes(run: JobRun) -> None:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.results.method_reports import MethodReport
+from scenarios.results.results_file import read_results
 from scenarios.results.run import RunResult
 from scenarios.scenario_errors import ScenarioError
 
@@ -135,7 +136,7 @@ def _run(
     """A run of the job `name`, its result read back from its results.json."""
     folder, _ = run_job(name, seed=seed, out=out, overrides=overrides,
                         options=RunOptions(rrd=False), cell=cell)  # fmt: skip
-    return RunResult.read(folder)
+    return read_results(folder)
 
 
 def skull_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:

@@ -24,6 +24,7 @@ from scenarios.campaign.register_trial import MAX_TARGETS
 from scenarios.campaign.rows import HARM_M
 from scenarios.results.edge import JsonObject
 from scenarios.results.exported_result import ExportedRun
+from scenarios.results.results_file import read_results
 from scenarios.results.run import RAN, RunResult
 from scenarios.results.scan_plan_result import ScanPlanSummary
 
@@ -95,7 +96,7 @@ def run_full_trial(config: JsonObject, seed: int) -> FullRow:
     scenario = parse_config(data, "campaign trial")
     with tempfile.TemporaryDirectory(prefix="twincell-trial-") as tmp:
         folder, _ = run_job(scenario, out=tmp, options=RunOptions(rrd=False, spawn=False))
-        result = RunResult.read(folder)
+        result = read_results(folder)
     return FullRow(result, time.perf_counter() - t0)
 
 

@@ -42,7 +42,8 @@ from scenarios.jobs.pipeline import job_cell
 from scenarios.offline.operations import UserProgram, read_user_program
 from scenarios.rapid.planner import plan_execution
 from scenarios.realcell.setup import JobCell
-from scenarios.results.run import RunNotEndedError, RunResult
+from scenarios.results.results_file import read_results
+from scenarios.results.run import RunNotEndedError
 from scenarios.scenario_errors import ScenarioError
 from scenarios.stages.export_stage import TASK_FOLDER
 
@@ -164,7 +165,7 @@ def _job_figures(folder: Path) -> tuple[float | None, float | None]:
     if not path.is_file():
         return None, None
     try:
-        result = RunResult.read(path)
+        result = read_results(path)
     except RunNotEndedError:
         return None, None
     return result.target_error_rms_m, result.target_error_max_m

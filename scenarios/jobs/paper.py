@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
@@ -31,6 +31,7 @@ from registration import (
 from registration.icp import icp
 from registration.quality import trimmed_rms
 from registration.rigid import Array, invert, random_transform
+from scenarios.results.json_converter import register_writer
 
 
 @dataclass(frozen=True)
@@ -255,14 +256,9 @@ class PaperResult:
     def table(self) -> str:
         return table_text(list(self.rows))
 
-    def to_json(self) -> dict[str, object]:
-        return {
-            "status": self.status,
-            "reason": "",
-            "job": self.job,
-            "seed": self.seed,
-            "tests": [asdict(t) for t in self.tests],
-            "rows": [asdict(r) for r in self.rows],
-            "table": self.table,
-            "seconds": self.seconds,
-        }
+
+register_writer(
+    PaperResult,
+    keys="status reason job seed tests rows table seconds",
+    derived=lambda p: {"status": p.status, "reason": "", "table": p.table},
+)

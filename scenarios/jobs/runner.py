@@ -33,6 +33,7 @@ from scenarios.jobs.paper import PaperResult
 from scenarios.jobs.stage_tracker import StageTracker
 from scenarios.outputs.run_folder import RunFolder
 from scenarios.results.edge import JsonObject
+from scenarios.results.json_converter import unstructure
 from scenarios.results.run import IncompleteRun, RunResult
 from scenarios.scenario_errors import ScenarioError
 
@@ -165,21 +166,21 @@ def _run(
     try:
         folder.write_text("config.yaml", config_yaml(config))
         running = IncompleteRun(config.name, config.seed, "running")
-        folder.write_json("results.json", running.to_json())
+        folder.write_json("results.json", unstructure(running))
         t0 = time.perf_counter()
         result = JOBS[config.kind](config, folder, say, options or RunOptions(), stages)
         guard.hold()  # the job is done: a signal from here on does not undo it
     except BaseException as exc:
         guard.hold()  # winding down: a second signal does not interrupt the clean-up
         stopped = IncompleteRun(config.name, config.seed, _reason(exc), stages.current)
-        folder.write_json("results.json", stopped.to_json())
+        folder.write_json("results.json", unstructure(stopped))
         folder.link_latest()
         folder.remove_partial()
         if isinstance(exc, RunInterrupted):
             exc.stage, exc.folder = stages.current, str(folder.path)
         raise
     result = replace(result, seconds=time.perf_counter() - t0)
-    folder.write_json("results.json", result.to_json())
+    folder.write_json("results.json", unstructure(result))
     folder.link_latest()
     return folder.path, result
 

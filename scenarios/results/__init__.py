@@ -1,7 +1,10 @@
 """The typed results of a run, from the stage that makes them to results.json and back.
 
-- `scenarios.results.run`: `RunResult` (the whole cell job; `to_json`, `from_json`,
-  `read`), with its goals' checks, and the schema version of results.json;
+- `scenarios.results.run`: `RunResult` (the whole cell job), with its goals' checks, and the
+  schema version of results.json;
+- `scenarios.results.json_converter`: the one JSON converter (cattrs) that writes every
+  result (`unstructure`) and reads it back (`structure`), with results.json's layout;
+  `scenarios.results.results_file`: a run folder's results.json read back (`read_results`);
 - `scenarios.results.method_reports`: the run's surface match and each localization
   method's report;
 - `scenarios.results.evaluations`: what the evaluator measured against the truth (targets,

@@ -23,23 +23,26 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping
-from types import EllipsisType
 from typing import Any, TypeVar
 
 import cattrs
+import cattrs.errors
 import numpy as np
 from cattrs.gen import AttributeOverride, make_dict_structure_fn, make_dict_unstructure_fn, override
 
-from scenarios.results.budget_result import TERMS, ErrorBudget, TargetBudget
+from scenarios.results.budget_result import ErrorBudget, TargetBudget
 from scenarios.results.edge import JsonObject, finite_or_none, unbounded
-from scenarios.results.evaluations import (
-    CalibrationFigures,
-    CalibrationSummary,
-    TargetEvaluation,
-)
+from scenarios.results.evaluations import CalibrationFigures, CalibrationSummary, TargetEvaluation
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
 from scenarios.results.method_reports import MatchReport, MethodReport
+from scenarios.results.run import (
+    SCHEMA_VERSION,
+    IncompleteRun,
+    ResultsError,
+    RunResult,
+    check_schema,
+)
 from scenarios.results.scan_plan_result import ScanPlanSummary
 from scenarios.results.verification_result import TargetCheck, TcpCheck, Verification
 
@@ -87,19 +90,19 @@ def unbounded_numbers(rename: str | None = None) -> AttributeOverride:
 def register_writer(
     cls: type,
     *,
-    keys: Iterable[str | EllipsisType] | None = None,
+    keys: str | None = None,
     derived: Derived | None = None,
     left_out: Callable[[Any], Iterable[str]] | None = None,
     **fields: AttributeOverride,
 ) -> None:
     """Write `cls` as its fields (each renamed, left out or converted by its override in
     `fields`) and the `derived` values, less the keys `left_out` names for the object, in
-    the order of `keys` if given: key names, one of which may be `...`, every other key in
-    the order the fields and then the derived values come (without `...`, `keys` must name
-    every key)."""
+    the order of `keys` if given: the key names, separated by blanks, one of which may be
+    `...`: every other key, in the order the fields and then the derived values come
+    (without `...`, `keys` must name every key)."""
     overrides: dict[str, Any] = fields  # by field name (cattrs types them with its options)
     written: Callable[[Any], JsonObject] = make_dict_unstructure_fn(cls, converter, **overrides)
-    order = None if keys is None else tuple(keys)
+    order = None if keys is None else tuple(keys.split())
 
     def write(value: object) -> JsonObject:
         out = written(value)
@@ -150,7 +153,7 @@ def register_reader(
 def register_layout(
     cls: type,
     *,
-    keys: Iterable[str | EllipsisType] | None = None,
+    keys: str | None = None,
     derived: Derived | None = None,
     left_out: Callable[[Any], Iterable[str]] | None = None,
     read: Callable[[JsonObject], JsonObject] | None = None,
@@ -162,10 +165,9 @@ def register_layout(
     register_reader(cls, read=read, may_lack=may_lack, **fields)
 
 
-def _in_order(out: JsonObject, keys: tuple[str | EllipsisType, ...]) -> JsonObject:
-    named = [k for k in keys if isinstance(k, str)]
-    rest = [k for k in out if k not in named]
-    order = [k for key in keys for k in ((key,) if isinstance(key, str) else rest)]
+def _in_order(out: JsonObject, keys: tuple[str, ...]) -> JsonObject:
+    rest = [k for k in out if k not in keys]
+    order = [k for key in keys for k in (rest if key == "..." else (key,))]
     if len(order) != len(out):
         raise KeyError(f"keys {keys} do not name every key of {list(out)}")
     return {k: out[k] for k in order}
@@ -188,7 +190,7 @@ register_layout(
 )
 register_layout(
     ScanPlanSummary,
-    keys=(..., "predicted_tre_m", "chosen"),
+    keys="... predicted_tre_m chosen",
     predicted_tre_max_m=unbounded_number(),
     predicted_tre_m=unbounded_numbers(),
 )
@@ -229,7 +231,7 @@ def _calibration_fields(data: JsonObject) -> JsonObject:
 
 register_layout(
     CalibrationFigures,
-    keys=("enabled", ..., "tcp_error_configurations"),
+    keys="enabled ... tcp_error_configurations",
     derived=_calibration_json,
     read=_calibration_fields,
     summary=override(omit=True),
@@ -250,17 +252,8 @@ def _method_fields(data: JsonObject) -> JsonObject:
 
 register_layout(
     MethodReport,
-    keys=(
-        "accepted",
-        "reason",
-        "rotation_error_deg",
-        "translation_error_m",
-        "targets",
-        "predicted_tre_m",
-        "target_error_rms_m",
-        "target_error_max_m",
-        ...,
-    ),
+    keys="accepted reason rotation_error_deg translation_error_m targets predicted_tre_m "
+    "target_error_rms_m target_error_max_m ...",
     derived=lambda r: {
         "rotation_error_deg": None if r.pose is None else r.pose.rotation_error_deg,
         "translation_error_m": None if r.pose is None else r.pose.translation_error_m,
@@ -276,7 +269,7 @@ register_layout(
 )
 register_layout(
     TargetBudget,
-    keys=("name", *TERMS, "sigma_m", "bound_m"),
+    keys="name tre_m arm_m tool_m model_m sigma_m bound_m",
     derived=lambda b: {"sigma_m": b.sigma_m},
     tre_m=unbounded_number(),
     arm_m=unbounded_number(),
@@ -286,7 +279,7 @@ register_layout(
 )
 register_layout(
     ErrorBudget,
-    keys=(..., "targets"),
+    keys="... targets",
     derived=lambda b: {
         "rms_bound_m": b.rms_bound_m,
         "max_bound_m": b.max_bound_m,
@@ -296,13 +289,13 @@ register_layout(
 )
 register_layout(
     TargetCheck,
-    keys=("name", "moved_m", "uncertainty_m", "allowance_m", "resolved", ...),
+    keys="name moved_m uncertainty_m allowance_m resolved ...",
     derived=lambda c: {"resolved": c.resolved, "decision": c.decision},
     goal_m=unbounded_number(),
 )
 register_layout(
     Verification,
-    keys=(..., "targets"),
+    keys="... targets",
     derived=lambda v: {
         "agrees": v.agrees,
         "resolved": v.resolved,
@@ -320,19 +313,8 @@ def _offset_read(value: list[float] | None, _: object) -> tuple[float, float]:
 
 register_layout(
     TcpCheck,
-    keys=(
-        "tool",
-        "offset_m",
-        "off_m",
-        "sigma_m",
-        "tolerance_m",
-        "resolves_m",
-        "referenced",
-        "attempt",
-        "decision",
-        "corrected",
-        "ok",
-    ),
+    keys="tool offset_m off_m sigma_m tolerance_m resolves_m referenced attempt decision "
+    "corrected ok",
     derived=lambda c: {
         "off_m": finite_or_none(c.off_m),
         "resolves_m": c.resolves_m,
@@ -344,4 +326,94 @@ register_layout(
         unstruct_hook=lambda o: list(o) if all(math.isfinite(v) for v in o) else None,
         struct_hook=_offset_read,
     ),
+)
+
+
+# -- results.json --------------------------------------------------------------------------------
+def _registration_json(r: RunResult) -> JsonObject:
+    """results.json's "registration": the driving method, the match's figures, and the
+    surface pose's error against the truth."""
+    out: JsonObject = {"method": r.primary.method, "verdict": "rejected"}
+    if r.match is not None:
+        out.update(unstructure(r.match))
+    surface = r.method("surface")
+    if surface is not None and surface.pose is not None:
+        out.update(
+            rotation_error_deg=surface.pose.rotation_error_deg,
+            translation_error_m=surface.pose.translation_error_m,
+        )
+    if surface is not None and not surface.accepted:
+        out.setdefault("reason", surface.reason)
+    return out
+
+
+def _run_derived(r: RunResult) -> JsonObject:
+    """What results.json says of a run beside its fields: the registration section, and the
+    driving method's targets (each with its predicted TRE) and their errors."""
+    primary = r.primary
+    return {
+        "registration": _registration_json(r),
+        "targets": [
+            {**unstructure(t), "predicted_tre_m": primary.predicted(t.name)}
+            for t in primary.targets
+        ],
+        "target_error_rms_m": r.target_error_rms_m,
+        "target_error_max_m": r.target_error_max_m,
+    }
+
+
+def _run_fields(data: JsonObject) -> JsonObject:
+    """The match, a field of RunResult, from results.json's "registration" (where the match
+    ran: its figures are there)."""
+    registration = data["registration"]
+    return data | {"match": registration if "rms_m" in registration else None}
+
+
+register_layout(
+    RunResult,
+    keys="schema_version status reason job seed model scan_points registration methods targets "
+    "target_error_rms_m target_error_max_m ...",
+    derived=_run_derived,
+    read=_run_fields,
+    # Keys that files of schema 1 written before the arm's window, the plan cache, the
+    # verification, the tools' checks, the cell's clock and the error budget lack.
+    may_lack=(
+        "home_deg",
+        "limits_deg",
+        "plan_cache",
+        "verifications",
+        "tool_checks",
+        "cell_time_s",
+        "budget",
+    ),
+    match=override(omit=True),
+    methods=override(
+        unstruct_hook=lambda methods: {r.method: unstructure(r) for r in methods},
+        struct_hook=lambda data, _: tuple(
+            structure({"method": name, **d}, MethodReport) for name, d in data.items()
+        ),
+    ),
+    timings=override(rename="timings_s"),
+)
+_read_run_fields = converter.get_structure_hook(RunResult)
+
+
+def _read_run(data: JsonObject, _: object) -> RunResult:
+    """A finished cell job's result of this schema; ResultsError naming what is missing or
+    bad (RunNotEndedError for a run that did not end)."""
+    check_schema(data)
+    try:
+        return _read_run_fields(data, RunResult)
+    except (KeyError, TypeError, ValueError, cattrs.errors.CattrsError) as exc:
+        raise ResultsError(
+            f"results.json (schema {SCHEMA_VERSION}) of job {data.get('job')!r}: missing or "
+            f"bad {exc}"
+        ) from None
+
+
+converter.register_structure_hook(RunResult, _read_run)
+register_writer(
+    IncompleteRun,
+    keys="schema_version status reason job seed stage seconds",
+    derived=lambda _: {"schema_version": SCHEMA_VERSION},
 )

@@ -1,6 +1,7 @@
 """The result of a cell job: one typed value built by the runner from the stages' results and
-the evaluator's, written to results.json in one place (`RunResult.to_json`) and read back
-from it (`RunResult.read`, `RunResult.from_json`).
+the evaluator's, written to results.json by the results' converter
+(scenarios.results.json_converter, which lays it out) and read back from it
+(scenarios.results.results_file.read_results).
 
 Lengths [m], angles [deg] where the name says so, times [s]. "status" is "complete" when the
 program ran with its goals within reach of the error budget, "at_risk" when it ran but the
@@ -13,9 +14,7 @@ localization (the surface match, each method) are scenarios.results.method_repor
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Literal
 
 from scenarios.results.budget_result import ErrorBudget
@@ -23,13 +22,12 @@ from scenarios.results.edge import JsonObject
 from scenarios.results.evaluations import CalibrationFigures, PickEvaluation, TargetEvaluation
 from scenarios.results.events import FaultOutcome, SupervisionEvent
 from scenarios.results.exported_result import ExportedRun
-from scenarios.results.json_converter import structure, unstructure
 from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.scan_plan_result import ScanPlanSummary
 from scenarios.results.verification_result import TcpCheck, Verification
 from scenarios.scenario_errors import ScenarioError
 
-#: The version of results.json's layout that this module writes and reads.
+#: The version of results.json's layout that the results' converter writes and reads.
 SCHEMA_VERSION = 1
 
 RunStatus = Literal["complete", "at_risk", "refused", "aborted"]
@@ -51,14 +49,6 @@ class GoalCheck:
 
     limit_m: float
     met: bool
-
-
-def _limits(value: object) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """results.json's "limits_deg": [lower, upper] lists (both empty in older files)."""
-    if not isinstance(value, list | tuple) or len(value) != 2:
-        raise ValueError(f"limits_deg {value!r}")
-    lower, upper = value
-    return tuple(float(v) for v in lower), tuple(float(v) for v in upper)
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,152 +150,10 @@ class RunResult:
     def target_error_max_m(self) -> float | None:
         return self.primary.max_m
 
-    def to_json(self) -> JsonObject:
-        """The results.json mapping (plain numbers and lists, None for missing)."""
-        primary = self.primary
-        return {
-            "schema_version": self.schema_version,
-            "status": self.status,
-            "reason": self.reason,
-            "job": self.job,
-            "seed": self.seed,
-            "model": self.model,
-            "scan_points": self.scan_points,
-            "registration": self._registration_json(),
-            "methods": {r.method: unstructure(r) for r in self.methods},
-            "targets": [
-                {**unstructure(t), "predicted_tre_m": primary.predicted(t.name)}
-                for t in primary.targets
-            ],
-            "target_error_rms_m": self.target_error_rms_m,
-            "target_error_max_m": self.target_error_max_m,
-            "checks": {
-                name: {"limit_m": c.limit_m, "met": c.met} for name, c in self.checks.items()
-            },
-            "pick": unstructure(self.pick),
-            "grasp_error_m": self.grasp_error_m,
-            "calibration": unstructure(self.calibration),
-            "timings_s": dict(self.timings),
-            "motion_after_match_s": self.motion_after_match_s,
-            "tool_in_hand": self.tool_in_hand,
-            "table_position_m": self.table_position_m,
-            "robot": self.robot,
-            "home_deg": list(self.home_deg),
-            "limits_deg": [list(self.limits_deg[0]), list(self.limits_deg[1])],
-            "program_file": self.program_file,
-            "exported_program": unstructure(self.exported_program),
-            "stage": self.stage,
-            "faults": [unstructure(f) for f in self.faults],
-            "supervision": [unstructure(e) for e in self.supervision],
-            "scan_plan": unstructure(self.scan_plan),
-            "model_cache": self.model_cache,
-            "plan_cache": self.plan_cache,
-            "verifications": [unstructure(v) for v in self.verifications],
-            "tool_checks": [unstructure(c) for c in self.tool_checks],
-            "cell_time_s": self.cell_time_s,
-            "budget": unstructure(self.budget),
-            "seconds": self.seconds,
-        }
 
-    def _registration_json(self) -> JsonObject:
-        """results.json's "registration": the driving method, the match's figures, and the
-        surface pose's error against the truth."""
-        out: JsonObject = {"method": self.primary.method, "verdict": "rejected"}
-        if self.match is not None:
-            out.update(unstructure(self.match))
-        surface = self.method("surface")
-        if surface is not None and surface.pose is not None:
-            out.update(
-                rotation_error_deg=surface.pose.rotation_error_deg,
-                translation_error_m=surface.pose.translation_error_m,
-            )
-        if surface is not None and not surface.accepted:
-            out.setdefault("reason", surface.reason)
-        return out
-
-    @classmethod
-    def from_json(cls, data: JsonObject | str | Path) -> RunResult:
-        """The result of a results.json mapping (`to_json`), or of the file at a path (see
-        `read`); a mapping of another layout or of a run that did not end raises
-        ResultsError naming what it found."""
-        if isinstance(data, str | Path):
-            return cls.read(data)
-        _check_layout(data)
-        try:
-            return cls._from_json(data)
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ResultsError(
-                f"results.json (schema {SCHEMA_VERSION}) of job {data.get('job')!r}: missing or "
-                f"bad {exc}"
-            ) from None
-
-    @classmethod
-    def _from_json(cls, data: JsonObject) -> RunResult:
-        registration = data["registration"]
-        exported, pick, plan = data["exported_program"], data["pick"], data["scan_plan"]
-        return cls(
-            status=data["status"],
-            reason=str(data["reason"]),
-            job=str(data["job"]),
-            seed=int(data["seed"]),
-            model=str(data["model"]),
-            scan_points=int(data["scan_points"]),
-            match=structure(registration, MatchReport) if "rms_m" in registration else None,
-            methods=tuple(
-                structure({"method": m, **d}, MethodReport) for m, d in data["methods"].items()
-            ),
-            checks={
-                name: GoalCheck(float(c["limit_m"]), bool(c["met"]))
-                for name, c in data["checks"].items()
-            },
-            pick=None if pick is None else structure(pick, PickEvaluation),
-            grasp_error_m=data["grasp_error_m"],
-            calibration=structure(data["calibration"], CalibrationFigures),
-            timings={str(k): float(v) for k, v in data["timings_s"].items()},
-            motion_after_match_s=float(data["motion_after_match_s"]),
-            tool_in_hand=data["tool_in_hand"],
-            table_position_m=data["table_position_m"],
-            robot=str(data["robot"]),
-            home_deg=tuple(float(v) for v in data.get("home_deg", ())),
-            limits_deg=_limits(data.get("limits_deg", ((), ()))),
-            program_file=data["program_file"],
-            exported_program=None if exported is None else structure(exported, ExportedRun),
-            stage=data["stage"],
-            faults=tuple(structure(f, FaultOutcome) for f in data["faults"]),
-            supervision=tuple(structure(e, SupervisionEvent) for e in data["supervision"]),
-            scan_plan=None if plan is None else structure(plan, ScanPlanSummary),
-            model_cache=data["model_cache"],
-            plan_cache=data.get("plan_cache"),
-            verifications=tuple(structure(v, Verification) for v in data.get("verifications", ())),
-            tool_checks=tuple(structure(c, TcpCheck) for c in data.get("tool_checks", ())),
-            cell_time_s=data.get("cell_time_s"),
-            budget=None if data.get("budget") is None else structure(data["budget"], ErrorBudget),
-            seconds=data["seconds"],
-            schema_version=int(data["schema_version"]),
-        )
-
-    @classmethod
-    def read(cls, path: str | Path) -> RunResult:
-        """The result in a run folder's results.json (`path`: the file or its folder)."""
-        path = Path(path)
-        if path.is_dir():
-            path = path / "results.json"
-        try:
-            data = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise ResultsError(f"no results.json at {path}") from None
-        except json.JSONDecodeError as exc:
-            raise ResultsError(f"{path} is not JSON: {exc}") from None
-        if not isinstance(data, dict):
-            raise ResultsError(f"{path} holds a {type(data).__name__}, not a run's results")
-        try:
-            return cls.from_json(data)
-        except ResultsError as exc:
-            raise type(exc)(f"{path}: {exc}") from None
-
-
-def _check_layout(data: JsonObject) -> None:
-    """Refuse a results.json that is not a finished cell job's of this schema."""
+def check_schema(data: JsonObject) -> None:
+    """Refuse a results.json that is not a finished cell job's of this schema (the results'
+    converter reads one only after this)."""
     version = data.get("schema_version")
     if data.get("status") == "incomplete":
         raise RunNotEndedError(
@@ -330,14 +178,3 @@ class IncompleteRun:
     seconds: float | None = None
 
     status: Literal["incomplete"] = "incomplete"
-
-    def to_json(self) -> JsonObject:
-        return {
-            "schema_version": SCHEMA_VERSION,
-            "status": self.status,
-            "reason": self.reason,
-            "job": self.job,
-            "seed": self.seed,
-            "stage": self.stage,
-            "seconds": self.seconds,
-        }
