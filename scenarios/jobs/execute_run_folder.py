@@ -42,6 +42,7 @@ from scenarios.jobs.pipeline import job_cell
 from scenarios.offline.operations import UserProgram, read_user_program
 from scenarios.rapid.planner import plan_execution
 from scenarios.realcell.setup import JobCell
+from scenarios.results.json_converter import unstructure
 from scenarios.results.results_file import read_results
 from scenarios.results.run import RunNotEndedError
 from scenarios.scenario_errors import ScenarioError
@@ -154,7 +155,7 @@ def execute_run(
         job_rms,
         job_max,
     )
-    write_text(folder / EXECUTION_FILE, json.dumps(result.to_json(), indent=2) + "\n")
+    write_text(folder / EXECUTION_FILE, json.dumps(unstructure(result), indent=2) + "\n")
     return result
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from cattrs.gen import override
 
 from models.model import ObjectModel
 from models.robot import TOOLS
@@ -28,9 +29,9 @@ from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task
 from scenarios.rapid.writer import rapid_identifier
 from scenarios.realcell.setup import JobCell
-from scenarios.results.edge import JsonObject
 from scenarios.results.evaluations import TargetEvaluation
 from scenarios.results.exported_result import ExportedRun, TargetError
+from scenarios.results.json_converter import register_writer, unstructure
 
 Progress = Callable[[str], None]
 
@@ -133,44 +134,34 @@ class ExecutionResult:
             ),
         )
 
-    def to_json(self) -> JsonObject:
-        """The execution.json mapping (plain numbers and lists)."""
-        return {
-            "status": "complete",
-            "program": self.program,
-            "program_path": self.source,
-            "compensation": self.compensation,
-            "controller": {"absolute_accuracy": False, "kinematics": "nominal"},
-            "job": self.job,
-            "seed": self.seed,
-            "tool": self.tool,
-            "table_position_m": self.table_position_m,
-            "target_error_rms_m": self.rms_m,
-            "target_error_max_m": self.max_m,
-            "targets": [
-                {
-                    "name": t.evaluation.name,
-                    "robtarget": t.robtarget,
-                    "line": t.line,
-                    "error_m": t.evaluation.error_m,
-                    "axis_error_deg": t.evaluation.axis_error_deg,
-                    "registration_error_m": t.evaluation.registration_error_m,
-                    "p_true_base_m": t.evaluation.p_true_base.tolist(),
-                    "p_achieved_base_m": t.evaluation.p_achieved_base.tolist(),
-                    "p_commanded_base_m": t.p_commanded_base.tolist(),
-                    "p_controller_base_m": t.p_controller_base.tolist(),
-                    "q_measured_rad": t.q_measured.tolist(),
-                }
-                for t in self.targets
-            ],
-            "other_stops": list(self.other_stops),
-            "job_target_error_rms_m": self.job_target_error_rms_m,
-            "job_target_error_max_m": self.job_target_error_max_m,
-            "moves": self.moves,
-            "skipped": list(self.skipped),
-            "motion_time_s": self.motion_time_s,
-            "wall_time_s": dict(self.timings),
-        }
+
+register_writer(
+    TouchedTarget,
+    keys="name robtarget line error_m axis_error_deg registration_error_m p_true_base_m "
+    "p_achieved_base_m p_commanded_base_m p_controller_base_m q_measured_rad",
+    derived=lambda t: unstructure(t.evaluation),
+    left_out=lambda _: ("depth_error_m",),
+    evaluation=override(omit=True),
+    p_commanded_base=override(rename="p_commanded_base_m"),
+    p_controller_base=override(rename="p_controller_base_m"),
+    q_measured=override(rename="q_measured_rad"),
+)
+#: execution.json: the executed program against the truth, run by a controller without
+#: absolute accuracy (nominal kinematics).
+register_writer(
+    ExecutionResult,
+    keys="status program program_path compensation controller job seed tool table_position_m "
+    "target_error_rms_m target_error_max_m targets other_stops job_target_error_rms_m "
+    "job_target_error_max_m moves skipped motion_time_s wall_time_s",
+    derived=lambda r: {
+        "status": "complete",
+        "controller": {"absolute_accuracy": False, "kinematics": "nominal"},
+        "target_error_rms_m": r.rms_m,
+        "target_error_max_m": r.max_m,
+    },
+    source=override(rename="program_path"),
+    timings=override(rename="wall_time_s"),
+)
 
 
 def _fold(name: str) -> str:

@@ -42,6 +42,7 @@ from scenarios.results.evaluations import (
     TargetEvaluation,
 )
 from scenarios.results.exported_result import ExportedRun
+from scenarios.results.json_converter import unstructure
 from scenarios.results.method_reports import MatchReport, MethodReport
 from scenarios.results.run import GoalCheck, RunResult, RunStatus
 from scenarios.stages.loop import StagesRun
@@ -338,7 +339,7 @@ def run_exported(
     except SupervisionError as exc:  # its supervision stopped the cell
         say(f"{program_file} on the nominal controller: aborted: {exc}")
         return ExportedRun("aborted", str(exc))
-    write_text(folder / EXECUTION_FILE, json.dumps(executed.to_json(), indent=2) + "\n")
+    write_text(folder / EXECUTION_FILE, json.dumps(unstructure(executed), indent=2) + "\n")
     say(
         f"{program_file} ({executed.compensation}) on the nominal controller: "
         f"target error rms {(executed.rms_m or 0) * 1e3:.3f} mm, max "

@@ -35,6 +35,7 @@ from scenarios.jobs.job_plan import job_robot, object_models
 from scenarios.jobs.pipeline import job_cell
 from scenarios.rapid.executor import ExecutionRecord
 from scenarios.realcell.setup import JobCell
+from scenarios.results.json_converter import unstructure
 from scenarios.scenario_errors import ScenarioError
 from scenarios.stages.export_stage import TASK_FOLDER
 from scenarios.twin.elog import ElogEntry
@@ -206,7 +207,7 @@ def _measured(
         serving.changed.notify_all()
     folder = serving.folder / "executions"
     folder.mkdir(exist_ok=True)
-    data = result.to_json() | {"job": serving.config.name, "seed": serving.config.seed}
+    data = unstructure(result) | {"job": serving.config.name, "seed": serving.config.seed}
     path = folder / f"{number:03d}-{Path(result.program).stem}.json"
     write_text(path, json.dumps(data, indent=2) + "\n")
     rms = "-" if result.rms_m is None else f"{result.rms_m * 1e3:.3f} mm"
