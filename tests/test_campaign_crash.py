@@ -25,24 +25,23 @@ CRASH_EXIT = 5
 
 @dataclass(frozen=True)
 class _Row:
-    seed: int
-
-    def columns(self) -> dict[str, Any]:
-        return {"verdict": "accepted", "accepted": 1, "value": float(self.seed)}
+    verdict: str
+    accepted: int
+    value: float
 
 
 def refuse_odd_seeds(config: dict[str, Any], seed: int) -> _Row:
     """Seed 0 returns a row; seed 1 meets input it cannot use (a user error)."""
     if seed % 2:
         raise InputError("scan has 2 points; a registration needs at least 3")
-    return _Row(seed)
+    return _Row("accepted", 1, float(seed))
 
 
 def crash_on_odd_seeds(config: dict[str, Any], seed: int) -> _Row:
     """Seed 0 returns a row; seed 1 has a bug (a missing key)."""
     if seed % 2:
-        return _Row({"seed": seed}["no_such_key"])
-    return _Row(seed)
+        return _Row("accepted", 1, {"seed": seed}["no_such_key"])
+    return _Row("accepted", 1, float(seed))
 
 
 @pytest.fixture

@@ -17,6 +17,7 @@ from scenarios.campaign.register_job import ScanFaultAmounts, parse_register_job
 from scenarios.campaign.register_row import ScanFaultOutcome
 from scenarios.campaign.register_trial import longest_pass_gap, run_register_trial
 from scenarios.campaign.simscan import ScanErrors, simulate_scan
+from scenarios.results.json_converter import unstructure
 
 NO_ERRORS = ScanErrors(range_sigma=0.0, pass_sigma=0.0, pass_rotation_sigma=0.0, jitter_sigma=0.0)
 
@@ -133,7 +134,7 @@ def test_the_row_has_the_tables_columns_in_order():
     config["register_trial"]["scan"].update(points=400, samples=20_000)
     config["faults"] = "laser_dropout_burst,laser_spurious"
     row = run_register_trial(config, 1)
-    columns = row.columns()
+    columns = unstructure(row)
     targets = [f"{c}{k}{s}" for k in range(len(row.targets))
                for c, s in (("err_t", "_m"), ("tre_t", "_m"), ("ratio_t", ""))]  # fmt: skip
     assert list(columns) == [

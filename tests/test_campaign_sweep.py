@@ -4,7 +4,7 @@ seeds, and a trial's row as it is stored."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, get_args
+from typing import get_args
 
 import pytest
 
@@ -160,15 +160,13 @@ def test_trials_have_unique_ids_and_common_seeds_across_points() -> None:
 @dataclass(frozen=True)
 class _Row:
     value: float
-
-    def columns(self) -> dict[str, Any]:
-        return {"value": self.value, "doubled": 2 * self.value}
+    doubled: float
 
 
 def test_a_trial_row_is_stored_as_its_columns(monkeypatch) -> None:
-    """A trial function returns a typed row; the campaign stores its `columns()`, after the
-    trial's ids."""
-    result = _Row(1.5)
+    """A trial function returns a typed row; the campaign stores its columns (the results'
+    converter's mapping of it), after the trial's ids."""
+    result = _Row(1.5, 3.0)
     monkeypatch.setattr(trials_module, "stage_function", lambda stage: lambda config, seed: result)
     trial = campaign_trials(plan_campaign("skull", trials=1))[0]
     row = run_trial(trial)

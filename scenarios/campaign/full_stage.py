@@ -20,10 +20,13 @@ import tempfile
 import time
 from dataclasses import dataclass
 
+from cattrs.gen import override
+
 from scenarios.campaign.register_trial import MAX_TARGETS
 from scenarios.campaign.rows import HARM_M
 from scenarios.results.edge import JsonObject
 from scenarios.results.exported_result import ExportedRun
+from scenarios.results.json_converter import register_writer
 from scenarios.results.results_file import read_results
 from scenarios.results.run import RAN, RunResult
 from scenarios.results.scan_plan_result import ScanPlanSummary
@@ -61,8 +64,8 @@ class FullTarget:
 @dataclass(frozen=True, eq=False)
 class FullRow:
     """The row of one full trial: the run's result (scenarios.results.run.RunResult, as its
-    results.json holds it) and the trial's wall time [s]; `columns()` flattens it to the
-    results table's columns, in the table's order."""
+    results.json holds it) and the trial's wall time [s]; the results' converter flattens it
+    to the results table's columns, in the table's order (`full_row`, then trial_seconds)."""
 
     result: RunResult
     trial_seconds: float
@@ -76,11 +79,6 @@ class FullRow:
             )
             for t in self.result.targets[:MAX_TARGETS]
         )
-
-    def columns(self) -> JsonObject:
-        row = full_row(self.result, self.targets)
-        row["trial_seconds"] = self.trial_seconds
-        return row
 
 
 def run_full_trial(config: JsonObject, seed: int) -> FullRow:
@@ -256,3 +254,11 @@ def fault_columns(result: RunResult) -> JsonObject:
     worst = result.target_error_max_m
     out["harmed"] = int(result.status in RAN and worst is not None and worst > HARM_M)
     return out
+
+
+register_writer(
+    FullRow,
+    keys="... trial_seconds",
+    derived=lambda r: full_row(r.result, r.targets),
+    result=override(omit=True),
+)

@@ -1,5 +1,6 @@
 """A register trial's row: typed as the trial made it, flattened to the results table's
-columns once, where the campaign stores it (`RegisterRow.columns()`).
+columns once, where the campaign stores it (by the results' converter,
+scenarios.results.json_converter, with the layout registered here).
 
 Lengths [m], angles [rad], times [s]. The columns, in order: what was scanned, the match's
 figures, its errors against the truth, the targets (`n_targets`, their names joined by ";",
@@ -12,8 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from cattrs.gen import override
+
 from registration.verdict import Verdict
 from scenarios.results.edge import JsonObject
+from scenarios.results.json_converter import register_writer
 
 MAX_TARGETS = 8
 """Targets reported per trial (columns err_t0_m ... of the results table)."""
@@ -81,42 +85,35 @@ class RegisterRow:
     match_seconds: float
     trial_seconds: float
 
-    def columns(self) -> JsonObject:
-        """The row as the results table's columns (flags as 0/1), in the table's order."""
-        row: JsonObject = {
-            "case": self.case,
-            "model": self.model,
-            "scanned_model": self.scanned_model,
-            "n_points": self.n_points,
-            "surface_fraction": self.surface_fraction,
-            "outlier_fraction": self.outlier_fraction,
-            "verdict": self.verdict,
-            "reason": self.reason,
-            "accepted": int(self.accepted),
-            "ambiguity": self.ambiguity,
-            "rms_m": self.rms_m,
-            "inlier_fraction": self.inlier_fraction,
-            "worst_predicted_tre_m": self.worst_predicted_tre_m,
-            "rotation_error_rad": self.rotation_error_rad,
-            "centroid_error_m": self.centroid_error_m,
-            "target_error_max_m": self.target_error_max_m,
-            "target_error_mean_m": self.target_error_mean_m,
-            "target_error_real_max_m": self.target_error_real_max_m,
-            "predicted_tre_max_m": self.predicted_tre_max_m,
-            "right_object": int(self.right_object),
-            "good": int(self.good),
-            "false_accept": int(self.false_accept),
-            "n_targets": len(self.targets),
-            "targets": ";".join(t.name for t in self.targets),
-        }
-        for k, target in enumerate(self.targets[:MAX_TARGETS]):
-            row[f"err_t{k}_m"] = target.error_m
-            row[f"tre_t{k}_m"] = target.predicted_tre_m
-            row[f"ratio_t{k}"] = target.ratio
-        for fault in self.faults:
-            row[f"fault.{fault.name}"] = fault.outcome
-            row[f"fault.{fault.name}.stage"] = fault.stage
-        row["harmed"] = int(self.harmed)
-        row["match_seconds"] = self.match_seconds
-        row["trial_seconds"] = self.trial_seconds
-        return row
+
+def _target_and_fault_columns(row: RegisterRow) -> JsonObject:
+    """The targets' columns (their count, their names joined by ";", then each of the first
+    MAX_TARGETS's error, predicted TRE and ratio) and each scan fault's outcome and stage."""
+    out: JsonObject = {
+        "n_targets": len(row.targets),
+        "targets": ";".join(t.name for t in row.targets),
+    }
+    for k, target in enumerate(row.targets[:MAX_TARGETS]):
+        out[f"err_t{k}_m"] = target.error_m
+        out[f"tre_t{k}_m"] = target.predicted_tre_m
+        out[f"ratio_t{k}"] = target.ratio
+    for fault in row.faults:
+        out[f"fault.{fault.name}"] = fault.outcome
+        out[f"fault.{fault.name}.stage"] = fault.stage
+    return out
+
+
+_FLAG = override(unstruct_hook=int)
+"""A flag as the results table holds it: 0 or 1."""
+register_writer(
+    RegisterRow,
+    keys="... harmed match_seconds trial_seconds",
+    derived=_target_and_fault_columns,
+    targets=override(omit=True),
+    faults=override(omit=True),
+    accepted=_FLAG,
+    right_object=_FLAG,
+    good=_FLAG,
+    false_accept=_FLAG,
+    harmed=_FLAG,
+)

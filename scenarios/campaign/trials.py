@@ -17,10 +17,10 @@ import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
 
 from scenarios.campaign.campaign_errors import CampaignError
 from scenarios.results.edge import JsonObject
+from scenarios.results.json_converter import unstructure
 from scenarios.scenario_errors import is_user_error
 
 STATUSES: tuple[str, ...] = ("ok", "error", "crash")
@@ -31,15 +31,11 @@ TRACEBACK_TEXT = "traceback_text"
 replaces it by the file it writes (scenarios.campaign.store.ResultStore.write)."""
 
 
-class TrialRow(Protocol):
-    """A trial's typed row (e.g. scenarios.campaign.register_row.RegisterRow): `columns()`
-    flattens it to the results table's columns, in the table's order."""
-
-    def columns(self) -> JsonObject: ...
-
-
-TrialFunction = Callable[[JsonObject, int], TrialRow]
-"""(resolved config dict, seed) -> the trial's typed row."""
+TrialFunction = Callable[[JsonObject, int], object]
+"""(resolved config dict, seed) -> the trial's typed row (e.g.
+scenarios.campaign.register_row.RegisterRow), which the results' converter flattens to the
+results table's columns, in the table's order (scenarios.results.json_converter.unstructure:
+a dataclass's fields, or the columns its module registers)."""
 
 STAGES: dict[str, str] = {
     "register": "scenarios.campaign.register_trial:run_register_trial",
@@ -90,7 +86,7 @@ def run_trial(trial: Trial) -> JsonObject:
     }
     t0 = time.perf_counter()
     try:
-        columns = stage_function(trial.stage)(trial.config, trial.seed).columns()
+        columns = unstructure(stage_function(trial.stage)(trial.config, trial.seed))
     except Exception as exc:
         return {**row, **_failure(exc), "trial_seconds": time.perf_counter() - t0}
     return {**row, "status": "ok", "error": "", **columns}
