@@ -6,8 +6,12 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
+import pytest
+
+from cell.cell_errors import CellConfigError
 from cell.sim.selfcheck import CheckReport
 from scenarios.cli.app import main
+from scenarios.cli.check_command import write_json
 
 KEYS = {
     "mujoco_warnings",
@@ -54,3 +58,11 @@ def test_each_criterion_can_fail() -> None:
     for report in bad:
         assert not report.passed
         assert sum(not ok for ok in report.criteria().values()) == 1
+
+
+def test_check_report_to_a_missing_folder_is_refused(tmp_path: Path) -> None:
+    report = CheckReport(0, 0.0, 1.0, 0.0, {}, 1.0, 0.0, 0.0, 0.0)
+    with pytest.raises(CellConfigError, match="does not exist"):
+        write_json(report, tmp_path / "no" / "check.json")
+    write_json(report, tmp_path / "check.json")
+    assert json.loads((tmp_path / "check.json").read_text())["passed"] is report.passed

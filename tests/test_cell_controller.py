@@ -243,13 +243,3 @@ def test_mesh_with_convex_pieces_collides_by_its_pieces_and_is_seen_exactly() ->
     flat = FixedMesh("flat", v, faces, np.eye(4), convex_pieces=(v[:4],))  # coplanar piece
     with pytest.raises(CellConfigError, match="flat_hull0"):
         make_cell(CellConfig(fixtures=(flat,)))
-
-
-def test_check_report_to_a_missing_folder_is_refused(tmp_path) -> None:
-    from cell.sim.selfcheck import CheckReport, write_json
-
-    report = CheckReport(0, 0.0, 1.0, 0.0, {}, 1.0, 0.0, 0.0, 0.0)
-    with pytest.raises(CellConfigError, match="does not exist"):
-        write_json(report, tmp_path / "no" / "check.json")
-    write_json(report, tmp_path / "check.json")
-    assert (tmp_path / "check.json").read_text().startswith("{")

@@ -7,16 +7,14 @@ table poses, and laser points against an analytic plane and sphere.
 
 from __future__ import annotations
 
-import json
 import time
-from dataclasses import asdict, dataclass
-from pathlib import Path
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from rich.table import Table
 
-from cell.cell_errors import CellConfigError, CellError
+from cell.cell_errors import CellError
 from cell.controller import Controller
 from cell.irb2400_arm import nominal_kinematics
 from cell.kinematics import Kinematics
@@ -26,7 +24,6 @@ from cell.sim.factory import make_cell
 from cell.sim.real import build_real_model
 from cell.sim.simulation import Simulation
 from cell.sim.truth import CellTruth
-from models.atomic import write_text
 from models.robot import BODY_NAMES, FLANGE_SITE, Q_HOME, TABLE_TRAVEL, TOOLS
 from registration.rigid import make_T, pose_error
 
@@ -46,7 +43,7 @@ _T_TABLE_SPHERE = make_T(np.eye(3), np.array([0.1, 0.05, _SPHERE_RADIUS]))
 
 @dataclass(frozen=True)
 class CheckReport:
-    """The self-check's figures (JSON keys of `twincell check --json`)."""
+    """The self-check's figures (JSON keys of `twincell check --json`, with `passed`)."""
 
     mujoco_warnings: int
     fk_max_error_m: float
@@ -80,10 +77,6 @@ class CheckReport:
     def passed(self) -> bool:
         """Whether every criterion holds."""
         return all(self.criteria().values())
-
-    def to_json(self) -> dict[str, object]:
-        """The JSON document (figures plus `passed`)."""
-        return {**asdict(self), "passed": self.passed}
 
 
 def random_controls_warnings(seed: int = 0, seconds: float = 2.0) -> int:
@@ -236,17 +229,6 @@ def run_check() -> CheckReport:
     )
 
 
-def write_json(report: CheckReport, path: str | Path) -> None:
-    """Write the report's JSON completely or not at all (temporary file, then rename)."""
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise CellConfigError(
-            f"cannot write the check report to {str(path)!r}: folder {str(path.parent)!r} "
-            "does not exist"
-        )
-    write_text(path, json.dumps(report.to_json(), indent=2) + "\n")
-
-
 def render(report: CheckReport) -> Table:
     """A rich table of the figures and the pass criteria."""
     table = Table(title="twincell check: the default cell (nominal, noise-free)")
@@ -271,4 +253,4 @@ def render(report: CheckReport) -> Table:
     return table
 
 
-__all__ = ["CheckReport", "render", "run_check", "write_json"]
+__all__ = ["CheckReport", "render", "run_check"]

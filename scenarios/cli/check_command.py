@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from scenarios.cli.help_format import option
+
+if TYPE_CHECKING:
+    from cell.sim.selfcheck import CheckReport
 
 EXAMPLES = ("twincell check --json check.json",)
 
@@ -23,7 +28,7 @@ def check(
     """
     from rich.console import Console
 
-    from cell.sim.selfcheck import render, run_check, write_json
+    from cell.sim.selfcheck import render, run_check
 
     report = run_check()
     Console().print(render(report))
@@ -31,3 +36,20 @@ def check(
         write_json(report, json_file)
     if not report.passed:
         raise typer.Exit(1)
+
+
+def write_json(report: CheckReport, path: str | Path) -> None:
+    """Write the report's figures and whether it `passed` as JSON, completely or not at all
+    (temporary file, then rename)."""
+    from cell.cell_errors import CellConfigError
+    from models.atomic import write_text
+    from scenarios.results.json_converter import unstructure
+
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise CellConfigError(
+            f"cannot write the check report to {str(path)!r}: folder {str(path.parent)!r} "
+            "does not exist"
+        )
+    data = unstructure(report) | {"passed": report.passed}
+    write_text(path, json.dumps(data, indent=2) + "\n")
