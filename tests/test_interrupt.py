@@ -159,9 +159,9 @@ def test_a_stop_while_the_recording_closes_discards_it(
     from scenarios.jobs import pipeline
     from scenarios.realcell.recording import Recording
 
+    @dataclass(frozen=True)
     class Done:
-        def to_json(self) -> dict[str, Any]:
-            return {"status": "complete"}
+        status: str = "complete"
 
     def job(
         config: Any, folder: Path, progress: Any, recording: Any, stages: Any, use_cache: bool

@@ -9,7 +9,8 @@ kept (python-attrs).
 What the converter does beyond cattrs' own handling of dataclasses, Optional and Literal:
 numpy arrays are written as (nested) lists and read back as float arrays, numpy scalars as
 Python numbers, tuples as lists; a mapping of the wrong shape raises the plain KeyError,
-TypeError or ValueError that names the key (no detailed validation). A class whose JSON is
+TypeError or ValueError that names the key (no detailed validation; cattrs' own error for a
+value outside a Literal). A class whose JSON is
 not the plain mapping of its fields registers its layout (`register_writer`,
 `register_reader`, `register_layout`): a key renamed or left out (cattrs.gen's `override`),
 a bound written as null when it is not finite and read back as inf (`unbounded_number`,
@@ -329,7 +330,7 @@ register_layout(
 )
 
 
-# -- results.json --------------------------------------------------------------------------------
+# -- the run: results.json ------------------------------------------------------------------------
 def _registration_json(r: RunResult) -> JsonObject:
     """results.json's "registration": the driving method, the match's figures, and the
     surface pose's error against the truth."""
