@@ -124,3 +124,12 @@ def test_no_cache_is_a_run_option_not_the_environment(tmp_path, monkeypatch) -> 
     assert main(["run", "paper", "--quiet"]) == 0
     assert [options.cache for options in told if options is not None] == [False, True]
     assert "TWINCELL_NO_CACHE" not in os.environ
+
+
+def test_serve_takes_the_users_cell_and_settings(capsys) -> None:
+    # The cell is applied before anything is served: a cell whose arm runs no RAPID is
+    # refused in one line, naming the arm; an unknown key in --set names the key.
+    assert main(["serve", "skull", "--cell", "ur5", "--quiet"]) == 2
+    assert "the job's arm, the ur5, does not run RAPID" in capsys.readouterr().err
+    assert main(["serve", "skull", "--set", "cell.no_such_key=1", "--quiet"]) == 2
+    assert "no_such_key" in capsys.readouterr().err

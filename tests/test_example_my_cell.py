@@ -37,11 +37,11 @@ def test_the_example_s_program_is_written_for_its_virtual_cell() -> None:
 @pytest.mark.slow
 def test_the_example_s_tests_pass_as_a_user_runs_them(tmp_path: Path) -> None:
     """`pytest` in the example's folder, over one seed instead of its ten (CI's time): the
-    goals met, the bumped fixture detected, the edited touch caught."""
+    goals met, the bumped fixture detected, the edited touch caught, the served cell answering."""
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "0",
          "--twincell-seeds", "1", "--basetemp", str(tmp_path / "base")],
         cwd=EXAMPLE, capture_output=True, text=True, timeout=900,
     )  # fmt: skip
     assert done.returncode == 0, done.stdout[-4000:] + done.stderr[-2000:]
-    assert "3 passed" in done.stdout, done.stdout[-2000:]
+    assert "4 passed" in done.stdout, done.stdout[-2000:]

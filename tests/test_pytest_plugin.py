@@ -8,6 +8,7 @@ from pathlib import Path
 
 import abb_robot_client.rws  # noqa: F401
 import pytest
+import yaml
 
 # pytester runs pytest in this process and forgets the modules each run imported; what the
 # runs use (pinocchio's and MuJoCo's bindings, the RWS client's classes) is imported before
@@ -99,6 +100,35 @@ def test_the_served_twin(served_twin):
         assert len(list(out.glob("*/serve-skull-*"))) == left
 
 
+def test_the_served_twin_serves_the_users_cell_and_settings(
+    pytester: pytest.Pytester, tmp_path: Path
+) -> None:
+    # The user's cell file and a dotted setting reach the served cell, as they reach run_job's;
+    # ground truth: the cell file's own home, read here from its YAML.
+    cell_file = Path(__file__).resolve().parent.parent / "examples" / "my_cell" / "cell.yaml"
+    home_deg = yaml.safe_load(cell_file.read_text())["cell"]["robot"]["home_deg"]
+    pytester.makepyfile(
+        test_twin=f"""
+def test_the_users_cell(served_twin):
+    twin = served_twin("skull", cell={str(cell_file)!r},
+                       overrides={{"cell.noise.laser_sigma_m": 2e-4}})
+    assert list(twin.config.cell.robot.home_deg) == {home_deg!r}
+    assert twin.config.cell.noise.laser_sigma_m == 2e-4
+
+def test_the_jobs_own_cell(served_twin):
+    assert served_twin("skull").config.cell.robot.home_deg is None
+
+def test_a_cell_that_runs_no_rapid(served_twin):
+    served_twin("skull", cell="ur5")
+"""
+    )
+    args = ["-p", "no:xdist", "-p", "no:cacheprovider", "--twincell-out", str(tmp_path / "out")]
+    result = pytester.runpytest(*args)
+    result.assert_outcomes(passed=2, failed=1)
+    text = "\n".join(result.outlines)
+    assert "twincell: error: skull: the job's arm, the ur5, does not run RAPID" in text
+
+
 @pytest.mark.slow
 def test_a_user_project(pytester: pytest.Pytester, tmp_path: Path) -> None:
     pytester.makepyfile(test_my_cell=USER_TESTS)
@@ -126,3 +156,6 @@ def test_a_user_project(pytester: pytest.Pytester, tmp_path: Path) -> None:
     assert seeds <= {p.name for p in out.iterdir()}
     runs = {p.resolve().parent for p in out.glob("*/*/results.json")}  # not `latest`
     assert [p.parent.name for p in runs] == ["test_my_cell.py_test_over_seeds_seed6_"]
+    # and no `latest` link is left pointing at the removed run
+    assert not [p for p in out.rglob("*") if p.is_symlink() and not p.exists()]
+    assert (out / "test_my_cell.py_test_over_seeds_seed6_" / "latest").exists()

@@ -197,7 +197,7 @@ def test_refusals_leave_the_server_serving(served: Serving) -> None:
 
 
 def test_manual_mode_reads_but_does_not_write(tmp_path: Path, short_skull_run: Path) -> None:
-    served = serve_job(str(short_skull_run), ServeOptions(port=0), out=tmp_path, opmode="MANR")
+    served = serve_job(str(short_skull_run), ServeOptions(port=0, opmode="MANR"), out=tmp_path)
     try:
         client = RWS(served.url)
         assert client.get_operation_mode() == "MANR"

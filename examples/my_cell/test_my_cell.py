@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import pytest
+from abb_robot_client.rws import RWS
 
 from scenarios.testing import assert_detected, assert_goals
 
@@ -25,3 +26,9 @@ def test_a_touch_edited_into_the_phantom_is_caught(run_job, tmp_path):
     edited.write_text(program.replace("69.3871]", "66.3871]"))
     with pytest.raises(AssertionError, match="pTouch2: approach -> touch"):
         assert_goals(run_job(JOB, seed=0, cell=CELL, program=edited))
+
+
+def test_my_controller_answers(served_twin):
+    twin = served_twin(JOB, seed=0, cell=CELL)  # my cell, served as its IRC5 would answer
+    assert RWS(twin.url).get_controller_state() == "motoron"
+    assert list(twin.config.cell.robot.home_deg) == [0, 0, 0, 0, 90, 0]  # cell.yaml's home

@@ -9,6 +9,7 @@ import typer
 
 from scenarios.cli.help_format import argument, flag, option
 from scenarios.cli.progress_lines import progress_lines
+from scenarios.cli.run_command import CellOption
 
 # The help's panels of `twincell serve`.
 CONTROLLER = "Controller"
@@ -16,7 +17,11 @@ EGM = "EGM"
 CELL = "Cell"
 OUTPUT = "Output"
 
-EXAMPLES = ("twincell serve skull --speed 5", "twincell serve runs/latest --rws 127.0.0.1:8081")
+EXAMPLES = (
+    "twincell serve skull --speed 5",
+    "twincell serve runs/latest --rws 127.0.0.1:8081",
+    "twincell serve my_job.yaml --cell my_cell.yaml --seed 3",
+)
 
 
 def serve(
@@ -68,6 +73,17 @@ def serve(
             "--speed", "FLOAT", "The cell's time runs N times the wall clock's.", CELL, min=0.01
         ),
     ] = 1.0,
+    cell: CellOption = None,
+    assign: Annotated[
+        list[str] | None,
+        option(
+            "--set",
+            "KEY=VALUE",
+            "Set a configuration value of the job by its dotted key, as `twincell run --set` "
+            "does; repeatable.",
+            CELL,
+        ),
+    ] = None,
     out: Annotated[
         str, option("--out", "DIR", "Folder that holds the serve folders.", OUTPUT)
     ] = "runs",
@@ -83,13 +99,17 @@ def serve(
     client loads and starts run as `twincell execute` runs them; each one run to its end is
     measured against the truth in the serve folder (executions/).
     """
+    from scenarios.configuration.config_files import parse_assignment
     from scenarios.jobs.serve import serve_job
     from scenarios.twin.server import ServeOptions, parse_address, parse_users
 
     rws_host, rws_port = parse_address(rws)
-    options = ServeOptions(host or rws_host, rws_port, egm_port, egm_host, parse_users(user or []))
+    users = parse_users(user or [])
+    options = ServeOptions(host or rws_host, rws_port, egm_port, egm_host, users, opmode.upper())
+    overrides = dict(parse_assignment(text) for text in assign or [])
     serving = serve_job(name, options, seed=seed, speed=speed, out=out, spawn=spawn, rrd=rrd,
-                        progress=progress_lines(quiet), opmode=opmode.upper())  # fmt: skip
+                        progress=progress_lines(quiet),
+                        overrides=overrides, cell=cell)  # fmt: skip
     typer.echo(f"serving {serving.url} (Ctrl-C to stop); serve folder: {serving.folder}")
     _serve_until_stopped(serving)
 

@@ -134,13 +134,16 @@ def serve_job(
     spawn: bool = False,
     rrd: bool = False,
     progress: Progress | None = None,
-    opmode: str = "AUTO",
+    overrides: dict[str, object] | None = None,
+    cell: str | Path | None = None,
 ) -> Serving:
     """Serve the real cell of job `name` (a shipped job, a CONFIG.yaml or a run folder) with
-    `seed` (default the job's), its time `speed` times the wall clock's, the controller in
-    operation mode `opmode` (AUTO, or MANR: clients read only)."""
+    `seed` (default the job's), in the `cell` (a shipped cell's name or a cell YAML; default
+    the job's), the configuration's dotted keys set by `overrides`, its time `speed` times the
+    wall clock's, served as `options` say (default: ServeOptions())."""
     say = progress or (lambda _m: None)
-    config, run = _job(name, seed)
+    options = options or ServeOptions()
+    config, run = _job(name, seed, overrides, cell)
     robot = job_robot(config.cell.robot)
     if not robot.rapid:
         raise ScenarioError(f"{name}: the job's arm, the {robot.name}, does not run RAPID")
@@ -155,25 +158,25 @@ def serve_job(
         recording = Recording(
             folder / "serve.rrd", spawn=spawn, name=title, to_file=rrd, served=True
         )
-        cell = job_cell(config, virtual, real, robot, recording)
+        job = job_cell(config, virtual, real, robot, recording)
     else:
-        cell = rebuild_job_cell(config, virtual, real, robot)
+        job = rebuild_job_cell(config, virtual, real, robot)
     targets = job_targets(config, virtual, user)
     serving: Serving | None = None
 
     def touched(robtarget: str, tool: str | None) -> None:
-        record_touch(cell, targets, robtarget, tool)
+        record_touch(job, targets, robtarget, tool)
 
     def ended(record: ExecutionRecord) -> None:
         if serving is not None:
             _measured(serving, record, targets, say)
 
-    twin = TwinController(cell.controller, folder, speed, touched, ended, say, opmode)
-    twin.elog.listeners.append(lambda e: _log(cell, e))
+    twin = TwinController(job.controller, folder, speed, touched, ended, say, options.opmode)
+    twin.elog.listeners.append(lambda e: _log(job, e))
     if run is not None:
         _program_files(run, twin, say)
-    served = ServedController(twin, options or ServeOptions())
-    serving = Serving(served, cell, folder, config, recording=recording)
+    served = ServedController(twin, options)
+    serving = Serving(served, job, folder, config, recording=recording)
     say(f"the real cell of {config.name} (seed {config.seed}) serves RWS at {served.url}")
     if served.egm is not None:
         say(f"EGM to {served.egm.client[0]}:{served.egm.client[1]} every 4 ms")

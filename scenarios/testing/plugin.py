@@ -6,8 +6,9 @@ Fixtures:
   folder of the test's own and returns its `JobRun` (the typed result and the folder);
 - `real_cell(config, seed=None, overrides=None, cell=None)`: the job's real cell (the same
   seed: the same arm, errors and true placement as the run), its controller ready;
-- `served_twin(config_or_run_folder, seed=None, speed=1.0, egm_port=None)`: the job's cell
-  served on RWS (a free port; `.url`) and EGM, torn down after the test;
+- `served_twin(config_or_run_folder, seed=None, speed=1.0, egm_port=None, overrides=None,
+  cell=None)`: the job's cell (in `cell`, like `run_job`'s) served on RWS (a free port;
+  `.url`) and EGM, torn down after the test;
 - `twincell_seed`: a test that asks for it runs once per seed: `--twincell-seeds N`, else
   the `twincell_seeds(n, start=0)` marker's n, else 1 (each seed its own test, so that
   pytest-xdist spreads them over the workers: `pytest -n auto`).
@@ -151,10 +152,15 @@ def _fail_on_user_error(action: Callable[[], Any]) -> Any:
 
 
 def _cleanup(request: pytest.FixtureRequest, folders: list[Path]) -> None:
+    """Remove the run folders of a passed test (unless --twincell-keep), and a `latest` link
+    beside them that then points nowhere."""
     outcome = request.node.stash.get(_OUTCOME, "failed")
     if outcome == "passed" and not request.config.getoption("--twincell-keep"):
         for folder in folders:
             shutil.rmtree(folder, ignore_errors=True)
+            latest = folder.parent / "latest"
+            if latest.is_symlink() and not latest.exists():
+                latest.unlink(missing_ok=True)
 
 
 @pytest.fixture
@@ -225,11 +231,17 @@ def real_cell(request: pytest.FixtureRequest) -> Callable[..., JobCell]:
 @pytest.fixture
 def served_twin(request: pytest.FixtureRequest) -> Iterator[Callable[..., Serving]]:
     """The job's cell served as a controller on a free port, closed after the test:
-    `served_twin(config_or_run_folder, seed=None, speed=1.0, egm_port=None)`."""
+    `served_twin(config_or_run_folder, seed=None, speed=1.0, egm_port=None, overrides=None,
+    cell=None)`."""
     served: list[Serving] = []
 
     def serve(
-        config: str | Path, seed: int | None = None, speed: float = 1.0, egm_port: int | None = None
+        config: str | Path,
+        seed: int | None = None,
+        speed: float = 1.0,
+        egm_port: int | None = None,
+        overrides: dict[str, object] | None = None,
+        cell: str | Path | None = None,
     ) -> Serving:
         from scenarios.jobs.serve import serve_job
         from scenarios.twin.server import ServeOptions
@@ -237,7 +249,13 @@ def served_twin(request: pytest.FixtureRequest) -> Iterator[Callable[..., Servin
         options = ServeOptions(port=0, egm_port=egm_port)
         serving = _fail_on_user_error(
             lambda: serve_job(
-                str(_found(config, request)), options, seed=seed, speed=speed, out=_out(request)
+                str(_found(config, request)),
+                options,
+                seed=seed,
+                speed=speed,
+                out=_out(request),
+                overrides=overrides,
+                cell=None if cell is None else _found(cell, request),
             )
         )
         served.append(serving)

@@ -17,13 +17,15 @@ from scenarios.twin.twin_controller import TwinController
 @dataclass(frozen=True)
 class ServeOptions:
     """Where and how to serve: RWS on host:port (port 0: any free one), EGM to the client
-    at egm_host:egm_port (None: no EGM), the users (name -> password)."""
+    at egm_host:egm_port (None: no EGM), the users (name -> password), and the controller's
+    operation mode (AUTO, or MANR: clients read only)."""
 
     host: str = "127.0.0.1"
     port: int = 8080
     egm_port: int | None = None
     egm_host: str = "127.0.0.1"
     users: tuple[tuple[str, str], ...] = tuple(DEFAULT_USERS.items())
+    opmode: str = "AUTO"
 
 
 class ServedController:
