@@ -29,7 +29,8 @@ Each FOLDER is one source (e.g. a fetched repository); it is not downloaded here
 ending in .mod, .modx, .sys or .prg are counted. After: every folder named TASKn below it (a
 backup's RAPID/TASKn, with PROGMOD and SYSMOD), the parent of a PROGMOD folder outside one,
 and each --task-dir is read as one task (read_task, strict=False: a module that cannot be
-read is left out and counted as refused, its reason kept); `--task` names a task of loose
+read is left out and counted as refused, its reason kept; an encrypted module
+of a task is kept unread and counted apart); `--task` names a task of loose
 files (e.g. ROS abb_driver's T_ROB1: ROS_common.sys, ROS_socket.sys, ROS_messages.sys,
 ROS_motion.mod); every other file is read on its own (read_module). Before: the code of
 --before (default: the commit before tasks were added) exported with `git archive` to a
@@ -49,6 +50,8 @@ from collections import Counter
 from pathlib import Path
 
 SUFFIXES = (".mod", ".modx", ".sys", ".prg")
+#: What a file of a task kept unread is marked (an encrypted module: read_task's opaque).
+UNREAD = "kept unread"
 BEFORE = "5c7a0ad"
 
 
@@ -70,16 +73,26 @@ def reason(message: str, path: Path | None = None) -> str:
 
 
 def read_files(files: list[Path]) -> dict[str, str | None]:
-    """file -> None (read) or the error, with `read_module` of whatever code is importable."""
-    from scenarios.rapid.reader import read_module
-    from scenarios.rapid.syntax import RapidError
+    """file -> None (read) or the error, with `read_module` of whatever code is importable
+    (the reader's module today, rapid/module.py in the commits before the package's split)."""
+    import importlib
+
+    module = importlib.import_module("scenarios.rapid.module")
+    if not hasattr(module, "read_module"):
+        module = importlib.import_module("scenarios.rapid.reader")
+    errors = (
+        module
+        if hasattr(module, "RapidError")
+        else importlib.import_module("scenarios.rapid.syntax")
+    )
+    read_module, rapid_error = module.read_module, errors.RapidError
 
     out: dict[str, str | None] = {}
     for file in files:
         try:
             read_module(file)
             out[str(file)] = None
-        except RapidError as exc:
+        except rapid_error as exc:
             out[str(file)] = str(exc)
     return out
 
@@ -124,10 +137,11 @@ def _read_group(files: list[Path], out: dict[str, str | None]) -> None:
         out |= {str(f): str(exc) for f in files}
         return
     read = {str(m.path) for m in task.modules}
+    unread = {str(p) for p in getattr(task, "opaque", ())}
     left = [w for w in task.warnings if w.startswith("left out: ")]
     for f in files:
         why = next((w for w in left if str(f) in w), "left out")
-        out[str(f)] = None if str(f) in read else why
+        out[str(f)] = None if str(f) in read else UNREAD if str(f) in unread else why
 
 
 def before(files: list[Path], commit: str) -> dict[str, str | None] | None:
@@ -160,18 +174,27 @@ def before(files: list[Path], commit: str) -> dict[str, str | None] | None:
 
 
 def counts(results: dict[str, str | None] | None) -> tuple[str, str]:
-    """(read, refused) as text; "-" where there are no results."""
+    """(read, refused) as text, a task's encrypted modules kept unread counted in neither;
+    "-" where there are no results."""
     if results is None:
         return "-", "-"
     n_read = sum(r is None for r in results.values())
-    return str(n_read), str(len(results) - n_read)
+    n_unread = sum(r == UNREAD for r in results.values())
+    return str(n_read), str(len(results) - n_read - n_unread)
+
+
+def unread(results: dict[str, str | None]) -> str:
+    """How many files of tasks were kept unread (encrypted), as text."""
+    return str(sum(r == UNREAD for r in results.values()))
 
 
 def reasons(results: dict[str, str | None] | None) -> list[str]:
     """The refusals' reasons, most frequent first, with their counts."""
     if results is None:
         return ["     (the commit is not in this clone)"]
-    refused = Counter(reason(r, Path(f)) for f, r in results.items() if r is not None)
+    refused = Counter(
+        reason(r, Path(f)) for f, r in results.items() if r is not None and r != UNREAD
+    )
     return [f"{n:5d}  {why}" for why, n in refused.most_common()]
 
 
@@ -199,7 +222,10 @@ def main() -> None:
         spec.partition("=")[0]: [Path(f).resolve() for f in spec.partition("=")[2].split(",")]
         for spec in args.task
     }
-    header = ("source", "files", "read before", "refused before", "read after", "refused after")
+    header = (
+        "source", "files", "read before", "refused before", "read after", "refused after",
+        "kept unread after",
+    )  # fmt: skip
     print(" | ".join(header))
     details: list[str] = []
     total = Counter[str]()
@@ -207,7 +233,7 @@ def main() -> None:
         files = module_files(folder)
         old = before(files, args.before)
         new = read_after(folder, tasks, [d.resolve() for d in task_dirs])
-        row = (*counts(old), *counts(new))
+        row = (*counts(old), *counts(new), unread(new))
         print(" | ".join((folder.name, str(len(files)), *row)))
         total["files"] += len(files)
         for key, value in zip(header[2:], row, strict=True):

@@ -347,27 +347,66 @@ def test_placeholders_are_read_and_stop_the_program_where_reached(three: Path) -
 
 
 # -- encrypted or binary --------------------------------------------------------------------------
-def test_an_encrypted_or_binary_module_is_refused_as_such(tmp_path: Path) -> None:
+def _encrypted(path: Path) -> Path:
     # The first bytes of a controller's encrypted module are not text (a public backup's
     # begin fc d8 1d e6 07 01); random bytes after them, as encryption leaves them.
     rng = np.random.default_rng(0)
-    secret = tmp_path / "task" / "Secret.mod"
-    secret.parent.mkdir()
-    secret.write_bytes(bytes([0xFC, 0xD8, 0x1D, 0xE6, 0x07, 0x01]) + rng.bytes(3000))
+    path.write_bytes(bytes([0xFC, 0xD8, 0x1D, 0xE6, 0x07, 0x01]) + rng.bytes(3000))
+    return path
+
+
+def test_an_encrypted_module_alone_is_refused_as_such(tmp_path: Path) -> None:
+    secret = _encrypted(tmp_path / "Secret.mod")
     with pytest.raises(RapidError) as raised:
         read_module(secret)
     assert str(raised.value).startswith(f"{secret} is encrypted or binary, not RAPID text")
     assert "unexpected" not in str(raised.value)
     # A text module with Latin-1 letters in its comments is text.
-    umlaut = tmp_path / "task" / "Zurich.mod"
+    umlaut = tmp_path / "Zurich.mod"
     umlaut.write_bytes("MODULE Zurich\n  ! ETH Z\xfcrich, Stra\xdfe\nENDMODULE\n".encode("latin-1"))
     assert read_module(umlaut).name == "Zurich"
-    # In a task: refused naming the file, or left out without strict.
-    with pytest.raises(RapidError, match=r"Secret\.mod is encrypted or binary"):
-        read_task(secret.parent)
-    task = read_task(secret.parent, strict=False)
-    assert [m.name for m in task.modules] == ["Zurich"]
-    assert task.warnings == (f"left out: {raised.value!s}",)
+    # A task of encrypted modules only has nothing to read.
+    with pytest.raises(RapidError, match="every module of the task is encrypted or binary"):
+        read_task([secret, _encrypted(tmp_path / "Other.sys")])
+
+
+def test_an_encrypted_module_in_a_task_is_kept_unread(three: Path) -> None:
+    """As a controller loads a task with an encrypted module (a licensed system module, say),
+    the task reads with it opaque: named, its symbols unknown; what needs none of them reads
+    and plans, and a move that needs one is refused at its line, naming the module."""
+    secret = _encrypted(three / "Secret.sys")
+    robot = irb2400()
+    tools = {t.name: t.T_tool_tcp for t in TOOLS}
+
+    def plan(task_folder: Path) -> None:
+        task = read_task(task_folder)
+        plan_execution(task, robot.kinematics(), tools, robot.q_home, robot.joint_speed)
+
+    task = read_task(three)
+    assert task.opaque == (secret,)
+    assert [m.name for m in task.modules] == ["Data", "Motion", "Moves"]
+    assert f"{secret}: encrypted or binary: kept in the task unread" in task.warnings[0]
+    plan(three)  # the program needs nothing of it
+    # A move on a tool declared nowhere readable (in the encrypted module, say): read, and
+    # refused where the program reaches it, at its line.
+    move = "    MoveL pA, v100, fine, tSecret\\WObj:=wobjA;"
+    (three / "Motion.mod").write_text(MOTION.replace("    Approach;", f"{move}\n    Approach;"))
+    line = next(i for i, t in enumerate((three / "Motion.mod").read_text().splitlines(), 1)
+                if "tSecret" in t)  # fmt: skip
+    with pytest.raises(RapidError) as raised:
+        plan(three)
+    assert str(raised.value) == (
+        f"{three / 'Motion.mod'}:{line}: tooldata tSecret is declared in none of the task's "
+        "readable modules; its encrypted module(s) Secret.sys may declare it, which only a "
+        "controller can read"
+    )
+    # Where the program does not reach it (Unused), it stops nothing.
+    (three / "Motion.mod").write_text(MOTION.replace("    Frobnicate 1;", move))
+    plan(three)
+    # Without the encrypted module, such a move is refused when the task is read, as before.
+    secret.unlink()
+    with pytest.raises(RapidError, match="the tool tSecret of MoveL is not declared"):
+        read_task(three)
 
 
 # -- motion the executor does not model -----------------------------------------------------------
@@ -438,7 +477,8 @@ def test_twincell_rapid_names_file_and_line_when_unreadable(
 
 def test_twincell_rapid_as_a_user_runs_it(tmp_path: Path) -> None:
     """The console script in a fresh process (this checkout's code first on the path): exit 0
-    and the summary on stdout; exit 2 and one line on stderr for an encrypted module."""
+    and the summary on stdout; an encrypted module beside it kept unread and said; exit 2 and
+    one line on stderr for an encrypted module alone."""
     twincell = Path(sys.executable).with_name("twincell")
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
     done = subprocess.run(
@@ -454,6 +494,12 @@ def test_twincell_rapid_as_a_user_runs_it(tmp_path: Path) -> None:
         text=True,
         env=env,
     )
+    assert done.returncode == 0, done.stderr
+    assert "1 modules (and 1 encrypted, kept unread)" in done.stdout.splitlines()[0]
+    assert f"encrypted module: {secret}" in done.stdout
+    assert f"{secret}: encrypted or binary: kept in the task unread" in done.stdout
+    done = subprocess.run([str(twincell), "rapid", str(secret)], capture_output=True, text=True,
+                          env=env)  # fmt: skip
     assert done.returncode == 2 and done.stdout == ""
     assert (
         done.stderr == f"twincell: error: {secret} is encrypted or binary, not RAPID text "

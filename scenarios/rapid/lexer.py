@@ -9,7 +9,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from scenarios.rapid.syntax import RapidError, location
+from scenarios.rapid.syntax import EncryptedModuleError, RapidError, location
 
 
 def _words(text: str) -> frozenset[str]:
@@ -108,7 +108,7 @@ def check_text(text: str, label: str | None) -> None:
         or controls > max(2, len(sample) // 200)
         or (first and not (first.isascii() and first.isprintable()))
     ):
-        raise RapidError(
+        raise EncryptedModuleError(
             f"{label or 'the module'} is encrypted or binary, not RAPID text (an encrypted "
             "module can only be loaded by a controller)"
         )

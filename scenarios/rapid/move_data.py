@@ -156,7 +156,7 @@ def _tooldata(module: ModuleScope, name: str, line: int) -> ToolData | None:
                 )
             return tool
     _declared(module, name, "tooldata", line)  # declared without a literal value
-    raise program_error(module, line, f"tooldata {name} is not declared in the task")
+    raise program_error(module, line, module.undeclared(f"tooldata {name}"))
 
 
 def object_frame(module: ModuleScope, name: str | None, line: int) -> tuple[str, np.ndarray]:
@@ -183,7 +183,7 @@ def object_frame(module: ModuleScope, name: str | None, line: int) -> tuple[str,
                 )
             return w.name, w.T_base_uframe @ w.T_uframe_oframe
     _declared(module, name, "wobjdata", line)
-    raise program_error(module, line, f"work object {name} is not declared in the task")
+    raise program_error(module, line, module.undeclared(f"work object {name}"))
 
 
 def move_speed(

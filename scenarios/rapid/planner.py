@@ -94,11 +94,12 @@ def _plan_move(
         T_base_tcp = kin.fk(q) @ T_tcp
     else:
         if move.T_wobj_tcp is None:
-            raise program_error(
-                module,
-                line,
-                f"{instruction} {move.target}: the target is known only when the program runs",
-            )
+            declared = {n.casefold() for n in module.data}
+            why = "the target is known only when the program runs"
+            named = re.fullmatch(r"[A-Za-z_]\w*", move.target) is not None
+            if module.opaque and named and move.target.casefold() not in declared:
+                why = module.undeclared(f"the target {move.target}")
+            raise program_error(module, line, f"{instruction} {move.target}: {why}")
         target_conf, eax_a = target_data(module, step)
         T_base_tcp = T_base_oframe @ move.T_wobj_tcp
         monitored = state.conf_j if instruction == "MoveJ" else state.conf_l

@@ -175,13 +175,23 @@ class _Scope:
 
 _ARITHMETIC = {"+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv}
 _RUNTIME = "run-time"  # a name bound only when the program runs (parameter, FOR variable)
+#: A name declared in none of the task's readable modules, where the task holds encrypted ones
+#: that may declare it: known only when the program runs.
+_UNKNOWN = "unknown"
+_UNRESOLVED = (_RUNTIME, _UNKNOWN)
 
 
 class _Builder:
     def __init__(
-        self, parsed: ParsedModule, text: str, source: str | None, outer: dict[str, Decl]
+        self,
+        parsed: ParsedModule,
+        text: str,
+        source: str | None,
+        outer: dict[str, Decl],
+        opaque: bool = False,
     ) -> None:
         self.text = text
+        self.opaque = opaque
         self.source = source
         self.params = parsed.params
         self.outer = outer
@@ -217,7 +227,8 @@ class _Builder:
 
     def lookup(self, name: str, scope: _Scope) -> Decl | str | None:
         """The declaration of a plain name seen from `scope`: _RUNTIME for a parameter or a
-        FOR variable, the predefined data type for tool0 / wobj0 / load0, None if undeclared."""
+        FOR variable, the predefined data type for tool0 / wobj0 / load0, None if undeclared
+        (_UNKNOWN where the task's encrypted modules may declare it)."""
         key = name.casefold()
         if key in scope.loop_vars or key in self.params.get(scope.routine.casefold(), ()):
             return _RUNTIME
@@ -226,7 +237,9 @@ class _Builder:
             or self.module_decls.get(key)
             or self.outer.get(key)
         )
-        return decl if decl is not None else _PREDEFINED.get(key)
+        if decl is not None:
+            return decl
+        return _PREDEFINED.get(key, _UNKNOWN if self.opaque else None)
 
     def check_declared(self, node: Node, datatype: str, role: str, call: Call) -> None:
         """A name used as `role` (a tooldata, wobjdata, jointtarget) must be declared as one."""
@@ -238,7 +251,7 @@ class _Builder:
         if found is None:
             raise self.error(node.line, f"the {role} {base.group()} of {call.name} is not declared")
         kind = found.datatype if isinstance(found, Decl) else found
-        if found != _RUNTIME and kind.casefold() != datatype and base.group() == node.value:
+        if found not in _UNRESOLVED and kind.casefold() != datatype and base.group() == node.value:
             raise self.error(
                 node.line, f"the {role} {node.value} of {call.name} is a {kind}, not a {datatype}"
             )
@@ -262,7 +275,7 @@ class _Builder:
             if isinstance(found, Decl) and found.datatype.casefold() == "num":
                 value = _literal(found.value)
                 return value if isinstance(value, float) else None
-            if found == _RUNTIME:
+            if found in _UNRESOLVED:
                 return None
             kind = found.datatype if isinstance(found, Decl) else found
             raise self.error(node.line, f"{node.value} in {call.name} is a {kind}, not a num")
@@ -387,13 +400,17 @@ class _Builder:
         )
 
 
-def build_module(source: ModuleText, outer: dict[str, Decl] | None = None) -> RapidModule:
+def build_module(
+    source: ModuleText, outer: dict[str, Decl] | None = None, opaque: bool = False
+) -> RapidModule:
     """The typed module of a parsed text, its names resolved in its own module and then in
     `outer` (the data other modules of its task make visible to it, by case-folded name).
     Raises RapidError naming the file and line for a move whose target, tool or work object
-    is declared nowhere, or data that are not what their type needs."""
+    is declared nowhere, or data that are not what their type needs. With `opaque` (the task
+    holds encrypted modules, whose data no reader sees) a name declared nowhere readable is
+    left to the run, where a move that needs it is refused at its line."""
     parsed, text, label = source.parsed, source.text, source.label
-    builder = _Builder(parsed, text, label, outer or {})
+    builder = _Builder(parsed, text, label, outer or {}, opaque)
     moves = tuple(builder.move(c) for c in parsed.calls if c.name.casefold() in MOVES)
     return RapidModule(
         parsed.name,

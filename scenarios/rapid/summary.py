@@ -37,12 +37,14 @@ def task_lines(task: RapidTask) -> list[str]:
     """The summary of `task` (see the module's docstring), one line per item."""
     n_routines = sum(len(m.routines) for m in task.modules)
     n_moves = sum(len(m.moves) for m in task.modules)
+    opaque = f" (and {len(task.opaque)} encrypted, kept unread)" if task.opaque else ""
     lines = [
-        f"task {task.label}: {len(task.modules)} modules, {n_routines} routines, "
+        f"task {task.label}: {len(task.modules)} modules{opaque}, {n_routines} routines, "
         f"{n_moves} moves, {len(task.warnings)} warnings"
     ]
     for module in task.modules:
         lines += _module_lines(module)
+    lines += [f"encrypted module: {path}" for path in task.opaque]
     refused = task.unmodelled_motion()
     if refused:
         lines.append(f"motion the executor refuses ({len(refused)}):")

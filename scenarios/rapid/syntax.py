@@ -18,6 +18,11 @@ class RapidError(ScenarioError, ValueError):
     line and what is wrong."""
 
 
+class EncryptedModuleError(RapidError):
+    """A module file that is not RAPID text: a controller's encrypted module (which only a
+    controller can load) or any binary file."""
+
+
 def location(source: str | None, line: int) -> str:
     """Where a message points: "<source>, line N" (or "line N" without a source)."""
     return f"{source}, line {line}" if source else f"line {line}"

@@ -13,6 +13,12 @@ that holds placeholders (<SMT>, <EXP>, ...: the program editor's marks of what i
 yet, which a controller loads). Motion instructions the
 executor does not model (SearchL, TriggL, MoveExtJ, ...) are read and listed
 (`RapidTask.unmodelled_motion`); the executor refuses them where the program reaches them.
+
+An encrypted module of a task (a controller's licensed system module, say) is kept in it
+unread, as a controller loads it: named in `RapidTask.opaque` and the warnings, its routines
+and data unknown. The other modules read and run; a move that needs a name declared in none of
+the readable modules is refused where the program reaches it, naming the encrypted modules
+that may declare it.
 """
 
 from __future__ import annotations
@@ -32,12 +38,17 @@ from scenarios.rapid.module import (
 )
 from scenarios.rapid.parser import parse_module
 from scenarios.rapid.reader import build_module
-from scenarios.rapid.syntax import Decl, ModuleText, RapidError, Routine
+from scenarios.rapid.syntax import Decl, EncryptedModuleError, ModuleText, RapidError, Routine
 
 #: The file name endings of RAPID modules (compared case-insensitively).
 RAPID_SUFFIXES = (".mod", ".modx", ".sys", ".prg")
 #: The sub-folders of a backup's task folder that hold its modules.
 TASK_FOLDERS = ("PROGMOD", "SYSMOD")
+#: What the warnings say of an encrypted module kept in its task.
+ENCRYPTED_KEPT = (
+    "encrypted or binary: kept in the task unread, as a controller loads it; its routines "
+    "and data are unknown here (a move that needs one is refused where the program reaches it)"
+)
 #: The instructions the executor runs as moves; other motion instructions it refuses.
 EXECUTED_MOVES = frozenset({"movej", "movel", "moveabsj"})
 
@@ -53,6 +64,7 @@ class ModuleScope:
     tools: dict[str, ToolData]
     wobjs: dict[str, WobjData]
     targets: dict[str, RobTarget]
+    opaque: tuple[Path, ...] = ()
 
     @property
     def path(self) -> Path | None:
@@ -70,16 +82,29 @@ class ModuleScope:
     def label(self) -> str:
         return self.module.label
 
+    def undeclared(self, what: str) -> str:
+        """That `what` (e.g. "tooldata tGrip") is declared nowhere the task can be read, with
+        the encrypted modules that may declare it."""
+        if not self.opaque:
+            return f"{what} is not declared in the task"
+        names = ", ".join(p.name for p in self.opaque)
+        return (
+            f"{what} is declared in none of the task's readable modules; its encrypted "
+            f"module(s) {names} may declare it, which only a controller can read"
+        )
+
 
 @dataclass(frozen=True, eq=False)
 class RapidTask:
     """A task's modules in the order they were given (a folder's files sorted by name), the
-    warnings of reading it (procedures defined nowhere; with `strict=False`, the modules left
-    out and why), and the folder it was read from (None for files or a single module)."""
+    warnings of reading it (procedures defined nowhere; encrypted modules kept unread; with
+    `strict=False`, the modules left out and why), the folder it was read from (None for
+    files or a single module), and its encrypted modules' files (`opaque`)."""
 
     modules: tuple[RapidModule, ...]
     warnings: tuple[str, ...] = ()
     path: Path | None = None
+    opaque: tuple[Path, ...] = ()
 
     @property
     def label(self) -> str:
@@ -123,7 +148,7 @@ class RapidTask:
             tools |= {n: t for n, t in other.tools.items() if n in visible}
             wobjs |= {n: w for n, w in other.wobjs.items() if n in visible}
             targets |= {n: t for n, t in other.targets.items() if n in visible}
-        return ModuleScope(module, data, tools, wobjs, targets)
+        return ModuleScope(module, data, tools, wobjs, targets, self.opaque)
 
     def routines(self) -> tuple[tuple[RapidModule, Routine], ...]:
         """Every routine of the task with its module."""
@@ -196,15 +221,17 @@ def _folder_files(folder: Path) -> list[Path]:
 
 def read_task(paths: Sequence[str | Path] | str | Path, strict: bool = True) -> RapidTask:
     """Read a task: a folder (see task_files) or several module files, as one set of
-    modules whose names resolve across them (see the module's docstring). Raises RapidError
-    naming the file and line of the first module that cannot be read (a syntax error, an
-    encrypted or binary file, a name declared in two modules, a move whose data are declared
-    nowhere in the task). With `strict=False`, such a module is left out and named in the
-    warnings instead, and the task holds the others."""
+    modules whose names resolve across them (see the module's docstring). An encrypted module
+    among several is kept unread (`RapidTask.opaque`; see the module's docstring). Raises
+    RapidError naming the file and line of the first module that cannot be read (a syntax
+    error, a name declared in two modules, a move whose data are declared nowhere in the
+    task), and for a task whose modules are all encrypted. With `strict=False`, such a module
+    is left out and named in the warnings instead, and the task holds the others."""
     given = [paths] if isinstance(paths, str | Path) else list(paths)
     files = task_files(given)
     folder = Path(given[0]) if len(given) == 1 and Path(given[0]).is_dir() else None
     warnings: list[str] = []
+    opaque: list[Path] = []
 
     def refuse(error: RapidError) -> None:
         if strict:
@@ -215,8 +242,16 @@ def read_task(paths: Sequence[str | Path] | str | Path, strict: bool = True) -> 
     for file in files:
         try:
             texts.append(parse_module(file))
+        except EncryptedModuleError as exc:
+            if len(files) == 1:
+                raise
+            opaque.append(file)
+            warnings.append(f"{file}: {ENCRYPTED_KEPT}")
+            last = exc
         except RapidError as exc:
             refuse(exc)
+    if opaque and len(opaque) == len(files):
+        raise RapidError(f"every module of the task is encrypted or binary ({last})")
     texts = _unique(texts, refuse)
     modules: list[RapidModule] = []
     for text in texts:
@@ -225,11 +260,12 @@ def read_task(paths: Sequence[str | Path] | str | Path, strict: bool = True) -> 
             if other is not text:
                 outer |= other.global_data()
         try:
-            modules.append(build_module(text, outer))
+            modules.append(build_module(text, outer, opaque=bool(opaque)))
         except RapidError as exc:
             refuse(exc)
-    task = RapidTask(tuple(modules), (), folder)
-    return RapidTask(task.modules, (*warnings, *_placeholders(task), *_undefined(task)), folder)
+    task = RapidTask(tuple(modules), (), folder, tuple(opaque))
+    found = (*warnings, *_placeholders(task), *_undefined(task))
+    return RapidTask(task.modules, found, folder, task.opaque)
 
 
 def _unique(texts: list[ModuleText], refuse: Callable[[RapidError], None]) -> list[ModuleText]:
@@ -270,9 +306,10 @@ def _undefined(task: RapidTask) -> list[str]:
             if task.procedure(call.name, module) is not None:
                 continue
             warned.add(key)
+            where = "in the task's readable modules" if task.opaque else "in the task"
             warnings.append(
                 f"{module.label}, line {call.line}: {call.name} is called but defined nowhere "
-                "in the task (neither a PROC of its modules nor a RAPID instruction)"
+                f"{where} (neither a PROC of its modules nor a RAPID instruction)"
             )
     return warnings
 
