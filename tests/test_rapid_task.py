@@ -403,7 +403,18 @@ def test_an_encrypted_module_in_a_task_is_kept_unread(three: Path) -> None:
     # Where the program does not reach it (Unused), it stops nothing.
     (three / "Motion.mod").write_text(MOTION.replace("    Frobnicate 1;", move))
     plan(three)
+    # A call of a routine defined nowhere readable: refused where reached, not on reading.
+    (three / "Motion.mod").write_text(
+        MOTION.replace("    Approach;", "    rLicensed;\n    Approach;")
+    )
+    with pytest.raises(
+        RapidError,
+        match=r"'rLicensed': neither a PROC of the task's readable "
+        r"modules nor a RAPID instruction \(the encrypted module\(s\) Secret\.sys",
+    ):
+        plan(three)
     # Without the encrypted module, such a move is refused when the task is read, as before.
+    (three / "Motion.mod").write_text(MOTION.replace("    Frobnicate 1;", move))
     secret.unlink()
     with pytest.raises(RapidError, match="the tool tSecret of MoveL is not declared"):
         read_task(three)

@@ -217,14 +217,17 @@ def _split(module: str) -> dict[str, str]:
 def test_a_task_folder_runs_as_its_single_module_does(
     run: tuple[Path, Path], tmp_path: Path
 ) -> None:
-    """The same program as a task of three modules: the same operations and the same errors
-    as the single module's run (same seed), the task written back with only the work
-    object's module changed, and `twincell execute` runs the written-back task."""
+    """The same program as a task of three modules and an encrypted one (a licensed system
+    module, kept unread): the same operations and the same errors as the single module's run
+    (same seed), the task written back with only the work object's module changed and the
+    encrypted one as it was, and `twincell execute` runs the written-back task."""
     module, single = run
     task = tmp_path / "TASK1"
     task.mkdir()
     for name, text in _split(module.read_text()).items():
         (task / name).write_text(text)
+    encrypted = bytes([0xFC, 0xD8, 0x1D, 0xE6, 0x07, 0x01]) + np.random.default_rng(1).bytes(900)
+    (task / "License.sys").write_bytes(encrypted)
     out = tmp_path / "runs"
     args = ["run", "skull", "--program", str(task), "--out", str(out), "--no-rrd", "--quiet"]
     assert main([*args, *SHORT]) == 0
@@ -239,7 +242,10 @@ def test_a_task_folder_runs_as_its_single_module_does(
         atol=1e-9,
     )
     written = folder / "program"
-    assert sorted(p.name for p in written.iterdir()) == sorted(_split(module.read_text()))
+    assert sorted(p.name for p in written.iterdir()) == sorted(
+        [*_split(module.read_text()), "License.sys"]
+    )
+    assert (written / "License.sys").read_bytes() == encrypted
     for name in ("SkullMotion.mod", "SkullMain.mod"):
         assert (written / name).read_text() == (task / name).read_text()
     changed = [

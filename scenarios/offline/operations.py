@@ -26,7 +26,7 @@ from scenarios.offline.settings import OperationsSection, Pick
 from scenarios.program.program_types import Operation
 from scenarios.rapid.module import RapidModule, WobjData
 from scenarios.rapid.syntax import RapidError
-from scenarios.rapid.task import RapidTask, read_task
+from scenarios.rapid.task import ENCRYPTED_KEPT, UNDEFINED_CALL, RapidTask, read_task
 from scenarios.rapid.touches import TouchOperation, touch_operations
 from scenarios.scenario_errors import ScenarioError
 
@@ -128,15 +128,21 @@ def read_user_program(section: OperationsSection) -> UserProgram:
     """Read the RAPID program of `section.program` (a module file, or a folder holding a
     task's modules) and its touch operations; raises RapidError (naming the file and the
     line) for a program that cannot be used: one that calls a procedure defined nowhere in
-    its task (a controller does not load it), or whose touches are spread over modules."""
+    its task (a controller does not load it; where the task holds encrypted modules, which may
+    define it, the executor refuses the call where the program reaches it), or whose touches
+    are spread over modules."""
     assert section.program is not None
     path = Path(section.program)
     if not path.exists():
         raise RapidError(f"RAPID program not found: {path}")
     task = read_task([path])
-    if task.warnings:
+    unread = {f"{p}: {ENCRYPTED_KEPT}" for p in task.opaque}
+    blocking = [w for w in task.warnings if w not in unread]
+    if task.opaque:  # a routine called may be one of the encrypted modules'
+        blocking = [w for w in blocking if UNDEFINED_CALL not in w]
+    if blocking:
         raise RapidError(
-            f"{task.warnings[0]}; a controller does not load a program that calls a routine "
+            f"{blocking[0]}; a controller does not load a program that calls a routine "
             "it does not have"
         )
     used = {

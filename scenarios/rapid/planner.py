@@ -223,11 +223,16 @@ def _check_skipped(module: ModuleScope, step: Step) -> None:
             "triggered or process moves, no path or offset control)",
         )
     if not is_instruction(step.instruction):
+        where = "the task" if not module.opaque else "the task's readable modules"
+        maybe = ""
+        if module.opaque:
+            names = ", ".join(p.name for p in module.opaque)
+            maybe = f" (the encrypted module(s) {names} may define it, unread here)"
         raise program_error(
             module,
             step.line,
-            f"unknown instruction {step.instruction!r}: neither a PROC of the task nor a "
-            "RAPID instruction; the executor cannot tell whether it moves the arm",
+            f"unknown instruction {step.instruction!r}: neither a PROC of {where} nor a "
+            f"RAPID instruction{maybe}; the executor cannot tell whether it moves the arm",
         )
 
 

@@ -49,6 +49,8 @@ ENCRYPTED_KEPT = (
     "encrypted or binary: kept in the task unread, as a controller loads it; its routines "
     "and data are unknown here (a move that needs one is refused where the program reaches it)"
 )
+#: What the warnings say of a procedure called and defined nowhere the task can be read.
+UNDEFINED_CALL = "is called but defined nowhere"
 #: The instructions the executor runs as moves; other motion instructions it refuses.
 EXECUTED_MOVES = frozenset({"movej", "movel", "moveabsj"})
 
@@ -308,8 +310,8 @@ def _undefined(task: RapidTask) -> list[str]:
             warned.add(key)
             where = "in the task's readable modules" if task.opaque else "in the task"
             warnings.append(
-                f"{module.label}, line {call.line}: {call.name} is called but defined nowhere "
-                f"{where} (neither a PROC of its modules nor a RAPID instruction)"
+                f"{module.label}, line {call.line}: {call.name} {UNDEFINED_CALL} {where} "
+                "(neither a PROC of its modules nor a RAPID instruction)"
             )
     return warnings
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from cell import Controller, Kinematics
 from cell.robot_arm import Robot
-from models.atomic import write_text
+from models.atomic import write_bytes, write_text
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.operations import UserProgram
 from scenarios.outputs import toolchain_exports as exports
@@ -138,12 +138,15 @@ def export_program(
     T_uframe_oframe = np.linalg.inv(user.wobj.T_base_uframe) @ T_base_object
     declaring = user.wobj_module or user.module
     corrected = with_oframe(declaring, user.wobj.name, T_uframe_oframe)
-    if user.task is None or len(user.task.modules) == 1:
+    if user.task is None or (len(user.task.modules) == 1 and not user.task.opaque):
         write_text(folder / "program.mod", corrected)
         return "program.mod"
-    # A task: its modules in a folder, the one declaring the work object corrected.
+    # A task: its modules in a folder, the one declaring the work object corrected, its
+    # encrypted modules as they were.
     for module in user.task.modules:
         assert module.path is not None  # a task's modules are read from files
         text = corrected if module is declaring else module.text
         write_text(folder / TASK_FOLDER / module.path.name, text)
+    for path in user.task.opaque:
+        write_bytes(folder / TASK_FOLDER / path.name, path.read_bytes())
     return TASK_FOLDER
