@@ -158,17 +158,19 @@ def load_model(
     units: str | float = "mm",
     spec: ModelErrorSpec | None = None,
     use_cache: bool = True,
+    units_option: str = "--units",
 ) -> tuple[ObjectModel, tuple[str, ...]]:
-    """A built-in model by name or a user mesh file by path (in `units`), optionally as its
-    real entity (`real=True`, model error seeded by `seed`). Returns the model and the
-    warnings found while loading. `use_cache`: see `builtin_model`."""
+    """A built-in model by name or a user mesh file by path (in `units`, given by the user as
+    `units_option`: an option or a configuration key), optionally as its real entity
+    (`real=True`, model error seeded by `seed`). Returns the model and the warnings found
+    while loading. `use_cache`: see `builtin_model`."""
     unit_scale(units)  # refuse bad units even when a built-in model does not need them
     warnings: tuple[str, ...] = ()
     name = str(name_or_path)
     if name in _BUILDERS:
         model = builtin_model(name, seed, use_cache)
     elif Path(name).suffix or Path(name).exists() or "/" in name:
-        model, report = load_mesh_file(name, units)
+        model, report = load_mesh_file(name, units, units_option=units_option)
         warnings = report.warnings
     else:
         raise UnknownModelError(

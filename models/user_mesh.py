@@ -66,12 +66,21 @@ def _read(path: Path) -> trimesh.Trimesh:
     return loaded
 
 
-def _size_check(path: Path, extent: float, scale: float, warnings: list[str]) -> None:
-    """Raise or warn when the largest extent [m] looks like the wrong units."""
+def _setting(units_option: str, value: str) -> str:
+    """The units setting as the user writes it: `--units mm` on a command line, `key: mm` in
+    a configuration file."""
+    return f"{units_option} {value}" if units_option.startswith("-") else f"{units_option}: {value}"
+
+
+def _size_check(
+    path: Path, extent: float, scale: float, warnings: list[str], units_option: str
+) -> None:
+    """Raise or warn when the largest extent [m] looks like the wrong units; the hint names
+    `units_option` (the option or configuration key the units came from)."""
     hint = ""
     for name, s in (("mm", 1e-3), ("m", 1.0)):
         if s != scale and SIZE_WARN[0] <= extent / scale * s <= SIZE_WARN[1]:
-            hint = f" (with --units {name} it would be {extent / scale * s:.4g} m)"
+            hint = f" (with {_setting(units_option, name)} it would be {extent / scale * s:.4g} m)"
             break
     message = f"{path}: largest extent {extent:.4g} m looks like the wrong units{hint}"
     if not SIZE_FAIL[0] <= extent <= SIZE_FAIL[1]:
@@ -84,10 +93,13 @@ def load_mesh_file(
     path: str | Path,
     units: str | float = "mm",
     contact_max_faces: int = CONTACT_MAX_FACES,
+    units_option: str = "--units",
 ) -> tuple[ObjectModel, LoadReport]:
     """Load a .stl/.obj/.ply file as an `ObjectModel` in metres.
 
-    `units` is "mm", "cm", "m", "in" or metres per file unit. Duplicate vertices are merged,
+    `units` is "mm", "cm", "m", "in" or metres per file unit; `units_option` is where the user
+    gave them (an option, or a configuration key), which a size that looks like the wrong
+    units names in its hint. Duplicate vertices are merged,
     degenerate (zero-area) and duplicate faces removed. Warnings (open mesh, several parts,
     borderline size) are in the report; unusable input raises `MeshFileError`/`MeshDataError`.
     """
@@ -115,7 +127,7 @@ def load_mesh_file(
         raise MeshDataError(f"{path}: all {faces_in_file} triangles are degenerate (zero area)")
 
     warnings: list[str] = []
-    _size_check(path, float(mesh.extents.max()), scale, warnings)
+    _size_check(path, float(mesh.extents.max()), scale, warnings, units_option)
     if not mesh.is_watertight:
         warnings.append(
             f"{path}: the mesh is not watertight (open or non-manifold): fine for rays and "

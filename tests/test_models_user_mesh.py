@@ -62,6 +62,18 @@ def test_wrong_units_are_refused_with_a_hint(tmp_path, bracket) -> None:
         load_mesh_file(m_file, units="mm")  # 0.08 mm
 
 
+def test_the_hint_speaks_the_users_language(tmp_path, bracket) -> None:
+    # A job's object read with the units of its configuration: the hint names that key,
+    # as the user would write it in the job's YAML.
+    from scenarios.offline.operations import virtual_model
+
+    m_file = write_mesh(bracket.mesh, tmp_path / "c.stl", "m")
+    with pytest.raises(MeshDataError, match=r"wrong units \(with cell\.object\.units: m it"):
+        virtual_model(str(m_file), "mm", None, "touch", 0)
+    with pytest.raises(MeshDataError, match=r"wrong units \(with --units m it"):
+        load_mesh_file(m_file, units="mm")
+
+
 def test_borderline_size_is_a_warning(tmp_path) -> None:
     box = trimesh.creation.box(extents=(5.0, 4.0, 3.0))  # a 5 mm cube read in mm
     box.export(tmp_path / "tiny.stl")

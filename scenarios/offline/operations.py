@@ -30,6 +30,10 @@ from scenarios.rapid.task import ENCRYPTED_KEPT, UNDEFINED_CALL, RapidTask, read
 from scenarios.rapid.touches import TouchOperation, touch_operations
 from scenarios.scenario_errors import ScenarioError
 
+#: Where a job's object's units are set: its configuration key (`twincell run --model FILE
+#: --units mm` sets it too).
+UNITS_KEY = "cell.object.units"
+
 
 class OperationsError(ScenarioError, ValueError):
     """The object has no targets for the operations asked of it."""
@@ -72,7 +76,9 @@ def virtual_model(
         if json_plan:
             return model
     else:
-        model, _warnings = load_model(name, seed=seed, units=units, use_cache=use_cache)
+        model, _warnings = load_model(
+            name, seed=seed, units=units, use_cache=use_cache, units_option=UNITS_KEY
+        )
     if kind == "screw":
         holes = screw_targets(model)
         if not holes:
