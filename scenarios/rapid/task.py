@@ -244,16 +244,16 @@ def read_task(paths: Sequence[str | Path] | str | Path, strict: bool = True) -> 
     for file in files:
         try:
             texts.append(parse_module(file))
-        except EncryptedModuleError as exc:
+        except EncryptedModuleError:
             if len(files) == 1:
                 raise
             opaque.append(file)
             warnings.append(f"{file}: {ENCRYPTED_KEPT}")
-            last = exc
         except RapidError as exc:
             refuse(exc)
     if opaque and len(opaque) == len(files):
-        raise RapidError(f"every module of the task is encrypted or binary ({last})")
+        names = ", ".join(str(p) for p in opaque)
+        raise RapidError(f"every module of the task is encrypted or binary: {names}")
     texts = _unique(texts, refuse)
     modules: list[RapidModule] = []
     for text in texts:
