@@ -18,7 +18,7 @@ def test_each_root_is_a_class_and_its_subclasses_are_user_errors(name: str) -> N
     assert isinstance(root, type) and issubclass(root, BaseException)
 
     class Derived(root):  # type: ignore[valid-type, misc]
-        pass
+        """An error of the project's own kind, as a package would derive it."""
 
     error = Derived.__new__(Derived)  # whatever its own arguments are
     assert is_user_error(error)

@@ -20,77 +20,86 @@ EXAMPLES = (
 )
 
 
+NameArgument = Annotated[
+    str,
+    argument(
+        "NAME",
+        "register stage: a model (skull, ellipsoid, ...) or a job CONFIG.yaml (with its "
+        "register_trial section); full stage: a shipped job (skull, assembly) or a "
+        "CONFIG.yaml.",
+    ),
+]
+StageOption = Annotated[
+    str,
+    option(
+        "--stage",
+        "[register|full]",
+        "register (matching alone) or full (the scenario).",
+        TRIALS,
+    ),
+]
+TrialsOption = Annotated[
+    int, option("--trials", "INTEGER", "Seeded trials per point.", TRIALS, min=1)
+]
+SeedOption = Annotated[int, option("--seed", "INTEGER", "Seed of the first trial.", TRIALS, min=0)]
+VaryOption = Annotated[
+    list[str] | None,
+    option(
+        "--vary",
+        "KEY=V1,V2,...",
+        "The values of a dotted configuration key, one point each; repeat to cross.",
+        TRIALS,
+    ),
+]
+CellOption = Annotated[
+    str | None,
+    option(
+        "--cell",
+        "CELL",
+        "full stage: the cell to run each trial in, as `twincell run --cell` takes it "
+        "(ur5, or a cell YAML).",
+        TRIALS,
+    ),
+]
+WorkersOption = Annotated[int, option("--workers", "INTEGER", "Worker processes.", WORKERS, min=1)]
+BackendOption = Annotated[
+    str,
+    option("--backend", "[local|dask]", "local (processes here) or dask (a cluster).", WORKERS),
+]
+SchedulerOption = Annotated[
+    str | None,
+    option(
+        "--scheduler",
+        "ADDRESS",
+        "Dask scheduler address (tcp://HOST:8786); none: a local Dask cluster of --workers "
+        "processes.",
+        WORKERS,
+    ),
+]
+OutOption = Annotated[
+    str | None,
+    option(
+        "--out",
+        "DIR",
+        "Campaign folder (default runs/campaigns/NAME-STAGE-KEYS); rerunning into it resumes.",
+        OUTPUT,
+    ),
+]
+QuietOption = Annotated[bool, flag("--quiet", "No progress bar.", OUTPUT)]
+
+
 def campaign(
-    name: Annotated[
-        str,
-        argument(
-            "NAME",
-            "register stage: a model (skull, ellipsoid, ...) or a job CONFIG.yaml (with its "
-            "register_trial section); full stage: a shipped job (skull, assembly) or a "
-            "CONFIG.yaml.",
-        ),
-    ],
-    stage: Annotated[
-        str,
-        option(
-            "--stage",
-            "[register|full]",
-            "register (matching alone) or full (the scenario).",
-            TRIALS,
-        ),
-    ] = "register",
-    trials: Annotated[
-        int, option("--trials", "INTEGER", "Seeded trials per point.", TRIALS, min=1)
-    ] = 10,
-    seed: Annotated[
-        int, option("--seed", "INTEGER", "Seed of the first trial.", TRIALS, min=0)
-    ] = 0,
-    vary: Annotated[
-        list[str] | None,
-        option(
-            "--vary",
-            "KEY=V1,V2,...",
-            "The values of a dotted configuration key, one point each; repeat to cross.",
-            TRIALS,
-        ),
-    ] = None,
-    cell: Annotated[
-        str | None,
-        option(
-            "--cell",
-            "CELL",
-            "full stage: the cell to run each trial in, as `twincell run --cell` takes it "
-            "(ur5, or a cell YAML).",
-            TRIALS,
-        ),
-    ] = None,
-    workers: Annotated[
-        int, option("--workers", "INTEGER", "Worker processes.", WORKERS, min=1)
-    ] = 1,
-    backend: Annotated[
-        str,
-        option("--backend", "[local|dask]", "local (processes here) or dask (a cluster).", WORKERS),
-    ] = "local",
-    scheduler: Annotated[
-        str | None,
-        option(
-            "--scheduler",
-            "ADDRESS",
-            "Dask scheduler address (tcp://HOST:8786); none: a local Dask cluster of --workers "
-            "processes.",
-            WORKERS,
-        ),
-    ] = None,
-    out: Annotated[
-        str | None,
-        option(
-            "--out",
-            "DIR",
-            "Campaign folder (default runs/campaigns/NAME-STAGE-KEYS); rerunning into it resumes.",
-            OUTPUT,
-        ),
-    ] = None,
-    quiet: Annotated[bool, flag("--quiet", "No progress bar.", OUTPUT)] = False,
+    name: NameArgument,
+    stage: StageOption = "register",
+    trials: TrialsOption = 10,
+    seed: SeedOption = 0,
+    vary: VaryOption = None,
+    cell: CellOption = None,
+    workers: WorkersOption = 1,
+    backend: BackendOption = "local",
+    scheduler: SchedulerOption = None,
+    out: OutOption = None,
+    quiet: QuietOption = False,
 ) -> None:
     """Run many seeded trials (a sweep) and report their reliability.
 

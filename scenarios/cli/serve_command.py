@@ -24,74 +24,80 @@ EXAMPLES = (
 )
 
 
+JobArgument = Annotated[
+    str, argument("JOB", "A shipped job (skull, assembly), a CONFIG.yaml, or a run folder.")
+]
+RwsOption = Annotated[
+    str, option("--rws", "HOST:PORT", "Where the Robot Web Services answer.", CONTROLLER)
+]
+OpmodeOption = Annotated[
+    str,
+    option(
+        "--opmode",
+        "[AUTO|MANR]",
+        "The operation mode: AUTO, or MANR (manual: clients read, but neither start "
+        "programs nor write).",
+        CONTROLLER,
+    ),
+]
+HostOption = Annotated[
+    str | None,
+    option("--host", "HOST", "Bind to this host instead of --rws's (e.g. 0.0.0.0).", CONTROLLER),
+]
+UserOption = Annotated[
+    list[str] | None,
+    option(
+        "--user",
+        "NAME:PASSWORD",
+        "A user (repeatable; default the controller's Default User:robotics).",
+        CONTROLLER,
+    ),
+]
+EgmPortOption = Annotated[
+    int | None,
+    option("--egm-port", "PORT", "The EGM client's UDP port.", EGM, min=1, max=65535),
+]
+EgmHostOption = Annotated[str, option("--egm-host", "HOST", "The EGM client's host.", EGM)]
+SeedOption = Annotated[
+    int | None,
+    option("--seed", "INTEGER", "The real cell's seed (default: the job's).", CELL, min=0),
+]
+SpeedOption = Annotated[
+    float,
+    option("--speed", "FLOAT", "The cell's time runs N times the wall clock's.", CELL, min=0.01),
+]
+SetOption = Annotated[
+    list[str] | None,
+    option(
+        "--set",
+        "KEY=VALUE",
+        "Set a configuration value of the job by its dotted key, as `twincell run --set` "
+        "does; repeatable.",
+        CELL,
+    ),
+]
+OutOption = Annotated[str, option("--out", "DIR", "Folder that holds the serve folders.", OUTPUT)]
+SpawnOption = Annotated[bool, flag("--spawn", "Show the cell live in a rerun viewer.", OUTPUT)]
+RrdOption = Annotated[bool, flag("--rrd", "Write serve.rrd into the serve folder.", OUTPUT)]
+QuietOption = Annotated[bool, flag("--quiet", "No progress lines.", OUTPUT)]
+
+
 def serve(
-    name: Annotated[
-        str, argument("JOB", "A shipped job (skull, assembly), a CONFIG.yaml, or a run folder.")
-    ],
-    rws: Annotated[
-        str, option("--rws", "HOST:PORT", "Where the Robot Web Services answer.", CONTROLLER)
-    ] = "127.0.0.1:8080",
-    opmode: Annotated[
-        str,
-        option(
-            "--opmode",
-            "[AUTO|MANR]",
-            "The operation mode: AUTO, or MANR (manual: clients read, but neither start "
-            "programs nor write).",
-            CONTROLLER,
-        ),
-    ] = "AUTO",
-    host: Annotated[
-        str | None,
-        option(
-            "--host", "HOST", "Bind to this host instead of --rws's (e.g. 0.0.0.0).", CONTROLLER
-        ),
-    ] = None,
-    user: Annotated[
-        list[str] | None,
-        option(
-            "--user",
-            "NAME:PASSWORD",
-            "A user (repeatable; default the controller's Default User:robotics).",
-            CONTROLLER,
-        ),
-    ] = None,
-    egm_port: Annotated[
-        int | None,
-        option("--egm-port", "PORT", "The EGM client's UDP port.", EGM, min=1, max=65535),
-    ] = None,
-    egm_host: Annotated[
-        str, option("--egm-host", "HOST", "The EGM client's host.", EGM)
-    ] = "127.0.0.1",
-    seed: Annotated[
-        int | None,
-        option("--seed", "INTEGER", "The real cell's seed (default: the job's).", CELL, min=0),
-    ] = None,
-    speed: Annotated[
-        float,
-        option(
-            "--speed", "FLOAT", "The cell's time runs N times the wall clock's.", CELL, min=0.01
-        ),
-    ] = 1.0,
+    name: JobArgument,
+    rws: RwsOption = "127.0.0.1:8080",
+    opmode: OpmodeOption = "AUTO",
+    host: HostOption = None,
+    user: UserOption = None,
+    egm_port: EgmPortOption = None,
+    egm_host: EgmHostOption = "127.0.0.1",
+    seed: SeedOption = None,
+    speed: SpeedOption = 1.0,
     cell: CellOption = None,
-    assign: Annotated[
-        list[str] | None,
-        option(
-            "--set",
-            "KEY=VALUE",
-            "Set a configuration value of the job by its dotted key, as `twincell run --set` "
-            "does; repeatable.",
-            CELL,
-        ),
-    ] = None,
-    out: Annotated[
-        str, option("--out", "DIR", "Folder that holds the serve folders.", OUTPUT)
-    ] = "runs",
-    spawn: Annotated[
-        bool, flag("--spawn", "Show the cell live in a rerun viewer.", OUTPUT)
-    ] = False,
-    rrd: Annotated[bool, flag("--rrd", "Write serve.rrd into the serve folder.", OUTPUT)] = False,
-    quiet: Annotated[bool, flag("--quiet", "No progress lines.", OUTPUT)] = False,
+    assign: SetOption = None,
+    out: OutOption = "runs",
+    spawn: SpawnOption = False,
+    rrd: RrdOption = False,
+    quiet: QuietOption = False,
 ) -> None:
     """Serve a job's real cell as an ABB IRC5 controller (RWS, EGM).
 

@@ -124,7 +124,7 @@ class Subscriptions:
 async def _until_closed(websocket: web.WebSocketResponse) -> None:
     """Read the client's frames until it closes the websocket."""
     async for _ in websocket:
-        pass
+        continue  # a client's frames carry nothing the subscription takes
 
 
 def _next(events: queue.Queue[str]) -> str | None:
