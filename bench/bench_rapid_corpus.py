@@ -137,7 +137,7 @@ def _read_group(files: list[Path], out: dict[str, str | None]) -> None:
         out |= {str(f): str(exc) for f in files}
         return
     read = {str(m.path) for m in task.modules}
-    unread = {str(p) for p in getattr(task, "opaque", ())}
+    unread = {str(p) for p in task.opaque}
     left = [w for w in task.warnings if w.startswith("left out: ")]
     for f in files:
         why = next((w for w in left if str(f) in w), "left out")

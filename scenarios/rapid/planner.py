@@ -226,8 +226,7 @@ def _check_skipped(module: ModuleScope, step: Step) -> None:
         where = "the task" if not module.opaque else "the task's readable modules"
         maybe = ""
         if module.opaque:
-            names = ", ".join(p.name for p in module.opaque)
-            maybe = f" (the encrypted module(s) {names} may define it, unread here)"
+            maybe = f" (the encrypted module(s) {module.opaque_names} may define it, unread here)"
         raise program_error(
             module,
             step.line,

@@ -89,11 +89,15 @@ class ModuleScope:
         the encrypted modules that may declare it."""
         if not self.opaque:
             return f"{what} is not declared in the task"
-        names = ", ".join(p.name for p in self.opaque)
         return (
             f"{what} is declared in none of the task's readable modules; its encrypted "
-            f"module(s) {names} may declare it, which only a controller can read"
+            f"module(s) {self.opaque_names} may declare it, which only a controller can read"
         )
+
+    @property
+    def opaque_names(self) -> str:
+        """The task's encrypted modules' file names, for messages ("" if none)."""
+        return ", ".join(p.name for p in self.opaque)
 
 
 @dataclass(frozen=True, eq=False)
