@@ -101,6 +101,30 @@ def config_page() -> str:
     return "\n".join(lines)
 
 
+def cell_numbers_page() -> str:
+    """The cell's frames and numbers for the shipped skull job, on the built-in arm and on the
+    UR5 cell, from the code that builds the cell (scenarios.jobs.cell_numbers)."""
+    from scenarios.configuration.config_files import load_config
+    from scenarios.jobs.cell_numbers import cell_numbers, numbers_markdown
+
+    parts = [
+        "# The cell's frames and numbers\n",
+        "What a program written offline for twincell's cell needs, read from the code that "
+        "builds the cell when this site is built (`twincell author JOB --numbers` prints them "
+        "for your job and cell; `twincell author JOB --touch ...` writes the work object, "
+        "the tool's data and the touches: [Your RAPID program](../tutorials/program.md)). "
+        "The cell frame is the built-in arm's base frame: x towards the table, z up "
+        "(RAPID's base frame for an arm mounted there); lengths in mm, quaternions "
+        "scalar first as RAPID writes them.\n",
+    ]
+    for title, cell in (("The skull job, built-in arm", None), ("The skull job, UR5 cell", "ur5")):
+        parts += [f"## {title}\n", numbers_markdown(cell_numbers(load_config("skull", None, cell)))]
+    return "\n".join(parts)
+
+
+with mkdocs_gen_files.open("reference/cell-numbers.md", "w") as page:
+    page.write(cell_numbers_page())
+
 with mkdocs_gen_files.open("reference/config.md", "w") as page:
     page.write(config_page())
 for figure in sorted((ROOT / "bench" / "data").glob("*.png")):

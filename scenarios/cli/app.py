@@ -11,6 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from scenarios.cli import (
+    author_command,
     campaign_command,
     check_command,
     execute_command,
@@ -64,6 +65,7 @@ COMMANDS: tuple[tuple[str, Callable[..., Any], tuple[str, ...]], ...] = (
     ("run", run_command.run, run_command.EXAMPLES),
     ("execute", execute_command.execute, execute_command.EXAMPLES),
     ("serve", serve_command.serve, serve_command.EXAMPLES),
+    ("author", author_command.author, author_command.EXAMPLES),
     ("rapid", rapid_command.rapid, rapid_command.EXAMPLES),
     ("campaign", campaign_command.campaign, campaign_command.EXAMPLES),
 )

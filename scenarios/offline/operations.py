@@ -25,6 +25,7 @@ from scenarios.offline.program_plan import burr_hole_operations
 from scenarios.offline.settings import OperationsSection, Pick
 from scenarios.program.program_types import Operation
 from scenarios.rapid.module import RapidModule, WobjData
+from scenarios.rapid.oframe import pose_text
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import ENCRYPTED_KEPT, UNDEFINED_CALL, RapidTask, read_task
 from scenarios.rapid.touches import TouchOperation, touch_operations
@@ -33,6 +34,10 @@ from scenarios.scenario_errors import ScenarioError
 #: Where a job's object's units are set: its configuration key (`twincell run --model FILE
 #: --units mm` sets it too).
 UNITS_KEY = "cell.object.units"
+#: A user program's work object must describe the object's nominal pose this closely [m],
+#: [deg]: the program and the job then speak of the same virtual cell.
+WOBJ_TOLERANCE_M = 2e-3
+WOBJ_TOLERANCE_DEG = 1.0
 
 
 class OperationsError(ScenarioError, ValueError):
@@ -225,8 +230,8 @@ def program_operations(program: UserProgram) -> tuple[Operation, ...]:
 def check_program_frame(
     program: UserProgram,
     T_base_object_nominal: np.ndarray,
-    tolerance_m: float = 2e-3,
-    tolerance_deg: float = 1.0,
+    tolerance_m: float = WOBJ_TOLERANCE_M,
+    tolerance_deg: float = WOBJ_TOLERANCE_DEG,
 ) -> None:
     """The work object's object frame (uframe @ oframe) must be the object's nominal pose of
     the configuration: both describe the same virtual cell. Raises RapidError otherwise."""
@@ -238,6 +243,7 @@ def check_program_frame(
             f"{program.module.path}: line {w.line}: the object frame of work object {w.name} "
             f"lies {translation * 1e3:.1f} mm and {np.degrees(rotation):.2f} deg from the "
             "object's nominal pose in the configuration (cell.object.placement, the table at "
-            f"{program.table_position_m:.3f} m): the program and the configuration must "
-            "describe the same virtual cell"
+            f"{program.table_position_m:.3f} m), where uframe @ oframe should be "
+            f"{pose_text(T_base_object_nominal)} (`twincell author` writes the work object): "
+            "the program and the configuration must describe the same virtual cell"
         )

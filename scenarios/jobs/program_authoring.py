@@ -1,0 +1,357 @@
+"""A touch program authored on the job's virtual cell, as an offline-programming user writes
+one (`twincell author`): the work object on the part's nominal pose, the tool's data, and for
+each surface point the user names an approach and a touch, solved on the cell's nominal arm
+and followed in the virtual cell before a line of it is written.
+
+A touch is a point of the part (its model's frame) and, optionally, the direction the tool
+moves into the part; without one, the tool comes along the inward normal of the mesh's
+surface nearest the point. The touch's TCP (the tool's tip ball's centre) stops `gap_m`
+before the surface; the approach lies `approach_m` back along the tool's axis. Where the
+arm cannot make a touch as first solved (out of reach, a collision, a singularity, a joint
+limit: the pre-motion check's findings), the tool is spun about its axis, 30 degrees at a
+time, and the first spin the virtual cell passes is written: a touch none passes is refused
+with what each spin met.
+
+Nothing here reads the simulated truth: the part is its virtual model at its nominal pose.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell import nominal_T_base_table
+from cell.cell_errors import UnreachableTargetError
+from cell.kinematics import Kinematics
+from cell.robot_arm import Robot
+from models.model import ObjectModel
+from models.robot import TABLE_TRAVEL, TOOLS
+from models.targets import frame_from_z
+from registration.shapes.mesh_shape import MeshModel
+from scenarios.configuration.job_config import JobConfig
+from scenarios.jobs.job_plan import file_arm
+from scenarios.offline.job_cell import job_virtual_cell
+from scenarios.offline.nominal_placement import nominal_pose
+from scenarios.offline.operations import virtual_model
+from scenarios.offline.premotion import check_program
+from scenarios.offline.premotion_verdict import PremotionCheck
+from scenarios.offline.tcp_check import POINTERS
+from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
+from scenarios.rapid.oframe import pose_text
+from scenarios.rapid.writer import configuration, rapid_identifier, tooldata_text
+from scenarios.scenario_errors import ScenarioError
+
+#: How far along its direction a named point is searched for the part's surface [m].
+SEARCH_M = 0.003
+#: A named point must lie this close to the surface along its direction [m].
+ON_SURFACE_M = 1e-4
+#: The tool's spins about its axis tried for a touch, in order [deg].
+SPINS_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0, 150.0, -150.0, 180.0)
+#: Unused external axes of a robtarget (axis A is the table).
+_UNUSED_AXES = ",".join(["9E+09"] * 5)
+
+
+class AuthoringError(ScenarioError, ValueError):
+    """A touch program cannot be authored as asked: what was asked, and what to change."""
+
+
+@dataclass(frozen=True)
+class TouchRequest:
+    """A touch the user names: its `name`, a point of the part `point_m` (3,) [m] in the
+    model's frame, and the direction the tool moves into the part (3,) (None: along the
+    inward normal of the surface nearest the point)."""
+
+    name: str
+    point_m: np.ndarray
+    direction: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class AuthoredTouch:
+    """A touch as written: where it meets the surface (3,) [m] and the tool's axis (3,), in
+    the model's frame; the tool's spin about its axis the virtual cell passed [deg]; the
+    planned approach and touch (poses and joints); and the RAPID names of its robtargets."""
+
+    request: TouchRequest
+    p_surface_m: np.ndarray
+    axis: np.ndarray
+    spin_deg: float
+    planned: PlannedOperation
+    approach_name: str
+    touch_name: str
+
+
+@dataclass(frozen=True)
+class AuthoredProgram:
+    """A touch program authored on the virtual cell: its RAPID `text`, the work object's
+    uframe T_base_uframe (4, 4) (the part's nominal pose at the table position
+    `table_position_m` [m]; oframe identity), the tool, the touches, and the pre-motion
+    check of the whole program from the arm's home (passed)."""
+
+    text: str
+    T_base_uframe: np.ndarray
+    table_position_m: float
+    tool: str
+    touches: tuple[AuthoredTouch, ...]
+    check: PremotionCheck
+
+
+def surface_touch(
+    surface: MeshModel, request: TouchRequest, search_m: float = SEARCH_M
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where `request` meets the part's `surface` and the tool's axis into it, in the model's
+    frame: along its direction, the surface point within `search_m` [m] of the named point
+    (sampled every 10 um); without a direction, the nearest surface point and the inward
+    normal there. Raises AuthoringError for a point off the surface."""
+    p = np.asarray(request.point_m, dtype=float)
+    if request.direction is None:
+        closest = surface.closest(p[None])
+        assert closest.normals is not None  # a mesh has normals
+        normal: np.ndarray = np.array(closest.normals[0], dtype=np.float64)
+        if float(closest.distances[0]) > search_m:
+            raise AuthoringError(
+                f"touch {request.name}: the point {_mm(p)} mm lies "
+                f"{closest.distances[0] * 1e3:.1f} mm from the part's surface; name a point "
+                f"within {search_m * 1e3:g} mm of it (the model's frame and units)"
+            )
+        inward = normal / -float(np.linalg.norm(normal))
+        return np.array(closest.points[0], dtype=np.float64), inward
+    axis = np.asarray(request.direction, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    steps = np.linspace(-search_m, search_m, round(2 * search_m / 1e-5) + 1)
+    distances = surface.closest(p + steps[:, None] * axis).distances
+    best = int(np.argmin(distances))
+    if distances[best] > ON_SURFACE_M:
+        raise AuthoringError(
+            f"touch {request.name}: the line through {_mm(p)} mm along {_unit(axis)} does not "
+            f"meet the part's surface within {search_m * 1e3:g} mm of the point (it passes "
+            f"{distances[best] * 1e3:.2f} mm from it); name a point on the surface, or no "
+            "direction to touch along the surface's normal"
+        )
+    return p + steps[best] * axis, axis
+
+
+def _mm(p: np.ndarray) -> str:
+    return "(" + ", ".join(f"{v * 1e3:.1f}" for v in p) + ")"
+
+
+def _unit(v: np.ndarray) -> str:
+    return "(" + ", ".join(f"{x:.3f}" for x in v) + ")"
+
+
+def _spun(T: np.ndarray, spin_deg: float) -> np.ndarray:
+    """T turned `spin_deg` [deg] about its own z axis."""
+    c, s = np.cos(np.radians(spin_deg)), np.sin(np.radians(spin_deg))
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    out = T.copy()
+    out[:3, :3] = T[:3, :3] @ R
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class _Cell:
+    """What a touch is solved and checked against: the tool's kinematics and TCP, the part's
+    nominal pose in the base frame, and the check of a program from given joints."""
+
+    kin: Kinematics
+    T_flange_tcp: np.ndarray
+    T_base_object: np.ndarray
+    check: Callable[[tuple[PlannedOperation, ...], np.ndarray], PremotionCheck]
+
+
+def _plan_touch(
+    cell: _Cell, operation: Operation, spin_deg: float, q_from: np.ndarray
+) -> PlannedOperation:
+    """The operation solved on the nominal arm, seeded from the joints `q_from` (6,) [rad]."""
+    T_touch = operation.T_object_touch
+    T_app = operation.T_object_approach
+    q_app = cell.kin.solve(cell.T_base_object @ T_app, q_from, cell.T_flange_tcp, extra_seeds=30)
+    q_touch = cell.kin.solve(cell.T_base_object @ T_touch, q_app, cell.T_flange_tcp, extra_seeds=30)
+    return PlannedOperation(
+        operation,
+        np.radians(spin_deg),
+        T_touch,
+        T_app,
+        cell.T_base_object @ T_app,
+        cell.T_base_object @ T_touch,
+        q_app,
+        q_touch,
+    )
+
+
+def _author_touch(
+    cell: _Cell,
+    request: TouchRequest,
+    surface: MeshModel,
+    clearance_m: float,
+    approach_m: float,
+    q_seed: np.ndarray,
+    q_from: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, float, PlannedOperation]:
+    """The touch's surface point, axis, the first spin the virtual cell passes (the joint
+    move to its approach from `q_from` (6,) [rad] too) and its plan, solved from the seed
+    `q_seed` (6,) [rad]; raises AuthoringError with what each spin met."""
+    p_surface, axis = surface_touch(surface, request)
+    T_first = frame_from_z(p_surface - clearance_m * axis, axis)
+    met: list[str] = []
+    for spin in SPINS_DEG:
+        operation = Operation(request.name, _spun(T_first, spin), approach_m)
+        try:
+            planned = _plan_touch(cell, operation, spin, q_seed)
+        except UnreachableTargetError as exc:
+            met.append(f"spin {spin:+.0f} deg: {exc}")
+            continue
+        check = cell.check((planned,), q_from)
+        if check.ok:
+            return p_surface, axis, spin, planned
+        met.append(f"spin {spin:+.0f} deg: {check.problems[0]}")
+    raise AuthoringError(
+        f"touch {request.name} at {_mm(p_surface)} mm along {_unit(axis)}: no spin of the tool "
+        f"about its axis ({len(SPINS_DEG)} tried) passes the virtual cell; first {met[0]}; "
+        "name another direction (NAME=X,Y,Z@DX,DY,DZ), another point, or another table "
+        "position"
+    )
+
+
+def _job_cell(
+    config: JobConfig, table_position_m: float, say: Callable[[str], None]
+) -> tuple[Robot, ObjectModel, np.ndarray, _Cell]:
+    """The job's arm, its part's virtual model and nominal pose T_table_object (4, 4), and
+    the tool's cell the touches are solved and checked in."""
+    lo, hi = TABLE_TRAVEL
+    if not lo <= table_position_m <= hi:
+        raise AuthoringError(
+            f"table position {table_position_m:g} m is outside the table's travel "
+            f"[{lo:g}, {hi:g}] m"
+        )
+    obj, section, settings = config.cell.object, config.operations, config.planning()
+    virtual = virtual_model(obj.model, obj.units, None, section.kind, config.seed)
+    T_table_object = nominal_pose(settings.placement, virtual.mesh.vertices)
+    robot = file_arm(config, virtual, T_table_object, say)
+    if not robot.rapid:
+        raise AuthoringError(
+            f"the cell's arm, the {robot.name}, runs no RAPID (an ABB arm does): write its "
+            "program in its own language from `twincell author JOB --numbers`"
+        )
+    if section.tool not in POINTERS:
+        raise AuthoringError(
+            f"operations.tool {section.tool!r} has no pointer to touch with; the tools that "
+            f"touch: {', '.join(POINTERS)}"
+        )
+    spec = next(t for t in TOOLS if t.name == section.tool)
+    virtual_cell = job_virtual_cell(
+        robot,
+        config.cell.rack_xyz,
+        virtual,
+        T_table_object,
+        config.calibration.enabled,
+        settings.object_name,
+    )
+    kin = robot.kinematics().for_tool(section.tool)
+    T_base_object = nominal_T_base_table(table_position_m) @ T_table_object
+
+    def check(planned: tuple[PlannedOperation, ...], q_from: np.ndarray) -> PremotionCheck:
+        program = OfflineProgram(section.tool, table_position_m, T_table_object, planned)
+        return check_program(
+            program,
+            kin,
+            virtual_cell,
+            q_from,
+            spec.T_tool_tcp,
+            object_name=settings.object_name,
+        )
+
+    return robot, virtual, T_table_object, _Cell(kin, spec.T_tool_tcp, T_base_object, check)
+
+
+def author_program(
+    config: JobConfig,
+    touches: Sequence[TouchRequest],
+    approach_m: float = 0.06,
+    gap_m: float = 0.001,
+    table_position_m: float = 0.0,
+    module: str = "Touches",
+    say: Callable[[str], None] = lambda _msg: None,
+) -> AuthoredProgram:
+    """The touch program of `touches` for the job `config` (its cell, its part at its nominal
+    pose, its tool: `operations.tool`), the table at `table_position_m` [m]: each touch's tip
+    ball stopping `gap_m` [m] before the surface, its approach `approach_m` [m] back along the
+    tool's axis, every move solved on the nominal arm and followed in the virtual cell (see
+    the module's docstring). Raises AuthoringError naming the touch and what to change."""
+    if not touches:
+        raise AuthoringError("no touch named: give at least one (NAME=X,Y,Z)")
+    names = [t.name for t in touches]
+    if len(set(names)) != len(names):
+        raise AuthoringError(f"touch names must differ, got {names}")
+    if not (0.0 < approach_m <= 0.3 and 0.0 <= gap_m <= 0.05):
+        raise AuthoringError(
+            f"approach {approach_m * 1e3:g} mm and gap {gap_m * 1e3:g} mm: the approach must be "
+            "in (0, 300] mm and the gap in [0, 50] mm"
+        )
+    robot, virtual, _, cell = _job_cell(config, table_position_m, say)
+    surface = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
+    clearance_m = gap_m + POINTERS[config.operations.tool][0]
+    q_seed = q_from = robot.q_home
+    written: list[AuthoredTouch] = []
+    for request in touches:
+        p, axis, spin, planned = _author_touch(
+            cell, request, surface, clearance_m, approach_m, q_seed, q_from
+        )
+        say(f"touch {request.name}: at {_mm(p)} mm, spun {spin:+.0f} deg, passes the virtual cell")
+        base = rapid_identifier(request.name, "p")[:29]
+        written.append(AuthoredTouch(request, p, axis, spin, planned, f"{base}App", base))
+        q_seed, q_from = planned.q_touch, planned.q_approach
+    check = cell.check(tuple(t.planned for t in written), robot.q_home)
+    if not check.ok:
+        raise AuthoringError(f"the touches together do not pass the virtual cell: {check.summary}")
+    text = _module_text(config, cell, written, table_position_m, module, approach_m, gap_m)
+    return AuthoredProgram(
+        text, cell.T_base_object, table_position_m, config.operations.tool, tuple(written), check
+    )
+
+
+def _module_text(
+    config: JobConfig,
+    cell: _Cell,
+    touches: list[AuthoredTouch],
+    table_position_m: float,
+    module: str,
+    approach_m: float,
+    gap_m: float,
+) -> str:
+    """The RAPID module of the authored touches (mm, quaternions scalar first)."""
+    tool = rapid_identifier(config.operations.tool, "t")
+    eax = f"[{table_position_m * 1e3:g},{_UNUSED_AXES}]"
+    lines = [
+        f"MODULE {module}",
+        f"  ! Touches of the job {config.name} authored on its virtual cell (twincell author):",
+        "  ! the work object's uframe on the part's nominal pose, the table at "
+        f"{table_position_m * 1e3:g} mm;",
+        f"  ! each touch's tip {gap_m * 1e3:g} mm before the surface, its approach "
+        f"{approach_m * 1e3:g} mm back along the tool's axis.",
+        f"  {tooldata_text(config.operations.tool)}",
+        f'  PERS wobjdata wobjPart := [FALSE,TRUE,"",{pose_text(cell.T_base_object)},'
+        "[[0,0,0],[1,0,0,0]]];",
+        "  CONST speeddata vTouch := [20,500,5000,1000];",
+    ]
+    for touch in touches:
+        planned = touch.planned
+        for name, T, q in (
+            (touch.approach_name, planned.T_object_approach, planned.q_approach),
+            (touch.touch_name, planned.T_object_touch, planned.q_touch),
+        ):
+            conf = ",".join(str(v) for v in configuration(cell.kin, q))
+            lines.append(f"  CONST robtarget {name} := [{pose_text(T)[1:-1]},[{conf}],{eax}];")
+    lines += ["  PROC main()", "    ConfJ\\Off;", "    ConfL\\Off;"]
+    for touch in touches:
+        app, hit = touch.approach_name, touch.touch_name
+        lines += [
+            f"    ! {touch.request.name}",
+            f"    MoveJ {app}, v500, z10, {tool}\\WObj:=wobjPart;",
+            f"    MoveL {hit}, vTouch, fine, {tool}\\WObj:=wobjPart;",
+            f"    MoveL {app}, v100, z10, {tool}\\WObj:=wobjPart;",
+        ]
+    lines += ["  ENDPROC", "ENDMODULE", ""]
+    return "\n".join(lines)
