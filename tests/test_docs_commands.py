@@ -124,6 +124,7 @@ MADE = {
     "runs/latest": (True, "twincell run"),
     "ct/phantom_ct.nii.gz": (False, "python examples/make_ct.py"),
     "ct/plan.json": (False, "python examples/make_ct.py"),
+    "my_touches.mod": (False, "twincell author"),
 }
 
 
