@@ -87,3 +87,40 @@ def test_a_fault_detected_or_missed(run: JobRun) -> None:
         assert_detected(JobRun(replace(run.result, faults=(missed,)), run.folder), "object_bump")
     with pytest.raises(AssertionError, match="no fault object_bump in the run"):
         assert_detected(run, "object_bump")
+
+
+#: `twincell run examples/my_cell/job.yaml --cell examples/my_cell/cell.yaml --seed 3` (no
+#: recording, no plots): the job's own execution met the goals (RMS 0.394 mm, max 0.473 mm
+#: against 0.5 and 1.0 mm); the user's module it exported, run by a controller without
+#: absolute accuracy (compensation nominal: only the work object corrected), did not (RMS
+#: 0.539 mm, max 0.705 mm).
+MY_CELL_SEED3 = Path(__file__).parent / "data" / "results" / "my_cell_seed3.json"
+
+
+def test_an_exported_program_that_missed_a_goal_fails_the_goals() -> None:
+    """The figures as that run measured them (ground truth: its results.json, not made here);
+    the same run with the exported figures edited within the goals passes, and edited beyond
+    the largest-error goal alone names that goal alone."""
+    run = JobRun(read_results(MY_CELL_SEED3), MY_CELL_SEED3.parent)
+    r, exported = run.result, run.result.exported_program
+    assert exported is not None and exported.compensation == "nominal"
+    assert all(check.met for check in r.checks.values())
+    with pytest.raises(AssertionError) as failed:
+        assert_goals(run)
+    text = str(failed.value)
+    assert "job my_phantom, seed 3: the exported program program.mod (nominal" in text
+    assert "exported program RMS: 0.539 mm > goal target_error_rms_m 0.500 mm" in text
+    assert "exported program max" not in text  # 0.705 mm is within the 1 mm goal
+    assert "pTouch0: 0.705 mm" in text
+    assert "the job's own execution met them: RMS 0.394 mm, max 0.473 mm" in text
+
+    def edited(rms_m: float, max_m: float) -> JobRun:
+        figures = replace(exported, target_error_rms_m=rms_m, target_error_max_m=max_m)
+        return JobRun(replace(r, exported_program=figures), run.folder)
+
+    assert_goals(edited(0.499e-3, 0.999e-3))  # within both goals by 1 um
+    with pytest.raises(AssertionError) as failed:
+        assert_goals(edited(0.45e-3, 1.2e-3))
+    text = str(failed.value)
+    assert "exported program max: 1.200 mm > goal target_error_max_m 1.000 mm" in text
+    assert "exported program RMS" not in text

@@ -172,7 +172,8 @@ def _fold(name: str) -> str:
 def job_targets(config: JobConfig, virtual: ObjectModel, user: UserProgram | None) -> JobTargets:
     """The job's targets and the robtargets that stand for them: the writer's p<Name>Touch
     (scenarios.rapid.writer; with a method's prefix when the job ran each method), or a
-    user program's own touch robtargets (the touch is the target: no offset)."""
+    user program's own touch robtargets (the touch is the target: no offset), standing for
+    the targets operations.names calls them."""
     names: dict[str, str] = {}
     prefixes = [""]
     if config.operations.per_method:
@@ -181,6 +182,10 @@ def job_targets(config: JobConfig, virtual: ObjectModel, user: UserProgram | Non
         names[_fold(hole.name)] = hole.name
         for prefix in prefixes:
             names[_fold(f"{rapid_identifier(prefix + hole.name, 'p')}Touch"[:32])] = hole.name
+    if user is not None:  # its touch robtargets stand for the targets they are named
+        names.update(
+            (_fold(op.name), name) for op, name in zip(user.operations, user.names, strict=True)
+        )
     offset = 0.0 if user is not None else config.operations.touch_offset_m
     return JobTargets(virtual, offset, names)
 

@@ -28,7 +28,7 @@ from scenarios.rapid.module import RapidModule, WobjData
 from scenarios.rapid.oframe import pose_text
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import ENCRYPTED_KEPT, UNDEFINED_CALL, RapidTask, read_task
-from scenarios.rapid.touches import TouchOperation, touch_operations
+from scenarios.rapid.touches import TouchOperation, folded, touch_operations
 from scenarios.scenario_errors import ScenarioError
 
 #: Where a job's object's units are set: its configuration key (`twincell run --model FILE
@@ -124,13 +124,15 @@ class UserProgram:
     """The user's RAPID program: the module whose moves hold the touches (its work object and
     robtargets as that module sees them in its task), the work object, the touch operations
     read from it, the table position its robtargets were taught at [m] (external axis A, 0 if
-    unused), the task it belongs to (a task of that one module for a single file) and the
-    module that declares the work object (the one written back corrected)."""
+    unused), the targets' names (one per operation, as operations.names says), the task it
+    belongs to (a task of that one module for a single file) and the module that declares the
+    work object (the one written back corrected)."""
 
     module: RapidModule
     wobj: WobjData
     operations: tuple[TouchOperation, ...]
     table_position_m: float
+    names: tuple[str, ...]
     task: RapidTask | None = None
     wobj_module: RapidModule | None = None
 
@@ -184,7 +186,41 @@ def read_user_program(section: OperationsSection) -> UserProgram:
         (m for m in task.modules if any(n.casefold() == wobj.name.casefold() for n in m.wobjs)),
         module,
     )
-    return UserProgram(module, wobj, operations, table_position_m, task, declaring)
+    names = target_names(operations, section.names, path)
+    return UserProgram(module, wobj, operations, table_position_m, names, task, declaring)
+
+
+def target_names(
+    operations: tuple[TouchOperation, ...], names: str | dict[str, str], path: Path
+) -> tuple[str, ...]:
+    """The targets' names of the program's `operations` as operations.names says: the touch
+    robtargets' names ("robtargets"), a naming comment's where there is one ("comments"), or
+    a table {robtarget: name}, the others keeping theirs. Raises RapidError for a table's
+    robtarget that is no touch's, and for two touches named alike by comments or a table."""
+    if names == "robtargets":
+        return tuple(op.name for op in operations)
+    if names == "comments":
+        chosen = [op.comment or op.name for op in operations]
+    else:
+        assert isinstance(names, dict)
+        table = {folded(key): value for key, value in names.items()}
+        touches = {folded(op.name) for op in operations}
+        unknown = [key for key in names if folded(key) not in touches]
+        if unknown:
+            raise RapidError(
+                f"{path}: operations.names names {', '.join(unknown)}, not a touch robtarget "
+                f"of the program (its touches: {', '.join(op.name for op in operations)})"
+            )
+        chosen = [table.get(folded(op.name), op.name) for op in operations]
+    for i, name in enumerate(chosen):
+        twin = next((j for j in range(i) if folded(chosen[j]) == folded(name)), None)
+        if twin is not None:
+            raise RapidError(
+                f"{path}: the touches {operations[twin].name} (line {operations[twin].line}) "
+                f"and {operations[i].name} (line {operations[i].line}) are both named {name} "
+                "(operations.names); give each its own name"
+            )
+    return tuple(chosen)
 
 
 def _touch_module(task: RapidTask, wobj: str, path: Path) -> RapidModule:
@@ -206,24 +242,25 @@ def _touch_module(task: RapidTask, wobj: str, path: Path) -> RapidModule:
 
 
 def program_targets(program: UserProgram) -> tuple[BurrHole, ...]:
-    """The user program's touches as targets: the TCP at touch is the target, the tool's z
-    axis its direction."""
+    """The user program's touches as targets, by their names (operations.names): the TCP at
+    touch is the target, the tool's z axis its direction."""
     return tuple(
-        BurrHole(op.name, op.T_wobj_touch[:3, 3], op.T_wobj_touch[:3, 2], 0.01)
-        for op in program.operations
+        BurrHole(name, op.T_wobj_touch[:3, 3], op.T_wobj_touch[:3, 2], 0.01)
+        for op, name in zip(program.operations, program.names, strict=True)
     )
 
 
 def program_operations(program: UserProgram) -> tuple[Operation, ...]:
-    """The user program's touches as operations, approach and touch poses as written."""
+    """The user program's touches as operations, by their targets' names, approach and touch
+    poses as written."""
     return tuple(
         Operation(
-            op.name,
+            name,
             op.T_wobj_touch,
             float(np.linalg.norm(op.T_wobj_approach[:3, 3] - op.T_wobj_touch[:3, 3])),
             op.T_wobj_approach,
         )
-        for op in program.operations
+        for op, name in zip(program.operations, program.names, strict=True)
     )
 
 

@@ -274,7 +274,11 @@ class OperationsSection(Section):
     robtargets of its work object `wobj` (default: the one its moves use), approach and
     touch recognised from the MoveJ/MoveL pattern or listed in `pairs` ([approach, touch]
     target names); the robtargets are the touch poses themselves (no touch offset). The run
-    writes that module back corrected: only the work object's oframe changes."""
+    writes that module back corrected: only the work object's oframe changes. `names`: what
+    the program's targets are called in the results: `robtargets` (the touch robtargets'
+    names, `pTouch0`), `comments` (the one word of a comment line `! kocher_right` right above
+    a touch's approach move, else the robtarget's name) or a table {robtarget: name} (the
+    robtargets not in it keep their names)."""
 
     kind: Literal["touch", "screw"] = "touch"
     tool: str = "screwer"
@@ -289,6 +293,7 @@ class OperationsSection(Section):
     program: str | None = None
     wobj: str | None = None
     pairs: tuple[tuple[str, str], ...] | None = None
+    names: Literal["robtargets", "comments"] | dict[str, str] = "robtargets"
 
     @field_validator("tool")
     @classmethod
@@ -302,8 +307,10 @@ class OperationsSection(Section):
 
     @model_validator(mode="after")
     def _program_keys(self) -> OperationsSection:
-        if self.program is None and (self.wobj is not None or self.pairs is not None):
-            raise ValueError("wobj and pairs belong to a RAPID program: set program too")
+        if self.program is None and (
+            self.wobj is not None or self.pairs is not None or self.names != "robtargets"
+        ):
+            raise ValueError("wobj, pairs and names belong to a RAPID program: set program too")
         return self
 
     @model_validator(mode="after")

@@ -18,22 +18,44 @@ from scenarios.rapid.syntax import RapidError, location
 class TouchOperation:
     """An operation to correct: the approach and touch TCP poses in the work object's object
     frame T_wobj_approach, T_wobj_touch (4, 4) [m], the touch move's speed as written and its
-    line. The name is the touch target's name (or expression) as written."""
+    line. The name is the touch target's name (or expression) as written; `comment` the name
+    a comment line of one word (`! kocher_right`) right above the operation's first move
+    gives it (its approach move; with listed pairs, the approach where it is the move just
+    before the touch, else the touch), or None."""
 
     name: str
     T_wobj_approach: np.ndarray
     T_wobj_touch: np.ndarray
     speed_touch: str
     line: int
+    comment: str | None = None
 
 
 def _module_error(module: RapidModule, line: int, message: str) -> RapidError:
     return RapidError(f"{location(module.label, line)}: {message}")
 
 
+def folded(name: str) -> str:
+    """A target as written, as RAPID compares names: blanks dropped, case folded."""
+    return re.sub(r"\s", "", name).casefold()
+
+
 def _same(a: str, b: str) -> bool:
     """Two targets as written are the same (RAPID names are case-insensitive)."""
-    return re.sub(r"\s", "", a).casefold() == re.sub(r"\s", "", b).casefold()
+    return folded(a) == folded(b)
+
+
+#: A comment line that names the operation below it: `! name`, one word.
+_NAME_COMMENT = re.compile(r"^\s*!\s*([A-Za-z][\w-]*)\s*$")
+
+
+def _comment_name(module: RapidModule, line: int) -> str | None:
+    """The name a comment line `! name` (one word) right above line `line` gives, or None."""
+    lines = module.text.splitlines()
+    if not 2 <= line <= len(lines) + 1:
+        return None
+    found = _NAME_COMMENT.match(lines[line - 2])
+    return None if found is None else found.group(1)
 
 
 _PAIRS_HINT = "list the (approach, touch) target pairs of this work object in the config"
@@ -100,7 +122,14 @@ def touch_operations(
                 f"the target {late.target} is known only at run time; {_PAIRS_HINT} with "
                 "targets declared in the module",
             )
-        touch = TouchOperation(m.target, previous.T_wobj_tcp, m.T_wobj_tcp, m.speed, m.line)
+        touch = TouchOperation(
+            m.target,
+            previous.T_wobj_tcp,
+            m.T_wobj_tcp,
+            m.speed,
+            m.line,
+            _comment_name(module, previous.line),
+        )
         operations.append(touch)
         previous = m
     if not operations:
@@ -138,6 +167,20 @@ def _paired(
                 f"neither a declared robtarget nor the target of a move with {data.name}",
             )
         T_approach = target.T_wobj_tcp
+    before = _move_before(module, touch_move)
+    first = before if before is not None and _same(before.target, approach) else touch_move
     return TouchOperation(
-        touch_move.target, T_approach, touch_move.T_wobj_tcp, touch_move.speed, touch_move.line
+        touch_move.target,
+        T_approach,
+        touch_move.T_wobj_tcp,
+        touch_move.speed,
+        touch_move.line,
+        _comment_name(module, first.line),
     )
+
+
+def _move_before(module: RapidModule, move: Move) -> Move | None:
+    """The move of the module just before `move` in the same routine, or None."""
+    index = next(i for i, m in enumerate(module.moves) if m is move)
+    before = module.moves[index - 1] if index > 0 else None
+    return before if before is not None and before.routine == move.routine else None

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from scenarios.results.exported_result import ExportedRun
+from scenarios.results.run import RunResult
 from scenarios.testing.runs import JobRun
 
 
@@ -25,9 +27,9 @@ def _targets(run: JobRun) -> list[str]:
 def assert_goals(run: JobRun) -> None:
     """The run's program ran to its end ("complete", or "at_risk": the job could not promise
     its goals, which the truth then decides) and met the job's goals (its target RMS and
-    worst target), and the
-    program it exported, where the job ran it on the real cell, ran to its end (its accuracy
-    on a controller without absolute accuracy is results.json's `exported_program`)."""
+    worst target); and the program it exported, where the job ran it on the real cell as a
+    controller without absolute accuracy does (results.json's `exported_program`, the run
+    table's program.mod row), ran to its end and met the same goals."""
     __tracebackhide__ = True
     r = run.result
     if r.status not in ("complete", "at_risk"):
@@ -50,6 +52,40 @@ def assert_goals(run: JobRun) -> None:
     ]
     if missed:
         raise _fail(run, "the goals are not met", [*missed, "targets: " + ", ".join(_targets(run))])
+    if exported is not None:
+        _hold_exported(run, exported)
+
+
+def _hold_exported(run: JobRun, exported: ExportedRun) -> None:
+    """The exported program's figures against the job's goals (None: it touched none of the
+    job's targets, a miss)."""
+    __tracebackhide__ = True
+    values = {
+        "target_error_rms_m": ("RMS", exported.target_error_rms_m),
+        "target_error_max_m": ("max", exported.target_error_max_m),
+    }
+    missed = [
+        f"exported program {label}: {_mm(value)} > goal {name} {_mm(check.limit_m)}"
+        for name, check in run.result.checks.items()
+        if name in values
+        for label, value in [values[name]]
+        if value is None or value > check.limit_m
+    ]
+    if missed:
+        touched = ", ".join(f"{t.name}: {_mm(t.error_m)}" for t in exported.targets) or "none"
+        raise _fail(
+            run,
+            f"the exported program {run.result.program_file} ({exported.compensation} "
+            "compensation) missed the goals on the real cell, run by a controller without "
+            "absolute accuracy",
+            [*missed, f"its targets: {touched}", _achieved(run.result)],
+        )
+
+
+def _achieved(r: RunResult) -> str:
+    """The job's own execution's figures, which met the goals."""
+    rms, worst = _mm(r.target_error_rms_m), _mm(r.target_error_max_m)
+    return f"the job's own execution met them: RMS {rms}, max {worst}"
 
 
 def assert_targets_within(

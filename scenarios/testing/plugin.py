@@ -1,17 +1,19 @@
 """twincell's pytest plugin (entry point `pytest11`): end-to-end tests of the user's own cell.
 
-Fixtures:
-- `run_job(config, seed=None, program=None, overrides=None, cell=None)`: runs a job (a
-  shipped job's name or a configuration file, found beside the test file too) into a run
-  folder of the test's own and returns its `JobRun` (the typed result and the folder);
-- `real_cell(config, seed=None, overrides=None, cell=None)`: the job's real cell (the same
-  seed: the same arm, errors and true placement as the run), its controller ready;
-- `served_twin(config_or_run_folder, seed=None, speed=1.0, egm_port=None, overrides=None,
-  cell=None)`: the job's cell (in `cell`, like `run_job`'s) served on RWS (a free port;
-  `.url`) and EGM, torn down after the test;
-- `twincell_seed`: a test that asks for it runs once per seed: `--twincell-seeds N`, else
-  the `twincell_seeds(n, start=0)` marker's n, else 1 (each seed its own test, so that
-  pytest-xdist spreads them over the workers: `pytest -n auto`).
+Fixtures (each but `twincell_seed` is a function the test calls):
+- `run_job`: a function `run_job(config, seed=None, program=None, overrides=None, cell=None)
+  -> JobRun` that runs a job (a shipped job's name or a configuration file, found beside the
+  test file too) into a run folder of the test's own and returns its `JobRun` (the typed
+  result and the folder);
+- `real_cell`: a function `real_cell(config, seed=None, overrides=None, cell=None) -> JobCell`
+  that builds the job's real cell (the same seed: the same arm, errors and true placement as
+  the run), its controller ready;
+- `served_twin`: a function `served_twin(config_or_run_folder, seed=None, speed=1.0,
+  egm_port=None, overrides=None, cell=None) -> Serving` that serves the job's cell (in
+  `cell`, like `run_job`'s) on RWS (a free port; `.url`) and EGM, closed after the test;
+- `twincell_seed`: the seed (an int); a test that asks for it runs once per seed:
+  `--twincell-seeds N`, else the `twincell_seeds(n, start=0)` marker's n, else 1 (each seed
+  its own test, so that pytest-xdist spreads them over the workers: `pytest -n auto`).
 
 A configuration the project refuses, a program the reader refuses, a model that does not
 load: the fixture fails the test with the project's one-line error. Run folders of failed
@@ -165,7 +167,12 @@ def _cleanup(request: pytest.FixtureRequest, folders: list[Path]) -> None:
 
 @pytest.fixture
 def run_job(request: pytest.FixtureRequest) -> Iterator[Callable[..., JobRun]]:
-    """Run a job: `run_job(config, seed=None, program=None, overrides=None, cell=None)`."""
+    """A function that runs a job and returns its run: `run_job(config, seed=None,
+    program=None, overrides=None, cell=None) -> JobRun`. `config`: a shipped job's name or a
+    job YAML; `seed`: the real cell's draw (default the job's); `program`: a RAPID module or
+    task folder (operations.program); `overrides`: dotted keys as `twincell run --set` takes
+    them; `cell`: a shipped cell's name or a cell YAML. Files are found beside the test file
+    too. The run folders are removed after a passed test (unless --twincell-keep)."""
     folders: list[Path] = []
     request.node.stash[_FOLDERS] = folders
 
@@ -206,7 +213,9 @@ def run_job(request: pytest.FixtureRequest) -> Iterator[Callable[..., JobRun]]:
 
 @pytest.fixture
 def real_cell(request: pytest.FixtureRequest) -> Callable[..., JobCell]:
-    """The job's real cell: `real_cell(config, seed=None, overrides=None, cell=None)`."""
+    """A function that builds a job's real cell: `real_cell(config, seed=None,
+    overrides=None, cell=None) -> JobCell` (scenarios.realcell.setup: its `.controller`,
+    ready, and `.evaluator`, the truth), as `twincell run` builds it for the seed."""
 
     def build(
         config: str | Path,
@@ -230,9 +239,12 @@ def real_cell(request: pytest.FixtureRequest) -> Callable[..., JobCell]:
 
 @pytest.fixture
 def served_twin(request: pytest.FixtureRequest) -> Iterator[Callable[..., Serving]]:
-    """The job's cell served as a controller on a free port, closed after the test:
-    `served_twin(config_or_run_folder, seed=None, speed=1.0, egm_port=None, overrides=None,
-    cell=None)`."""
+    """A function that serves a job's cell as its controller: `served_twin(
+    config_or_run_folder, seed=None, speed=1.0, egm_port=None, overrides=None, cell=None)
+    -> Serving` (scenarios.jobs.serve: `.url` the RWS address on a free port, `.config` the
+    job as served, `.wait_executions(n, timeout_s)` the programs measured against the
+    truth); `speed`: the cell's time over the wall clock's. Every twin served is closed
+    after the test."""
     served: list[Serving] = []
 
     def serve(
