@@ -191,3 +191,17 @@ def candidates(
         )
         found.append(Candidate(spec, planned, p, n, seconds))
     return tuple(found), len(specs)
+
+
+#: The object's points a plan must be predicted to see, over those the match requires
+#: (`Scan.min_points`): the prediction's own scatter (about 10 % on the shipped jobs) and a
+#: real scan's dropouts.
+POINTS_MARGIN = 1.2
+
+
+def predicted_object_points(seen: list[np.ndarray] | tuple[np.ndarray, ...], section: Scan) -> int:
+    """How many of the object's points a scan of passes whose predictions saw `seen` (each
+    (M_k, 3)) reads: the prediction's every PREDICT_RAY_STRIDE-th ray and a line every
+    PREDICT_LINE_SPACING_M, scaled to every ray and a line every speed x period."""
+    lines = PREDICT_LINE_SPACING_M / (section.speed_m_s * section.period_s)
+    return int(sum(len(p) for p in seen) * PREDICT_RAY_STRIDE * lines)

@@ -79,12 +79,15 @@ def choose_passes(
     say: Progress | None = None,
     unambiguous: Callable[[list[Candidate]], bool] | None = None,
     min_gain: float = 0.0,
+    enough_points: Callable[[list[Candidate]], bool] | None = None,
 ) -> tuple[list[Candidate], list[ChosenPass], np.ndarray, bool]:
     """Greedy choice (see the module's docstring): the passes, their records, the predicted
     TRE (K,) [m] of the plan, and whether `unambiguous(passes)` holds for it (the match of
-    the points they would see finds one pose; passes are added until it does). Short of
-    the goal, the choice also stops when no pass lowers the worst predicted TRE by the
-    fraction `min_gain` of it: more scanning would buy next to nothing."""
+    the points they would see finds one pose; passes are added until it does). Passes are
+    also added while `enough_points(passes)` does not hold (the match needs that many of
+    the object's points). Short of the goal, the choice also stops when no pass lowers the
+    worst predicted TRE by the fraction `min_gain` of it: more scanning would buy next to
+    nothing."""
     chosen: list[Candidate] = []
     records: list[ChosenPass] = []
     tre = np.full(len(targets_model), np.inf)
@@ -95,6 +98,11 @@ def choose_passes(
     def done() -> bool:
         nonlocal unique
         if not chosen or np.max(tre) > goal_m:
+            return False
+        if enough_points is not None and not enough_points(chosen):
+            if say is not None:
+                say("scan plan: these passes see fewer of the object's points than the match "
+                    "needs: one more pass")  # fmt: skip
             return False
         unique = unambiguous is None or unambiguous(chosen)
         if not unique and say is not None:

@@ -33,7 +33,14 @@ import numpy as np
 
 from cell import Kinematics, nominal_T_base_table
 from registration import transform_points
-from scenarios.offline.scan_candidates import Candidate, PlanningCell, ScanPlanError, candidates
+from scenarios.offline.scan_candidates import (
+    POINTS_MARGIN,
+    Candidate,
+    PlanningCell,
+    ScanPlanError,
+    candidates,
+    predicted_object_points,
+)
 from scenarios.offline.scan_choice import ChosenPass, choose_passes
 from scenarios.offline.scan_passes import ObjectBox, PlannedPass, plan_pass
 from scenarios.offline.scan_passes import plan_scan as plan_scan_fixed
@@ -182,8 +189,13 @@ def _choose_plan(
     """plan_job_scan's "auto" plan among the candidates `found_all` (of `tried`)."""
     goal = section.planning.goal_tre_m
     budget, min_gain = section.planning.budget_s, section.planning.min_gain
+    needed = POINTS_MARGIN * section.min_points
+
+    def enough(passes: list[Candidate]) -> bool:
+        return predicted_object_points([c.points_model for c in passes], section) >= needed
+
     picked, records, tre, unique = choose_passes(
-        found_all, targets_model, errors, goal, budget, tell, is_unique, min_gain
+        found_all, targets_model, errors, goal, budget, tell, is_unique, min_gain, enough
     )
     names = target_names or tuple(f"target {k + 1}" for k in range(len(targets_model)))
     usable = f"{len(found_all)} of {tried} candidate passes reachable, clear and seeing the object"
@@ -207,6 +219,8 @@ def _choose_plan(
             f"warning: scan plan: {over_goal}; the job scans the {len(picked)} passes that "
             f"get there (the match accepts up to {acceptable_tre_m * 1e3:.3f} mm)"
         )
+    if picked and not enough(picked):
+        raise ScanPlanError(_few_points(picked, section, tre, goal))
     if not unique:
         raise ScanPlanError(
             f"scan plan: the match of what the {len(picked)} picked passes would see is "
@@ -327,3 +341,30 @@ def replan(
         again = plan_pass(kin, box, section, spec, k, planned.q_start, table, order)
         out.append(replace(again, q_via=planned.q_via))
     return tuple(out)
+
+
+def _few_points(picked: list[Candidate], section: Scan, tre: np.ndarray, goal_m: float) -> str:
+    """Why a plan whose passes see too few of the object's points refuses, and the change
+    that would let it run: the lower `min_points` its predicted TRE already meets the goal
+    with, or a longer budget."""
+    seen = predicted_object_points([c.points_model for c in picked], section)
+    change = (
+        f"set localization.scan.min_points={_round_down(seen / POINTS_MARGIN)} (this plan's "
+        f"predicted TRE, {np.max(tre) * 1e3:.3f} mm, meets the {goal_m * 1e3:.3f} mm goal with "
+        "those points)"
+        if np.max(tre) <= goal_m
+        else "allow a longer scan (localization.scan.planning.budget_s)"
+    )
+    return (
+        f"scan plan: the {len(picked)} passes that fit the "
+        f"{section.planning.budget_s:g} s budget see about {seen} of the object's points, "
+        f"fewer than the {POINTS_MARGIN:g} x {section.min_points} the match requires "
+        f"(localization.scan.min_points, with the prediction's margin); {change}; the job "
+        "refuses before any motion"
+    )
+
+
+def _round_down(value: float) -> int:
+    """`value` rounded down to two significant digits (at least 100: min_points' floor)."""
+    magnitude = 10 ** max(2, int(np.floor(np.log10(max(value, 1.0)))) - 1)
+    return max(100, int(value // magnitude * magnitude))

@@ -56,7 +56,7 @@ def surface_pose(
     if len(points_table) < section.scan.min_points:
         reason = (
             f"the scan has {len(points_table)} object points, fewer than the "
-            f"{section.scan.min_points} required"
+            f"{section.scan.min_points} required (localization.scan.min_points)"
         )
         return LocatedPose("surface", None, False, reason)
     r = section.registration
