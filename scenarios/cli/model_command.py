@@ -75,9 +75,9 @@ def _placement(up_axis: str, roll: float, pitch: float, yaw: float | None) -> An
         raise ConfigError(text) from None
 
 
-def _on_table(vertices: Any, faces: Any, name: str, placement: Any, picture: Path) -> None:
+def _on_table(vertices: Any, faces: Any, name: str, placement: Any, picture: Path | None) -> None:
     """How the mesh (vertices (N, 3) [m]) lies on the table at `placement`: its extents in the
-    table frame printed, its picture written to `picture`."""
+    table frame printed, its picture written to `picture` (None: not)."""
     from rich.console import Console
     from rich.table import Table
 
@@ -101,17 +101,26 @@ def _on_table(vertices: Any, faces: Any, name: str, placement: Any, picture: Pat
         lo, hi = float(p[:, k].min()), float(p[:, k].max())
         table.add_row(axis, f"{lo:.1f} .. {hi:.1f}", f"{hi - lo:.1f}")
     Console().print(table)
+    if picture is None:
+        typer.echo("(--picture FILE or --out draws the part on the table)")
+        return
     write_placement_figure(picture, vertices, faces, T_table_object, f"{name} on the table: {how}")
     typer.echo(f"wrote {picture} (the part on the table, from above and from two sides)")
 
 
-def _picture_path(name: str, out: str | None, picture: str | None) -> Path:
-    """Where the picture goes: --picture, else beside --out, else in the current folder."""
-    if picture is not None:
-        return Path(picture)
-    stem = Path(name.rstrip("/")).name.split(".")[0] if out is None else Path(out).stem
-    folder = Path(".") if out is None else Path(out).parent
-    return folder / f"{stem}_on_table.png"
+def _picture_path(out: str | None, picture: str | None) -> Path | None:
+    """Where the picture goes: --picture (a .png in a folder that exists), else beside --out
+    (None: neither given)."""
+    from scenarios.scenario_errors import ScenarioError
+
+    if picture is None:
+        return None if out is None else Path(out).with_name(f"{Path(out).stem}_on_table.png")
+    path = Path(picture)
+    if path.suffix.lower() != ".png":
+        raise ScenarioError(f"--picture: the picture is a .png file, got {picture!r}")
+    if not path.parent.is_dir():
+        raise ScenarioError(f"--picture {picture}: the folder {path.parent} does not exist")
+    return path
 
 
 # The help's panels of `twincell model`.
@@ -202,8 +211,8 @@ def model(
         option(
             "--picture",
             "FILE",
-            "Write the picture of the part on the table here. Default: NAME_on_table.png "
-            "beside --out, else in the current folder.",
+            "Write the picture of the part on the table to this .png file. Default: with "
+            "--out, OUT_on_table.png beside it.",
             OUTPUT,
         ),
     ] = None,
@@ -213,8 +222,9 @@ def model(
     Prints the model's vertices, faces, whether it is watertight, its size, volume and convex
     pieces; of a CT volume, the bone surface segmented at --iso and meshed (an irregular series
     resampled, and said so). Then how it lies on the table at a job's nominal placement
-    (--up-axis, --roll, --pitch, --yaw): its extents in the table frame, and a picture of it
-    on the table top from above and from two sides. --out writes the mesh.
+    (--up-axis, --roll, --pitch, --yaw): its extents in the table frame, and with --picture
+    (or beside --out) a picture of it on the table top from above and from two sides. --out
+    writes the mesh.
     """
     from rich.console import Console
     from rich.table import Table
@@ -226,7 +236,7 @@ def model(
     from models.registry import load_model
 
     placement = _placement(up_axis, roll, pitch, yaw)
-    where = _picture_path(name, out, picture)
+    where = _picture_path(out, picture)
     if is_volume(name):
         bone = _volume_model(name, iso, units, out, voxel_mm, max_gap_mm)
         _on_table(bone.vertices, bone.faces, name, placement, where)
