@@ -60,8 +60,10 @@ class NominalPlacement(Section):
 
 class FixtureTolerance(Section):
     """How far the fixture lets the object sit from its nominal pose, as its drawing or data
-    sheet gives it: sideways per axis [m], about the vertical and tilted [deg]. The planner's
-    prior: what its clearances (the calibration's views keep off the object) allow for."""
+    sheet gives it: sideways per axis [m], about the vertical and tilted about any horizontal
+    axis from its nominal orientation (whatever its up axis, roll and pitch) [deg]. The
+    planner's prior: what its clearances (the calibration's views keep off the object) allow
+    for."""
 
     xy_m: float = Field(0.03, ge=0.0, le=0.2)
     yaw_deg: float = Field(20.0, ge=0.0, le=180.0)
