@@ -132,90 +132,103 @@ OUTPUT = "Output"
 EXAMPLES = (
     "twincell model skull --out skull.stl",
     "twincell model examples/my_cell/phantom.ply --units mm --real",
-    "twincell model part.stl --up-axis +y --yaw 90",
+    "twincell model model.stl --up-axis +y --yaw 90 --picture on_table.png",
 )
 
 
+NameArgument = Annotated[
+    str,
+    argument(
+        "NAME",
+        "A built-in model (skull, bracket, housing, lid, ellipsoid), a mesh file (.stl, "
+        ".obj, .ply), or a CT volume (a DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr) "
+        "whose bone surface is segmented and meshed.",
+    ),
+]
+RealOption = Annotated[
+    bool, flag("--real", "The real entity: the model plus its model error.", MODEL)
+]
+SeedOption = Annotated[
+    int, option("--seed", "INTEGER", "Seed of the skull's shape and the model error.", MODEL, min=0)
+]
+UnitsOption = Annotated[
+    str, option("--units", "[mm|m]", "Units of a mesh file and of --out.", MODEL)
+]
+IsoOption = Annotated[float, option("--iso", "FLOAT", "Bone threshold [HU].", CT)]
+VoxelOption = Annotated[
+    str | None,
+    option(
+        "--voxel-mm",
+        "SIZE",
+        "Resample the volume onto a regular grid of this voxel size [mm] (one size or "
+        "AxBxC). Default: a series with uneven slice steps or a gantry tilt is resampled at "
+        "its pixel spacing and smallest step, a regular one kept.",
+        CT,
+    ),
+]
+MaxGapOption = Annotated[
+    float,
+    option(
+        "--max-gap-mm",
+        "FLOAT",
+        "The widest step between the series' slices that is interpolated over [mm]; wider "
+        "is refused as missing slices.",
+        CT,
+    ),
+]
+UpAxisOption = Annotated[
+    str,
+    option(
+        "--up-axis",
+        "[+x|-x|+y|-y|+z|-z]",
+        "The model's axis that points up, away from the table (placement.up_axis).",
+        PLACEMENT,
+    ),
+]
+RollOption = Annotated[
+    float, option("--roll", "DEG", "Then turned about the table's x [deg].", PLACEMENT)
+]
+PitchOption = Annotated[
+    float, option("--pitch", "DEG", "Then turned about the table's y [deg].", PLACEMENT)
+]
+YawOption = Annotated[
+    float | None,
+    option(
+        "--yaw",
+        "DEG",
+        "Then turned about the table's vertical [deg]. Default: a job's, 120.",
+        PLACEMENT,
+    ),
+]
+OutOption = Annotated[
+    str | None, option("--out", "FILE", "Write the mesh to this .stl/.obj/.ply file.", OUTPUT)
+]
+PictureOption = Annotated[
+    str | None,
+    option(
+        "--picture",
+        "FILE",
+        "Write the picture of the part on the table to this .png file. Default: with "
+        "--out, OUT_on_table.png beside it.",
+        OUTPUT,
+    ),
+]
+
+
 def model(
-    name: Annotated[
-        str,
-        argument(
-            "NAME",
-            "A built-in model (skull, bracket, housing, lid, ellipsoid), a mesh file (.stl, "
-            ".obj, .ply), or a CT volume (a DICOM series folder, .nii/.nii.gz, .nrrd/.nhdr) "
-            "whose bone surface is segmented and meshed.",
-        ),
-    ],
-    real: Annotated[
-        bool, flag("--real", "The real entity: the model plus its model error.", MODEL)
-    ] = False,
-    seed: Annotated[
-        int,
-        option("--seed", "INTEGER", "Seed of the skull's shape and the model error.", MODEL, min=0),
-    ] = 0,
-    units: Annotated[
-        str, option("--units", "[mm|m]", "Units of a mesh file and of --out.", MODEL)
-    ] = "mm",
-    iso: Annotated[float, option("--iso", "FLOAT", "Bone threshold [HU].", CT)] = 300.0,
-    voxel_mm: Annotated[
-        str | None,
-        option(
-            "--voxel-mm",
-            "SIZE",
-            "Resample the volume onto a regular grid of this voxel size [mm] (one size or "
-            "AxBxC). Default: a series with uneven slice steps or a gantry tilt is resampled at "
-            "its pixel spacing and smallest step, a regular one kept.",
-            CT,
-        ),
-    ] = None,
-    max_gap_mm: Annotated[
-        float,
-        option(
-            "--max-gap-mm",
-            "FLOAT",
-            "The widest step between the series' slices that is interpolated over [mm]; wider "
-            "is refused as missing slices.",
-            CT,
-        ),
-    ] = 10.0,
-    up_axis: Annotated[
-        str,
-        option(
-            "--up-axis",
-            "[+x|-x|+y|-y|+z|-z]",
-            "The model's axis that points up, away from the table (placement.up_axis).",
-            PLACEMENT,
-        ),
-    ] = "+z",
-    roll: Annotated[
-        float, option("--roll", "DEG", "Then turned about the table's x [deg].", PLACEMENT)
-    ] = 0.0,
-    pitch: Annotated[
-        float, option("--pitch", "DEG", "Then turned about the table's y [deg].", PLACEMENT)
-    ] = 0.0,
-    yaw: Annotated[
-        float | None,
-        option(
-            "--yaw",
-            "DEG",
-            "Then turned about the table's vertical [deg]. Default: a job's, 120.",
-            PLACEMENT,
-        ),
-    ] = None,
-    out: Annotated[
-        str | None,
-        option("--out", "FILE", "Write the mesh to this .stl/.obj/.ply file.", OUTPUT),
-    ] = None,
-    picture: Annotated[
-        str | None,
-        option(
-            "--picture",
-            "FILE",
-            "Write the picture of the part on the table to this .png file. Default: with "
-            "--out, OUT_on_table.png beside it.",
-            OUTPUT,
-        ),
-    ] = None,
+    name: NameArgument,
+    real: RealOption = False,
+    seed: SeedOption = 0,
+    units: UnitsOption = "mm",
+    iso: IsoOption = 300.0,
+    voxel_mm: VoxelOption = None,
+    max_gap_mm: MaxGapOption = 10.0,
+    up_axis: UpAxisOption = "+z",
+    roll: RollOption = 0.0,
+    pitch: PitchOption = 0.0,
+    yaw: YawOption = None,
+    out: OutOption = None,
+    picture: PictureOption = None,
 ) -> None:
     """Check a model and export it: built in, a mesh file or a CT volume.
 
