@@ -23,8 +23,17 @@ from scenarios.offline.settings import (
 class Placement(NominalPlacement):
     """Where the object sits on the table: the nominal pose (what the planner believes,
     scenarios.offline.settings.NominalPlacement) and the ranges the real one is drawn from
-    around it by the run's seed (the truth: sideways per axis [m], about the vertical and
-    tilted [deg]); no stage reads them."""
+    around it by the run's seed (the truth; no stage reads them). The table frame is the top's
+    centre, x away from the built-in arm (at the cell's origin), z up: (1.15, 0, 0.4) m in the
+    cell at table position 0, the top 800 x 600 mm. The mesh's origin stands over `xy_m` [m]
+    (default the top's centre), turned in this order about the table's axes: its `up_axis` (the
+    mesh's axis that points up, away from the table: `+x`, `-x`, `+y`, `-y`, `+z`, `-z`; default
+    `+z`, the mesh as modelled) turned up, then `roll_deg` about x, `pitch_deg` about y,
+    `yaw_deg` about the vertical (R_table_object = Rz(yaw) Ry(pitch) Rx(roll) R_up); it rests
+    with its lowest point `lift_m` [m] above the top (default 4 mm). The real pose is moved
+    within +-`range_xy_m` [m] in x and y, turned within +-`range_yaw_deg` about the vertical and
+    tilted within +-`range_tilt_deg` about a random horizontal axis (its roll and pitch alike),
+    still resting on the table. `twincell model PART --up-axis ...` shows how a part lies."""
 
     range_xy_m: float = Field(0.03, ge=0.0, le=0.2)
     range_yaw_deg: float = Field(20.0, ge=0.0, le=180.0)

@@ -93,7 +93,7 @@ class JobConfig(Section):
             rack_xyz=self.cell.rack_xyz,
             object_name=self.object_name,
             fixing=obj.fixing,
-            placement=NominalPlacement(xy_m=p.xy_m, yaw_deg=p.yaw_deg, lift_m=p.lift_m),
+            placement=NominalPlacement(**p.model_dump(include=set(NominalPlacement.model_fields))),
             tolerance=obj.tolerance,
             calibration=self.calibration,
             localization=self.localization,

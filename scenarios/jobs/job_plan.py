@@ -29,7 +29,7 @@ from scenarios.offline.arm_setup import (
     no_home_message,
 )
 from scenarios.offline.job_cell import job_virtual_cell
-from scenarios.offline.nominal_placement import nominal_pose
+from scenarios.offline.nominal_placement import nominal_pose, upright_rotation
 from scenarios.offline.operations import (
     UserProgram,
     check_program_frame,
@@ -74,6 +74,7 @@ def object_models(
         config.model.ct.resample_mm,
         config.model.ct.max_gap_mm,
         use_cache,
+        up_model=upright_rotation(obj.placement)[2],  # the table's vertical, as the part lies
     )
     if user is not None:
         virtual = replace(virtual, burr_holes=program_targets(user))

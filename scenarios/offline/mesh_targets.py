@@ -18,6 +18,9 @@ from models.targets import BurrHole
 from models.units import unit_scale
 from scenarios.scenario_errors import ScenarioError
 
+#: The table's vertical in the frame of a model lying as modelled: its z axis.
+UP = np.array([0.0, 0.0, 1.0])
+
 
 class TargetsFileError(ScenarioError, ValueError):
     """A targets file is missing keys or has bad values."""
@@ -58,10 +61,13 @@ def read_targets(path: str | Path, units: str) -> tuple[BurrHole, ...]:
     return tuple(holes)
 
 
-def generate_targets(model: ObjectModel, count: int = 4, seed: int = 0) -> tuple[BurrHole, ...]:
+def generate_targets(
+    model: ObjectModel, count: int = 4, seed: int = 0, up_model: np.ndarray = UP
+) -> tuple[BurrHole, ...]:
     """`count` targets spread over the model's upper surface (vertices whose normal points
     up, in the top third of its height), the trajectory along the inward normal, depth a
-    fifth of the model's height."""
+    fifth of the model's height; up is `up_model` (3,), the table's vertical in the model
+    frame as it lies (its z unless turned: a placement's up axis, roll and pitch)."""
     mesh = model.mesh
     v = np.asarray(mesh.vertices)
     f = np.asarray(mesh.faces)
@@ -70,8 +76,9 @@ def generate_targets(model: ObjectModel, count: int = 4, seed: int = 0) -> tuple
     for k in range(3):
         np.add.at(normals, f[:, k], n_face)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
-    lo, hi = v[:, 2].min(), v[:, 2].max()
-    ok = np.flatnonzero((normals[:, 2] > 0.8) & (v[:, 2] > lo + 2 * (hi - lo) / 3))
+    height = v @ up_model
+    lo, hi = height.min(), height.max()
+    ok = np.flatnonzero((normals @ up_model > 0.8) & (height > lo + 2 * (hi - lo) / 3))
     if len(ok) < count:
         raise TargetsFileError(
             f"model {model.name!r} has too little upward-facing upper surface to place "

@@ -20,7 +20,7 @@ from models.model import ObjectModel
 from models.registry import load_model
 from models.targets import BurrHole
 from registration.rigid import pose_error
-from scenarios.offline.mesh_targets import generate_targets, read_targets, targets_path
+from scenarios.offline.mesh_targets import UP, generate_targets, read_targets, targets_path
 from scenarios.offline.program_plan import burr_hole_operations
 from scenarios.offline.settings import OperationsSection, Pick
 from scenarios.program.program_types import Operation
@@ -44,13 +44,14 @@ class OperationsError(ScenarioError, ValueError):
     """The object has no targets for the operations asked of it."""
 
 
-def screw_targets(model: ObjectModel) -> tuple[BurrHole, ...]:
-    """The part's screw frames driven from above (z within 25 deg of straight down), as
-    targets: entry at the frame's origin, direction its z axis, 10 mm deep."""
+def screw_targets(model: ObjectModel, up_model: np.ndarray = UP) -> tuple[BurrHole, ...]:
+    """The part's screw frames driven from above (z within 25 deg of straight down; up is
+    `up_model` (3,), the table's vertical in the model frame), as targets: entry at the
+    frame's origin, direction its z axis, 10 mm deep."""
     holes = []
     for frame in model.frames:
         z = frame.T_part_frame[:3, 2]
-        if frame.kind == "screw" and z[2] < -0.9:
+        if frame.kind == "screw" and z @ up_model < -0.9:
             holes.append(BurrHole(frame.name, frame.T_part_frame[:3, 3], z, 0.01))
     return tuple(holes)
 
@@ -65,11 +66,13 @@ def virtual_model(
     ct_voxel_mm: tuple[float, float, float] | None = None,
     ct_max_gap_mm: float = MAX_GAP_MM,
     use_cache: bool = True,
+    up_model: np.ndarray = UP,
 ) -> ObjectModel:
     """The virtual model of the object `name` (built in, a mesh file in `units`, or a CT
     volume) with its targets for operations of `kind`: burr holes for touches (the model's
     own, `targets_file`, a `<mesh>.targets.yaml` beside a mesh file, or generated on its
-    upper surface), screw frames driven from above for screws. A CT volume's model is its
+    upper surface), screw frames driven from above for screws; up is `up_model` (3,), the
+    table's vertical in the model frame as the part lies. A CT volume's model is its
     bone at `iso_hu` [HU] (an irregular series resampled, at `ct_voxel_mm` if given; a slice
     gap wider than `ct_max_gap_mm` refused), and a JSON `targets_file` is the plan made on it
     (models.ct.volume_plan). `use_cache`: a built-in model may be read from the user's cache
@@ -85,7 +88,7 @@ def virtual_model(
             name, seed=seed, units=units, use_cache=use_cache, units_option=UNITS_KEY
         )
     if kind == "screw":
-        holes = screw_targets(model)
+        holes = screw_targets(model, up_model)
         if not holes:
             raise OperationsError(
                 f"model {model.name!r} has no screw frame driven from above; its frames are "
@@ -98,9 +101,9 @@ def virtual_model(
         return model
     beside = targets_path(name)
     if beside.is_file():
-        holes = read_targets(beside, units) or generate_targets(model, seed=seed)
+        holes = read_targets(beside, units) or generate_targets(model, seed=seed, up_model=up_model)
         return replace(model, burr_holes=holes)
-    return replace(model, burr_holes=generate_targets(model, seed=seed))
+    return replace(model, burr_holes=generate_targets(model, seed=seed, up_model=up_model))
 
 
 def target_operations(model: ObjectModel, section: OperationsSection) -> tuple[Operation, ...]:

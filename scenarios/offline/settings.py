@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 
 class Section(BaseModel):
@@ -23,22 +24,46 @@ class Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+#: The axes a model's up axis may be: the one that points up, away from the table.
+UP_AXES: tuple[str, ...] = ("+x", "-x", "+y", "-y", "+z", "-z")
+UpAxis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
+
+
 class NominalPlacement(Section):
     """Where the planner believes the object sits on the table: `xy_m` [m] of its origin in
-    the table frame, turned `yaw_deg` about the vertical, resting on the table with its lowest
-    point `lift_m` [m] above the top (a fixture's pins). The default heading (120 degrees)
-    turns the skull's face 60 degrees from the robot, where the screwer reaches every burr
-    hole without folding into the forearm."""
+    the table frame, resting on the table with its lowest point `lift_m` [m] above the top
+    (a fixture's pins). Its orientation, in this order, about the table's axes: the model's
+    `up_axis` (the axis of the mesh that points up, away from the table) turned up, then
+    `roll_deg` about x, `pitch_deg` about y, `yaw_deg` about the vertical z
+    (R_table_object = Rz(yaw) Ry(pitch) Rx(roll) R_up; scenarios.offline.nominal_placement).
+    The default heading (120 degrees) turns the skull's face 60 degrees from the robot, where
+    the screwer reaches every burr hole without folding into the forearm."""
 
     xy_m: tuple[float, float] = (0.0, 0.0)
+    up_axis: UpAxis = "+z"
+    roll_deg: float = Field(0.0, ge=-180.0, le=180.0)
+    pitch_deg: float = Field(0.0, ge=-180.0, le=180.0)
     yaw_deg: float = 120.0
     lift_m: float = Field(0.004, ge=0.0, le=0.1)
+
+    @field_validator("up_axis", mode="before")
+    @classmethod
+    def _known_axis(cls, value: Any) -> Any:
+        if value not in UP_AXES:
+            raise PydanticCustomError(
+                "up_axis",
+                "the model's axis that points up, away from the table, is one of "
+                + ", ".join(UP_AXES),
+            )
+        return value
 
 
 class FixtureTolerance(Section):
     """How far the fixture lets the object sit from its nominal pose, as its drawing or data
-    sheet gives it: sideways per axis [m], about the vertical and tilted [deg]. The planner's
-    prior: what its clearances (the calibration's views keep off the object) allow for."""
+    sheet gives it: sideways per axis [m], about the vertical and tilted about any horizontal
+    axis from its nominal orientation (whatever its up axis, roll and pitch) [deg]. The
+    planner's prior: what its clearances (the calibration's views keep off the object) allow
+    for."""
 
     xy_m: float = Field(0.03, ge=0.0, le=0.2)
     yaw_deg: float = Field(20.0, ge=0.0, le=180.0)
