@@ -115,14 +115,16 @@ def test_an_object_out_of_the_arms_reach_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match=r"the ur5 cannot do this job in this cell; move .*"
                        r"cell\.object\.placement\.xy_m\).*cell\.robot\.limits_deg.*\): "
                        r"scan pass 1: no table position in "
-                       r"\(0\.0, -0\.1, .*\) m lets the arm follow it"):  # fmt: skip
+                       r"\(0\.0, -0\.1, .*\) m lets the arm follow it; proposed: --set "
+                       r"cell\.object\.placement\.xy_m=\[-0\.1, 0\.0\] \(with it"):  # fmt: skip
         _run(tmp_path, {"cell.object.placement.xy_m": [0.3, 0.0]}, cell="ur5")
 
 
 @pytest.mark.usefixtures("no_cell")
 def test_a_rack_out_of_reach_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match=r"irb2400 cannot do this job .* rack slots out of "
-                       r"reach: \['laser at \[3\.75, 0\.0, 0\.8\] m', 'screwer at"):  # fmt: skip
+                       r"reach: \['laser at \[3\.75, 0\.0, 0\.8\] m', 'screwer at.*; proposed: "
+                       r"--set cell\.rack_xyz=\[0\.0, -0\.85, 0\.0\] \(with it"):  # fmt: skip
         _run(tmp_path, {"cell.rack_xyz": [3.0, 0.0, 0.0]})
 
 

@@ -42,6 +42,8 @@ from scenarios.offline.operations import (
 )
 from scenarios.offline.plan_cache import cached_plan, plan_key
 from scenarios.offline.reach import check_reach
+from scenarios.offline.reach_proposal import reach_proposal
+from scenarios.offline.scan_candidates import ScanPlanError
 from scenarios.offline.scan_passes import ObjectBox
 from scenarios.offline.scan_plan import ScanPlan
 from scenarios.offline.settings import PlanningSettings
@@ -231,7 +233,7 @@ def plan_job(config: JobConfig, say: Progress, use_cache: bool = True) -> JobPla
             say(f"arm: that home does not do this job: {exc}")
             robot_next = next(arms, None)
             if robot_next is None:
-                raise
+                raise _with_proposal(exc, config, robot, user, virtual, operations) from None
             robot = robot_next
     model_cache = used_key(obj.model, config.seed, use_cache)
     return JobPlan(settings, robot, user, virtual, real, T_table_nominal, scan_plan, plan_cache,
@@ -283,3 +285,29 @@ def _arm_plan(
         say(f"scan plan: this virtual cell's plan, from the cache ({key})")
         say(plan_summary(scan_plan))
     return scan_plan, key if cache_enabled(use_cache) else None
+
+
+def _with_proposal(
+    refusal: UnreachablePlanError,
+    config: JobConfig,
+    robot: Robot,
+    user: UserProgram | None,
+    virtual: ObjectModel,
+    operations: tuple[Operation, ...],
+) -> UnreachablePlanError:
+    """The reach refusal with the change the virtual cell checked that lets `robot` do the
+    job (scenarios.offline.reach_proposal), where there is one. A scan plan's own refusal
+    is kept as it is: it names its keys itself."""
+    if isinstance(refusal, ScanPlanError):
+        return refusal
+    pick = (
+        None if config.operations.pick is None else grasp_operation(virtual, config.operations.pick)
+    )
+    table = None if user is None else (user.table_position_m,)
+    change = reach_proposal(robot, config.planning(), virtual, operations, pick, table)
+    if change is None:
+        return refusal
+    return UnreachablePlanError(
+        f"{refusal}; proposed: --set {change} (with it the virtual cell's arm reaches the "
+        "rack, the scan and the operations)"
+    )

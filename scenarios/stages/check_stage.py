@@ -11,7 +11,9 @@ from scenarios.offline.operations import grasp_operation, program_operations, ta
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionCheck, PremotionLimits
 from scenarios.offline.program_plan import plan_program
-from scenarios.program.program_types import OfflineProgram
+from scenarios.offline.program_proposal import Findings, propose_changes
+from scenarios.offline.table_candidates import UnreachablePlanError
+from scenarios.program.program_types import OfflineProgram, Operation
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
 from scenarios.stages.state import JobState, LocatedPose, ProgramStage
@@ -91,6 +93,43 @@ def check_stage(ctx: StageContext, programs: ProgramStage) -> PremotionCheck | N
     return None
 
 
+def program_proposal(ctx: StageContext, programs: ProgramStage, check: PremotionCheck) -> str:
+    """What to change in a user's program the virtual cell refused (scenarios.offline.
+    program_proposal): "; proposed: ..." with each refused touch's change and the poses to
+    write, checked the way the program was; "" for a job's own program (its touches already
+    tried every spin) or where no change lets it pass."""
+    program = next(iter(programs.operations.values()), None)
+    if ctx.user is None or program is None:
+        return ""
+    controller, settings = ctx.controller, ctx.settings
+    cell = job_virtual_cell(
+        controller.robot, settings.rack_xyz, ctx.virtual, program.T_table_object,
+        settings.calibration.enabled, settings.object_name,
+    )  # fmt: skip
+    kin = controller.kinematics.for_tool(program.tool)
+    T_tcp = controller.T_flange_tcp(program.tool)
+
+    def refused(operations: tuple[Operation, ...]) -> Findings:
+        try:
+            trial = plan_program(
+                kin, T_tcp, program.tool, operations, program.T_table_object,
+                controller.q_home, 1, (program.table_position_m,),
+                table=ctx.state.model.T_base_table,
+                joint_margin_rad=PremotionLimits().joint_margin_rad,
+            )  # fmt: skip
+        except UnreachablePlanError as exc:
+            return {op.name: [str(exc)] for op in operations}
+        verdict = check_program(trial, controller.kinematics, cell, controller.q_home, T_tcp,
+                                object_name=settings.object_name)  # fmt: skip
+        findings: Findings = {}
+        for problem in verdict.problems:
+            findings.setdefault(problem.move.split(":")[0], []).append(problem.detail)
+        return findings
+
+    proposal = propose_changes(program_operations(ctx.user), refused)
+    return "" if proposal is None else "; proposed: " + proposal.text()
+
+
 @dataclass(frozen=True)
 class Checked(Outcome):
     """The corrected programs, or the check that refused them (then the pose of `method`
@@ -99,10 +138,11 @@ class Checked(Outcome):
     programs: ProgramStage
     method: str
     refusal: PremotionCheck | None = None
+    proposal: str = ""
 
     def advance(self, state: JobState) -> JobState:
         if self.refusal is not None:
-            return state.refused(self.method, self.refusal.summary, "check")
+            return state.refused(self.method, self.refusal.summary + self.proposal, "check")
         return replace(state, programs=self.programs)
 
 
@@ -124,5 +164,6 @@ class Check:
         if check is None:
             ctx.hooks.say("check: the corrected program passes in the virtual cell")
             return Checked(programs, methods[0])
-        ctx.hooks.detect("premotion", check.summary, "refused")
-        return Checked(programs, methods[0], check)
+        proposal = program_proposal(ctx, programs, check)
+        ctx.hooks.detect("premotion", check.summary + proposal, "refused")
+        return Checked(programs, methods[0], check, proposal)
