@@ -80,9 +80,9 @@ def _touch_tools(user: UserProgram) -> tuple[str, ...]:
     wobj = user.wobj.name.casefold()
     tools: dict[str, str] = {}
     for move in user.module.moves:
-        if move.wobj is not None and move.wobj.casefold() == wobj and folded(move.target) in targets:
-            if move.tool.casefold() != "tool0":
-                tools.setdefault(move.tool.casefold(), move.tool)
+        mine = move.wobj is not None and move.wobj.casefold() == wobj
+        if mine and folded(move.target) in targets and move.tool.casefold() != "tool0":
+            tools.setdefault(move.tool.casefold(), move.tool)
     return tuple(tools.values())
 
 
