@@ -21,10 +21,10 @@ def test_a_bumped_fixture_is_caught(run_job):
 
 
 def test_a_touch_edited_into_the_phantom_is_caught(run_job, tmp_path):
-    edited = tmp_path / "edited.mod"  # pTouch2 3 mm deeper: a typo in the module
+    edited = tmp_path / "edited.mod"  # pParietal_right 3 mm deeper: a typo in the module
     program = (Path(__file__).parent / "burr_holes.mod").read_text()
     edited.write_text(program.replace("69.3871]", "66.3871]"))
-    with pytest.raises(AssertionError, match="pTouch2: approach -> touch"):
+    with pytest.raises(AssertionError, match="pParietal_right: approach -> touch"):
         assert_goals(run_job(JOB, seed=0, cell=CELL, program=edited))
 
 

@@ -58,7 +58,9 @@ class RunFolderError(ScenarioError, FileNotFoundError):
 def job_program(config: JobConfig, folder: Path) -> UserProgram | None:
     """The user's program a job was run with (None for a job on the model's targets): its
     file as the configuration names it or, if that file is gone, the module the run wrote
-    back (program.mod: only its work object's oframe differs, not its targets)."""
+    back (program.mod: its work object's oframe corrected and, if it was written filtered,
+    its touches' robtargets too: the targets are then read off by the arm's error that the
+    filtering took out)."""
     section = config.operations
     if section.program is None:
         return None
@@ -136,12 +138,14 @@ def execute_run(
 
     executed = execute_in_cell(cell, plan, job_targets(config, virtual, user), say)
     timings["execute"] = executed.timings["execute"]
-    job_rms, job_max = _job_figures(folder)
+    job_rms, job_max, exported_compensation = _job_figures(folder)
     timings["total"] = time.perf_counter() - t_total
     result = ExecutionResult(
         module_file.name,
         str(module_file),
-        executed.compensation,
+        # The run's own program: the compensation the export wrote it with (a user's module
+        # written back filtered states none in its text).
+        (program is None and exported_compensation) or executed.compensation,
         executed.tool,
         executed.table_position_m,
         executed.targets,
@@ -159,17 +163,20 @@ def execute_run(
     return result
 
 
-def _job_figures(folder: Path) -> tuple[float | None, float | None]:
-    """The run's own target errors (rms, max) [m] from its results.json; None where it has
-    none (no results.json, a run that was refused or did not complete)."""
+def _job_figures(folder: Path) -> tuple[float | None, float | None, str]:
+    """The run's own target errors (rms, max) [m] from its results.json, and the compensation
+    its exported program was written with; None (and "") where it has none (no results.json,
+    a run that was refused or did not complete, an exported program not run)."""
     path = folder / "results.json"
     if not path.is_file():
-        return None, None
+        return None, None, ""
     try:
         result = read_results(path)
     except RunNotEndedError:
-        return None, None
-    return result.target_error_rms_m, result.target_error_max_m
+        return None, None, ""
+    exported = result.exported_program
+    compensation = "" if exported is None else exported.compensation
+    return result.target_error_rms_m, result.target_error_max_m, compensation
 
 
 def _mm(a: float, b: float) -> str:

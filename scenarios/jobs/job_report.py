@@ -181,7 +181,9 @@ def _exported(
     t0 = time.perf_counter()
     job.cell.log.phase("exported program", f"{program_file} on the nominal controller")
     targets = job_targets(config, plan.virtual, plan.user)
-    exported = run_exported(job.cell, job.folder, program_file, targets, job.run.say)
+    exported = run_exported(
+        job.cell, job.folder, program_file, targets, job.run.say, job.exported.compensation
+    )
     job.timings["export_execute"] = time.perf_counter() - t0
     return exported
 
@@ -324,15 +326,24 @@ def target_points(virtual: ObjectModel, targets: tuple[TargetEvaluation, ...]) -
 
 
 def run_exported(
-    cell: JobCell, folder: Path, program_file: str, targets: JobTargets, say: Progress
+    cell: JobCell,
+    folder: Path,
+    program_file: str,
+    targets: JobTargets,
+    say: Progress,
+    compensation: str = "",
 ) -> ExportedRun:
     """Run the exported program in the real cell as a controller without absolute accuracy
     would (scenarios.jobs.exported_run), written to EXECUTION_FILE; its summary, or its refusal
-    (a RAPID error) or its stop (the supervision) with the reason."""
+    (a RAPID error) or its stop (the supervision) with the reason. `compensation`: what the
+    export wrote it with (a user's module written back states none in its text), else what
+    the module states."""
     try:
         executed = execute_in_cell(
             cell, read_program(folder / program_file), targets, say, refetch=True
         )
+        if compensation:
+            executed = replace(executed, compensation=compensation)
     except RapidError as exc:  # a controller would stop the program there
         say(f"{program_file} on the nominal controller: refused: {exc}")
         return ExportedRun("refused", str(exc))

@@ -19,13 +19,29 @@ def _format(x: float, decimals: int) -> str:
     return "0" if text in ("", "-0", "-") else text
 
 
+def position_text(T: np.ndarray, separator: str = ",") -> str:
+    """A RAPID pos [x,y,z] of T's translation (4, 4) [m]: mm to 4 decimals, trailing zeros
+    dropped."""
+    return f"[{separator.join(_format(v, 4) for v in T[:3, 3] * 1e3)}]"
+
+
+def orientation_text(T: np.ndarray, separator: str = ",") -> str:
+    """A RAPID orient [q1,q2,q3,q4] of T's rotation (4, 4): the scalar-first unit quaternion
+    to 8 decimals with q1 >= 0, trailing zeros dropped."""
+    q = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
+    q = q if q[0] >= 0 else -q
+    return f"[{separator.join(_format(v, 8) for v in q)}]"
+
+
 def pose_text(T: np.ndarray, separator: str = ",") -> str:
     """A RAPID pose [[x,y,z],[q1,q2,q3,q4]] of T (4, 4) [m]: mm to 4 decimals, the
     scalar-first unit quaternion to 8 decimals with q1 >= 0, trailing zeros dropped."""
-    q = Rotation.from_matrix(T[:3, :3]).as_quat(scalar_first=True)
-    q = q if q[0] >= 0 else -q
-    p = separator.join(_format(v, 4) for v in T[:3, 3] * 1e3)
-    return f"[[{p}]{separator}[{separator.join(_format(v, 8) for v in q)}]]"
+    return f"[{position_text(T, separator)}{separator}{orientation_text(T, separator)}]"
+
+
+def separator_of(text: str) -> str:
+    """The separator a RAPID aggregate as written uses: ", " if it has one, else ","."""
+    return ", " if ", " in text else ","
 
 
 def _check_transform(T: np.ndarray) -> np.ndarray:
@@ -54,5 +70,5 @@ def with_oframe(module: RapidModule, wobj: str, T_uframe_oframe: np.ndarray) -> 
     assert decl.value is not None and decl.value.kind == "agg"  # read_module checked it
     oframe = decl.value.items[4]
     old = module.text[oframe.start : oframe.end]
-    new = pose_text(T, ", " if ", " in old else ",")
+    new = pose_text(T, separator_of(old))
     return module.text[: oframe.start] + new + module.text[oframe.end :]

@@ -18,8 +18,9 @@ from scenarios.rapid.syntax import RapidError, location
 class TouchOperation:
     """An operation to correct: the approach and touch TCP poses in the work object's object
     frame T_wobj_approach, T_wobj_touch (4, 4) [m], the touch move's speed as written and its
-    line. The name is the touch target's name (or expression) as written; `comment` the name
-    a comment line of one word (`! kocher_right`) right above the operation's first move
+    line. The name is the touch target's name (or expression) as written, `approach` the
+    approach's (the approach move's target, or the pair's approach as listed); `comment` the
+    name a comment line of one word (`! kocher_right`) right above the operation's first move
     gives it (its approach move; with listed pairs, the approach where it is the move just
     before the touch, else the touch), or None."""
 
@@ -28,6 +29,7 @@ class TouchOperation:
     T_wobj_touch: np.ndarray
     speed_touch: str
     line: int
+    approach: str
     comment: str | None = None
 
 
@@ -128,6 +130,7 @@ def touch_operations(
             m.T_wobj_tcp,
             m.speed,
             m.line,
+            previous.target,
             _comment_name(module, previous.line),
         )
         operations.append(touch)
@@ -175,6 +178,7 @@ def _paired(
         touch_move.T_wobj_tcp,
         touch_move.speed,
         touch_move.line,
+        approach,
         _comment_name(module, first.line),
     )
 

@@ -17,8 +17,8 @@ from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.operations import UserProgram
 from scenarios.outputs import toolchain_exports as exports
 from scenarios.outputs.run_files import write_program
+from scenarios.outputs.user_program_export import filter_refusal, written_back
 from scenarios.program.program_types import OfflineProgram
-from scenarios.rapid.oframe import with_oframe
 from scenarios.rapid.writer import Filter
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
@@ -29,11 +29,13 @@ Progress = Callable[[str], None]
 @dataclass(frozen=True, eq=False)
 class Exported(Outcome):
     """The program the job hands out: the first method's corrected program (None: none,
-    the pose was refused), and the file written for the controller (None: the arm runs no
-    RAPID; the targets are in targets.csv and targets.json)."""
+    the pose was refused), the file written for the controller (None: the arm runs no
+    RAPID; the targets are in targets.csv and targets.json) and the compensation it was
+    written with ("filtered" or "nominal"; "" with no program)."""
 
     program: OfflineProgram | None = None
     program_file: str | None = None
+    compensation: str = ""
 
 
 @dataclass(frozen=True)
@@ -69,7 +71,7 @@ class Export:
             filtered,
             None if calibration is None else calibration.kinematics,
         )
-        return Exported(program, program_file)
+        return Exported(program, program_file, "nominal" if filtered is None else "filtered")
 
 
 def program_filter(
@@ -82,17 +84,23 @@ def program_filter(
 ) -> Filter | None:
     """The exported program's filter for the calibrated arm (compensation "filtered"), or
     None: the nominal poses, as asked or, said why, when there is no calibrated arm or the
-    program is the user's own module (its oframe is corrected, its robtargets kept)."""
-    if compensation != "filtered":
+    user's own module cannot be filtered (scenarios.outputs.user_program_export). A user's
+    module is written back with its oframe corrected either way; the log says which
+    compensation it gets."""
+    refusal = None
+    if compensation == "filtered":
+        if calibration is None:
+            refusal = "filtering needs the calibrated arm"
+        elif user is not None:
+            refusal = filter_refusal(user)
+    if compensation != "filtered" or refusal is not None:
+        if refusal is not None:
+            kept = "; your own module keeps its robtargets" if user is not None else ""
+            say(f"program: compensation nominal: {refusal}{kept}")
+        elif user is not None:
+            say("program: compensation nominal: your own module keeps its robtargets")
         return None
-    if calibration is None or user is not None:
-        why = (
-            "filtering needs the calibrated arm"
-            if calibration is None
-            else "your own module keeps its robtargets (its oframe is corrected)"
-        )
-        say(f"program: compensation nominal: {why}")
-        return None
+    assert calibration is not None
     return Filter(
         calibration.kinematics,
         controller.nominal_kinematics,
@@ -134,18 +142,20 @@ def export_program(
     if user is None:
         write_program(folder / "program.mod", program, T_table_nominal, nominal, filtered)
         return "program.mod"
-    T_base_object = program.T_base_object
-    T_uframe_oframe = np.linalg.inv(user.wobj.T_base_uframe) @ T_base_object
-    declaring = user.wobj_module or user.module
-    corrected = with_oframe(declaring, user.wobj.name, T_uframe_oframe)
+    back = written_back(user, program, filtered, nominal)
+    if filtered is not None:
+        say(
+            f"program: compensation filtered: your module's touch robtargets "
+            f"({', '.join(back.targets)}) and tooldata {', '.join(back.tools) or 'none'} "
+            "filtered for the calibrated arm, its oframe corrected"
+        )
     if user.task is None or (len(user.task.modules) == 1 and not user.task.opaque):
-        write_text(folder / "program.mod", corrected)
+        write_text(folder / "program.mod", back.texts[0][1])
         return "program.mod"
-    # A task: its modules in a folder, the one declaring the work object corrected, its
-    # encrypted modules as they were.
-    for module in user.task.modules:
+    # A task: its modules in a folder, each as written back (those that declare none of
+    # the data written back as they were), its encrypted modules as they were.
+    for module, text in back.texts:
         assert module.path is not None  # a task's modules are read from files
-        text = corrected if module is declaring else module.text
         write_text(folder / TASK_FOLDER / module.path.name, text)
     for path in user.task.opaque:
         write_bytes(folder / TASK_FOLDER / path.name, path.read_bytes())
