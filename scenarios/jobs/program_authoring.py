@@ -31,6 +31,7 @@ from models.robot import TABLE_TRAVEL, TOOLS
 from models.targets import frame_from_z
 from registration.shapes.mesh_shape import MeshModel
 from scenarios.configuration.job_config import JobConfig
+from scenarios.jobs.authoring_proposal import checked_change
 from scenarios.jobs.job_plan import file_arm
 from scenarios.offline.job_cell import job_virtual_cell
 from scenarios.offline.nominal_placement import nominal_pose
@@ -215,10 +216,16 @@ def _author_touch(
     )
 
 
+def part_model(config: JobConfig) -> ObjectModel:
+    """The job's part as the virtual cell has it (its model file, in SI units)."""
+    obj = config.cell.object
+    return virtual_model(obj.model, obj.units, None, config.operations.kind, config.seed)
+
+
 def _job_cell(
-    config: JobConfig, table_position_m: float, say: Callable[[str], None]
+    config: JobConfig, table_position_m: float, say: Callable[[str], None], virtual: ObjectModel
 ) -> tuple[Robot, ObjectModel, np.ndarray, _Cell]:
-    """The job's arm, its part's virtual model and nominal pose T_table_object (4, 4), and
+    """The job's arm, its part's `virtual` model and nominal pose T_table_object (4, 4), and
     the tool's cell the touches are solved and checked in."""
     lo, hi = TABLE_TRAVEL
     if not lo <= table_position_m <= hi:
@@ -226,8 +233,7 @@ def _job_cell(
             f"table position {table_position_m:g} m is outside the table's travel "
             f"[{lo:g}, {hi:g}] m"
         )
-    obj, section, settings = config.cell.object, config.operations, config.planning()
-    virtual = virtual_model(obj.model, obj.units, None, section.kind, config.seed)
+    section, settings = config.operations, config.planning()
     T_table_object = nominal_pose(settings.placement, virtual.mesh.vertices)
     robot = file_arm(config, virtual, T_table_object, say)
     if not robot.rapid:
@@ -290,7 +296,52 @@ def author_program(
             f"approach {approach_m * 1e3:g} mm and gap {gap_m * 1e3:g} mm: the approach must be "
             "in (0, 300] mm and the gap in [0, 50] mm"
         )
-    robot, virtual, _, cell = _job_cell(config, table_position_m, say)
+    virtual = part_model(config)
+    try:
+        return _authored(config, touches, approach_m, gap_m, table_position_m, module, virtual, say)
+    except AuthoringError as exc:
+        say("the touches do not pass: looking for an order, a table position or a turn of the "
+            "part that does")  # fmt: skip
+
+        def attempt(job: JobConfig, table_m: float, order: Sequence[TouchRequest]) -> bool:
+            return _passes(job, table_m, order, approach_m, gap_m, virtual)
+
+        change = checked_change(config, table_position_m, touches, attempt)
+        if change is None:
+            raise
+        raise AuthoringError(
+            f"{exc}; proposed: {change} (with it every touch passes the virtual cell)"
+        ) from None
+
+
+def _passes(
+    config: JobConfig,
+    table_position_m: float,
+    touches: Sequence[TouchRequest],
+    approach_m: float,
+    gap_m: float,
+    virtual: ObjectModel,
+) -> bool:
+    try:
+        _authored(config, touches, approach_m, gap_m, table_position_m, "Touches", virtual)
+    except AuthoringError:
+        return False
+    return True
+
+
+def _authored(
+    config: JobConfig,
+    touches: Sequence[TouchRequest],
+    approach_m: float,
+    gap_m: float,
+    table_position_m: float,
+    module: str,
+    virtual: ObjectModel,
+    say: Callable[[str], None] = lambda _msg: None,
+) -> AuthoredProgram:
+    """author_program's program for the part's `virtual` model, or AuthoringError naming the
+    touch that does not pass."""
+    robot, virtual, _, cell = _job_cell(config, table_position_m, say, virtual)
     surface = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     clearance_m = gap_m + POINTERS[config.operations.tool][0]
     q_seed = q_from = robot.q_home
