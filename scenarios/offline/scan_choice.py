@@ -90,23 +90,19 @@ def choose_passes(
     nothing."""
     chosen: list[Candidate] = []
     records: list[ChosenPass] = []
-    tre = np.full(len(targets_model), np.inf)
-    spent = 0.0
-    left = list(found)
-    unique = False
+    tre, spent, left, unique = np.full(len(targets_model), np.inf), 0.0, list(found), False
+    tell = say or (lambda _m: None)
 
     def done() -> bool:
         nonlocal unique
         if not chosen or np.max(tre) > goal_m:
             return False
         if enough_points is not None and not enough_points(chosen):
-            if say is not None:
-                say("scan plan: these passes see fewer of the object's points than the match "
-                    "needs: one more pass")  # fmt: skip
+            tell("scan plan: these passes see fewer of the object's points than needed: one more")
             return False
         unique = unambiguous is None or unambiguous(chosen)
-        if not unique and say is not None:
-            say("scan plan: the match of what these passes see is ambiguous: one more pass")
+        if not unique:
+            tell("scan plan: the match of what these passes see is ambiguous: one more pass")
         return unique
 
     while left and not done():
@@ -117,11 +113,10 @@ def choose_passes(
         if best is None:
             break
         if np.isfinite(worst_now) and worst_now > goal_m and largest_drop < min_gain * worst_now:
-            if say is not None:
-                say(
-                    f"scan plan: no pass lowers the worst predicted TRE by {min_gain:.0%} any "
-                    "more: the plan stops here"
-                )
+            tell(
+                f"scan plan: no pass lowers the worst predicted TRE by {min_gain:.0%} any more: "
+                "the plan stops here"
+            )
             break
         chosen.append(best)
         left.remove(best)
@@ -140,11 +135,10 @@ def choose_passes(
                 0.0,
             )
         )
-        if say is not None:
-            say(
-                f"scan plan: + {best.planned.name}: worst predicted TRE "
-                f"{np.max(tre) * 1e3:.3f} mm, {spent:.0f} s"
-            )
+        tell(
+            f"scan plan: + {best.planned.name}: worst predicted TRE "
+            f"{np.max(tre) * 1e3:.3f} mm, {spent:.0f} s"
+        )
     shares = information_shares(chosen, targets_model, errors)
     records = [
         ChosenPass(**{**r.__dict__, "information_share": s})
