@@ -169,3 +169,27 @@ def test_cell_numbers_come_from_the_cell(config) -> None:
     wobj = next(v for k, v in numbers.items() if k.startswith("work object (RAPID)"))
     assert wobj == '[FALSE,TRUE,"",[[1150,0,512.0851],[0.5,0,0,0.8660254]],[[0,0,0],[1,0,0,0]]]'
     assert numbers["the arm's home (every job starts and ends there)"] == "[0, 0, 0, 0, 90, 0] deg"
+
+
+def test_an_oblique_touch_keeps_its_ball_off_the_surface(config, phantom) -> None:
+    """The crown touched 45 deg off its normal: along the axis the ball stops farther back than
+    ball + gap (4 mm), so that it stays at least 0.5 mm off the surface (its centre 3.5 mm
+    from the surface sampled here, within 0.05 mm; more where the crown curves away); 80 deg
+    off is refused as too oblique."""
+    normal = np.array([-0.063, 0.014, -0.998])  # the crown's inward normal (printed by author)
+    side = np.cross(normal, [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    for degrees, ok in ((45.0, True), (80.0, False)):
+        a = np.radians(degrees)
+        direction = np.cos(a) * normal + np.sin(a) * side
+        request = TouchRequest("crown", np.array(CROWN) * 1e-3, direction)
+        if not ok:
+            with pytest.raises(AuthoringError, match="more than 70: give a direction nearer"):
+                author_program(config, [request])
+            continue
+        touch = author_program(config, [request]).touches[0]
+        samples, _ = trimesh.sample.sample_surface(phantom, 2_000_000, seed=1)
+        centre = touch.planned.T_object_touch[:3, 3]
+        distance, _ = cKDTree(samples).query(centre)
+        assert distance >= BALL_M + 5e-4 - 5e-5
+        assert np.linalg.norm(centre - touch.p_surface_m) > BALL_M + GAP_M + 5e-4

@@ -58,7 +58,7 @@ class ContactSensing:
 
     def external(self) -> tuple[float, str]:
         """The largest contact force [N] on the arm or the tool in hand now, and the body it
-        acts on ("" if none)."""
+        acts on and the one it meets ("link4 against table"; "" if none)."""
         d, m = self.sim.data, self.sim.model
         n = d.ncon
         if n == 0:
@@ -73,6 +73,6 @@ class ContactSensing:
             mujoco.mj_contactForce(m, d, int(i), self._force)
             f = float(np.linalg.norm(self._force[:3]))
             if f > best:
-                b = bodies[i, 0] if ours[i, 0] else bodies[i, 1]
-                best, where = f, m.body(int(b)).name
+                b, other = (bodies[i, 0], bodies[i, 1]) if ours[i, 0] else bodies[i, ::-1]
+                best, where = f, f"{m.body(int(b)).name} against {m.body(int(other)).name}"
         return best, where

@@ -5,8 +5,10 @@ and followed in the virtual cell before a line of it is written.
 
 A touch is a point of the part (its model's frame) and, optionally, the direction the tool
 moves into the part; without one, the tool comes along the inward normal of the mesh's
-surface nearest the point. The touch's TCP (the tool's tip ball's centre) stops `gap_m`
-before the surface; the approach lies `approach_m` back along the tool's axis. Where the
+surface nearest the point. The touch's TCP (the tool's tip ball's centre) stops the ball's
+radius and `gap_m` before the surface, along the tool's axis (for a touch oblique to the
+surface, farther where that keeps the ball MIN_CLEAR_M off it); the approach lies
+`approach_m` back along the tool's axis. Where the
 arm cannot make a touch as first solved (out of reach, a collision, a singularity, a joint
 limit: the pre-motion check's findings), the tool is spun about its axis, 30 degrees at a
 time, and the first spin the virtual cell passes is written: a touch none passes is refused
@@ -48,6 +50,10 @@ from scenarios.scenario_errors import ScenarioError
 SEARCH_M = 0.003
 #: A named point must lie this close to the surface along its direction [m].
 ON_SURFACE_M = 1e-4
+#: An oblique touch keeps its tip ball at least this far off the surface [m]; a touch more
+#: oblique to the surface than MAX_OBLIQUE_DEG [deg] is refused.
+MIN_CLEAR_M = 5e-4
+MAX_OBLIQUE_DEG = 70.0
 #: The tool's spins about its axis tried for a touch, in order [deg].
 SPINS_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0, 150.0, -150.0, 180.0)
 #: Unused external axes of a robtarget (axis A is the table).
@@ -182,11 +188,29 @@ def _plan_touch(
     )
 
 
+def _along_axis_m(surface: MeshModel, p_surface: np.ndarray, axis: np.ndarray, ball_m: float,
+                  gap_m: float, name: str) -> float:  # fmt: skip
+    """How far back along `axis` from the surface point the tip ball's centre stops [m]:
+    ball + gap, or for a touch oblique to the surface (its inward normal at the point) the
+    distance that keeps the ball MIN_CLEAR_M off the surface, if that is more. Raises
+    AuthoringError for a touch more oblique than MAX_OBLIQUE_DEG."""
+    _, face, _ = surface.tree.squared_distance(surface.vertices, surface.faces, p_surface[None])
+    normal = np.asarray(surface.face_normals[int(face[0])], dtype=float)  # of the face there
+    cos = abs(float(axis @ normal))
+    if cos < np.cos(np.radians(MAX_OBLIQUE_DEG)):
+        raise AuthoringError(
+            f"touch {name}: its direction {_unit(axis)} meets the surface "
+            f"{np.degrees(np.arccos(cos)):.0f} deg from its normal, more than "
+            f"{MAX_OBLIQUE_DEG:g}: give a direction nearer the surface's normal, or none"
+        )
+    return max(ball_m + gap_m, (ball_m + MIN_CLEAR_M) / cos)
+
+
 def _author_touch(
     cell: _Cell,
     request: TouchRequest,
     surface: MeshModel,
-    clearance_m: float,
+    ball_gap_m: tuple[float, float],
     approach_m: float,
     q_seed: np.ndarray,
     q_from: np.ndarray,
@@ -195,7 +219,8 @@ def _author_touch(
     move to its approach from `q_from` (6,) [rad] too) and its plan, solved from the seed
     `q_seed` (6,) [rad]; raises AuthoringError with what each spin met."""
     p_surface, axis = surface_touch(surface, request)
-    T_first = frame_from_z(p_surface - clearance_m * axis, axis)
+    along = _along_axis_m(surface, p_surface, axis, *ball_gap_m, request.name)
+    T_first = frame_from_z(p_surface - along * axis, axis)
     met: list[str] = []
     for spin in SPINS_DEG:
         operation = Operation(request.name, _spun(T_first, spin), approach_m)
@@ -343,12 +368,12 @@ def _authored(
     touch that does not pass."""
     robot, virtual, _, cell = _job_cell(config, table_position_m, say, virtual)
     surface = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
-    clearance_m = gap_m + POINTERS[config.operations.tool][0]
+    ball_gap_m = (POINTERS[config.operations.tool][0], gap_m)
     q_seed = q_from = robot.q_home
     written: list[AuthoredTouch] = []
     for request in touches:
         p, axis, spin, planned = _author_touch(
-            cell, request, surface, clearance_m, approach_m, q_seed, q_from
+            cell, request, surface, ball_gap_m, approach_m, q_seed, q_from
         )
         say(f"touch {request.name}: at {_mm(p)} mm, spun {spin:+.0f} deg, passes the virtual cell")
         base = rapid_identifier(request.name, "p")[:29]
