@@ -58,7 +58,8 @@ class ContactSensing:
 
     def external(self) -> tuple[float, str]:
         """The largest contact force [N] on the arm or the tool in hand now, and the body it
-        acts on and the one it meets ("link4 against table"; "" if none)."""
+        acts on and what it meets: the other body, or its geom where that is named (an
+        object's contact piece: "screwer_spindle against object_hull3"; "" if none)."""
         d, m = self.sim.data, self.sim.model
         n = d.ncon
         if n == 0:
@@ -73,6 +74,8 @@ class ContactSensing:
             mujoco.mj_contactForce(m, d, int(i), self._force)
             f = float(np.linalg.norm(self._force[:3]))
             if f > best:
-                b, other = (bodies[i, 0], bodies[i, 1]) if ours[i, 0] else bodies[i, ::-1]
-                best, where = f, f"{m.body(int(b)).name} against {m.body(int(other)).name}"
+                k = 0 if ours[i, 0] else 1
+                geom = m.geom(int(geoms[i, 1 - k]))
+                met = geom.name or m.body(int(bodies[i, 1 - k])).name
+                best, where = f, f"{m.body(int(bodies[i, k])).name} against {met}"
         return best, where
