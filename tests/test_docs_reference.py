@@ -82,3 +82,15 @@ def test_the_readme_links_lead_to_files() -> None:
     assert len(local) >= 10, local
     missing = [t for t in local if not (ROOT / t).exists()]
     assert not missing, missing
+
+
+def test_the_pages_snippets_include_files_that_exist() -> None:
+    """Every line that starts like a snippet (`--8<--`, pymdownx.snippets) is one, written so
+    that the site includes the file (a code formatter once spaced one out into
+    `--8 < --"..."`, which the site then printed as text), and names a file that exists."""
+    for page in sorted((ROOT / "docs").rglob("*.md")):
+        for number, line in enumerate(page.read_text().splitlines(), 1):
+            if line.lstrip().startswith("--8"):
+                found = re.fullmatch(r'\s*--8<-- "([^"]+)"', line)
+                assert found is not None, f"{page.name}:{number}: {line!r}"
+                assert (ROOT / found.group(1)).is_file(), f"{page.name}:{number}: {line!r}"

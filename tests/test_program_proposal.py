@@ -83,3 +83,46 @@ def test_no_proposal_where_no_change_passes() -> None:
     ops = (_operation("a", (0.1, 0.0, 0.05)), _operation("b", (0.0, 0.1, 0.05)))
     assert propose_changes(ops, lambda trial: {"b": ["out of reach"]}) is None
     assert propose_changes(ops, lambda trial: {}) is None  # nothing refused: nothing to change
+
+
+def test_authoring_proposes_an_order_a_table_position_or_a_turn_that_passes() -> None:
+    """The stand-in virtual cell passes only what the test says; the search proposes exactly
+    that, in the documented order (orders, then table positions, then turns), and None where
+    nothing passes."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from scenarios.configuration.config_files import load_config
+    from scenarios.jobs.authoring_proposal import checked_change
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "my_cell"
+    config = load_config(example / "job.yaml", cell=example / "cell.yaml")  # yaw 120 deg
+    touches = [SimpleNamespace(name=n) for n in ("a", "b", "c")]
+
+    def names(order) -> str:
+        return "".join(t.name for t in order)
+
+    def only(order: str = "", table_m: float | None = None, yaw: float | None = None):
+        def attempt(job, table, tried) -> bool:
+            return (
+                (not order or names(tried) == order)
+                and (table_m is None or table == table_m)
+                and (yaw is None or job.cell.object.placement.yaw_deg == yaw)
+            )
+
+        return attempt
+
+    said: list[str] = []
+    assert checked_change(config, 0.0, touches, only(order="cab"), said.append) == (
+        "the touches in the order c, a, b"
+    )
+    assert said == ["trying 5 other orders of the touches, then the table's positions"]
+    assert checked_change(config, 0.0, touches, only("abc", table_m=0.2)) == "--table 200"
+    assert checked_change(config, 0.0, touches, only("abc", 0.0, yaw=-60.0)) == (
+        "--set cell.object.placement.yaw_deg=-60 (the part turned +180 deg on the table)"
+    )
+    assert checked_change(config, 0.0, touches, only("bca", 0.0, yaw=150.0)) == (
+        "--set cell.object.placement.yaw_deg=150 (the part turned +30 deg on the table), "
+        "the touches in the order b, c, a"
+    )
+    assert checked_change(config, 0.0, touches, lambda job, table, tried: False) is None

@@ -30,12 +30,18 @@ def _order(touches: Sequence[Any]) -> str:
 
 
 def checked_change(
-    config: JobConfig, table_position_m: float, touches: Sequence[Any], attempt: Attempt
+    config: JobConfig,
+    table_position_m: float,
+    touches: Sequence[Any],
+    attempt: Attempt,
+    say: Callable[[str], None] = lambda _msg: None,
 ) -> str | None:
     """The first change (see the module's docstring) with which `attempt` passes, as what
-    to change, or None where none does."""
+    to change, or None where none does; `say` tells what is tried (a search of every turn
+    attempts the touches up to some 80 times, a second or two each)."""
     given = tuple(touches)
     orders = [p for p in permutations(given) if p != given] if len(given) <= MAX_ORDERED else []
+    say(f"trying {len(orders)} other orders of the touches, then the table's positions")
     for order in orders:
         if attempt(config, table_position_m, order):
             return _order(order)
@@ -45,6 +51,7 @@ def checked_change(
     placement = config.cell.object.placement
     for turn in PART_TURNS_DEG:
         yaw = float((placement.yaw_deg + turn + 180.0) % 360.0 - 180.0)
+        say(f"trying the part turned {turn:+g} deg on the table ({YAW_KEY}={yaw:g})")
         turned = with_overrides(config, {YAW_KEY: yaw}, "a proposed turn")
         assert isinstance(turned, JobConfig)
         for order in (given, *orders):

@@ -331,7 +331,7 @@ def author_program(
         def attempt(job: JobConfig, table_m: float, order: Sequence[TouchRequest]) -> bool:
             return _passes(job, table_m, order, approach_m, gap_m, virtual)
 
-        change = checked_change(config, table_position_m, touches, attempt)
+        change = checked_change(config, table_position_m, touches, attempt, say)
         if change is None:
             raise
         raise AuthoringError(

@@ -64,20 +64,30 @@ def _axes_arrows(
         ax.plot([], [], color=AXIS_COLOURS[k], lw=1.8, label=f"model {NAMES[k]}")
 
 
+#: The part's points this close above its lowest one are drawn as where it rests [mm].
+REST_BAND_MM = 0.5
+
+
 def _table(ax: Axes, right: int, up: int, lo: np.ndarray, hi: np.ndarray) -> None:
-    """The table top: its outline from above, its slab (and the top at z = 0) from a side;
-    a side view is framed on the part, the view from above on the whole top."""
+    """The table top: its outline from above (the table frame's origin marked, and the way
+    to the arm), its slab (and the top at z = 0) from a side; each view framed on the part."""
     half = np.array(TABLE_HALF) * 1e3
+    margin = 0.25 * max(float(np.max(hi - lo)), 10.0)
     if up == 1:
         ax.add_patch(
             Rectangle((-half[0], -half[1]), 2 * half[0], 2 * half[1], fill=False, lw=1.5, ec="0.3")
         )
         ax.plot(0.0, 0.0, marker="+", ms=10, color="0.3")  # the table frame's origin
-        reach = np.maximum(np.abs(lo[:2]), np.abs(hi[:2])).max() * 1.1
-        ax.set_xlim(-max(half[0], reach), max(half[0], reach))
-        ax.set_ylim(-max(half[1], reach), max(half[1], reach))
+        width = max(hi[0] - lo[0], hi[1] - lo[1]) + 2 * margin
+        centre = (lo[:2] + hi[:2]) / 2
+        ax.set_xlim(centre[0] - width / 2, centre[0] + width / 2)
+        ax.set_ylim(centre[1] - width / 2, centre[1] + width / 2)
+        ax.annotate(
+            "to the arm", xy=(centre[0] - width / 2, centre[1] - 0.42 * width),
+            xytext=(centre[0] - 0.2 * width, centre[1] - 0.42 * width),
+            arrowprops={"arrowstyle": "->", "color": "0.3"}, va="center", fontsize=8, color="0.3",
+        )  # fmt: skip
         return
-    margin = 0.25 * max(float(np.max(hi - lo)), 10.0)
     ax.add_patch(
         Rectangle((-half[right], -2 * half[2]), 2 * half[right], 2 * half[2], fc="0.85", ec="0.3")
     )
@@ -105,6 +115,9 @@ def write_placement_figure(
         ax = fig.add_subplot(1, 3, k + 1)
         _table(ax, right, up, lo, hi)
         _faces(ax, p_mm, f, right, up, look)
+        rests = p_mm[p_mm[:, 2] <= lo[2] + REST_BAND_MM]
+        label = "" if k else f"resting (within {REST_BAND_MM:g} mm of the lowest)"
+        ax.plot(rests[:, right], rests[:, up], "o", ms=2.5, color="tab:orange", label=label)
         _axes_arrows(ax, T_table_object, 0.35 * float(np.max(hi - lo)), right, up)
         ax.set_aspect("equal")
         if mirrored:
