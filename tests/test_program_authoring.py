@@ -110,8 +110,12 @@ def test_a_touch_the_arm_cannot_make_is_refused_with_what_to_change(config) -> N
 
 
 def test_named_points_off_the_surface_are_refused(config) -> None:
+    """Refused as asked, with no search for another order, table or turn (none would put the
+    point on the surface)."""
+    said: list[str] = []
     with pytest.raises(AuthoringError, match=r"touch far: the point .* lies 2\d\.\d mm from"):
-        author_program(config, _requests(("far", (-6.8, 0.16, 100.0))))
+        author_program(config, _requests(("far", (-6.8, 0.16, 100.0))), say=said.append)
+    assert not [line for line in said if "looking for" in line], said
     with pytest.raises(AuthoringError, match="does not meet the part's surface within 3 mm"):
         author_program(
             config, [TouchRequest("miss", np.array([0.0, 0.0, 0.2]), np.array([1.0, 0, 0]))]

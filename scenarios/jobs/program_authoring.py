@@ -64,6 +64,11 @@ class AuthoringError(ScenarioError, ValueError):
     """A touch program cannot be authored as asked: what was asked, and what to change."""
 
 
+class VirtualCellRefusalError(AuthoringError):
+    """The touches as asked do not pass the virtual cell (another order, table position or
+    turn of the part may)."""
+
+
 @dataclass(frozen=True)
 class TouchRequest:
     """A touch the user names: its `name`, a point of the part `point_m` (3,) [m] in the
@@ -233,7 +238,7 @@ def _author_touch(
         if check.ok:
             return p_surface, axis, spin, planned
         met.append(f"spin {spin:+.0f} deg: {check.problems[0]}")
-    raise AuthoringError(
+    raise VirtualCellRefusalError(
         f"touch {request.name} at {_mm(p_surface)} mm along {_unit(axis)}: no spin of the tool "
         f"about its axis ({len(SPINS_DEG)} tried) passes the virtual cell; first {met[0]}; "
         "name another direction (NAME=X,Y,Z@DX,DY,DZ), another point, or another table "
@@ -324,7 +329,7 @@ def author_program(
     virtual = part_model(config)
     try:
         return _authored(config, touches, approach_m, gap_m, table_position_m, module, virtual, say)
-    except AuthoringError as exc:
+    except VirtualCellRefusalError as exc:
         say("the touches do not pass: looking for an order, a table position or a turn of the "
             "part that does")  # fmt: skip
 
@@ -381,7 +386,9 @@ def _authored(
         q_seed, q_from = planned.q_touch, planned.q_approach
     check = cell.check(tuple(t.planned for t in written), robot.q_home)
     if not check.ok:
-        raise AuthoringError(f"the touches together do not pass the virtual cell: {check.summary}")
+        raise VirtualCellRefusalError(
+            f"the touches together do not pass the virtual cell: {check.summary}"
+        )
     text = _module_text(config, cell, written, table_position_m, module, approach_m, gap_m)
     return AuthoredProgram(
         text, cell.T_base_object, table_position_m, config.operations.tool, tuple(written), check
