@@ -139,31 +139,39 @@ def _run(
     return read_results(folder)
 
 
-def skull_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
-    """The skull table's rows for `seeds` (three runs each, see `skull_row`)."""
+def _rows(seeds: Iterable[int], row: Callable[[int, Path], str], say: Progress | None) -> list[str]:
+    """`row(seed, folder)` for each of `seeds`, the runs in one scratch folder, each row said
+    as it is made."""
     rows = []
     with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
         for seed in seeds:
-            default = _run("skull", seed, Path(tmp))
-            nominal = _run("skull", seed, Path(tmp), {"export.compensation": "nominal"})
-            off = _run("skull", seed, Path(tmp), {"calibration.enabled": False})
-            rows.append(skull_row(seed, default, nominal, off))
+            rows.append(row(seed, Path(tmp)))
             if say is not None:
                 say(rows[-1])
     return rows
+
+
+def skull_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
+    """The skull table's rows for `seeds` (three runs each, see `skull_row`)."""
+
+    def row(seed: int, tmp: Path) -> str:
+        default = _run("skull", seed, tmp)
+        nominal = _run("skull", seed, tmp, {"export.compensation": "nominal"})
+        off = _run("skull", seed, tmp, {"calibration.enabled": False})
+        return skull_row(seed, default, nominal, off)
+
+    return _rows(seeds, row, say)
 
 
 def ur5_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
     """The UR5 skull table's rows for `seeds` (two runs each: calibrated, nominal arm)."""
-    rows = []
-    with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
-        for seed in seeds:
-            calibrated = _run("skull", seed, Path(tmp), cell="ur5")
-            nominal = _run("skull", seed, Path(tmp), {"calibration.enabled": False}, "ur5")
-            rows.append(ur5_row(seed, calibrated, nominal))
-            if say is not None:
-                say(rows[-1])
-    return rows
+
+    def row(seed: int, tmp: Path) -> str:
+        calibrated = _run("skull", seed, tmp, cell="ur5")
+        nominal = _run("skull", seed, tmp, {"calibration.enabled": False}, "ur5")
+        return ur5_row(seed, calibrated, nominal)
+
+    return _rows(seeds, row, say)
 
 
 #: The TCP check's tolerance in the calibration gains table's runs [m] (see groups_rows).
@@ -176,38 +184,23 @@ def groups_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
     the groups of GROUP_STEPS. The TCP check is held to GROUPS_TOOL_TOLERANCE_M: an arm
     calibrated on fewer groups reads more at the beam than a fully calibrated one, and the
     table shows what its program achieves rather than the check stopping it."""
-    rows = []
-    with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
-        for seed in seeds:
-            cells = [
-                _exported(
-                    _run(
-                        "skull",
-                        seed,
-                        Path(tmp),
-                        {
-                            "calibration.identify": list(step),
-                            "verify.tool_tolerance_m": GROUPS_TOOL_TOLERANCE_M,
-                        },
-                    )
-                )
-                for step in GROUP_STEPS
-            ]
-            rows.append(f"| {seed} | " + " | ".join(cells) + " |")
-            if say is not None:
-                say(rows[-1])
-    return rows
+
+    def row(seed: int, tmp: Path) -> str:
+        cells = [
+            _exported(
+                _run("skull", seed, tmp, {"calibration.identify": list(step),
+                                          "verify.tool_tolerance_m": GROUPS_TOOL_TOLERANCE_M})
+            )
+            for step in GROUP_STEPS
+        ]  # fmt: skip
+        return f"| {seed} | " + " | ".join(cells) + " |"
+
+    return _rows(seeds, row, say)
 
 
 def assembly_rows(seeds: Iterable[int], say: Progress | None = None) -> list[str]:
     """The assembly table's rows for `seeds`."""
-    rows = []
-    with tempfile.TemporaryDirectory(prefix="twincell-tables-") as tmp:
-        for seed in seeds:
-            rows.append(assembly_row(seed, _run("assembly", seed, Path(tmp))))
-            if say is not None:
-                say(rows[-1])
-    return rows
+    return _rows(seeds, lambda seed, tmp: assembly_row(seed, _run("assembly", seed, tmp)), say)
 
 
 #: The file arms' table: arms given by file, flange and mount alone (the ur5 cell's layout).

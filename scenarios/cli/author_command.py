@@ -4,9 +4,7 @@ checked in the virtual cell), or with `--numbers` the cell's frames and numbers.
 
 from __future__ import annotations
 
-import os
 import re
-import tempfile
 from pathlib import Path
 from typing import Annotated
 
@@ -65,19 +63,6 @@ def parse_touch(text: str, scale_m: float) -> tuple[str, np.ndarray, np.ndarray 
     if np.linalg.norm(d) == 0.0:
         raise TouchSyntaxError(f"--touch {text!r}: the direction must not be zero")
     return name, p, d
-
-
-def write_whole(path: Path, text: str) -> None:
-    """Write `text` to `path` completely or not at all (a temporary file renamed)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(handle, "w") as stream:
-            stream.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 JobArgument = Annotated[str, argument("JOB", "A shipped job (skull, assembly) or a CONFIG.yaml.")]
@@ -155,6 +140,7 @@ def author(
     virtual cell before it is written (the tool spun about its axis where it must be). Run it
     with `twincell run JOB --program FILE`. With --numbers: the cell's frames and numbers.
     """
+    from models.atomic import write_text
     from scenarios.configuration.config_files import load_config
     from scenarios.configuration.job_config import JobConfig
     from scenarios.jobs.cell_numbers import cell_numbers, numbers_markdown
@@ -162,7 +148,7 @@ def author(
 
     config = load_config(job, None, cell)
     if not isinstance(config, JobConfig):
-        raise TouchSyntaxError(f"{job!r} is not a job of the cell (the paper's is not)")
+        raise ScenarioError(f"{job!r} is not a job of the cell (the paper's is not)")
     if numbers:
         typer.echo(numbers_markdown(cell_numbers(config)), nl=False)
         return
@@ -173,7 +159,7 @@ def author(
     program = author_program(
         config, requests, approach * 1e-3, gap * 1e-3, table * 1e-3, module, progress_lines(quiet)
     )
-    write_whole(out, program.text)
+    write_text(out, program.text)  # whole or not at all
     for t in program.touches:
         typer.echo(
             f"{t.touch_name}: the surface at "

@@ -13,10 +13,10 @@ from typing import Any
 
 from scenarios.configuration.config_files import with_overrides
 from scenarios.configuration.job_config import JobConfig
+from scenarios.offline.program_proposal import TURNS_DEG
+from scenarios.offline.reach_proposal import turned_yaw_deg
 from scenarios.offline.table_candidates import TABLE_CANDIDATES_M
 
-#: The turns of the part about the vertical tried [deg].
-PART_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0, 150.0, -150.0, 180.0)
 #: Orders are tried for at most this many touches (their permutations).
 MAX_ORDERED = 4
 YAW_KEY = "cell.object.placement.yaw_deg"
@@ -49,8 +49,8 @@ def checked_change(
         if s != table_position_m and attempt(config, s, given):
             return f"--table {s * 1e3:g}"
     placement = config.cell.object.placement
-    for turn in PART_TURNS_DEG:
-        yaw = float((placement.yaw_deg + turn + 180.0) % 360.0 - 180.0)
+    for turn in TURNS_DEG:
+        yaw = turned_yaw_deg(placement.yaw_deg, turn)
         say(f"trying the part turned {turn:+g} deg on the table ({YAW_KEY}={yaw:g})")
         turned = with_overrides(config, {YAW_KEY: yaw}, "a proposed turn")
         assert isinstance(turned, JobConfig)

@@ -40,6 +40,8 @@ from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.operations import virtual_model
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionCheck
+from scenarios.offline.program_plan import spun
+from scenarios.offline.program_proposal import TURNS_DEG
 from scenarios.offline.tcp_check import POINTERS
 from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
 from scenarios.rapid.oframe import pose_text
@@ -55,7 +57,7 @@ ON_SURFACE_M = 1e-4
 MIN_CLEAR_M = 5e-4
 MAX_OBLIQUE_DEG = 70.0
 #: The tool's spins about its axis tried for a touch, in order [deg].
-SPINS_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0, 150.0, -150.0, 180.0)
+SPINS_DEG = (0.0, *TURNS_DEG)
 #: Unused external axes of a robtarget (axis A is the table).
 _UNUSED_AXES = ",".join(["9E+09"] * 5)
 
@@ -153,15 +155,6 @@ def _unit(v: np.ndarray) -> str:
     return "(" + ", ".join(f"{x:.3f}" for x in v) + ")"
 
 
-def _spun(T: np.ndarray, spin_deg: float) -> np.ndarray:
-    """T turned `spin_deg` [deg] about its own z axis."""
-    c, s = np.cos(np.radians(spin_deg)), np.sin(np.radians(spin_deg))
-    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    out = T.copy()
-    out[:3, :3] = T[:3, :3] @ R
-    return out
-
-
 @dataclass(frozen=True, eq=False)
 class _Cell:
     """What a touch is solved and checked against: the tool's kinematics and TCP, the part's
@@ -228,7 +221,7 @@ def _author_touch(
     T_first = frame_from_z(p_surface - along * axis, axis)
     met: list[str] = []
     for spin in SPINS_DEG:
-        operation = Operation(request.name, _spun(T_first, spin), approach_m)
+        operation = Operation(request.name, spun(T_first, np.radians(spin)), approach_m)
         try:
             planned = _plan_touch(cell, operation, spin, q_seed)
         except UnreachableTargetError as exc:
@@ -254,9 +247,9 @@ def part_model(config: JobConfig) -> ObjectModel:
 
 def _job_cell(
     config: JobConfig, table_position_m: float, say: Callable[[str], None], virtual: ObjectModel
-) -> tuple[Robot, ObjectModel, np.ndarray, _Cell]:
-    """The job's arm, its part's `virtual` model and nominal pose T_table_object (4, 4), and
-    the tool's cell the touches are solved and checked in."""
+) -> tuple[Robot, _Cell]:
+    """The job's arm and the tool's cell the touches are solved and checked in, the part's
+    `virtual` model at its nominal pose."""
     lo, hi = TABLE_TRAVEL
     if not lo <= table_position_m <= hi:
         raise AuthoringError(
@@ -299,7 +292,7 @@ def _job_cell(
             object_name=settings.object_name,
         )
 
-    return robot, virtual, T_table_object, _Cell(kin, spec.T_tool_tcp, T_base_object, check)
+    return robot, _Cell(kin, spec.T_tool_tcp, T_base_object, check)
 
 
 def author_program(
@@ -371,7 +364,7 @@ def _authored(
 ) -> AuthoredProgram:
     """author_program's program for the part's `virtual` model, or AuthoringError naming the
     touch that does not pass."""
-    robot, virtual, _, cell = _job_cell(config, table_position_m, say, virtual)
+    robot, cell = _job_cell(config, table_position_m, say, virtual)
     surface = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     ball_gap_m = (POINTERS[config.operations.tool][0], gap_m)
     q_seed = q_from = robot.q_home

@@ -52,7 +52,8 @@ def burr_hole_operations(
     )
 
 
-def _spun(T: np.ndarray, angle: float) -> np.ndarray:
+def spun(T: np.ndarray, angle: float) -> np.ndarray:
+    """T (4, 4) turned `angle` [rad] about its own z axis (a tool's spin about its axis)."""
     c, s = np.cos(angle), np.sin(angle)
     Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     out = T.copy()
@@ -90,8 +91,8 @@ def _plan_at(
         best: tuple[float, PlannedOperation] | None = None
         for k in range(spins):
             angle = 2 * np.pi * k / spins
-            T_touch_obj = _spun(op.T_object_touch, angle)
-            T_app_obj = _spun(op.T_object_approach, angle)
+            T_touch_obj = spun(op.T_object_touch, angle)
+            T_app_obj = spun(op.T_object_approach, angle)
             T_base_app = T_base_object @ T_app_obj
             T_base_touch = T_base_object @ T_touch_obj
             r_app = kin.ik(T_base_app, q_prev, T_tcp, extra_seeds=4)

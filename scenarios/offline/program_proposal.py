@@ -16,10 +16,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from scenarios.offline.program_plan import spun
 from scenarios.program.program_types import Operation
 from scenarios.rapid.oframe import pose_text
 
-#: The turns about the tool axis tried for a refused touch, in order [deg].
+#: The turns tried where something does not pass, smallest first [deg]: of a refused touch
+#: about the tool's axis here, of the part on the table in the reach and authoring proposals.
 TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0, 150.0, -150.0, 180.0)
 #: Further back-offs tried beyond the depth a touch went in [m].
 BACK_OFFS_M = (0.001, 0.002, 0.003)
@@ -61,14 +63,12 @@ class ProgramProposal:
 def turned(operation: Operation, turn_deg: float) -> Operation:
     """`operation` with its touch and its approach turned `turn_deg` [deg] about their own z
     (the tool's axis)."""
-    c, s = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
-    R = np.eye(4)
-    R[:2, :2] = [[c, -s], [s, c]]
+    angle = np.radians(turn_deg)
     written = operation.T_object_approach_as_written
     return replace(
         operation,
-        T_object_touch=operation.T_object_touch @ R,
-        T_object_approach_as_written=None if written is None else written @ R,
+        T_object_touch=spun(operation.T_object_touch, angle),
+        T_object_approach_as_written=None if written is None else spun(written, angle),
     )
 
 

@@ -20,6 +20,7 @@ from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.premotion import check_program
 from scenarios.offline.premotion_verdict import PremotionLimits
 from scenarios.offline.program_plan import plan_program
+from scenarios.offline.program_proposal import TURNS_DEG
 from scenarios.offline.reach import check_reach
 from scenarios.offline.scan_passes import ObjectBox
 from scenarios.offline.settings import PlanningSettings
@@ -29,9 +30,13 @@ from scenarios.program.program_types import Operation
 #: How far the object is tried nearer the arm, along the table's x [m], and the turns of it
 #: about the vertical tried [deg].
 NEARER_M = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
-TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 120.0, -120.0, 150.0, -150.0, 180.0)
 #: The fractions of the way from the given rack to the cell's design place tried.
 RACK_STEPS = (0.25, 0.5, 0.75, 1.0)
+
+
+def turned_yaw_deg(yaw_deg: float, turn_deg: float) -> float:
+    """A part's yaw [deg] turned `turn_deg` further, in (-180, 180]."""
+    return float((yaw_deg + turn_deg + 180.0) % 360.0 - 180.0)
 
 
 def _rounded(values: np.ndarray) -> list[float]:
@@ -56,7 +61,7 @@ def _candidates(
         changed = placement.model_copy(update={"xy_m": tuple(xy)})
         yield f"cell.object.placement.xy_m={xy}", settings.model_copy(update={"placement": changed})
     for turn in TURNS_DEG:
-        yaw = float((placement.yaw_deg + turn + 180.0) % 360.0 - 180.0)
+        yaw = turned_yaw_deg(placement.yaw_deg, turn)
         changed = placement.model_copy(update={"yaw_deg": yaw})
         yield (
             f"cell.object.placement.yaw_deg={yaw:g}",
