@@ -88,6 +88,23 @@ def tool_index(tool: str) -> int:
     )
 
 
+def rack_above(T_slot: np.ndarray) -> np.ndarray:
+    """(4, 4) a rack slot's pose `T_slot` raised by RACK_APPROACH_M."""
+    T = T_slot.copy()
+    T[2, 3] += RACK_APPROACH_M
+    return T
+
+
+def rack_front(T_slot: np.ndarray) -> np.ndarray:
+    """(4, 4) above the slot and RACK_FRONT_M towards the arm's base, clear of the tools
+    hanging in the rack: a joint move to or from the rack starts or ends there, so the tool
+    in hand never sweeps through its neighbours."""
+    T = rack_above(T_slot)
+    towards = -T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
+    T[:2, 3] += RACK_FRONT_M * towards
+    return T
+
+
 class Controller(ABC):
     """Commands and readings of the cell, as a robot controller would offer them.
 
@@ -307,16 +324,49 @@ class Controller(ABC):
     def unlock(self) -> str:
         """Release the held tool into its rack slot; returns its name."""
 
-    @abstractmethod
     def return_tool(self, T_flange_tool: np.ndarray | None = None) -> None:
         """Put the tool in hand back into its rack slot (approach from the rack's front,
         place, unlock, leave); a tool known to sit off its seat on the flange by
         `T_flange_tool` (4, 4) is placed so that it, not its seat, meets the slot."""
+        name = self.tool_in_hand
+        if name is None:
+            return
+        T_slot = self.T_base_slot(name)
+        if T_flange_tool is not None:
+            T_slot = T_slot @ np.linalg.inv(T_flange_tool)
+        T_tcp = self.T_flange_tcp()
+        self._approach(T_slot)
+        self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
+        self.unlock()
+        # The flange is the TCP now: it leaves the seat straight up, clear of the tool.
+        self.move_linear(rack_above(T_slot), speed_m_s=0.1)
 
-    @abstractmethod
     def change_tool(self, tool: str) -> None:
         """Return the tool in hand (if any), then pick `tool` from its rack slot and leave
         the rack by its front."""
+        tool_index(tool)
+        if self.tool_in_hand == tool:
+            return
+        self.return_tool()
+        T_slot = self.T_base_slot(tool)
+        self._approach(T_slot)
+        self.move_linear(T_slot, speed_m_s=0.1)
+        self.lock()
+        T_tcp = self.T_flange_tcp()
+        self.move_linear(rack_above(T_slot) @ T_tcp, speed_m_s=0.1)
+        self.move_linear(rack_front(T_slot) @ T_tcp, speed_m_s=0.2)
+
+    def _approach(self, T_slot: np.ndarray) -> None:
+        """Joint move to the rack's front of a slot, then straight to above it (the flange
+        seated pose shifted up, the tool in hand's TCP carried along)."""
+        T_tcp = self.T_flange_tcp()
+        q = self.kinematics.solve(rack_front(T_slot), self._q_seed())
+        self.move_joints(q)
+        self.move_linear(rack_above(T_slot) @ T_tcp, speed_m_s=0.2)
+
+    def _q_seed(self) -> np.ndarray:
+        """(6,) where the arm is, to seed an IK from [rad]."""
+        return self.read_joints()
 
     # -- tools' actuators, the table, the sensors -------------------------------------------
     @abstractmethod

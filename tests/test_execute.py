@@ -32,9 +32,9 @@ from scenarios.jobs.execute_run_folder import (
 from scenarios.jobs.job_plan import job_robot, object_models
 from scenarios.rapid.executor import ExecutionError, execute_plan
 from scenarios.rapid.planner import plan_execution
+from scenarios.rapid.rapid_text import configuration
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
-from scenarios.rapid.writer import configuration
 
 SHORT = """seed: 0
 localization:

@@ -10,7 +10,8 @@ from scipy.spatial.transform import Rotation
 
 from cell import nominal_kinematics, nominal_T_base_table
 from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
-from scenarios.rapid.writer import configuration, program_module
+from scenarios.rapid.rapid_text import configuration
+from scenarios.rapid.writer import program_module
 
 _NUM = r"[-+0-9.Ee]+"
 

@@ -20,7 +20,7 @@ from models.registry import builtin_model
 from scenarios.cli.app import main
 from scenarios.configuration.config_files import load_config
 from scenarios.offline.nominal_placement import nominal_pose
-from scenarios.rapid.writer import configuration
+from scenarios.rapid.rapid_text import configuration
 
 SHORT = ["--set", "localization.scan.speed_m_s=0.25", "--set", "localization.scan.period_s=0.02"]
 

@@ -22,12 +22,9 @@ from cell.cell_errors import (
     SupervisionError,
 )
 from cell.controller import (
-    RACK_APPROACH_M,
-    RACK_FRONT_M,
     SETTLE_S,
     Controller,
     SupervisionLimits,
-    tool_index,
 )
 from cell.irb2400_arm import irb2400
 from cell.kinematics import Kinematics
@@ -310,56 +307,8 @@ class SimController(Controller):
         self._drives.hold()
         return name
 
-    def return_tool(self, T_flange_tool: np.ndarray | None = None) -> None:
-        name = self.tool_in_hand
-        if name is None:
-            return
-        T_slot = self.T_base_slot(name)
-        if T_flange_tool is not None:
-            T_slot = T_slot @ np.linalg.inv(T_flange_tool)
-        T_tcp = self.T_flange_tcp()
-        self._approach(T_slot)
-        self.move_linear(T_slot @ T_tcp, speed_m_s=0.1)
-        self.unlock()
-        # The flange is the TCP now: it leaves the seat straight up, clear of the tool.
-        self.move_linear(self._above(T_slot), speed_m_s=0.1)
-
-    def change_tool(self, tool: str) -> None:
-        tool_index(tool)
-        if self.tool_in_hand == tool:
-            return
-        self.return_tool()
-        T_slot = self.T_base_slot(tool)
-        self._approach(T_slot)
-        self.move_linear(T_slot, speed_m_s=0.1)
-        self.lock()
-        T_tcp = self.T_flange_tcp()
-        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.1)
-        self.move_linear(self._front(T_slot) @ T_tcp, speed_m_s=0.2)
-
-    @staticmethod
-    def _above(T_slot: np.ndarray) -> np.ndarray:
-        T = T_slot.copy()
-        T[2, 3] += RACK_APPROACH_M
-        return T
-
-    @staticmethod
-    def _front(T_slot: np.ndarray) -> np.ndarray:
-        """Above the slot and RACK_FRONT_M towards the arm's base, clear of the tools
-        hanging in the rack: a joint move to or from the rack starts or ends there, so the
-        tool in hand never sweeps through its neighbours."""
-        T = SimController._above(T_slot)
-        towards = -T[:2, 3] / max(float(np.linalg.norm(T[:2, 3])), 1e-9)
-        T[:2, 3] += RACK_FRONT_M * towards
-        return T
-
-    def _approach(self, T_slot: np.ndarray) -> None:
-        """Joint move to the rack's front of a slot, then straight to above it (the flange
-        seated pose shifted up, the tool in hand's TCP carried along)."""
-        T_tcp = self.T_flange_tcp()
-        q = self.kinematics.solve(self._front(T_slot), self._drives.motor)
-        self.move_joints(q)
-        self.move_linear(self._above(T_slot) @ T_tcp, speed_m_s=0.2)
+    def _q_seed(self) -> np.ndarray:
+        return self._drives.motor
 
     # -- tools' actuators ---------------------------------------------------------------------
     def set_gripper(self, opening_m: float) -> None:

@@ -14,6 +14,7 @@ from scenarios.cli.run_command import CellOption
 # The help's panels of `twincell serve`.
 CONTROLLER = "Controller"
 EGM = "EGM"
+LASER = "Laser"
 CELL = "Cell"
 OUTPUT = "Output"
 
@@ -58,6 +59,27 @@ EgmPortOption = Annotated[
     option("--egm-port", "PORT", "The EGM client's UDP port.", EGM, min=1, max=65535),
 ]
 EgmHostOption = Annotated[str, option("--egm-host", "HOST", "The EGM client's host.", EGM)]
+ProfilesOption = Annotated[
+    int | None,
+    option(
+        "--profiles",
+        "PORT",
+        "Serve the line laser's profiles on this TCP port (0: any free one).",
+        LASER,
+        min=0,
+        max=65535,
+    ),
+]
+LaserClockOption = Annotated[
+    float | None,
+    option(
+        "--laser-clock",
+        "SECONDS",
+        "The laser's clock at the controller's time 0 [s] (default: the Unix time at start, "
+        "as a sensor synchronised by PTP keeps).",
+        LASER,
+    ),
+]
 SeedOption = Annotated[
     int | None,
     option("--seed", "INTEGER", "The real cell's seed (default: the job's).", CELL, min=0),
@@ -90,6 +112,8 @@ def serve(
     user: UserOption = None,
     egm_port: EgmPortOption = None,
     egm_host: EgmHostOption = "127.0.0.1",
+    profiles: ProfilesOption = None,
+    laser_clock: LaserClockOption = None,
     seed: SeedOption = None,
     speed: SpeedOption = 1.0,
     cell: CellOption = None,
@@ -105,13 +129,19 @@ def serve(
     client loads and starts run as `twincell execute` runs them; each one run to its end is
     measured against the truth in the serve folder (executions/).
     """
+    import time
+
     from scenarios.configuration.config_files import parse_assignment
     from scenarios.jobs.serve import serve_job
+    from scenarios.twin.sensor_streams import LaserStream
     from scenarios.twin.server import ServeOptions, parse_address, parse_users
 
     rws_host, rws_port = parse_address(rws)
     users = parse_users(user or [])
-    options = ServeOptions(host or rws_host, rws_port, egm_port, egm_host, users, opmode.upper())
+    laser = LaserStream(clock_offset_s=time.time() if laser_clock is None else laser_clock)
+    options = ServeOptions(
+        host or rws_host, rws_port, egm_port, egm_host, users, opmode.upper(), profiles, laser
+    )
     overrides = dict(parse_assignment(text) for text in assign or [])
     serving = serve_job(name, options, seed=seed, speed=speed, out=out, spawn=spawn, rrd=rrd,
                         progress=progress_lines(quiet),

@@ -22,7 +22,7 @@ from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.operations import WOBJ_TOLERANCE_DEG, WOBJ_TOLERANCE_M, virtual_model
 from scenarios.offline.tcp_check import POINTERS
 from scenarios.rapid.oframe import pose_text
-from scenarios.rapid.writer import tooldata_text
+from scenarios.rapid.rapid_text import tooldata_text
 
 
 @dataclass(frozen=True)

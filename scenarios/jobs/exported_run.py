@@ -24,10 +24,10 @@ from scenarios.rapid.execution_plan import ExecutionPlan
 from scenarios.rapid.executor import ExecutedMove, ExecutionRecord, execute_plan
 from scenarios.rapid.module import RapidModule
 from scenarios.rapid.planner import cell_tools, plan_execution
+from scenarios.rapid.rapid_text import rapid_identifier
 from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
 from scenarios.rapid.task import RapidTask, read_task
-from scenarios.rapid.writer import rapid_identifier
 from scenarios.realcell.setup import JobCell
 from scenarios.results.evaluations import TargetEvaluation
 from scenarios.results.exported_result import ExportedRun, TargetError

@@ -45,7 +45,7 @@ from scenarios.offline.program_proposal import TURNS_DEG
 from scenarios.offline.tcp_check import POINTERS
 from scenarios.program.program_types import OfflineProgram, Operation, PlannedOperation
 from scenarios.rapid.oframe import pose_text
-from scenarios.rapid.writer import configuration, rapid_identifier, tooldata_text
+from scenarios.rapid.rapid_text import configuration, rapid_identifier, tooldata_text
 from scenarios.scenario_errors import ScenarioError
 
 #: How far along its direction a named point is searched for the part's surface [m].

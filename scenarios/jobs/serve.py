@@ -16,7 +16,7 @@ import shutil
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -171,6 +171,9 @@ def serve_job(
         if serving is not None:
             _measured(serving, record, targets, say)
 
+    # the laser streams at the rate the job's scan reads it (its data sheet's)
+    laser = replace(options.laser, period_s=config.localization.scan.period_s)
+    options = replace(options, laser=laser)
     twin = TwinController(job.controller, folder, speed, touched, ended, say, options.opmode)
     twin.elog.listeners.append(lambda e: _log(job, e))
     if run is not None:
@@ -180,6 +183,8 @@ def serve_job(
     say(f"the real cell of {config.name} (seed {config.seed}) serves RWS at {served.url}")
     if served.egm is not None:
         say(f"EGM to {served.egm.client[0]}:{served.egm.client[1]} every 4 ms")
+    if served.profiles is not None:
+        say(f"the line laser's profiles on TCP port {served.profiles.port}")
     return serving
 
 

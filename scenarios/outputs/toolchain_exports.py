@@ -19,7 +19,7 @@ from models.robot import TOOLS
 from models.robot.urdf import urdf_text
 from registration.rigid import R_to_quat_wxyz
 from scenarios.program.program_types import OfflineProgram
-from scenarios.rapid.writer import tooldata_text
+from scenarios.rapid.rapid_text import tooldata_text
 
 
 def _with_limits(kinematics: Kinematics, robot: Robot) -> pin.Model:

@@ -24,9 +24,10 @@ from scenarios.offline.operations import UserProgram
 from scenarios.program.program_types import OfflineProgram
 from scenarios.rapid.module import RapidModule
 from scenarios.rapid.oframe import with_oframe
+from scenarios.rapid.rapid_text import configuration
 from scenarios.rapid.robtarget_rewrite import TargetRewrite, with_rewritten
 from scenarios.rapid.touches import folded
-from scenarios.rapid.writer import Filter, configuration
+from scenarios.rapid.writer import Filter
 
 
 @dataclass(frozen=True, eq=False)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Kinematics
-from scenarios.rapid.writer import configuration
+from scenarios.rapid.rapid_text import configuration
 
 Conf = tuple[int, int, int, int]
 

@@ -80,11 +80,16 @@ def execute_plan(
 
 
 def start_plan(
-    controller: Controller, plan: ExecutionPlan, on_move: Callable[[str], None] | None = None
+    controller: Controller,
+    plan: ExecutionPlan,
+    on_move: Callable[[str], None] | None = None,
+    from_here: bool = False,
 ) -> None:
     """What a plan's execution does before its first move: check that the controller is the
     one it was planned for (its tools, its kinematics), change to the plan's tool (through
-    home) and joint move to q_start; `on_move(what)` after each motion."""
+    home) and joint move to q_start; `on_move(what)` after each motion. `from_here`: the
+    plan starts where the arm stands (a controller plans a program from there), and only a
+    tool change takes the arm back to q_start."""
     moved = on_move or (lambda _what: None)
     if plan.tool is not None and plan.tool not in controller.tools:
         raise ExecutionError(
@@ -98,11 +103,14 @@ def start_plan(
             f"moves with (the flange at the start differs by {gap:.3g}); plan with "
             "controller.kinematics"
         )
-    if plan.tool is not None and controller.tool_in_hand != plan.tool:
+    changed = plan.tool is not None and controller.tool_in_hand != plan.tool
+    if changed:
+        assert plan.tool is not None
         change_tool_safely(controller, plan.tool)
         moved("tool change")
-    controller.move_joints(plan.q_start)
-    moved("start")
+    if changed or not from_here:
+        controller.move_joints(plan.q_start)
+        moved("start")
 
 
 def run_move(

@@ -22,8 +22,8 @@ from models.robot import TABLE_TRAVEL
 from scenarios.rapid.confdata import Conf
 from scenarios.rapid.flow import Step, program_error
 from scenarios.rapid.module import ToolData
+from scenarios.rapid.rapid_text import rapid_identifier
 from scenarios.rapid.task import ModuleScope
-from scenarios.rapid.writer import rapid_identifier
 
 #: Predefined speeddata: name -> (v_tcp [mm/s], v_ori [deg/s]) (v_leax, v_reax unused here).
 SPEEDS: dict[str, tuple[float, float]] = {

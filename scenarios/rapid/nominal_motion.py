@@ -16,8 +16,8 @@ from cell.trajectory import straight_path
 from scenarios.rapid.confdata import Conf, honours, solve_in_configuration
 from scenarios.rapid.flow import Step, program_error
 from scenarios.rapid.move_data import PlanState
+from scenarios.rapid.rapid_text import configuration
 from scenarios.rapid.task import ModuleScope
-from scenarios.rapid.writer import configuration
 
 #: Largest joint step between two samples of a straight move [rad] (the controller's).
 MAX_JOINT_STEP_RAD = 0.5

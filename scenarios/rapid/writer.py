@@ -10,75 +10,22 @@ external axis eax_a [mm].
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
-from cell import Kinematics, nominal_T_base_table
-from cell.controller import RACK_APPROACH_M
+from cell.controller import RACK_APPROACH_M, nominal_T_base_table
+from cell.kinematics import Kinematics
 from models.robot import TOOLS
-from registration.rigid import R_to_quat_wxyz
 from scenarios.program.program_types import OfflineProgram
-
-_UNUSED = "9E+09"
-
-
-def _num(x: float) -> str:
-    text = f"{x:.4f}".rstrip("0").rstrip(".")
-    return "0" if text in ("-0", "") else text
-
-
-def _pose_text(T: np.ndarray) -> str:
-    p = T[:3, 3] * 1e3
-    q = R_to_quat_wxyz(T[:3, :3])
-    return f"[[{', '.join(_num(v) for v in p)}],[{', '.join(f'{v:.8f}' for v in q)}]]"
-
-
-def _quadrant(angle: float) -> int:
-    return int(np.floor(angle / (np.pi / 2)))
-
-
-def configuration(kin: Kinematics, q: np.ndarray) -> tuple[int, int, int, int]:
-    """ABB configuration data (cf1, cf4, cf6, cfx) of joints q (6,) [rad]: quadrants of axes
-    1, 4, 6, and cfx = 4 * (wrist centre behind axis 1) + 2 * (below the lower arm) +
-    (axis 5 negative)."""
-    model, data = kin.model, kin.model.createData()
-    pin.forwardKinematics(model, data, np.asarray(q, dtype=float))
-    p2, p3, wc = (np.array(data.oMi[j].translation) for j in (2, 3, 5))
-    c, s = np.cos(q[0]), np.sin(q[0])
-
-    def plane(p: np.ndarray) -> np.ndarray:  # (reach along axis 1's heading, height)
-        return np.array([c * p[0] + s * p[1], p[2]])
-
-    behind = plane(wc)[0] < 0.0
-    lower = plane(p3) - plane(p2)
-    w = plane(wc) - plane(p2)
-    below = lower[0] * w[1] - lower[1] * w[0] > 0.0
-    cfx = 4 * int(behind) + 2 * int(below) + int(q[4] < 0.0)
-    return _quadrant(q[0]), _quadrant(q[3]), _quadrant(q[5]), cfx
-
-
-def rapid_identifier(name: str, prefix: str) -> str:
-    """A RAPID name for `name`: `prefix` (e.g. "p" for a robtarget, "t" for a tooldata), the
-    name's first letter upper-cased, any character RAPID does not allow an underscore, 32
-    characters at most."""
-    body = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    return f"{prefix}{body[:1].upper()}{body[1:]}"[:32]
-
-
-def tooldata_text(tool: str, T_flange_tcp: np.ndarray | None = None) -> str:
-    """The RAPID declaration of the cell's `tool` (its TCP in the flange frame: the nominal
-    one, or `T_flange_tcp` (4, 4); mass, centre of gravity half way to the TCP):
-    `PERS tooldata tName := [...];`."""
-    spec = next(t for t in TOOLS if t.name == tool)
-    T = spec.T_tool_tcp if T_flange_tcp is None else T_flange_tcp
-    cog = _num(spec.p_tool_tcp[2] * 1e3 / 2)
-    return (
-        f"PERS tooldata {rapid_identifier(tool, 't')} := [TRUE,{_pose_text(T)},"
-        f"[{_num(spec.mass)},[0,0,{cog}],[1,0,0,0],0,0,0]];"
-    )
+from scenarios.rapid.rapid_text import (
+    UNUSED,
+    configuration,
+    pose_text,
+    rapid_identifier,
+    rapid_number,
+    tooldata_text,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,7 +101,7 @@ def program_module(
     T_base_wobj = T_base_uframe @ T_uframe_oframe
     tool = rapid_identifier(program.tool, "t")
     wobj = "wobjObject"
-    eax = f"[{_num(program.table_position_m * 1e3)},{','.join([_UNUSED] * 5)}]"
+    eax = f"[{rapid_number(program.table_position_m * 1e3)},{','.join([UNUSED] * 5)}]"
     T_tcp = None if filtered is None else filtered.T_flange_tcp(program.tool)
     if filtered is None:
         written = [
@@ -185,9 +132,9 @@ def program_module(
         "  ! Lengths in mm, quaternions [q1 (w), q2, q3, q4]; table = external axis A [mm].",
         *header,
         f"  {tooldata_text(program.tool, T_tcp)}",
-        f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",{_pose_text(T_base_uframe)},'
-        f"{_pose_text(T_uframe_oframe)}];",
-        f"  CONST speeddata vTouch := [{_num(touch_speed_m_s * 1e3)},500,5000,1000];",
+        f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",{pose_text(T_base_uframe)},'
+        f"{pose_text(T_uframe_oframe)}];",
+        f"  CONST speeddata vTouch := [{rapid_number(touch_speed_m_s * 1e3)},500,5000,1000];",
     ]
     names = []
     for planned, (T_app, q_app, T_touch, q_touch) in zip(program.operations, written, strict=True):
@@ -195,9 +142,7 @@ def program_module(
         for suffix, T_object, q in (("App", T_app, q_app), ("Touch", T_touch, q_touch)):
             cf = ",".join(str(v) for v in configuration(kin, q))
             target = f"{base}{suffix}"[:32]
-            lines.append(
-                f"  CONST robtarget {target} := {_pose_text(T_object)[:-1]},[{cf}],{eax}];"
-            )
+            lines.append(f"  CONST robtarget {target} := {pose_text(T_object)[:-1]},[{cf}],{eax}];")
         names.append((f"{base}App"[:32], f"{base}Touch"[:32]))
     lines.append("  PROC main()")
     for app, touch in names:

@@ -1,14 +1,16 @@
-"""Externally Guided Motion (EGM), as an IRC5 streams it: every 4 ms of the controller's time
-an `EgmRobot` message (the joints measured and commanded [deg], the flange pose in the base
-frame [mm, quaternion], the motors' and RAPID's states) goes by UDP to the client's port,
-and the `EgmSensor` messages the client sends back from there are references the arm
-follows: joints [deg] (`EGMRunJoint`), or a pose of tool0 in the base frame [mm, w x y z]
-(`EGMRunPose` with tool0 and wobj0), solved on the nominal arm.
+"""Externally Guided Motion (EGM), as an IRC5 streams it: every 4 ms an `EgmRobot` message
+(the joints measured and commanded [deg], the flange pose in the base frame [mm,
+quaternion], the table as external axis A [mm], the controller's time, the motors' and
+RAPID's states) goes by UDP to the client's port, and the `EgmSensor` messages the client
+sends back from there are references the arm follows: joints [deg] (`EGMRunJoint`), or a
+pose of tool0 in the base frame [mm, w x y z] (`EGMRunPose` with tool0 and wobj0), solved on
+the nominal arm.
 
-The twin's EGM session stands open while it serves (a program's `EGMRunJoint` on a real
-controller): the arm follows fresh references when the motors are on and no RAPID program
-runs, and holds otherwise. The servo follows within the joints' speed limits; what the drive
-loop adds to that is the servo's own lag.
+The twin's EGM session stands open while it serves. Its feedback streams as a real
+controller's position stream does (`EGMActJoint ... \\StreamStart`), while programs run and
+while the arm stands. As a program's `EGMRunJoint` would, the arm follows fresh references
+when the motors are on and no RAPID program runs, and holds otherwise. The servo follows
+within the joints' speed limits; what the drive loop adds to that is the servo's own lag.
 """
 
 from __future__ import annotations
@@ -120,6 +122,13 @@ class EgmServer:
                     self._pose = None
         return None
 
+    def fresh(self, max_age_s: float) -> bool:
+        """Whether a reference not older than `max_age_s` [s] came."""
+        now = time.monotonic()
+        with self._lock:
+            stamps = [r[0] for r in (self._joints, self._pose) if r is not None]
+        return any(now - t <= max_age_s for t in stamps)
+
     def refuse_until_new(self) -> None:
         """Forget the reference (one the arm could not follow) until the client sends another."""
         with self._lock:
@@ -137,6 +146,7 @@ class EgmServer:
         feedback = message.feedBack
         feedback.joints.joints.extend(np.rad2deg(snap.q).tolist())
         _pose(feedback.cartesian, snap.T_base_flange)
+        feedback.externalJoints.joints.append(snap.table_m * 1e3)  # axis A, a linear axis [mm]
         feedback.time.sec = int(snap.time_s)
         feedback.time.usec = int((snap.time_s % 1.0) * 1e6)
         message.planned.joints.joints.extend(np.rad2deg(snap.q_ref).tolist())

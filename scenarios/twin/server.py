@@ -1,24 +1,29 @@
 """A served controller: the twin's state (scenarios.twin.twin_controller) behind RWS on an HTTP
-port and, if asked, an EGM session with a client's UDP port; started and stopped as one."""
+port and, if asked, an EGM session with a client's UDP port and the line laser's profile
+stream on a TCP port; started and stopped as one."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from scenarios.twin.controller_errors import bad_request
 from scenarios.twin.digest import DEFAULT_USERS
 from scenarios.twin.egm import EgmServer
+from scenarios.twin.guidance import Guidance
 from scenarios.twin.http import Server
+from scenarios.twin.profile_server import ProfileServer
 from scenarios.twin.rws import Rws
+from scenarios.twin.sensor_streams import LaserStream, SensorStreams
 from scenarios.twin.twin_controller import TwinController
 
 
 @dataclass(frozen=True)
 class ServeOptions:
     """Where and how to serve: RWS on host:port (port 0: any free one), EGM to the client
-    at egm_host:egm_port (None: no EGM), the users (name -> password), and the controller's
-    operation mode (AUTO, or MANR: clients read only)."""
+    at egm_host:egm_port (None: no EGM), the laser's profiles on host:profiles_port (None: no
+    profile stream; 0: any free port) as `laser` says, the users (name -> password), and the
+    controller's operation mode (AUTO, or MANR: clients read only)."""
 
     host: str = "127.0.0.1"
     port: int = 8080
@@ -26,6 +31,8 @@ class ServeOptions:
     egm_host: str = "127.0.0.1"
     users: tuple[tuple[str, str], ...] = tuple(DEFAULT_USERS.items())
     opmode: str = "AUTO"
+    profiles_port: int | None = None
+    laser: LaserStream = field(default_factory=LaserStream)
 
 
 class ServedController:
@@ -41,7 +48,11 @@ class ServedController:
         self.egm: EgmServer | None = None
         if options.egm_port is not None:
             self.egm = EgmServer((options.egm_host, options.egm_port), options.host)
-            twin.egm = self.egm
+            twin.guidance = Guidance(twin.cell, self.egm, twin.elog)
+        self.profiles: ProfileServer | None = None
+        if options.profiles_port is not None:
+            self.profiles = ProfileServer((options.host, options.profiles_port))
+        twin.streams = SensorStreams(self.egm, self.profiles, options.laser)
 
     @property
     def url(self) -> str:
@@ -54,6 +65,7 @@ class ServedController:
         self.twin.close()
         if self.egm is not None:
             self.egm.close()
+        self.twin.streams.close()
 
 
 def parse_address(text: str) -> tuple[str, int]:

@@ -34,6 +34,8 @@ SIGNALS: tuple[SignalSpec, ...] = (
     SignalSpec("aiToolNumber", "AI", "the tool in hand (0 none, 1 gripper, 2 screwer, ...)", 0, 9),
     SignalSpec("aiTablePosition", "AI", "the table axis' readout [mm]", -1e4, 1e4),
     SignalSpec("aoGripperOpening", "AO", "each finger's opening from the centre [mm]", 0, 50),
+    SignalSpec("doToolLock", "DO", "the tool changer: 1 locks the tool seated against the "
+               "flange, 0 releases the tool held"),
     *(SignalSpec(f"doUser{k}", "DO", "a user output") for k in range(1, 9)),
     *(SignalSpec(f"diUser{k}", "DI", "a user input (loops back doUser of its number)")
       for k in range(1, 9)),

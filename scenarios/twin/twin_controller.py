@@ -36,22 +36,18 @@ from scenarios.rapid.executor import (
 )
 from scenarios.rapid.module import RapidModule
 from scenarios.rapid.planner import cell_tools, plan_execution
-from scenarios.rapid.reader import read_module
 from scenarios.rapid.syntax import RapidError
-from scenarios.rapid.task import RapidTask, read_task
-from scenarios.twin.controller_errors import ControllerError, bad_request, not_allowed, not_found
-from scenarios.twin.egm import EgmServer
+from scenarios.twin.controller_errors import ControllerError, bad_request, not_allowed
 from scenarios.twin.elog import EventLog
 from scenarios.twin.file_service import FileService
+from scenarios.twin.guidance import PERIOD_S, Guidance
 from scenarios.twin.pacing import WallClockPacer
+from scenarios.twin.sensor_streams import SensorStreams
 from scenarios.twin.signals import SIGNALS, SignalSpec, parse_value
 from scenarios.twin.snapshot import Snapshot
-from scenarios.twin.symbols import Symbol, find, set_value
+from scenarios.twin.symbols import Symbol
+from scenarios.twin.task_modules import TaskModules
 
-#: The controller's control period: snapshots, EGM messages [s].
-PERIOD_S = 0.004
-#: A streamed reference older than this is not followed (the arm holds) [s].
-STALE_S = 0.1
 #: The operation modes the twin runs in: automatic, and manual reduced speed (where a
 #: remote client reads but neither starts programs nor writes: on an IRC5 that needs the
 #: FlexPendant, or remote mastership its user grants there).
@@ -94,9 +90,9 @@ class TwinController:
             raise bad_request(f"operation mode {opmode!r}: give {' or '.join(OPMODES)}")
         self.cell = controller
         self.files = FileService(folder / "files")
-        self.task_folder = folder / "task"
-        self.task_folder.mkdir(parents=True, exist_ok=True)
         self.elog = EventLog()
+        #: The modules loaded into T_ROB1.
+        self.task = TaskModules(folder / "task", self.elog)
         self.ctrlstate = "motoron"
         self.opmode = opmode
         self.execstate = "stopped"
@@ -109,13 +105,15 @@ class TwinController:
         self._on_end = on_end or (lambda _r: None)
         self._say = say or (lambda _m: None)
         self._lock = threading.RLock()
-        self._modules: dict[str, Path] = {}
         self._execution: Execution | None = None
         self._commands: queue.Queue[Callable[[], None]] = queue.Queue()
         self._halt = threading.Event()
         self._closing = threading.Event()
         self.pacer = WallClockPacer(speed, controller.time_s, self._lagging)
-        self.egm: EgmServer | None = None
+        #: What streams every control period (EGM feedback, the laser's profiles), and the
+        #: EGM guidance (None: no EGM session); set by the server.
+        self.streams = SensorStreams()
+        self.guidance: Guidance | None = None
         q = controller.read_joints()
         self._q_ref = q
         self.snapshot = self._snapshot(q, q)
@@ -126,23 +124,24 @@ class TwinController:
 
     # -- the worker --------------------------------------------------------------------------
     def _work(self) -> None:
-        streamed = False
+        guided = False
         while not self._closing.is_set():
-            streaming = self.egm is not None and self.egm.active()
+            follow = self.guidance is not None and self.guidance.fresh()
+            streaming = follow or self.streams.streaming
             command: Callable[[], None]
             try:
-                if streaming:
+                if follow:
                     command = self._commands.get_nowait()
                 else:
-                    command = self._commands.get(timeout=0.05)
-                streamed = False
+                    command = self._commands.get(timeout=PERIOD_S if streaming else 0.05)
+                guided = False
             except queue.Empty:
                 if not streaming:
                     continue
-                if not streamed:
+                if follow and not guided:
                     self.pacer.relock(self.cell.time_s)
-                streamed = True
-                command = self._egm_tick
+                guided = follow
+                command = self._egm_tick if follow else self._stand_tick
             try:
                 command()
             except MotionHaltedError:
@@ -166,14 +165,21 @@ class TwinController:
         stream EGM feedback, keep pace with the wall clock, halt on a stop request."""
         q = self.cell.read_joints()
         self.snapshot = self._snapshot(q, self._q_ref, time_s)
-        if self.egm is not None:
-            self.egm.feedback(
-                self.snapshot, self.ctrlstate == "motoron", self.execstate == "running"
-            )
+        self._publish(moving=True)
         self.pacer.keep_pace(time_s)
         if self._halt.is_set():
             return "stop requested by a client"
         return None
+
+    def _stand_tick(self) -> None:
+        """A control period standing still (on the worker): the encoders read anew and the
+        streams fed; the controller's time stands."""
+        self.snapshot = self._snapshot(self.cell.read_joints(), self._q_ref)
+        self._publish(moving=False)
+
+    def _publish(self, moving: bool) -> None:
+        motors_on, running = self.ctrlstate == "motoron", self.execstate == "running"
+        self.streams.publish(self.cell, self.snapshot, motors_on, running, moving)
 
     def _lagging(self, message: str) -> None:
         self.elog.add("lagging", message)
@@ -231,13 +237,10 @@ class TwinController:
     # -- the task -----------------------------------------------------------------------------
     def modules(self) -> list[RapidModule]:
         """The loaded modules, as read now."""
-        with self._lock:
-            paths = list(self._modules.values())
-        return [read_module(p) for p in paths]
+        return self.task.modules()
 
     def module_names(self) -> list[str]:
-        with self._lock:
-            return [p.stem for p in self._modules.values()]
+        return self.task.names()
 
     def load_module(self, path: str, replace: bool = False) -> str:
         """Load the module file `path` (a file-service path) into T_ROB1; refused, with an
@@ -245,56 +248,26 @@ class TwinController:
         self._require_auto("load a module")
         data = self.files.read(path)
         self._require_stopped("load a module")
-        try:
-            module = read_module(data.decode("utf-8", errors="strict"), path)
-        except (RapidError, UnicodeDecodeError) as exc:
-            self.elog.add("load_refused", f"{path}: {exc}")
-            raise ControllerError(
-                400, "rapid", f"{path}: the module does not load: {exc}"
-            ) from None
-        key = module.name.casefold()
         with self._lock:
-            if key in self._modules and not replace:
-                raise not_allowed(
-                    f"module {module.name} is loaded already (replace=true to load it again)"
-                )
-            target = self.task_folder / f"{module.name}.mod"
-            target.write_bytes(data)
-            self._modules[key] = target
+            name = self.task.load(data, path, replace)
             self._execution = None
-        self.elog.add("loaded", f"{module.name} from {path}")
-        return module.name
+        return name
 
     def unload_module(self, name: str) -> None:
         self._require_auto("unload a module")
         self._require_stopped("unload a module")
         with self._lock:
-            path = self._modules.pop(name.casefold(), None)
-            if path is None:
-                loaded = ", ".join(self.module_names()) or "none"
-                raise not_found(f"module {name!r} is not loaded (loaded: {loaded})")
-            path.unlink()
+            self.task.unload(name)
             self._execution = None
-        self.elog.add("unloaded", name)
-
-    def _task(self) -> RapidTask:
-        with self._lock:
-            paths = list(self._modules.values())
-        if not paths:
-            raise not_allowed("no module is loaded in T_ROB1")
-        return read_task(paths)
 
     def symbol(self, path: str) -> Symbol:
-        return find(self.modules(), path)
+        return self.task.symbol(path)
 
     def set_symbol(self, path: str, value: str) -> None:
         """Write a RAPID datum (the loaded module's text changes; the program reads it at the
         next program pointer reset)."""
         self._require_auto("write RAPID data")
-        with self._lock:
-            symbol = self.symbol(path)
-            text = set_value(symbol, value)
-            self._modules[symbol.module.name.casefold()].write_text(text, encoding="utf-8")
+        symbol = self.task.set_symbol(path, value)
         self._changed(f"rapid:{symbol.url}", symbol.value)
 
     # -- execution ------------------------------------------------------------------------------
@@ -310,18 +283,19 @@ class TwinController:
             raise not_allowed(f"cannot {what} while the program runs (stop it first)")
 
     def resetpp(self) -> None:
-        """Plan the loaded task from main on the nominal arm (the data as they are now); a
-        program that cannot run is refused here, with an event-log entry."""
+        """Plan the loaded task from main on the nominal arm, from where the arm stands (the
+        data as they are now); a program that cannot run is refused here, with an event-log
+        entry."""
         self._require_auto("reset the program pointer")
         self._require_stopped("reset the program pointer")
-        task = self._task()
+        task = self.task.task()
         cell = self.cell
         try:
-            plan = plan_execution(
-                task, cell.nominal_kinematics, cell_tools(cell), cell.q_home, cell.robot.joint_speed
-            )
+            here = self.snapshot.q
+            kinematics, tools = cell.nominal_kinematics, cell_tools(cell)
+            plan = plan_execution(task, kinematics, tools, here, cell.robot.joint_speed)
         except (RapidError, ExecutionError) as exc:
-            message = str(exc).replace(f"{self.task_folder}/", "T_ROB1/")  # the client's names
+            message = str(exc).replace(f"{self.task.folder}/", "T_ROB1/")  # the client's names
             self.elog.add("plan_refused", message)
             raise ControllerError(400, "rapid", message) from None
         with self._lock:
@@ -363,7 +337,7 @@ class TwinController:
             cell.set_absolute_accuracy(None)
             if execution.next_move < 0:
                 execution.start_time_s = cell.time_s
-                start_plan(cell, plan)
+                start_plan(cell, plan, from_here=True)
                 execution.next_move = 0
             while execution.next_move < len(plan.moves):
                 move = plan.moves[execution.next_move]
@@ -408,6 +382,9 @@ class TwinController:
     def set_signal(self, spec: SignalSpec, text: str) -> None:
         self._require_auto("set a signal")
         value = parse_value(spec, text)
+        if spec.name == "doToolLock":
+            self._require_stopped("work the tool changer")
+            self.submit(lambda: self._tool_lock(value == 1.0))
         if spec.name == "aoGripperOpening":
             if self.cell.tool_in_hand != "gripper":
                 raise not_allowed("aoGripperOpening: the gripper is not in hand")
@@ -416,35 +393,29 @@ class TwinController:
         self.signals[spec.name] = value
         self._changed(f"signal:{spec.name}", str(value))
 
+    def _tool_lock(self, lock: bool) -> None:
+        """Lock the tool seated against the flange, or release the one held (on the worker);
+        a lock the supervision refuses is in the event log, and no tool is held."""
+        self.pacer.relock(self.cell.time_s)
+        try:
+            if lock:
+                self.cell.lock()
+            else:
+                self.cell.unlock()
+        except SupervisionError as exc:
+            self.elog.add("supervision", str(exc))
+        except CellError as exc:
+            self.elog.add("execution_error", f"the tool changer: {exc}")
+        finally:
+            self._refresh()
+
     def _gripper(self, opening_mm: float) -> None:
         self.pacer.relock(self.cell.time_s)
         self.cell.set_gripper(opening_mm * 1e-3)
         self._refresh()
 
-    # -- EGM --------------------------------------------------------------------------------
-    def _solve_flange(self, T_base_flange: np.ndarray) -> np.ndarray:
-        """The joints (6,) [rad] that put the flange at `T_base_flange` on the nominal arm,
-        from the joints commanded now."""
-        return self.cell.nominal_kinematics.solve(T_base_flange, self.snapshot.q_ref, np.eye(4))
-
+    # -- EGM ----------------------------------------------------------------------------------
     def _egm_tick(self) -> None:
-        """One control period of streamed guidance (on the worker): follow the reference if
-        one is fresh, the motors on and no program running; else hold."""
-        link = self.egm
-        if link is None:
-            return
-        if self.execstate == "running":
-            return
-        reference = link.reference(self._solve_flange, STALE_S)
-        if reference is not None and self.ctrlstate == "motoron":
-            self._q_ref = reference
-        try:
-            self.cell.servo(self._q_ref, PERIOD_S)
-        except SupervisionError as exc:
-            self.elog.add("collision", f"EGM: {exc}")
-            self._q_ref = self.cell.read_joints()
-            link.refuse_until_new()
-        except CellError as exc:
-            link.refuse_until_new()
-            self.elog.add("egm", f"EGM reference refused: {exc}")
-            self._q_ref = self.snapshot.q_ref
+        """One control period of streamed guidance (on the worker), while no program runs."""
+        if self.guidance is not None and self.execstate != "running":
+            self._q_ref = self.guidance.tick(self._q_ref, self.ctrlstate == "motoron")

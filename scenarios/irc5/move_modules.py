@@ -1,0 +1,141 @@
+"""The RAPID module of one move, as the client has a controller run it: a joint move
+(MoveAbsJ, the table as external axis A) or a straight move (MoveL) of the TCP of the tool in
+hand, in the base frame (wobj0).
+
+Every module is named `MODULE` and loaded over the one before it. Targets are written for the
+controller's own arm, which is its nominal one (an IRC5 without the absolute-accuracy
+option): the client solves a target with the arm it moves with (the calibrated one, once it is
+calibrated) and writes the joints that solution has, or the pose the nominal arm puts there
+with their confdata, so the controller arrives at those joints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell.kinematics import Kinematics
+from scenarios.rapid.rapid_text import (
+    configuration,
+    pose_text,
+    rapid_identifier,
+    rapid_number,
+    tooldata_text,
+)
+
+#: The module's name on the controller.
+MODULE = "TcMove"
+_UNUSED = "9E+09"
+#: A speeddata's external axes' speeds: not limiting [mm/s, deg/s].
+_EXTERNAL = "5000, 1000"
+#: Where no speed limits [mm/s] or [deg/s].
+_UNLIMITED = 1.0e4
+
+
+@dataclass(frozen=True)
+class Tool:
+    """The tool the move carries: its name in the cell and its TCP in the flange frame
+    T_flange_tcp (4, 4) [m] (a program's tooldata; the nominal one if not told), or the
+    flange (name None: tool0)."""
+
+    name: str | None
+    T_flange_tcp: np.ndarray
+
+    @property
+    def declaration(self) -> str:
+        """The module's tooldata declaration line ("" for tool0)."""
+        if self.name is None:
+            return ""
+        return f"  {tooldata_text(self.name, self.T_flange_tcp)}\n"
+
+    @property
+    def rapid_name(self) -> str:
+        return "tool0" if self.name is None else rapid_identifier(self.name, "t")
+
+
+def _speed(v_tcp_mm_s: float, v_ori_deg_s: float) -> str:
+    v_tcp, v_ori = (min(v, _UNLIMITED) for v in (v_tcp_mm_s, v_ori_deg_s))
+    return f"[{rapid_number(v_tcp)}, {rapid_number(v_ori)}, {_EXTERNAL}]"
+
+
+def _zone(settle_s: float) -> str:
+    """A stop point (fine: the controller settles) if the move settles, else fly-by (z0)."""
+    return "fine" if settle_s > 0.0 else "z0"
+
+
+def joint_speed(
+    kinematics: Kinematics,
+    q_from: np.ndarray,
+    q_to: np.ndarray,
+    T_flange_tcp: np.ndarray,
+    fraction: float,
+    joint_speed_rad_s: np.ndarray,
+) -> tuple[float, float]:
+    """The speeddata (v_tcp [mm/s], v_ori [deg/s]) that makes a controller run the joint move
+    from q_from to q_to (6,) [rad] at `fraction` of the joints' speed limits: the TCP's path
+    length and turn over the time the slowest joint takes at that fraction."""
+    dq = np.asarray(q_to, dtype=float) - np.asarray(q_from, dtype=float)
+    t_unit = float(np.max(np.abs(dq) / joint_speed_rad_s))
+    if t_unit <= 0.0 or fraction >= 1.0:
+        return _UNLIMITED, _UNLIMITED
+    steps = np.linspace(0.0, 1.0, 9)
+    points = np.array([(kinematics.fk(q_from + s * dq) @ T_flange_tcp)[:3, 3] for s in steps])
+    length = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+    R0 = (kinematics.fk(q_from) @ T_flange_tcp)[:3, :3]
+    R1 = (kinematics.fk(q_to) @ T_flange_tcp)[:3, :3]
+    angle = float(np.arccos(np.clip((np.trace(R0.T @ R1) - 1.0) / 2.0, -1.0, 1.0)))
+    t = t_unit / fraction
+    v_tcp = length / t * 1e3 if length > 1e-9 else _UNLIMITED
+    v_ori = float(np.degrees(angle / t)) if angle > 1e-9 else _UNLIMITED
+    return v_tcp, v_ori
+
+
+def joint_move(
+    q: np.ndarray,
+    table_m: float | None,
+    speed: tuple[float, float],
+    settle_s: float,
+    tool: Tool,
+) -> str:
+    """The module of a MoveAbsJ to `q` (6,) [rad] with the table at `table_m` [m] (None: where
+    it is), at `speed` (v_tcp [mm/s], v_ori [deg/s])."""
+    joints = ", ".join(rapid_number(v) for v in np.degrees(q))
+    table = _UNUSED if table_m is None else rapid_number(table_m * 1e3)
+    external = ", ".join([table] + [_UNUSED] * 5)
+    return (
+        f"MODULE {MODULE}\n"
+        f"  CONST jointtarget jTo := [[{joints}],[{external}]];\n"
+        f"{tool.declaration}"
+        "  PROC main()\n"
+        f"    MoveAbsJ jTo, {_speed(*speed)}, {_zone(settle_s)}, {tool.rapid_name};\n"
+        "  ENDPROC\n"
+        "ENDMODULE\n"
+    )
+
+
+def linear_move(
+    nominal: Kinematics,
+    q_end: np.ndarray,
+    tool: Tool,
+    speed_m_s: float,
+    angular_speed_rad_s: float,
+    settle_s: float,
+    target: str = "pTo",
+) -> str:
+    """The module of a MoveL of the tool's TCP to where the joints `q_end` (6,) [rad] put it on
+    the controller's `nominal` arm (with their confdata), in the base frame, named `target`."""
+    T_base_tcp = nominal.fk(q_end) @ tool.T_flange_tcp
+    cf1, cf4, cf6, cfx = configuration(nominal, q_end)
+    external = ", ".join([_UNUSED] * 6)
+    speed = _speed(speed_m_s * 1e3, float(np.degrees(angular_speed_rad_s)))
+    return (
+        f"MODULE {MODULE}\n"
+        f"  CONST robtarget {target} := "
+        f"{pose_text(T_base_tcp)[:-1]},[{cf1},{cf4},{cf6},{cfx}],[{external}]];\n"
+        f"{tool.declaration}"
+        "  PROC main()\n"
+        f"    MoveL {target}, {speed}, {_zone(settle_s)}, {tool.rapid_name};\n"
+        "  ENDPROC\n"
+        "ENDMODULE\n"
+    )

@@ -1,0 +1,70 @@
+"""Laser profiles paired with the poses they were read at, by time: each profile's stamp
+brought onto the controller's clock (less the clock's offset and the sensor's latency), its
+joints interpolated between the EGM samples around that instant (`readings`).
+
+The offset is set while the arm stands (scenarios.irc5.remote_controller): a profile made
+standing against the newest position sample. On the twin both clocks stand still while the
+arm does, so the offset is exact; on a real controller it is off by the difference of the two
+links' delays, which the sensor's latency (from exposure to stamp, a parameter the laser's
+calibration identifies) takes up.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from cell.readings import LaserReading
+from scenarios.irc5.egm_feedback import Feedback
+from scenarios.irc5.line_profiler import Received
+from scenarios.irc5.link_errors import LinkError
+
+#: Stamps this close are one instant [s] (a sensor clock kept in Unix time resolves 0.24 us
+#: in a float64).
+SAME_INSTANT_S = 1.0e-5
+#: The widest gap between two position samples a profile's pose is interpolated over [s]
+#: (five EGM periods: a few lost packets); a profile in a wider gap has no pose and is dropped.
+MAX_GAP_S = 0.02
+
+
+def _pose_at(t: float, times: np.ndarray, q: np.ndarray) -> np.ndarray | None:
+    """Joints (6,) at the controller's time t [s] from samples at `times` (sorted), or None."""
+    k = int(np.searchsorted(times, t))
+    for j in (k - 1, k):  # a sample at the profile's instant (a controller standing still)
+        if 0 <= j < len(times) and abs(times[j] - t) <= SAME_INSTANT_S:
+            return q[j]
+    if k == 0 or k == len(times) or times[k] - times[k - 1] > MAX_GAP_S:
+        return None
+    w = (t - times[k - 1]) / (times[k] - times[k - 1])
+    return (1.0 - w) * q[k - 1] + w * q[k]
+
+
+def readings(
+    profiles: Sequence[Received],
+    feedback: Sequence[Feedback],
+    offset_s: float,
+    latency_s: float = 0.0,
+    table_m: float | None = None,
+) -> list[LaserReading]:
+    """Each profile with the joints at its exposure, in the controller's time: its stamp less
+    `offset_s` and the sensor's `latency_s` [s]; profiles outside the samples' span or in a gap
+    wider than MAX_GAP_S are dropped. The table from the samples (or `table_m` [m])."""
+    if not feedback:
+        return []
+    # one sample per controller instant (a standing controller repeats its time): the first
+    times, first = np.unique(np.array([s.time_s for s in feedback]), return_index=True)
+    q = np.array([feedback[i].q for i in first])
+    tables = [feedback[i].table_m for i in first]
+    out = []
+    for r in profiles:
+        t = r.profile.stamp_s - offset_s - latency_s
+        pose = _pose_at(t, times, q)
+        if pose is None:
+            continue
+        k = min(int(np.searchsorted(times, t)), len(times) - 1)
+        table = tables[k] if tables[k] is not None else table_m
+        if table is None:
+            raise LinkError("the table's position came neither with the EGM samples nor given")
+        out.append(LaserReading(r.profile.distances, pose, float(table), float(t)))
+    return out

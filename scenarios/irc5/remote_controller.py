@@ -1,0 +1,354 @@
+"""The controller API over an ABB IRC5's own interfaces: `RemoteController` drives a real
+controller, or `twincell serve` standing in for one, from another process.
+
+- Moves: each is a RAPID module of one move (scenarios.irc5.move_modules) loaded over RWS,
+  run from main and waited for (the overhead per move is a few requests: take the file, load,
+  reset the pointer, start, poll). The controller plans and runs the move itself, under its
+  own path planner and motion supervision; EGM guidance would bypass both.
+- The encoders, the table and the controller's time: EGM's position stream (250 Hz), never an
+  RWS poll. Nothing is commanded on a stream older than `max_age_s`.
+- The tool changer: the `doToolLock` output, the `diToolLocked` and `aiToolNumber` inputs;
+  picking and returning a tool are the controller API's own sequences of moves around them.
+- The line laser: its own profile stream (scenarios.irc5.line_profiler), paired with the
+  poses by time (scenarios.irc5.profile_alignment).
+- A stop of the controller's supervision is read from its event log and raised as the
+  SupervisionError it was; a move the controller refuses or fails is a ControllerRefusalError.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from contextlib import AbstractContextManager
+
+import numpy as np
+
+from cell.cell_errors import SupervisionError
+from cell.controller import SETTLE_S, Controller, SupervisionLimits
+from cell.kinematics import Kinematics
+from cell.layout import LaserConfig
+from cell.readings import LaserReading
+from cell.robot_arm import Robot
+from models.robot import TABLE_SPEED, beam_line
+from scenarios.irc5.egm_feedback import EgmFeedback, Feedback
+from scenarios.irc5.line_profiler import ProfileBuffer, Received
+from scenarios.irc5.link_errors import ControllerRefusalError, LinkError, NotOfferedError
+from scenarios.irc5.move_modules import MODULE, Tool, joint_move, joint_speed, linear_move
+from scenarios.irc5.profile_alignment import readings
+from scenarios.irc5.rws_link import RwsLink
+
+#: How far the encoders may stand from a joint move's target when the controller says the
+#: program ended, before the event log is asked why [rad].
+IN_POSITION_RAD = 2.0e-3
+#: How long after the arm stopped a profile made while it moved may still come [s] (the
+#: sensor's and the controller's buffers and threads).
+DRAIN_S = 0.05
+#: The event log's codes of a stop: the motion supervision, the twin's supervision stops,
+#: an execution error.
+_COLLISION, _SUPERVISION, _EXECUTION = 50204, 89006, 89005
+
+
+class RemoteController(Controller):
+    """The controller at the other end of `link` (RWS), its position stream `feedback` (EGM)
+    and the laser's `profiles` (None: no line laser), with the cell's data sheets: the arm
+    (`robot`, its nominal `kinematics`), the rack's place, the laser's rays.
+
+    `max_age_s`: the oldest position sample a command may rest on [s]; `move_timeout_s`: the
+    longest a move's program may run [s] (wall clock)."""
+
+    def __init__(
+        self,
+        link: RwsLink,
+        feedback: EgmFeedback,
+        profiles: ProfileBuffer | None,
+        robot: Robot,
+        kinematics: Kinematics,
+        rack_xyz: tuple[float, float, float],
+        laser: LaserConfig,
+        limits: SupervisionLimits | None = None,
+        max_age_s: float = 0.1,
+        move_timeout_s: float = 300.0,
+    ) -> None:
+        super().__init__(robot, kinematics, rack_xyz, laser, limits)
+        self.link, self.feedback, self.profiles = link, feedback, profiles
+        self.max_age_s, self.move_timeout_s = max_age_s, move_timeout_s
+        #: The sensor's clock minus the controller's [s], once measured.
+        self.sensor_offset_s: float | None = None
+        #: Wall time spent in the moves' programs and in the requests around them [s].
+        self.moves = 0
+        self.move_wall_s = 0.0
+        link.ready()
+        first = feedback.after(time.monotonic() - 1.0, 5.0)
+        self._q_command = first.q.copy()
+        self._last_read_s = first.received_s
+        self._tool = self._tool_number_in_hand()
+        self._stopped_at = self._last_profile_s = time.monotonic()
+
+    # -- state ------------------------------------------------------------------------------
+    @property
+    def tool_in_hand(self) -> str | None:
+        return self._tool
+
+    @property
+    def time_s(self) -> float:
+        return self.feedback.fresh(self.max_age_s).time_s
+
+    def read_joints(self) -> np.ndarray:
+        """The next encoder sample of the stream (each call a new one)."""
+        self.feedback.fresh(self.max_age_s)
+        sample = self.feedback.after(self._last_read_s, 1.0)
+        self._last_read_s = sample.received_s
+        return sample.q.copy()
+
+    def table_position(self) -> float:
+        table = self.feedback.fresh(self.max_age_s).table_m
+        if table is None:
+            raise LinkError("the controller's EGM feedback carries no external axis A (table)")
+        return table
+
+    def _tool_number_in_hand(self) -> str | None:
+        number = round(self.link.analog("aiToolNumber"))
+        if number == 0:
+            return None
+        if not 1 <= number <= len(self.tools):
+            raise ControllerRefusalError(
+                f"aiToolNumber says tool {number}; the cell's tools are 1..{len(self.tools)}: "
+                f"{', '.join(self.tools)}"
+            )
+        return self.tools[number - 1]
+
+    # -- motion -----------------------------------------------------------------------------
+    def _carried(self, T_flange_tcp: np.ndarray | None = None) -> Tool:
+        """The tool a move carries: the one in hand (with `T_flange_tcp`, if a program's
+        tooldata gives another TCP), or the flange."""
+        name = self.tool_in_hand
+        return Tool(name, self.T_flange_tcp() if T_flange_tcp is None else T_flange_tcp)
+
+    def move_joints(
+        self, q_target: np.ndarray, speed: float = 1.0, settle_s: float = SETTLE_S
+    ) -> None:
+        if not 0.0 < speed <= 1.0:
+            raise ControllerRefusalError(f"speed must be a fraction in (0, 1], got {speed!r}")
+        q1 = self.kinematics.check_limits(np.asarray(q_target, dtype=float))
+        self._joint_move(q1, None, speed, settle_s)
+
+    def _joint_move(
+        self, q1: np.ndarray, table_m: float | None, speed: float, settle_s: float
+    ) -> None:
+        tool = self._carried()
+        q0 = self.feedback.fresh(self.max_age_s).q
+        speeds = joint_speed(
+            self.nominal_kinematics, q0, q1, tool.T_flange_tcp, speed, self.robot.joint_speed
+        )
+        text = joint_move(q1, table_m, speeds, settle_s, tool)
+        end = self._run(text, f"MoveAbsJ to [{', '.join(f'{v:.4f}' for v in q1)}] rad")
+        self._q_command = q1.copy()
+        if np.max(np.abs(end.q - q1)) > IN_POSITION_RAD:
+            self._why_not_there("the joint move")
+        if table_m is not None and (end.table_m is None or abs(end.table_m - table_m) > 1e-3):
+            self._why_not_there("the table's move")
+
+    def solve_ik(self, T_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
+        seed = self._q_command if q_seed is None else q_seed
+        return self.kinematics.solve(T_base_tcp, seed, self.T_flange_tcp())
+
+    def reachable(self, T_base_tcp: np.ndarray) -> bool:
+        return self.kinematics.reachable(T_base_tcp, self._q_command, self.T_flange_tcp())
+
+    def move_linear(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float = 0.2,
+        angular_speed_rad_s: float = 1.0,
+        settle_s: float = SETTLE_S,
+        T_flange_tcp: np.ndarray | None = None,
+    ) -> None:
+        self._linear(T_base_tcp, speed_m_s, angular_speed_rad_s, settle_s, T_flange_tcp)
+
+    def _linear(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float,
+        angular_speed_rad_s: float,
+        settle_s: float,
+        T_flange_tcp: np.ndarray | None = None,
+    ) -> Feedback:
+        """A straight move of the TCP to T_base_tcp (4, 4): the joints there solved with the
+        arm the controller moves with, the target written for the controller's nominal arm."""
+        tool = self._carried(T_flange_tcp)
+        q_end = self.kinematics.solve(T_base_tcp, self._q_command, tool.T_flange_tcp)
+        text = linear_move(
+            self.nominal_kinematics, q_end, tool, speed_m_s, angular_speed_rad_s, settle_s
+        )
+        end = self._run(text, "MoveL")
+        self._q_command = q_end
+        if np.max(np.abs(end.q - q_end)) > IN_POSITION_RAD:
+            self._why_not_there("the straight move")
+        return end
+
+    def move_table(
+        self, position_m: float, speed_m_s: float = TABLE_SPEED, settle_s: float = SETTLE_S
+    ) -> None:
+        self._joint_move(self._q_command, float(position_m), 1.0, settle_s)
+
+    def scan_linear(
+        self,
+        T_base_tcp: np.ndarray,
+        speed_m_s: float = 0.05,
+        period_s: float = 0.01,
+        settle_s: float = SETTLE_S,
+    ) -> list[LaserReading]:
+        """The straight move as a fly-by move (the scan ends where the motion ends), the
+        profiles that came while it ran paired with the poses by the sensor's clock, set
+        against the controller's standing still just before. The profiles come at the
+        sensor's own rate, which `period_s` [s] should be (see `_thinned`)."""
+        buffer = self._laser_buffer()
+        before = self._standing_profile(buffer)
+        t0 = time.monotonic()
+        self._linear(T_base_tcp, speed_m_s, 1.0, 0.0)
+        offset = self._offset()
+        found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offset)
+        started_s = before.profile.stamp_s - offset
+        return _thinned([r for r in found if r.time_s > started_s + 1e-6], period_s)
+
+    def read_laser(self) -> LaserReading:
+        """The next profile, with the encoders at its instant (the arm standing)."""
+        buffer = self._laser_buffer()
+        came = self._standing_profile(buffer)
+        found = readings([came], self.feedback.since(came.received_s - 0.2), self._offset())
+        if not found:
+            raise LinkError("a laser profile came without a position sample at its time")
+        return found[0]
+
+    def _standing_profile(self, buffer: ProfileBuffer) -> Received:
+        """The next profile made while the arm stands, with the sensor's clock set by it
+        against the controller's: its stamp less the newest position sample's time. Profiles
+        made while the arm moved may still be on their way for DRAIN_S after it stopped."""
+        self.feedback.fresh(self.max_age_s)
+        drained = self._stopped_at + DRAIN_S
+        if (wait := drained - time.monotonic()) > 0.0:
+            time.sleep(wait)
+        came = buffer.after(max(drained, self._last_profile_s), 2.0)
+        sample = self.feedback.after(came.received_s, 1.0)
+        self._last_profile_s = came.received_s
+        self.sensor_offset_s = came.profile.stamp_s - sample.time_s
+        return came
+
+    def _offset(self) -> float:
+        if self.sensor_offset_s is None:
+            raise LinkError("the laser's clock has not been set against the controller's")
+        return self.sensor_offset_s
+
+    def _laser_buffer(self) -> ProfileBuffer:
+        self._require("laser")
+        if self.profiles is None:
+            raise NotOfferedError("this client was given no laser profile stream (profiles)")
+        return self.profiles
+
+    # -- the program runs and their stops ---------------------------------------------------
+    def _run(self, text: str, what: str) -> Feedback:
+        """Run a move's module to its end; the first position sample after it."""
+        self.feedback.fresh(self.max_age_s)  # never a command on a stale reading
+        t0 = time.perf_counter()
+        try:
+            self.link.run_module(MODULE, text, self.move_timeout_s)
+        except ControllerRefusalError as exc:
+            raise ControllerRefusalError(f"{what}: {exc}") from None
+        stopped = time.monotonic()
+        end = self.feedback.after(stopped, 1.0)
+        while end.rapid_running:
+            end = self.feedback.after(end.received_s, 1.0)
+        self._last_read_s = end.received_s
+        self._stopped_at = stopped
+        self.moves += 1
+        self.move_wall_s += time.perf_counter() - t0
+        return end
+
+    def _why_not_there(self, what: str) -> None:
+        """The arm did not end where it was sent: the event log's stop, raised as it was."""
+        for entry in reversed(self.link.events()):
+            if entry.code == _COLLISION:
+                raise SupervisionError("collision", entry.desc)
+            if entry.code == _SUPERVISION:
+                code, _, message = entry.desc.partition(": ")
+                raise SupervisionError(code if message else "supervision", message or code)
+            if entry.code == _EXECUTION:
+                raise ControllerRefusalError(f"{what} failed on the controller: {entry.desc}")
+            if entry.code == 10007:  # the program's start: nothing stopped it
+                break
+        raise ControllerRefusalError(
+            f"{what} ended off its target and the controller's event log says nothing of it"
+        )
+
+    # -- the tool changer -------------------------------------------------------------------
+    def lock(self) -> str:
+        self._set_lock(1)
+        if self._tool is None:
+            raise ControllerRefusalError("the tool changer locked, but aiToolNumber names no tool")
+        return self._tool
+
+    def unlock(self) -> str:
+        held = self._tool
+        if held is None:
+            raise ControllerRefusalError("no tool is locked on the flange: nothing to release")
+        self._set_lock(0)
+        return held
+
+    def _set_lock(self, value: int, timeout_s: float = 5.0) -> None:
+        """Set doToolLock and wait for diToolLocked to follow (a RAPID WaitDI \\MaxTime)."""
+        self.feedback.fresh(self.max_age_s)
+        self.link.set_digital("doToolLock", value)
+        deadline = time.monotonic() + timeout_s
+        while self.link.digital("diToolLocked") != value:
+            if time.monotonic() > deadline:
+                self._why_not_there("the tool changer")
+            time.sleep(0.005)
+        self._tool = self._tool_number_in_hand()
+        self._last_read_s = time.monotonic()
+
+    # -- what this client does not offer ----------------------------------------------------
+    @property
+    def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
+        a, b = beam_line(self._rack_xyz)
+        return np.array(a, dtype=float), np.array(b, dtype=float)
+
+    def sweep_beam(
+        self, T_base_tcp: np.ndarray, speed_m_s: float = 0.01, settle_s: float = SETTLE_S
+    ) -> list[tuple[np.ndarray, bool]]:
+        raise NotOfferedError("the TCP check at the beam (sweep_beam) is not offered over RWS")
+
+    def servo(self, q_ref: np.ndarray, period_s: float) -> None:
+        raise NotOfferedError("streamed joint references (servo): send them with EGM directly")
+
+    def pace(self, clock: Callable[[float], str | None] | None) -> None:
+        if clock is not None:
+            raise NotOfferedError("a remote controller's time runs by its own clock (pace)")
+
+    def supervision_off(self) -> AbstractContextManager[None]:
+        raise NotOfferedError("switching the motion supervision off is not offered over RWS")
+
+    def set_gripper(self, opening_m: float) -> None:
+        raise NotOfferedError("the gripper (set_gripper) is not offered over RWS")
+
+    def spin_screwer(self, rad_s: float, seconds: float) -> None:
+        raise NotOfferedError("the screwer's spindle (spin_screwer) is not offered over RWS")
+
+    def read_ir(self) -> float | None:
+        raise NotOfferedError("the IR sensor (read_ir) is not offered over RWS")
+
+    def close(self) -> None:
+        """Close the streams and the HTTP session (the controller keeps running)."""
+        if self.profiles is not None:
+            self.profiles.close()
+        self.feedback.close()
+        self.link.close()
+
+
+def _thinned(found: list[LaserReading], period_s: float) -> list[LaserReading]:
+    """The sensor's own profiles, less any that come sooner than half of `period_s` [s] after
+    the one before (a sensor much faster than the scan was planned for)."""
+    out: list[LaserReading] = []
+    for reading in found:
+        if not out or reading.time_s - out[-1].time_s >= 0.5 * period_s:
+            out.append(reading)
+    return out

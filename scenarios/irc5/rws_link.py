@@ -1,0 +1,139 @@
+"""The controller's Robot Web Services as the client uses them (abb_robot_client's RWS, with
+a timeout on every request): a module loaded and run to its end, the I/O, the event log,
+the motors and the operation mode.
+
+A request the controller refuses (an HTTP error with RWS's status) is a ControllerRefusalError
+with the controller's message; a controller that does not answer within the timeout, or
+whose program does not end in time, is a LinkError.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import requests
+from abb_robot_client.rws import RWS, ABBException, EventLogEntry
+
+from scenarios.irc5.link_errors import ControllerRefusalError, LinkError
+
+T = TypeVar("T")
+#: Where the client's modules are written on the controller.
+MODULE_FOLDER = "$TEMP"
+
+
+class _TimeoutAdapter(requests.adapters.HTTPAdapter):
+    """An HTTP adapter that gives every request a timeout (abb_robot_client gives none)."""
+
+    def __init__(self, timeout_s: float) -> None:
+        super().__init__()
+        self.timeout_s = timeout_s
+
+    def send(self, request: Any, **kwargs: Any) -> Any:  # type: ignore[override]
+        if kwargs.get("timeout") is None:
+            kwargs["timeout"] = self.timeout_s
+        return super().send(request, **kwargs)
+
+
+class _Rws(RWS):
+    """abb_robot_client's RWS with a timeout on every request and the module load it lacks
+    (POST rw/rapid/tasks/T_ROB1?action=loadmod)."""
+
+    def __init__(self, url: str, user: str, password: str, timeout_s: float) -> None:
+        super().__init__(url, user, password)
+        adapter = _TimeoutAdapter(timeout_s)
+        self._session.mount("http://", adapter)
+        self._session.mount("https://", adapter)
+
+    def load_module(self, path: str) -> None:
+        self._do_post(
+            "rw/rapid/tasks/T_ROB1?action=loadmod", {"modulepath": path, "replace": "true"}
+        )
+
+    def close_session(self) -> None:
+        self._session.close()
+
+
+class RwsLink:
+    """The controller at `url` (http://HOST:PORT), as `user` with `password`; each request
+    waits at most `timeout_s` [s] for its answer."""
+
+    def __init__(self, url: str, user: str, password: str, timeout_s: float = 5.0) -> None:
+        self.url = url.rstrip("/")
+        self.rws = _Rws(self.url, user, password, timeout_s)
+        self.timeout_s = timeout_s
+        #: Requests made, and the wall time they took [s].
+        self.requests = 0
+        self.request_s = 0.0
+
+    def call(self, what: str, request: Callable[[], T]) -> T:
+        """`request()` to the controller; its refusal a ControllerRefusalError, no answer a
+        LinkError, each saying `what` was asked."""
+        t0 = time.perf_counter()
+        try:
+            return request()
+        except ABBException as exc:
+            raise ControllerRefusalError(f"the controller refused to {what}: {exc}") from None
+        except requests.RequestException as exc:
+            raise LinkError(
+                f"the controller at {self.url} did not answer when asked to {what} "
+                f"(within {self.timeout_s:g} s): {type(exc).__name__}"
+            ) from None
+        finally:
+            self.requests += 1
+            self.request_s += time.perf_counter() - t0
+
+    # -- state ------------------------------------------------------------------------------
+    def ready(self) -> None:
+        """ControllerRefusalError unless the motors are on and the controller is in automatic."""
+        state = self.call("tell its state", self.rws.get_controller_state)
+        mode = self.call("tell its operation mode", self.rws.get_operation_mode)
+        if mode != "AUTO":
+            raise ControllerRefusalError(
+                f"the controller is in {mode} mode: a remote client moves the arm in AUTO only "
+                "(turn the key switch to automatic)"
+            )
+        if state != "motoron":
+            raise ControllerRefusalError(
+                f"the controller's motors are off ({state}): switch them on (motoron)"
+            )
+
+    # -- programs ---------------------------------------------------------------------------
+    def run_module(self, name: str, text: str, timeout_s: float, poll_s: float = 0.002) -> None:
+        """Load the module `name` (its `text`) over the one loaded before, run it from main,
+        and wait for it to stop; LinkError if it still runs after `timeout_s` [s]."""
+        rws, path = self.rws, f"{MODULE_FOLDER}/{name}.mod"
+        self.call(f"take {path}", lambda: rws.upload_file(path, text.encode("utf-8")))
+        self.call(f"load {path}", lambda: rws.load_module(path))
+        self.call(f"reset the program pointer to main of {name}", rws.resetpp)
+        self.call(f"start {name}", lambda: rws.start(cycle="once"))
+        deadline = time.monotonic() + timeout_s
+        while self.call("tell its execution state", rws.get_execution_state).ctrlexecstate == (
+            "running"
+        ):
+            if time.monotonic() > deadline:
+                self.call("stop the program", rws.stop)
+                raise LinkError(f"{name} still ran after {timeout_s:g} s: stopped it")
+            time.sleep(poll_s)
+
+    # -- I/O and the event log --------------------------------------------------------------
+    def digital(self, signal: str) -> int:
+        return self.call(f"read {signal}", lambda: self.rws.get_digital_io(signal))
+
+    def set_digital(self, signal: str, value: int) -> None:
+        self.call(f"set {signal} to {value}", lambda: self.rws.set_digital_io(signal, value))
+
+    def analog(self, signal: str) -> float:
+        return self.call(f"read {signal}", lambda: self.rws.get_analog_io(signal))
+
+    def set_analog(self, signal: str, value: float) -> None:
+        self.call(f"set {signal} to {value:g}", lambda: self.rws.set_analog_io(signal, value))
+
+    def events(self) -> list[EventLogEntry]:
+        """The event log, oldest first."""
+        entries = self.call("read its event log", lambda: self.rws.read_event_log(0))
+        return sorted(entries, key=lambda e: e.seqnum)
+
+    def close(self) -> None:
+        self.rws.close_session()

@@ -1,0 +1,90 @@
+"""What the served controller streams every control period, moving or standing: the EGM
+feedback (the encoders, the flange, the table as external axis A, the controller's time) and,
+with the laser in hand, the line laser's profiles on their own stream (cell.profile_frames)
+at the sensor's rate, stamped in the sensor's clock.
+
+The sensor's clock is the controller's time plus `clock_offset_s` (a sensor synchronised to
+the plant's PTP master keeps Unix time; the controller counts from its own start). The
+twin's time stands still while nothing moves, and so do the stamps; the stream goes on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cell import Controller
+from cell.profile_frames import Profile
+from scenarios.twin.egm import EgmServer
+from scenarios.twin.profile_server import ProfileServer
+from scenarios.twin.snapshot import Snapshot
+
+#: The controller's control period [s].
+PERIOD_S = 0.004
+
+
+@dataclass(frozen=True)
+class LaserStream:
+    """The line laser's stream: its profile period [s] (of the controller's time while the
+    arm moves; of the wall clock's standing) and its clock's offset from the controller's [s]."""
+
+    period_s: float = 0.01
+    clock_offset_s: float = 0.0
+
+
+class SensorStreams:
+    """The EGM feedback to `egm` (None: no EGM session) and the laser's profiles to
+    `profiles` (None: no profile stream)."""
+
+    def __init__(
+        self,
+        egm: EgmServer | None = None,
+        profiles: ProfileServer | None = None,
+        laser: LaserStream | None = None,
+    ) -> None:
+        self.egm = egm
+        self.profiles = profiles
+        self.laser = laser or LaserStream()
+        self._seqno = 0
+        self._next_s: float | None = None
+        self._idle_ticks = 0
+
+    @property
+    def streaming(self) -> bool:
+        """Whether anything streams (the worker then ticks while standing)."""
+        return (self.egm is not None and self.egm.active()) or self.profiles is not None
+
+    def publish(
+        self, cell: Controller, snap: Snapshot, motors_on: bool, running: bool, moving: bool
+    ) -> None:
+        """One control period of the streams: EGM feedback of `snap`, and a profile if one is
+        due (`moving`: by the controller's time; standing: every period of the wall clock)."""
+        if self.egm is not None:
+            self.egm.feedback(snap, motors_on, running)
+        if self.profiles is None or cell.tool_in_hand != "laser" or not self._due(snap, moving):
+            return
+        reading = cell.read_laser()
+        self._seqno += 1
+        stamp = reading.time_s + self.laser.clock_offset_s
+        self.profiles.send(Profile(self._seqno, stamp, reading.distances))
+
+    def _due(self, snap: Snapshot, moving: bool) -> bool:
+        period = self.laser.period_s
+        if not moving:
+            self._next_s = None
+            self._idle_ticks += 1
+            if self._idle_ticks * PERIOD_S < period:
+                return False
+            self._idle_ticks = 0
+            return True
+        self._idle_ticks = 0
+        if self._next_s is not None and snap.time_s + 1e-9 < self._next_s:
+            return False
+        # the first profile of a move, or one more than a period late, starts the schedule
+        last = self._next_s
+        behind = last is None or snap.time_s - last >= period
+        self._next_s = (snap.time_s if last is None or behind else last) + period
+        return True
+
+    def close(self) -> None:
+        if self.profiles is not None:
+            self.profiles.close()

@@ -1,0 +1,184 @@
+"""The controller client (scenarios.irc5) against `twincell serve` in another process: the
+moves, the table and the tool changer over RWS, the encoders over EGM, the laser over its
+profile stream; nothing commanded on a stale stream; and a scan through the network that
+sees the object where a scan in the job's own process sees it, both measured against the
+truth of the same real cell."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import igl
+import numpy as np
+import pytest
+from abb_robot_client.rws import RWS
+
+from cell import LaserConfig, nominal_T_base_table
+from cell.irb2400_arm import irb2400
+from models.robot import RACK_POS
+from scenarios.irc5.egm_feedback import EgmFeedback
+from scenarios.irc5.line_profiler import ProfileBuffer, ProfileStream
+from scenarios.irc5.link_errors import LinkError
+from scenarios.irc5.remote_controller import RemoteController
+from scenarios.irc5.rws_link import RwsLink
+
+SPEED = 20.0
+
+
+def _free_port(kind: socket.SocketKind) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@dataclass
+class Served:
+    process: subprocess.Popen[str]
+    rws: int
+    egm: int
+    profiles: int
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.rws}"
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
+    """`twincell serve skull` (seed 0) in a process of its own, its time SPEED times the wall's."""
+    out = tmp_path_factory.mktemp("serve")
+    rws, egm = _free_port(socket.SOCK_STREAM), _free_port(socket.SOCK_DGRAM)
+    profiles = _free_port(socket.SOCK_STREAM)
+    command = [
+        sys.executable, "-m", "scenarios.cli", "serve", "skull", "--seed", "0",
+        "--speed", str(SPEED), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
+        "--profiles", str(profiles), "--out", str(out),
+    ]  # fmt: skip
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert process.stdout is not None
+    for line in process.stdout:
+        if line.startswith("serving http"):
+            break
+    else:
+        pytest.fail(f"twincell serve did not start (exit {process.wait()})")
+    yield Served(process, rws, egm, profiles)
+    process.send_signal(signal.SIGTERM)
+    process.wait(timeout=30)
+
+
+def _client(served: Served, timeout_s: float = 5.0) -> RemoteController:
+    robot = irb2400()
+    return RemoteController(
+        RwsLink(served.url, "Default User", "robotics", timeout_s),
+        EgmFeedback(served.egm),
+        ProfileBuffer(ProfileStream("127.0.0.1", served.profiles)),
+        robot,
+        robot.kinematics(),
+        RACK_POS,
+        LaserConfig(),
+    )
+
+
+def test_moves_tool_and_laser_over_the_network(served: Served) -> None:
+    client = _client(served)
+    try:
+        q = client.q_home + np.array([0.1, -0.05, 0.05, 0.0, 0.1, 0.0])
+        client.move_joints(q)
+        # the twin's encoders, as EGM brought them, against the joints commanded: within the
+        # servo's settling and the encoders' noise (a few hundredths of a milliradian)
+        assert np.max(np.abs(client.read_joints() - q)) < 2e-4
+        readings = np.array([client.read_joints() for _ in range(5)])
+        assert np.ptp(readings, axis=0).max() > 0.0  # each read a new sample
+        client.move_table(0.1)
+        assert client.table_position() == pytest.approx(0.1, abs=1e-3)
+        client.change_tool("laser")
+        assert client.tool_in_hand == "laser"
+        # the controller's own word, read by a client of its own
+        assert RWS(served.url).get_analog_io("aiToolNumber") == 1 + client.tools.index("laser")
+        before = client.time_s
+        reading = client.read_laser()
+        assert reading.distances.shape == (len(client.laser_directions_tcp),)
+        assert reading.time_s == pytest.approx(before, abs=1e-3)  # the arm stood: same instant
+        client.move_joints(client.q_home)
+        assert client.moves >= 8
+    finally:
+        client.close()
+
+
+def test_nothing_moves_on_a_stale_stream(served: Served) -> None:
+    client = _client(served, timeout_s=1.0)
+    try:
+        q_before = client.read_joints()
+        os.kill(served.process.pid, signal.SIGSTOP)  # the controller stops answering
+        try:
+            time.sleep(0.3)
+            with pytest.raises(LinkError, match="stale"):
+                client.move_joints(client.q_home + 0.05)
+        finally:
+            os.kill(served.process.pid, signal.SIGCONT)  # and comes back
+        time.sleep(0.3)
+        # nothing was commanded: the arm stands where it stood
+        assert np.max(np.abs(client.read_joints() - q_before)) < 2e-4
+        client.move_joints(client.q_home)
+        assert np.max(np.abs(client.read_joints() - client.q_home)) < 2e-4
+    finally:
+        client.close()
+
+
+@pytest.mark.slow
+def test_a_scan_over_the_network_sees_the_object_as_one_in_process(served: Served) -> None:
+    """The first pass of the skull job's scan, run through the network and in this process on
+    the same real cell (seed 0): each scan's points, rebuilt with the nominal arm, against the
+    real skull at its true pose. A reading paired with the wrong pose (a profile late or early
+    by a control period moves its line 0.4 mm along the pass at this speed) shows as a spread
+    the in-process scan does not have."""
+    from scenarios.configuration.config_files import load_config
+    from scenarios.configuration.job_config import JobConfig
+    from scenarios.jobs.job_plan import plan_job
+    from scenarios.jobs.serve import cell_of_job
+    from scenarios.offline.scan_passes import execute_scan
+
+    config = load_config("skull", {"seed": 0})
+    assert isinstance(config, JobConfig)
+    plan = plan_job(config, lambda _m: None)
+    assert plan.scan_plan is not None
+    passes = plan.scan_plan.passes[:1]
+    scan_config = plan.settings.localization.scan
+    job = cell_of_job("skull", seed=0)
+    remote = _client(served)
+    try:
+        ours = execute_scan(remote, passes, scan_config)
+        table_m = remote.table_position()
+    finally:
+        remote.close()
+    theirs = execute_scan(job.controller, passes, scan_config)
+    V = job.evaluator.true_points_base(plan.real.mesh.vertices)
+    F = np.asarray(plan.real.mesh.faces)
+
+    def distances(points_table: np.ndarray) -> np.ndarray:
+        T = nominal_T_base_table(table_m)
+        p = points_table @ T[:3, :3].T + T[:3, 3]
+        d2, _i, _c = igl.point_mesh_squared_distance(p, V, F)
+        return np.sqrt(d2)
+
+    d_net, d_in = distances(ours.points_table), distances(theirs.points_table)
+    # the points on the skull (the rest fell on the table around it)
+    on_net, on_in = d_net[d_net < 3e-3], d_in[d_in < 3e-3]
+    assert len(on_in) > 5000
+    assert len(on_net) == pytest.approx(len(on_in), rel=0.1)
+    # the same surface seen: medians within 20 um, the spread within 50 um (the arm's error,
+    # the same on both, is most of either)
+    assert abs(np.median(on_net) - np.median(on_in)) < 2e-5
+    assert abs(np.percentile(on_net, 95) - np.percentile(on_in, 95)) < 5e-5
+    print(
+        f"on the skull: network {len(on_net)} points, median {np.median(on_net) * 1e3:.4f} mm, "
+        f"q95 {np.percentile(on_net, 95) * 1e3:.4f} mm; in process {len(on_in)}, median "
+        f"{np.median(on_in) * 1e3:.4f} mm, q95 {np.percentile(on_in, 95) * 1e3:.4f} mm"
+    )
