@@ -290,6 +290,10 @@ class Controller(ABC):
         """Straight TCP move through the TCP check station's beam, reading it at every
         control step: (encoder joints (6,) [rad], beam broken) at each."""
 
+    @abstractmethod
+    def read_beam(self) -> bool:
+        """Whether the TCP check station's beam is broken now (its receiver's input)."""
+
     @property
     @abstractmethod
     def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:

@@ -14,6 +14,7 @@ import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import igl
 import numpy as np
@@ -40,7 +41,7 @@ def _free_port(kind: socket.SocketKind) -> int:
 
 @dataclass
 class Served:
-    process: subprocess.Popen[str]
+    process: subprocess.Popen[bytes]
     rws: int
     egm: int
     profiles: int
@@ -50,27 +51,39 @@ class Served:
         return f"http://127.0.0.1:{self.rws}"
 
 
-@pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
-    """`twincell serve skull` (seed 0) in a process of its own, its time SPEED times the wall's."""
-    out = tmp_path_factory.mktemp("serve")
+def serve(out: Path, seed: int = 0, speed: float = SPEED) -> Served:
+    """`twincell serve skull` for `seed` in a process of its own, its time `speed` times the
+    wall's, its lines to serve.log in `out`."""
     rws, egm = _free_port(socket.SOCK_STREAM), _free_port(socket.SOCK_DGRAM)
     profiles = _free_port(socket.SOCK_STREAM)
     command = [
-        sys.executable, "-m", "scenarios.cli", "serve", "skull", "--seed", "0",
-        "--speed", str(SPEED), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
-        "--profiles", str(profiles), "--out", str(out),
+        sys.executable, "-m", "scenarios.cli", "serve", "skull", "--seed", str(seed),
+        "--speed", str(speed), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
+        "--profiles", str(profiles), "--out", str(out), "--quiet",
     ]  # fmt: skip
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    assert process.stdout is not None
-    for line in process.stdout:
-        if line.startswith("serving http"):
-            break
-    else:
-        pytest.fail(f"twincell serve did not start (exit {process.wait()})")
-    yield Served(process, rws, egm, profiles)
-    process.send_signal(signal.SIGTERM)
-    process.wait(timeout=30)
+    log = out / "serve.log"
+    with log.open("w") as sink:
+        process = subprocess.Popen(command, stdout=sink, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 120.0
+    while "serving http" not in log.read_text():
+        if process.poll() is not None or time.monotonic() > deadline:
+            process.kill()
+            pytest.fail(f"twincell serve did not start: {log.read_text()[-2000:]}")
+        time.sleep(0.1)
+    return Served(process, rws, egm, profiles)
+
+
+def stop(served: Served) -> None:
+    served.process.send_signal(signal.SIGTERM)
+    served.process.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
+    """The skull job's real cell (seed 0) served in a process of its own."""
+    twin = serve(tmp_path_factory.mktemp("serve"))
+    yield twin
+    stop(twin)
 
 
 def _client(served: Served, timeout_s: float = 5.0) -> RemoteController:

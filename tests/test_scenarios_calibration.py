@@ -237,12 +237,13 @@ def test_no_sphere_in_view_is_refused() -> None:
     plan = CalibrationPlan(views_per_sphere=3, lines_per_view=1)
     with pytest.raises(CalibrationError, match="no laser point within"):
         measure_spheres(controller, DEFAULT_ARTIFACT, plan)
-    # The laser went back to its slot; one already in hand is refused (its mounting follows
-    # from the fetch the calibration makes itself).
+    # The laser went back to its slot; one found in hand is put back and fetched anew (its
+    # mounting follows from the fetch the calibration makes itself), and back again.
     assert controller.tool_in_hand is None
     change_tool_safely(controller, "laser")
-    with pytest.raises(CalibrationError, match="already in hand"):
+    with pytest.raises(CalibrationError, match="no laser point within"):
         measure_spheres(controller, DEFAULT_ARTIFACT, plan)
+    assert controller.tool_in_hand is None
 
 
 def test_bad_artifacts_and_settings_are_refused() -> None:

@@ -299,7 +299,8 @@ def _stop_and_start(served: Serving) -> None:
     while client.get_execution_state().ctrlexecstate == "running":
         assert time.monotonic() - t0 < 5.0
         time.sleep(0.02)
-    assert "halted" in client.read_event_log()[0].desc
+    # the newest entries (a busy machine may have the twin say it lags, after the halt)
+    assert any("halted" in e.desc for e in client.read_event_log()[:5])
     assert not served.executions
     client.start()  # from where it halted
     t0 = time.monotonic()

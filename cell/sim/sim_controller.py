@@ -185,6 +185,9 @@ class SimController(Controller):
         sim.settle(settle_s)
         return readings
 
+    def read_beam(self) -> bool:
+        return self._beam.broken(self._sim.data)
+
     @property
     def beam_line_base(self) -> tuple[np.ndarray, np.ndarray]:
         return self._beam.p_from.copy(), self._beam.p_to.copy()

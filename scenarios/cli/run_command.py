@@ -17,6 +17,7 @@ CELL = "Cell"
 FAULTS = "Faults and overrides"
 OUTPUT = "Output"
 RECORDING = "Recording"
+CONTROLLER = "Controller"
 
 EXAMPLES = (
     "twincell run skull --cell ur5 --seed 3",
@@ -124,6 +125,32 @@ def run(
     quiet: Annotated[bool, flag("--quiet", "No progress lines.", OUTPUT)] = False,
     spawn: Annotated[bool, flag("--spawn", "Show the run in a rerun viewer.", RECORDING)] = False,
     no_rrd: Annotated[bool, flag("--no-rrd", "Do not write run.rrd.", RECORDING)] = False,
+    controller: Annotated[
+        str | None,
+        option(
+            "--controller",
+            "URL",
+            "Run the job on this controller's Robot Web Services (http://HOST:PORT): a real "
+            "IRC5, or twincell serve. The user and password come from TWINCELL_RWS_USER and "
+            "TWINCELL_RWS_PASSWORD, or the file TWINCELL_RWS_CREDENTIALS names.",
+            CONTROLLER,
+        ),
+    ] = None,
+    egm_port: Annotated[
+        int | None,
+        option(
+            "--egm-port",
+            "PORT",
+            "This computer's UDP port the controller's EGM stream comes to.",
+            CONTROLLER,
+            min=1,
+            max=65535,
+        ),
+    ] = None,
+    profiles: Annotated[
+        str | None,
+        option("--profiles", "HOST:PORT", "The line laser's profile stream.", CONTROLLER),
+    ] = None,
 ) -> None:
     """Run a job headless and write a run folder.
 
@@ -143,13 +170,23 @@ def run(
     overrides = run_overrides(
         model=model, units=units, targets=targets, program=program, assign=assign, fault=fault
     )
+    address = None
+    if controller is not None:
+        from scenarios.jobs.network_job import ControllerAddress
+
+        address = ControllerAddress.parse(controller, egm_port, profiles)
     folder, result = run_job(
         name,
         seed=seed,
         out=out,
         progress=progress_lines(quiet),
         overrides=overrides,
-        options=RunOptions(rrd=not no_rrd, spawn=spawn, cache=not no_cache),
+        options=RunOptions(
+            rrd=not no_rrd and address is None,
+            spawn=spawn,
+            cache=not no_cache,
+            controller=address,
+        ),
         cell=cell,
     )
     from scenarios.results.run import RunResult

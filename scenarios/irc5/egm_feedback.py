@@ -29,7 +29,7 @@ class Feedback:
     """One sample of the stream: the client's monotonic clock when it came `received_s` [s],
     the controller's clock when the encoders were read `time_s` [s], the header's sequence
     number, the encoders q (6,) [rad], the table [m] (None: no external axis), RAPID running,
-    motors on."""
+    motors on, and the beam of the TCP check (the helper module's DataToSensor digVal)."""
 
     received_s: float
     time_s: float
@@ -38,6 +38,7 @@ class Feedback:
     table_m: float | None
     rapid_running: bool
     motors_on: bool
+    beam: bool = False
 
 
 def feedback_of(state: Any, received_s: float) -> Feedback:
@@ -54,6 +55,7 @@ def feedback_of(state: Any, received_s: float) -> Feedback:
         table,
         bool(state.rapid_running),
         bool(state.motors_on),
+        bool(message.RAPIDfromRobot.digVal),
     )
 
 

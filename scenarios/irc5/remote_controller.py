@@ -20,6 +20,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,9 +38,11 @@ from scenarios.irc5.move_modules import MODULE, Tool, joint_move, joint_speed, l
 from scenarios.irc5.profile_alignment import readings
 from scenarios.irc5.rws_link import RwsLink
 
-#: How far the encoders may stand from a joint move's target when the controller says the
-#: program ended, before the event log is asked why [rad].
+#: How far the encoders may stand from a move's target when the controller says the program
+#: ended, before the event log is asked why [rad]: at a stop point, and at a fly-by point
+#: (the arm still on its way: the servo's lag at full speed).
 IN_POSITION_RAD = 2.0e-3
+FLY_BY_RAD = 0.05
 #: How long after the arm stopped a profile made while it moved may still come [s] (the
 #: sensor's and the controller's buffers and threads).
 DRAIN_S = 0.05
@@ -48,13 +51,22 @@ DRAIN_S = 0.05
 _COLLISION, _SUPERVISION, _EXECUTION = 50204, 89006, 89005
 
 
+@dataclass(frozen=True)
+class ClientSettings:
+    """How the client works the link: the oldest position sample a command may rest on
+    `max_age_s` [s], the longest a move's program may run `move_timeout_s` [s] (wall clock),
+    and the modules it loads (each has a main), unloaded if an earlier session left them."""
+
+    max_age_s: float = 0.1
+    move_timeout_s: float = 300.0
+    own_modules: tuple[str, ...] = (MODULE,)
+
+
 class RemoteController(Controller):
     """The controller at the other end of `link` (RWS), its position stream `feedback` (EGM)
     and the laser's `profiles` (None: no line laser), with the cell's data sheets: the arm
-    (`robot`, its nominal `kinematics`), the rack's place, the laser's rays.
-
-    `max_age_s`: the oldest position sample a command may rest on [s]; `move_timeout_s`: the
-    longest a move's program may run [s] (wall clock)."""
+    (`robot`, its nominal `kinematics`), the rack's place, the laser's rays; `settings` how
+    the client waits and what it loads."""
 
     def __init__(
         self,
@@ -66,18 +78,20 @@ class RemoteController(Controller):
         rack_xyz: tuple[float, float, float],
         laser: LaserConfig,
         limits: SupervisionLimits | None = None,
-        max_age_s: float = 0.1,
-        move_timeout_s: float = 300.0,
+        settings: ClientSettings | None = None,
     ) -> None:
         super().__init__(robot, kinematics, rack_xyz, laser, limits)
         self.link, self.feedback, self.profiles = link, feedback, profiles
-        self.max_age_s, self.move_timeout_s = max_age_s, move_timeout_s
+        given = settings or ClientSettings()
+        self.max_age_s, self.move_timeout_s = given.max_age_s, given.move_timeout_s
+        own_modules = given.own_modules
         #: The sensor's clock minus the controller's [s], once measured.
         self.sensor_offset_s: float | None = None
         #: Wall time spent in the moves' programs and in the requests around them [s].
         self.moves = 0
         self.move_wall_s = 0.0
         link.ready()
+        link.clear(own_modules)
         first = feedback.after(time.monotonic() - 1.0, 5.0)
         self._q_command = first.q.copy()
         self._last_read_s = first.received_s
@@ -143,7 +157,7 @@ class RemoteController(Controller):
         text = joint_move(q1, table_m, speeds, settle_s, tool)
         end = self._run(text, f"MoveAbsJ to [{', '.join(f'{v:.4f}' for v in q1)}] rad")
         self._q_command = q1.copy()
-        if np.max(np.abs(end.q - q1)) > IN_POSITION_RAD:
+        if np.max(np.abs(end.q - q1)) > _window(settle_s):
             self._why_not_there("the joint move")
         if table_m is not None and (end.table_m is None or abs(end.table_m - table_m) > 1e-3):
             self._why_not_there("the table's move")
@@ -182,7 +196,7 @@ class RemoteController(Controller):
         )
         end = self._run(text, "MoveL")
         self._q_command = q_end
-        if np.max(np.abs(end.q - q_end)) > IN_POSITION_RAD:
+        if np.max(np.abs(end.q - q_end)) > _window(settle_s):
             self._why_not_there("the straight move")
         return end
 
@@ -245,13 +259,30 @@ class RemoteController(Controller):
             raise NotOfferedError("this client was given no laser profile stream (profiles)")
         return self.profiles
 
+    # -- named stops and whole programs -----------------------------------------------------
+    def stop_named(self, robtarget: str) -> None:
+        """A stop point where the arm stands, its target named `robtarget` in the program the
+        controller runs (what watches the controller's programs sees a touch by its name)."""
+        tool = self._carried()
+        text = linear_move(
+            self.nominal_kinematics, self._q_command, tool, 0.01, 0.1, SETTLE_S, robtarget
+        )
+        self._run(text, f"the stop at {robtarget}")
+
+    def run_program(self, module: str, text: str) -> None:
+        """Run a whole RAPID module (`module`, its `text`) from main to its end, as the
+        controller plans and runs it; the client's own moves start from where it ends."""
+        end = self._run(text, f"the program {module}", module)
+        self._q_command = end.q.copy()
+        self._tool = self._tool_number_in_hand()
+
     # -- the program runs and their stops ---------------------------------------------------
-    def _run(self, text: str, what: str) -> Feedback:
+    def _run(self, text: str, what: str, module: str = MODULE) -> Feedback:
         """Run a move's module to its end; the first position sample after it."""
         self.feedback.fresh(self.max_age_s)  # never a command on a stale reading
         t0 = time.perf_counter()
         try:
-            self.link.run_module(MODULE, text, self.move_timeout_s)
+            self.link.run_module(module, text, self.move_timeout_s)
         except ControllerRefusalError as exc:
             raise ControllerRefusalError(f"{what}: {exc}") from None
         stopped = time.monotonic()
@@ -315,7 +346,19 @@ class RemoteController(Controller):
     def sweep_beam(
         self, T_base_tcp: np.ndarray, speed_m_s: float = 0.01, settle_s: float = SETTLE_S
     ) -> list[tuple[np.ndarray, bool]]:
-        raise NotOfferedError("the TCP check at the beam (sweep_beam) is not offered over RWS")
+        """The straight move, the beam read with the encoders in every position sample while
+        the arm moved (one per control period: 4 ms)."""
+        start = self.feedback.fresh(self.max_age_s)
+        t0 = time.monotonic()
+        end = self._linear(T_base_tcp, speed_m_s, 1.0, 0.0)
+        seen: dict[float, Feedback] = {}
+        for sample in self.feedback.since(t0):
+            if start.time_s < sample.time_s <= end.time_s:
+                seen.setdefault(sample.time_s, sample)
+        return [(s.q.copy(), s.beam) for _t, s in sorted(seen.items())]
+
+    def read_beam(self) -> bool:
+        return self.feedback.fresh(self.max_age_s).beam
 
     def servo(self, q_ref: np.ndarray, period_s: float) -> None:
         raise NotOfferedError("streamed joint references (servo): send them with EGM directly")
@@ -342,6 +385,11 @@ class RemoteController(Controller):
             self.profiles.close()
         self.feedback.close()
         self.link.close()
+
+
+def _window(settle_s: float) -> float:
+    """The in-position window of a move [rad]: a stop point's if it settles, else fly-by's."""
+    return IN_POSITION_RAD if settle_s > 0.0 else FLY_BY_RAD
 
 
 def _thinned(found: list[LaserReading], period_s: float) -> list[LaserReading]:

@@ -51,6 +51,13 @@ class _Rws(RWS):
             "rw/rapid/tasks/T_ROB1?action=loadmod", {"modulepath": path, "replace": "true"}
         )
 
+    def module_names(self) -> list[str]:
+        state = self._do_get("rw/rapid/tasks/T_ROB1/modules")["_embedded"]["_state"]
+        return [str(m["name"]) for m in state]
+
+    def unload_module(self, name: str) -> None:
+        self._do_post("rw/rapid/tasks/T_ROB1?action=unloadmod", {"module": name})
+
     def close_session(self) -> None:
         self._session.close()
 
@@ -66,6 +73,7 @@ class RwsLink:
         #: Requests made, and the wall time they took [s].
         self.requests = 0
         self.request_s = 0.0
+        self._loaded: str | None = None
 
     def call(self, what: str, request: Callable[[], T]) -> T:
         """`request()` to the controller; its refusal a ControllerRefusalError, no answer a
@@ -101,11 +109,17 @@ class RwsLink:
 
     # -- programs ---------------------------------------------------------------------------
     def run_module(self, name: str, text: str, timeout_s: float, poll_s: float = 0.002) -> None:
-        """Load the module `name` (its `text`) over the one loaded before, run it from main,
-        and wait for it to stop; LinkError if it still runs after `timeout_s` [s]."""
+        """Load the module `name` (its `text`; a module this client loaded before under
+        another name is unloaded first: each has a main), run it from main, and wait for it
+        to stop; LinkError if it still runs after `timeout_s` [s]."""
         rws, path = self.rws, f"{MODULE_FOLDER}/{name}.mod"
+        if self._loaded is not None and self._loaded != name:
+            loaded = self._loaded
+            self.call(f"unload {loaded}", lambda: rws.unload_module(loaded))
+            self._loaded = None
         self.call(f"take {path}", lambda: rws.upload_file(path, text.encode("utf-8")))
         self.call(f"load {path}", lambda: rws.load_module(path))
+        self._loaded = name
         self.call(f"reset the program pointer to main of {name}", rws.resetpp)
         self.call(f"start {name}", lambda: rws.start(cycle="once"))
         deadline = time.monotonic() + timeout_s
@@ -134,6 +148,29 @@ class RwsLink:
         """The event log, oldest first."""
         entries = self.call("read its event log", lambda: self.rws.read_event_log(0))
         return sorted(entries, key=lambda e: e.seqnum)
+
+    def clear(self, names: tuple[str, ...]) -> list[str]:
+        """Unload the modules of `names` (a client's own, left by an earlier session) that
+        are loaded; the controller's other modules stay. The names unloaded."""
+        loaded = self.call("list its modules", self.rws.module_names)
+        gone = [n for n in loaded if n.casefold() in {m.casefold() for m in names}]
+        for name in gone:
+            self._unload(name)
+        self._loaded = None
+        return gone
+
+    def _unload(self, name: str) -> None:
+        self.call(f"unload {name}", lambda: self.rws.unload_module(name))
+
+    def files(self, folder: str) -> list[str]:
+        """The names of the files in the controller's `folder` ([] if there is none)."""
+        try:
+            return self.call(f"list {folder}", lambda: self.rws.list_files(folder))
+        except ControllerRefusalError:
+            return []
+
+    def read_file(self, path: str) -> bytes:
+        return self.call(f"read {path}", lambda: self.rws.read_file(path))
 
     def close(self) -> None:
         self.rws.close_session()

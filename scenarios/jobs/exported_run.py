@@ -137,10 +137,9 @@ class ExecutionResult:
 
 register_writer(
     TouchedTarget,
-    keys="name robtarget line error_m axis_error_deg registration_error_m p_true_base_m "
-    "p_achieved_base_m p_commanded_base_m p_controller_base_m q_measured_rad",
+    keys="name robtarget line error_m axis_error_deg depth_error_m registration_error_m "
+    "p_true_base_m p_achieved_base_m p_commanded_base_m p_controller_base_m q_measured_rad",
     derived=lambda t: unstructure(t.evaluation),
-    left_out=lambda _: ("depth_error_m",),
     evaluation=override(omit=True),
     p_commanded_base=override(rename="p_commanded_base_m"),
     p_controller_base=override(rename="p_controller_base_m"),
@@ -263,7 +262,7 @@ def record_touch(cell: JobCell, targets: JobTargets, robtarget: str, tool: str |
     for one of the job's targets (what `measure_execution` measures)."""
     name = targets.name_of(robtarget)
     if name is not None and tool is not None:
-        cell.evaluator.record_touch(_PREFIX + name, tool)
+        cell.touches.record_touch(_PREFIX + name, tool)
 
 
 def measure_execution(
@@ -317,7 +316,7 @@ def _measure(record: ExecutionRecord, targets: JobTargets, cell: JobCell) -> _Me
         T_base_oframe = next(iter(last.values())).move.T_base_oframe
         evaluations = {
             e.name.removeprefix(_PREFIX): e
-            for e in cell.evaluator.targets(
+            for e in cell.touches.targets(
                 targets.touch_offset_m, targets.virtual, T_base_oframe, _PREFIX
             )
         }

@@ -19,6 +19,7 @@ from cell.robot_arm import Robot
 from models.atomic import write_text
 from models.model import ObjectModel
 from scenarios.configuration.job_config import JobConfig
+from scenarios.irc5.remote_controller import RemoteController
 from scenarios.jobs.exported_run import (
     EXECUTION_FILE,
     JobTargets,
@@ -28,6 +29,7 @@ from scenarios.jobs.exported_run import (
 )
 from scenarios.jobs.job_plan import JobPlan
 from scenarios.jobs.job_run import JobRun
+from scenarios.jobs.network_job import TwinTouches, run_exported_remote
 from scenarios.outputs import run_files as outputs
 from scenarios.outputs import toolchain_exports as exports
 from scenarios.program.program_types import OfflineProgram
@@ -40,6 +42,7 @@ from scenarios.results.evaluations import (
     PickEvaluation,
     PoseEvaluation,
     TargetEvaluation,
+    TouchMeasure,
 )
 from scenarios.results.exported_result import ExportedRun
 from scenarios.results.json_converter import unstructure
@@ -73,7 +76,7 @@ def finish_job(
     touch_offset = 0.0 if plan.user is not None else config.operations.touch_offset_m
     reports = tuple(
         method_report(
-            pose, programs.get(pose.method), evaluator, plan.virtual, touch_offset,
+            pose, programs.get(pose.method), job.cell.touches, plan.virtual, touch_offset,
             f"{pose.method}:" if config.operations.per_method else "",
             pose_errors.get(pose.method),
         )
@@ -84,7 +87,7 @@ def finish_job(
     calibration_figures = _calibration_figures(config, job, state)
     checks = goal_checks(config, reports[0])
     spoke = job.run.spoke()
-    faults = evaluator.faults(spoke)
+    faults = () if evaluator is None else evaluator.faults(spoke)
     for fault in faults:
         say(f"fault {fault.name}: {'detected in ' if fault.detected else ''}{fault.detected_by}")
     budget = job.run.budget
@@ -142,12 +145,12 @@ def _limits_deg(robot: Robot) -> tuple[tuple[float, ...], tuple[float, ...]]:
 
 
 def pick_report(
-    config: JobConfig, state: JobState, evaluator: Evaluator, ran: bool, say: Progress
+    config: JobConfig, state: JobState, evaluator: Evaluator | None, ran: bool, say: Progress
 ) -> tuple[PickEvaluation | None, float | None]:
     """The pick measured on the true part, and the gripper's distance from the true grasp
-    frame [m], if the job picked (and `ran` to the end)."""
+    frame [m], if the job picked (and `ran` to the end) with the truth at hand."""
     pick = config.operations.pick
-    if state.programs.pick is None or pick is None or not ran:
+    if state.programs.pick is None or pick is None or not ran or evaluator is None:
         return None, None
     frame = pick.frame
     evaluation = evaluator.pick(frame, "pick: closed", "pick: lifted", "pick: placed", frame)
@@ -180,10 +183,18 @@ def _exported(
         return None
     t0 = time.perf_counter()
     job.cell.log.phase("exported program", f"{program_file} on the nominal controller")
-    targets = job_targets(config, plan.virtual, plan.user)
-    exported = run_exported(
-        job.cell, job.folder, program_file, targets, job.run.say, job.exported.compensation
-    )
+    touches = job.cell.touches
+    if isinstance(touches, TwinTouches):  # across the network: the controller runs it
+        assert isinstance(job.cell.controller, RemoteController)
+        exported = run_exported_remote(
+            job.cell.controller, touches, job.folder, program_file, job.run.say,
+            job.exported.compensation,
+        )  # fmt: skip
+    else:
+        targets = job_targets(config, plan.virtual, plan.user)
+        exported = run_exported(
+            job.cell, job.folder, program_file, targets, job.run.say, job.exported.compensation
+        )
     job.timings["export_execute"] = time.perf_counter() - t0
     return exported
 
@@ -205,6 +216,10 @@ def _calibration_figures(config: JobConfig, job: JobRun, state: JobState) -> Cal
         q_job = np.vstack([q_job, *touches])
     if len(q_job) == 0:
         q_job = np.array([controller.read_joints()])
+    if job.cell.evaluator is None:  # no truth in this process: the calibration's own figures
+        return CalibrationFigures(
+            None if calibration is None else calibration.summary(), None, None, 0
+        )
     return calibration_report(
         job.cell.evaluator, nominal, calibration, q_job, config.operations.tool
     )
@@ -281,7 +296,7 @@ def _figures(
 def method_report(
     pose: LocatedPose,
     program: OfflineProgram | None,
-    evaluator: Evaluator,
+    touches: TouchMeasure,
     virtual: ObjectModel,
     touch_offset_m: float,
     prefix: str,
@@ -294,7 +309,7 @@ def method_report(
     if program is not None:
         targets = tuple(
             replace(t, name=t.name.removeprefix(prefix))
-            for t in evaluator.targets(touch_offset_m, virtual, program.T_base_object, prefix)
+            for t in touches.targets(touch_offset_m, virtual, program.T_base_object, prefix)
         )
     predicted: tuple[float, ...] = ()
     if pose.localization is not None:

@@ -81,9 +81,12 @@ class JobRun:
         self, poses: tuple[LocatedPose, ...], model: CellModel
     ) -> dict[str, PoseEvaluation]:
         """Each method's pose against the truth, now (a pick may move the part later)."""
+        evaluator = self.cell.evaluator
+        if evaluator is None:  # no truth in this process
+            return {}
         s0 = self.cell.controller.table_position()
         return {
-            p.method: self.cell.evaluator.pose_error(model.T_base_table(s0) @ p.T_table_object)
+            p.method: evaluator.pose_error(model.T_base_table(s0) @ p.T_table_object)
             for p in poses
             if p.T_table_object is not None
         }

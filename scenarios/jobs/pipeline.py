@@ -26,6 +26,7 @@ from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.job_plan import JobPlan, plan_job
 from scenarios.jobs.job_report import finish_job
 from scenarios.jobs.job_run import JobRun
+from scenarios.jobs.network_job import ControllerAddress, network_job_cell
 from scenarios.jobs.run_log import RunLog
 from scenarios.jobs.stage_tracker import StageTracker
 from scenarios.offline.cell_model import CellModel
@@ -34,10 +35,10 @@ from scenarios.offline.operations import target_operations
 from scenarios.offline.tcp_check import POINTERS
 from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.cell_log import CellLog
-from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.beam import Commissioning
 from scenarios.results.budget_result import ErrorBudget
+from scenarios.results.evaluations import TouchMeasure
 from scenarios.results.json_converter import unstructure
 from scenarios.results.run import RunResult
 from scenarios.results.verification_result import TcpCheck
@@ -59,14 +60,14 @@ Progress = Callable[[str], None]
 
 # -- the runner's hooks: the truth recorded at the stages' moments -------------------------------
 class RunHooks:
-    """The stages' moments go to the evaluator (it records the truth then), their moves to
-    the recording (the true bodies, the arm's path), their progress and their checks to the
-    run's `say`, `detect`, `checked` and `budgeted`; the cell's commissioning is the runner's
-    (`Commissioner`)."""
+    """The stages' moments go to what measures the touches (the evaluator records the truth
+    then; across the network the twin does), their moves to the recording (the true bodies,
+    the arm's path), their progress and their checks to the run's `say`, `detect`, `checked`
+    and `budgeted`; the cell's commissioning is the runner's (`Commissioner`)."""
 
     def __init__(
         self,
-        evaluator: Evaluator,
+        touches: TouchMeasure,
         log: CellLog,
         say: Progress,
         detect: Callable[[str, str, str], None],
@@ -74,7 +75,7 @@ class RunHooks:
         budgeted: Callable[[ErrorBudget], None],
         commissioning: Callable[[], Commissioning | None],
     ) -> None:
-        self._evaluator = evaluator
+        self._touches = touches
         self._log = log
         self.say = say
         self.detect = detect
@@ -83,7 +84,7 @@ class RunHooks:
         self.commissioning = commissioning
 
     def moment(self, name: str, tool: str) -> None:
-        self._evaluator.record_touch(name, tool)
+        self._touches.record_touch(name, tool)
 
     def moved(self, what: str) -> None:
         self._log.moved(what)
@@ -168,8 +169,10 @@ class Commissioner:
             return None
         if self._record is None:
             t0 = time.perf_counter()
-            copy = job_cell(config, plan.virtual, plan.real, plan.robot).controller
-            copy.set_absolute_accuracy(job.cell.controller.absolute_accuracy)
+            copy = job.cell.controller  # across the network: the cell itself, now
+            if job.cell.evaluator is not None:
+                copy = job_cell(config, plan.virtual, plan.real, plan.robot).controller
+                copy.set_absolute_accuracy(job.cell.controller.absolute_accuracy)
             name = f"{plan.robot.name}, seed {config.seed}"
             self._record = commission(copy, (tool,), name)
             write_json(job.folder / COMMISSIONING_FILE, unstructure(self._record))
@@ -188,15 +191,38 @@ def run_cell_job(
     recording: Any | None = None,
     stages: StageTracker | None = None,
     use_cache: bool = True,
+    address: ControllerAddress | None = None,
 ) -> RunResult:
     """Run a cell job into `folder`; returns its result (written by the caller). `stages`
     hears each stage as it begins; `use_cache`: the skull phantom and the scan plan may come
-    from the user's cache folder (see plan_job)."""
+    from the user's cache folder (see plan_job); `address`: the controller across the network
+    the job runs on (None: the job's real cell, simulated here)."""
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
     plan = plan_job(config, say, use_cache)
+    if address is not None:
+        cell, remote = network_job_cell(config, plan, address)
+        try:
+            return _run_stages(config, plan, cell, folder, say, t_total, stages, None, ())
+        finally:
+            remote.close()
     faults = job_faults(config, plan.virtual, plan.T_table_nominal)
     cell = job_cell(config, plan.virtual, plan.real, plan.robot, recording, faults)
+    return _run_stages(config, plan, cell, folder, say, t_total, stages, recording, faults)
+
+
+def _run_stages(
+    config: JobConfig,
+    plan: JobPlan,
+    cell: JobCell,
+    folder: Path,
+    say: Progress,
+    t_total: float,
+    stages: StageTracker | None,
+    recording: Any | None,
+    faults: tuple[Fault, ...],
+) -> RunResult:
+    """The job's stages on its `cell`, in one loop, and its result."""
     if recording is not None and plan.scan_plan is not None:
         recording.log_scan_plan(0.0, plan.scan_plan)
     if faults:
@@ -205,7 +231,7 @@ def run_cell_job(
     job = JobRun(cell, log, plan, folder, recording)
     commissioning = Commissioner(config, plan, job, log.say)
     hooks = RunHooks(
-        cell.evaluator, cell.log, log.say, log.detect, log.checked, log.budgeted, commissioning
+        cell.touches, cell.log, log.say, log.detect, log.checked, log.budgeted, commissioning
     )
     controller = cell.controller
     ctx = StageContext(

@@ -31,16 +31,15 @@ class RunLog:
     def __init__(
         self,
         controller: Controller,
-        evaluator: Evaluator,
+        evaluator: Evaluator | None,
         cell_log: CellLog,
         progress: Progress,
         tracker: StageTracker | None = None,
         recording: Any | None = None,
     ) -> None:
         self._controller = controller
-        self._hear: tuple[_HearsStages, ...] = (evaluator,) + (
-            () if tracker is None else (tracker,)
-        )
+        hear = (evaluator, tracker)
+        self._hear: tuple[_HearsStages, ...] = tuple(h for h in hear if h is not None)
         self._cell_log = cell_log
         self._progress = progress
         self._recording = recording

@@ -29,6 +29,7 @@ from scenarios.configuration.config_files import (
 )
 from scenarios.configuration.job_config import Config, JobConfig, PaperConfig
 from scenarios.jobs.interrupt import RunInterrupted, SignalGuard
+from scenarios.jobs.network_job import ControllerAddress
 from scenarios.jobs.paper import PaperResult
 from scenarios.jobs.stage_tracker import StageTracker
 from scenarios.outputs.run_folder import RunFolder
@@ -45,11 +46,13 @@ class RunOptions:
     """Options of one run that are not part of the scenario: the rerun recording to a file
     (`rrd`), a live viewer (`spawn`), the user's cache folder read and written (`cache`:
     False makes the skull phantom and the scan plan anew and stores nothing; see
-    models.cache)."""
+    models.cache); the `controller` across the network the job runs on (None: its real cell,
+    simulated in this process; no recording of the cell then)."""
 
     rrd: bool = True
     spawn: bool = False
     cache: bool = True
+    controller: ControllerAddress | None = None
 
 
 JobResult = RunResult | PaperResult
@@ -95,10 +98,11 @@ def _cell(
     discarded (no run.rrd, no partial file) if anything stops it, closing included."""
     from scenarios.jobs.pipeline import run_cell_job
 
-    recording = _recording(folder, config, options)
+    remote = options.controller
+    recording = None if remote is not None else _recording(folder, config, options)
     try:
         result = run_cell_job(
-            config, folder.path, progress, recording, stages=stages, use_cache=options.cache
+            config, folder.path, progress, recording, stages, options.cache, remote
         )
         if recording is not None:
             recording.close(keep=True)

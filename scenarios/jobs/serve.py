@@ -6,7 +6,8 @@ and true placement of the object); a run folder gives that run's cell, and its p
 put in the controller's `$HOME` (program.mod, or the task's modules), ready to load. The
 controller moves its nominal arm, as `twincell execute` does. Each program a client runs to
 its end is measured against the truth as `twincell execute` measures it, and written to
-the serve folder (executions/NNN-<program>.json, the execution.json layout).
+the serve folder (executions/NNN-<program>.json, the execution.json layout) and to the
+controller's $HOME/executions/ (where a client reads it over RWS).
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ from scenarios.twin.server import ServedController, ServeOptions
 from scenarios.twin.twin_controller import TwinController
 
 Progress = Callable[[str], None]
+#: The folder of the measured programs, in the serve folder and the controller's $HOME.
+EXECUTIONS = "executions"
 
 
 @dataclass
@@ -213,10 +216,14 @@ def _measured(
         serving.executions.append(result)
         number = len(serving.executions)
         serving.changed.notify_all()
-    folder = serving.folder / "executions"
-    folder.mkdir(exist_ok=True)
     data = unstructure(result) | {"job": serving.config.name, "seed": serving.config.seed}
-    path = folder / f"{number:03d}-{Path(result.program).stem}.json"
-    write_text(path, json.dumps(data, indent=2) + "\n")
+    text = json.dumps(data, indent=2) + "\n"
+    name = f"{number:03d}-{Path(result.program).stem}.json"
+    # in the serve folder, and in the controller's $HOME/executions (a client's to read: on
+    # a real controller there is no such folder, for nothing there knows the truth)
+    for folder in (serving.folder, serving.twin.files.resolve("$HOME")):
+        (folder / EXECUTIONS).mkdir(exist_ok=True)
+        write_text(folder / EXECUTIONS / name, text)
+    path = serving.folder / EXECUTIONS / name
     rms = "-" if result.rms_m is None else f"{result.rms_m * 1e3:.3f} mm"
     say(f"{result.program}: {len(result.targets)} targets touched, rms {rms}; wrote {path}")

@@ -288,16 +288,12 @@ def measure_spheres(
 ) -> SphereMeasurements:
     """Fetch the laser; at each of the plan's table positions, view every sphere; points
     within the radius + 10 mm of a sphere's nominal centre (and not on its post) are kept.
-    The laser ends back in its slot, put there with the kinematics that fetched it.
+    The laser ends back in its slot, put there with the kinematics that fetched it; a laser
+    found in hand is put back first (its mounting on the flange follows from the fetch).
     `on_view()` is called with the arm at each view (e.g. to record the cell); only views
     `clear` of the object are taken."""
     say = progress or (lambda _msg: None)
     viewed = on_view or (lambda: None)
-    if controller.tool_in_hand == LASER.name:
-        raise CalibrationError(
-            "the laser is already in hand: the calibration fetches it from its slot itself "
-            "(its mounting on the flange follows from the fetch)"
-        )
     if not plan.table_positions_m:
         raise CalibrationError("the calibration needs at least one table position")
     q_lock = _fetch_laser(controller)

@@ -75,11 +75,15 @@ class Filter:
         return out
 
 
+#: The exported program's module name.
+PROGRAM_MODULE = "TwincellProgram"
+
+
 def program_module(
     program: OfflineProgram,
     kin: Kinematics,
     T_table_object_nominal: np.ndarray,
-    module: str = "TwincellProgram",
+    module: str = PROGRAM_MODULE,
     touch_speed_m_s: float = 0.02,
     filtered: Filter | None = None,
 ) -> str:

@@ -21,13 +21,13 @@ class CellLog:
         self,
         recording: Any | None,
         controller: Controller,
-        evaluator: Evaluator,
+        evaluator: Evaluator | None,
         object_name: str = "object",
         object_entity: str = "object",
     ) -> None:
         self._recording = recording
         self._controller = controller
-        if recording is not None:
+        if recording is not None and evaluator is not None:
             from models.robot.visuals import irb2400_visuals
 
             looks = irb2400_visuals() if controller.robot.name == "irb2400" else ()

@@ -36,19 +36,23 @@ from scenarios.offline.scan_passes import ObjectBox
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.real_placement import draw_true_pose
+from scenarios.results.evaluations import TouchMeasure
 
 
 @dataclass(frozen=True, eq=False)
 class JobCell:
     """A job's real cell: the controller (what the program sees), the evaluator (the
-    truth), the recording hooks, the object's nominal pose T_table_object (4, 4) and its
-    nominal footprint for the scan."""
+    truth; None for a controller across the network, whose truth, if any, is on the other
+    side), what measures the touches (the evaluator, or the twin across the network), the
+    recording hooks, the object's nominal pose T_table_object (4, 4) and its nominal
+    footprint for the scan."""
 
     controller: Controller
-    evaluator: Evaluator
+    evaluator: Evaluator | None
     log: CellLog
     T_table_nominal: np.ndarray
     box: ObjectBox
+    touches: TouchMeasure
 
 
 def model_error(noise: Noise) -> ModelErrorSpec:
@@ -145,4 +149,4 @@ def build_job_cell(
     log = CellLog(recording, controller, evaluator, name, virtual.name)
     if recording is not None:
         recording.log_model(virtual, T_table_nominal)
-    return JobCell(controller, evaluator, log, T_table_nominal, box)
+    return JobCell(controller, evaluator, log, T_table_nominal, box, evaluator)

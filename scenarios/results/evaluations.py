@@ -5,8 +5,11 @@ angles [deg] where the name says so."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+
+from models.model import ObjectModel
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,13 +103,30 @@ class CalibrationSummary:
 class CalibrationFigures:
     """The calibration's figures (None if the job did not calibrate) and, from the truth,
     the tool's TCP error of the nominal and the calibrated arm at `configurations` of the
-    job's."""
+    job's (None: no truth in the job's process, a controller across the network)."""
 
     summary: CalibrationSummary | None
-    nominal: TcpError
+    nominal: TcpError | None
     calibrated: TcpError | None
     configurations: int
 
     @property
     def enabled(self) -> bool:
         return self.summary is not None
+
+
+class TouchMeasure(Protocol):
+    """What measures the job's touches against the truth: told of each touch as it happens
+    (`record_touch`), asked afterwards for each touched target's evaluation (`targets`, as
+    the evaluator gives them: the touch named `prefix` + the target's name, the estimated
+    pose (4, 4) giving the registration's share)."""
+
+    def record_touch(self, target: str, tool: str) -> None: ...
+
+    def targets(
+        self,
+        touch_offset_m: float,
+        virtual: ObjectModel,
+        T_base_object_estimate: np.ndarray,
+        prefix: str = "",
+    ) -> tuple[TargetEvaluation, ...]: ...

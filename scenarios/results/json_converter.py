@@ -223,11 +223,12 @@ def _calibration_fields(data: JsonObject) -> JsonObject:
         mean = data.get(f"tcp_error_{label}_mean_m")
         return None if mean is None else {"mean_m": mean, "max_m": data[f"tcp_error_{label}_max_m"]}
 
-    nominal = error("nominal")
-    if nominal is None:
-        raise KeyError("calibration.tcp_error_nominal_mean_m")
     summary = data if data["enabled"] else None
-    return data | {"summary": summary, "nominal": nominal, "calibrated": error("calibrated")}
+    return data | {
+        "summary": summary,
+        "nominal": error("nominal"),
+        "calibrated": error("calibrated"),
+    }
 
 
 register_layout(

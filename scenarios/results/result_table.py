@@ -53,17 +53,21 @@ def _calibration_rows(result: RunResult) -> Rows:
     if figures.summary is None:
         return []
     calibrated = None if figures.calibrated is None else figures.calibrated.mean_m
-    return [
+    rows = [
         (
             "calibration residual RMS before / after [mm]",
             f"{_mm(figures.summary.residual_rms_before_m)} / "
             f"{_mm(figures.summary.residual_rms_after_m)}",
         ),
-        (
-            "true TCP error nominal / calibrated arm, mean [mm]",
-            f"{_mm(figures.nominal.mean_m)} / {_mm(calibrated)}",
-        ),
     ]
+    if figures.nominal is not None:
+        rows.append(
+            (
+                "true TCP error nominal / calibrated arm, mean [mm]",
+                f"{_mm(figures.nominal.mean_m)} / {_mm(calibrated)}",
+            )
+        )
+    return rows
 
 
 def _match_rows(result: RunResult) -> Rows:

@@ -12,7 +12,8 @@ import numpy as np
 class Snapshot:
     """What the controller knows at its time `time_s` [s]: the encoders q (6,) [rad], the
     joints it commands q_ref (6,) [rad], the flange T_base_flange (4, 4) [m] (nominal
-    kinematics), the table's readout [m] and the tool in hand."""
+    kinematics), the table's readout [m], the tool in hand and the TCP check's beam (broken
+    or not)."""
 
     time_s: float
     q: np.ndarray
@@ -20,3 +21,4 @@ class Snapshot:
     T_base_flange: np.ndarray
     table_m: float
     tool: str | None
+    beam: bool = False

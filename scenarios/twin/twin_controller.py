@@ -194,6 +194,7 @@ class TwinController:
             cell.kinematics.fk(q),
             cell.table_position(),
             cell.tool_in_hand,
+            cell.read_beam(),
         )
 
     def _refresh(self) -> None:
