@@ -57,6 +57,10 @@ ELSEWHERE = {
     "twincell campaign skull --trials 1000 --backend dask --scheduler tcp://HEAD:8786":
         "tests/test_campaign_cluster.py",
     "mkdocs build --strict": ".ci/run",
+    "twincell serve skull --speed 10 --egm-port 6510 --profiles 6511":
+        "tests/test_controller_client.py: the twin in a process of its own, free ports",
+    "twincell run skull --controller http://127.0.0.1:8080 --egm-port 6510 --profiles "
+    "127.0.0.1:6511": "tests/test_controller_client.py: a job across the network",
 }  # fmt: skip
 
 

@@ -56,8 +56,9 @@ PROBES = {
 
 
 def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: Path) -> None:
-    # A copy of the project's packages with probe modules in the stages', the planning's and
-    # the served controller's packages that import what they must never see: lint-imports
+    # A copy of the project's packages with probe modules in the stages', the planning's, the
+    # served controller's and the controller client's packages that import what they must
+    # never see: lint-imports
     # then fails, naming each probe's import; the same copy without the probes passes.
     for package in ("cell", "models", "registration", "scenarios"):
         shutil.copytree(
@@ -70,17 +71,23 @@ def test_a_planning_module_that_imports_the_truth_breaks_the_contract(tmp_path: 
     clean = _lint(config, cwd=tmp_path)
     assert clean.returncode == 0, clean.stdout + clean.stderr
     for i, (what, source) in enumerate(PROBES.items()):
-        package = ("stages", "offline", "twin")[i % 3]
+        package = ("stages", "offline", "twin", "irc5")[i % 4]
         (tmp_path / "scenarios" / package / f"probe_{i}.py").write_text(
             f'"""A probe that imports {what}."""\n\n' + source
         )
+    # the controller's client must not reach MuJoCo either, not even through the cell
+    (tmp_path / "scenarios" / "irc5" / "probe_mujoco.py").write_text(
+        '"""A probe that reaches MuJoCo through the cell\'s package."""\n\n'
+        "from cell import Controller\n"
+    )
     run = _lint(config, cwd=tmp_path)
     out = run.stdout.replace("\n", " ")
     assert run.returncode != 0, out
-    assert "the planning, RAPID and the stages never see the truth" in run.stdout.replace("\n", " ")
+    assert "the planning, RAPID and the stages never see the truth" in out
     assert "the served controller knows what a controller knows" in out
-    for i in range(len(PROBES)):
-        assert f"probe_{i}" in out, (i, out)
+    assert "the controller's client knows what a controller's user knows" in out
+    for name in (*(f"probe_{i}" for i in range(len(PROBES))), "probe_mujoco"):
+        assert name in out, (name, out)
 
 
 def test_no_module_hides_an_import_behind_getattr() -> None:

@@ -164,7 +164,13 @@ def test_a_stop_while_the_recording_closes_discards_it(
         status: str = "complete"
 
     def job(
-        config: Any, folder: Path, progress: Any, recording: Any, stages: Any, use_cache: bool
+        config: Any,
+        folder: Path,
+        progress: Any,
+        recording: Any,
+        stages: Any,
+        use_cache: bool,
+        address: Any = None,
     ) -> Done:
         stages.enter("export")
         return Done()

@@ -9,6 +9,7 @@ than `max_age_s` (`fresh`): a link that went quiet stops the job (LinkError).
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from collections import deque
@@ -22,6 +23,8 @@ from scenarios.irc5.link_errors import LinkError
 
 #: The stream's period on an IRC5 [s] (EGM application manual, 3HAC073318-001: 4 ms).
 PERIOD_S = 0.004
+#: The UDP receive buffer asked for [bytes] (the kernel may cap it: net.core.rmem_max).
+RECEIVE_BUFFER = 4 * 1024 * 1024
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,6 +69,8 @@ class EgmFeedback:
     def __init__(self, port: int, keep_s: float = 300.0) -> None:
         self.port = port
         self._egm = EGM(port)
+        # room for a second of the stream at a twin's speed of 20 while this process is busy
+        self._egm.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
         self._samples: deque[Feedback] = deque(maxlen=int(keep_s / PERIOD_S))
         self._changed = threading.Condition()
         self._closed = threading.Event()
@@ -131,6 +136,31 @@ class EgmFeedback:
                     )
                 self._changed.wait(left)
 
+    def stopped_after_running(self, since_s: float, wait_s: float) -> bool:
+        """Whether, among the samples that came after `since_s` (the client's monotonic clock
+        [s]), one says RAPID runs and a later one that it stopped; waits up to `wait_s` [s]."""
+        deadline = time.monotonic() + wait_s
+        with self._changed:
+            while True:
+                ran = False
+                for sample in self._samples_since(since_s):
+                    if sample.rapid_running:
+                        ran = True
+                    elif ran:
+                        return True
+                left = deadline - time.monotonic()
+                if left <= 0.0:
+                    return False
+                self._changed.wait(left)
+
+    def _samples_since(self, since_s: float) -> list[Feedback]:
+        out = []
+        for sample in reversed(self._samples):
+            if sample.received_s <= since_s:
+                break
+            out.append(sample)
+        return out[::-1]
+
     def between(self, t0_s: float, t1_s: float) -> list[Feedback]:
         """The samples the controller read from its time t0_s to t1_s [s], in order."""
         with self._changed:
@@ -139,12 +169,7 @@ class EgmFeedback:
     def since(self, received_s: float) -> list[Feedback]:
         """The samples that came after `received_s` (the client's monotonic clock [s])."""
         with self._changed:
-            out = []
-            for sample in reversed(self._samples):
-                if sample.received_s <= received_s:
-                    break
-                out.append(sample)
-        return out[::-1]
+            return self._samples_since(received_s)
 
     def close(self) -> None:
         self._closed.set()

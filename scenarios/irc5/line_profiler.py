@@ -103,7 +103,8 @@ class ProfileBuffer:
         self.sensor = sensor
         self._profiles: deque[Received] = deque(maxlen=keep)
         self._changed = threading.Condition()
-        #: Profiles the sensor's counter says were lost on the way.
+        #: Profiles received, and those the sensor's counter says were lost on the way.
+        self.received = 0
         self.lost = 0
         sensor.start(self._take)
 
@@ -112,6 +113,7 @@ class ProfileBuffer:
             if self._profiles and profile.seqno > self._profiles[-1].profile.seqno + 1:
                 self.lost += profile.seqno - self._profiles[-1].profile.seqno - 1
             self._profiles.append(Received(time.monotonic(), profile))
+            self.received += 1
             self._changed.notify_all()
 
     def since(self, received_s: float) -> list[Received]:
@@ -136,6 +138,20 @@ class ProfileBuffer:
                     raise LinkError(
                         f"no laser profile came within {timeout_s:g} s: is the laser in hand "
                         "and its stream connected?"
+                    )
+                self._changed.wait(left)
+
+    def until(self, stamp_s: float, timeout_s: float) -> None:
+        """Wait up to `timeout_s` [s] for a profile stamped at `stamp_s` [s] or later (the
+        stream is in order: every profile before it has come then); LinkError if none."""
+        deadline = time.monotonic() + timeout_s
+        with self._changed:
+            while not self._profiles or self._profiles[-1].profile.stamp_s < stamp_s - 1e-6:
+                left = deadline - time.monotonic()
+                if left <= 0.0:
+                    raise LinkError(
+                        f"the laser's profiles stopped coming before the sensor's clock read "
+                        f"{stamp_s:.3f} s (within {timeout_s:g} s)"
                     )
                 self._changed.wait(left)
 

@@ -24,8 +24,9 @@ from scenarios.irc5.link_errors import LinkError
 #: in a float64).
 SAME_INSTANT_S = 1.0e-5
 #: The widest gap between two position samples a profile's pose is interpolated over [s]
-#: (five EGM periods: a few lost packets); a profile in a wider gap has no pose and is dropped.
-MAX_GAP_S = 0.02
+#: (a dozen EGM periods: lost packets; the joints of a straight move at scan speed are
+#: straight to a micrometre over it); a profile in a wider gap has no pose and is dropped.
+MAX_GAP_S = 0.05
 
 
 def _pose_at(t: float, times: np.ndarray, q: np.ndarray) -> np.ndarray | None:

@@ -219,8 +219,9 @@ class RemoteController(Controller):
         buffer = self._laser_buffer()
         before = self._standing_profile(buffer)
         t0 = time.monotonic()
-        self._linear(T_base_tcp, speed_m_s, 1.0, 0.0)
+        end = self._linear(T_base_tcp, speed_m_s, 1.0, 0.0)
         offset = self._offset()
+        buffer.until(end.time_s + offset, 5.0)  # the profiles made while moving have all come
         found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offset)
         started_s = before.profile.stamp_s - offset
         return _thinned([r for r in found if r.time_s > started_s + 1e-6], period_s)
@@ -281,8 +282,13 @@ class RemoteController(Controller):
         """Run a move's module to its end; the first position sample after it."""
         self.feedback.fresh(self.max_age_s)  # never a command on a stale reading
         t0 = time.perf_counter()
+        since = time.monotonic()
+
+        def ended(wait_s: float) -> bool:  # the stream says RAPID ran, then stopped
+            return self.feedback.stopped_after_running(since, wait_s)
+
         try:
-            self.link.run_module(module, text, self.move_timeout_s)
+            self.link.run_module(module, text, self.move_timeout_s, ended)
         except ControllerRefusalError as exc:
             raise ControllerRefusalError(f"{what}: {exc}") from None
         stopped = time.monotonic()
@@ -378,6 +384,19 @@ class RemoteController(Controller):
 
     def read_ir(self) -> float | None:
         raise NotOfferedError("the IR sensor (read_ir) is not offered over RWS")
+
+    def link_summary(self) -> str:
+        """What the link carried: moves and their wall time, requests, samples and profiles
+        received and lost."""
+        feedback, link = self.feedback, self.link
+        text = (
+            f"{self.moves} moves in {self.move_wall_s:.1f} s of wall time, "
+            f"{link.requests} RWS requests ({link.request_s:.1f} s), EGM {feedback.received} "
+            f"samples ({feedback.lost} lost)"
+        )
+        if self.profiles is not None:
+            text += f", {self.profiles.received} laser profiles ({self.profiles.lost} lost)"
+        return text
 
     def close(self) -> None:
         """Close the streams and the HTTP session (the controller keeps running)."""

@@ -108,10 +108,19 @@ class RwsLink:
             )
 
     # -- programs ---------------------------------------------------------------------------
-    def run_module(self, name: str, text: str, timeout_s: float, poll_s: float = 0.002) -> None:
+    def run_module(
+        self,
+        name: str,
+        text: str,
+        timeout_s: float,
+        ended: Callable[[float], bool] | None = None,
+        poll_s: float = 0.02,
+    ) -> None:
         """Load the module `name` (its `text`; a module this client loaded before under
         another name is unloaded first: each has a main), run it from main, and wait for it
-        to stop; LinkError if it still runs after `timeout_s` [s]."""
+        to stop; LinkError if it still runs after `timeout_s` [s]. `ended(wait_s)` may tell
+        the end sooner than a poll of the execution state every `poll_s` [s] would (it waits
+        up to wait_s for a sign of it, e.g. the EGM stream's RAPID state)."""
         rws, path = self.rws, f"{MODULE_FOLDER}/{name}.mod"
         if self._loaded is not None and self._loaded != name:
             loaded = self._loaded
@@ -123,13 +132,17 @@ class RwsLink:
         self.call(f"reset the program pointer to main of {name}", rws.resetpp)
         self.call(f"start {name}", lambda: rws.start(cycle="once"))
         deadline = time.monotonic() + timeout_s
-        while self.call("tell its execution state", rws.get_execution_state).ctrlexecstate == (
-            "running"
-        ):
+        while True:
+            if ended is not None and ended(poll_s):
+                return
+            if ended is None:
+                time.sleep(poll_s)
+            state = self.call("tell its execution state", rws.get_execution_state)
+            if state.ctrlexecstate != "running":
+                return
             if time.monotonic() > deadline:
                 self.call("stop the program", rws.stop)
                 raise LinkError(f"{name} still ran after {timeout_s:g} s: stopped it")
-            time.sleep(poll_s)
 
     # -- I/O and the event log --------------------------------------------------------------
     def digital(self, signal: str) -> int:

@@ -127,7 +127,7 @@ def finish_job(
         plan_cache=plan.plan_cache,
         verifications=tuple(job.verifications),
         tool_checks=tuple(job.run.tool_checks),
-        cell_time_s=controller.time_s,
+        cell_time_s=controller.time_s - job.started_s,
         budget=budget,
     )
     if config.output.plots:

@@ -41,7 +41,10 @@ class JobRun:
         self.methods = plan.settings.localization.methods
         self.timings: dict[str, float] = {}
         self.pose_errors: dict[str, PoseEvaluation] | None = None
-        self.time_at_verdict_s = cell.controller.time_s
+        #: The controller's clock when the job began (a served controller's runs on between
+        #: jobs) [s].
+        self.started_s = cell.controller.time_s
+        self.time_at_verdict_s = self.started_s
         self.exported = Exported()
         self.verifications: list[Verification] = []
         self._t0 = time.perf_counter()

@@ -205,6 +205,7 @@ def run_cell_job(
         try:
             return _run_stages(config, plan, cell, folder, say, t_total, stages, None, ())
         finally:
+            say(f"the link to {address.url}: {remote.link_summary()}")
             remote.close()
     faults = job_faults(config, plan.virtual, plan.T_table_nominal)
     cell = job_cell(config, plan.virtual, plan.real, plan.robot, recording, faults)

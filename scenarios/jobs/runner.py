@@ -102,8 +102,9 @@ def _cell(
     recording = None if remote is not None else _recording(folder, config, options)
     try:
         result = run_cell_job(
-            config, folder.path, progress, recording, stages, options.cache, remote
-        )
+            config, folder.path, progress, recording, stages=stages, use_cache=options.cache,
+            address=remote,
+        )  # fmt: skip
         if recording is not None:
             recording.close(keep=True)
     except BaseException:

@@ -5,11 +5,12 @@ angles [deg] where the name says so."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from models.model import ObjectModel
+if TYPE_CHECKING:  # only the protocol's annotation: the results load with numpy alone
+    from models.model import ObjectModel
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,0 +1,134 @@
+"""The skull job across the network against the same job in process, seed by seed.
+
+    python bench/bench_network_job.py [--seeds 300 301 ...] [--speed 20] [--out DIR]
+
+For each seed: `twincell run skull --seed S` in process; then `twincell serve skull --seed S`
+in a process of its own (a fresh real cell, its time --speed times the wall's) and
+`twincell run skull --seed S --controller ...` against it. Prints each seed's status and
+target errors both ways and their differences, the wall time of each stage both ways (the
+network's overhead per stage), and the cell time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+
+def _free(kind: socket.SocketKind) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _twincell(*args: str, log: Path) -> float:
+    """Run `twincell ARGS`, its output to `log`; its wall time [s]."""
+    t0 = time.perf_counter()
+    with log.open("w") as sink:
+        subprocess.run([sys.executable, "-m", "scenarios.cli", *args], stdout=sink, check=False)
+    return time.perf_counter() - t0
+
+
+def _results(folder: Path) -> dict:
+    return json.loads(next(folder.glob("skull-*/results.json")).read_text())
+
+
+def _network(seed: int, speed: float, out: Path) -> tuple[dict, float]:
+    rws, egm, profiles = (
+        _free(socket.SOCK_STREAM),
+        _free(socket.SOCK_DGRAM),
+        _free(socket.SOCK_STREAM),
+    )
+    log = out / "serve.log"
+    with log.open("w") as sink:
+        server = subprocess.Popen(
+            [sys.executable, "-m", "scenarios.cli", "serve", "skull", "--seed", str(seed),
+             "--speed", str(speed), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
+             "--profiles", str(profiles), "--out", str(out / "serve"), "--quiet"],
+            stdout=sink, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+    try:
+        while "serving http" not in log.read_text():
+            if server.poll() is not None:
+                raise RuntimeError(log.read_text())
+            time.sleep(0.1)
+        wall = _twincell(
+            "run", "skull", "--seed", str(seed), "--out", str(out / "net"),
+            "--controller", f"http://127.0.0.1:{rws}", "--egm-port", str(egm),
+            "--profiles", f"127.0.0.1:{profiles}", log=out / "net.log",
+        )  # fmt: skip
+    finally:
+        server.send_signal(signal.SIGTERM)
+        server.wait(timeout=60)
+    return _results(out / "net"), wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=list(range(300, 310)))
+    parser.add_argument("--speed", type=float, default=20.0)
+    parser.add_argument("--out", type=Path, default=Path("/tmp/twincell_bench_network"))
+    args = parser.parse_args()
+    console = Console()
+    rows, stages_in, stages_net, worst = [], {}, {}, 0.0
+    for seed in args.seeds:
+        out = args.out / f"seed{seed}"
+        out.mkdir(parents=True, exist_ok=True)
+        wall_in = _twincell(
+            "run", "skull", "--seed", str(seed), "--out", str(out / "in"), "--no-rrd",
+            log=out / "in.log",
+        )  # fmt: skip
+        ours, wall_net = _network(seed, args.speed, out)
+        theirs = _results(out / "in")
+        e_in = {t["name"]: t["error_m"] for t in theirs["targets"]}
+        e_net = {t["name"]: t["error_m"] for t in ours["targets"]}
+        diffs = [abs(e_net[n] - e_in[n]) for n in e_in if n in e_net]
+        worst = max([worst, *diffs])
+        rows.append((seed, theirs, ours, max(diffs) if diffs else float("nan"), wall_in, wall_net))
+        for name, t in theirs["timings_s"].items():
+            stages_in.setdefault(name, []).append(t)
+        for name, t in ours["timings_s"].items():
+            stages_net.setdefault(name, []).append(t)
+        console.print(f"seed {seed}: in process {theirs['status']}, network {ours['status']}, "
+                      f"largest target difference {max(diffs) * 1e3:.3f} mm")  # fmt: skip
+    table = Table(title=f"skull across the network (twin at speed {args.speed:g}) vs in process")
+    columns = (
+        "seed", "status in / net", "rms in / net [mm]", "max in / net [mm]",
+        "largest target diff [mm]", "cell time in / net [s]", "wall in / net [s]",
+    )  # fmt: skip
+    for column in columns:
+        table.add_column(column, justify="right")
+    for seed, theirs, ours, diff, wall_in, wall_net in rows:
+        table.add_row(
+            str(seed),
+            f"{theirs['status']} / {ours['status']}",
+            f"{theirs['target_error_rms_m'] * 1e3:.3f} / {ours['target_error_rms_m'] * 1e3:.3f}",
+            f"{theirs['target_error_max_m'] * 1e3:.3f} / {ours['target_error_max_m'] * 1e3:.3f}",
+            f"{diff * 1e3:.3f}",
+            f"{theirs['cell_time_s']:.0f} / {ours['cell_time_s']:.0f}",
+            f"{wall_in:.0f} / {wall_net:.0f}",
+        )
+    console.print(table)
+    stages = Table(title="wall time per stage, median over the seeds [s]")
+    for column in ("stage", "in process", "network", "overhead"):
+        stages.add_column(column, justify="right")
+    for name in stages_net:
+        a = statistics.median(stages_in.get(name, [0.0]))
+        b = statistics.median(stages_net[name])
+        stages.add_row(name, f"{a:.1f}", f"{b:.1f}", f"{b - a:+.1f}")
+    console.print(stages)
+    console.print(f"largest per-target difference over the seeds: {worst * 1e3:.3f} mm")
+
+
+if __name__ == "__main__":
+    main()
