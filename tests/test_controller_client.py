@@ -25,13 +25,14 @@ from abb_robot_client.rws import RWS
 from cell import LaserConfig, nominal_T_base_table
 from cell.irb2400_arm import irb2400
 from models.robot import RACK_POS
-from scenarios.irc5.egm_feedback import EgmFeedback
+from scenarios.irc5.egm_feedback import EgmFeedback, Feedback
 from scenarios.irc5.line_profiler import ProfileBuffer, ProfileStream
 from scenarios.irc5.link_errors import LinkError
 from scenarios.irc5.remote_controller import RemoteController
 from scenarios.irc5.rws_link import RwsLink
 
 SPEED = 20.0
+_STILL = Feedback(0.0, 0.0, 0, np.zeros(6), None, False, True)
 
 
 def _free_port(kind: socket.SocketKind) -> int:
@@ -52,15 +53,21 @@ class Served:
         return f"http://127.0.0.1:{self.rws}"
 
 
-def serve(out: Path, job: str = "skull", seed: int = 0, speed: float = SPEED) -> Served:
+def serve(
+    out: Path,
+    job: str = "skull",
+    seed: int = 0,
+    speed: float = SPEED,
+    extra: tuple[str, ...] = (),
+) -> Served:
     """`twincell serve JOB` for `seed` in a process of its own, its time `speed` times the
-    wall's, its lines to serve.log in `out`."""
+    wall's, with the `extra` options, its lines to serve.log in `out`."""
     rws, egm = _free_port(socket.SOCK_STREAM), _free_port(socket.SOCK_DGRAM)
     profiles = _free_port(socket.SOCK_STREAM)
     command = [
         sys.executable, "-m", "scenarios.cli", "serve", job, "--seed", str(seed),
         "--speed", str(speed), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
-        "--profiles", str(profiles), "--out", str(out), "--quiet",
+        "--profiles", str(profiles), "--out", str(out), "--quiet", *extra,
     ]  # fmt: skip
     log = out / "serve.log"
     with log.open("w") as sink:
@@ -89,15 +96,18 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
 
 def _client(served: Served, timeout_s: float = 5.0) -> RemoteController:
     robot = irb2400()
-    return RemoteController(
-        RwsLink(served.url, "Default User", "robotics", timeout_s),
-        EgmFeedback(served.egm),
-        ProfileBuffer(ProfileStream("127.0.0.1", served.profiles)),
-        robot,
-        robot.kinematics(),
-        RACK_POS,
-        LaserConfig(),
-    )
+    link = RwsLink(served.url, "Default User", "robotics", timeout_s)
+    feedback = EgmFeedback(served.egm)
+    profiles = ProfileBuffer(ProfileStream("127.0.0.1", served.profiles))
+    try:
+        return RemoteController(
+            link, feedback, profiles, robot, robot.kinematics(), RACK_POS, LaserConfig()
+        )
+    except BaseException:
+        profiles.close()
+        feedback.close()
+        link.close()
+        raise
 
 
 def test_moves_tool_and_laser_over_the_network(served: Served) -> None:
@@ -115,7 +125,9 @@ def test_moves_tool_and_laser_over_the_network(served: Served) -> None:
         client.change_tool("laser")
         assert client.tool_in_hand == "laser"
         # the controller's own word, read by a client of its own
-        assert RWS(served.url).get_analog_io("aiToolNumber") == 1 + client.tools.index("laser")
+        rws = RWS(served.url)
+        assert rws.get_analog_io("aiToolNumber") == 1 + client.tools.index("laser")
+        rws.close()
         before = client.time_s
         reading = client.read_laser()
         assert reading.distances.shape == (len(client.laser_directions_tcp),)
@@ -146,6 +158,84 @@ def test_nothing_moves_on_a_stale_stream(served: Served) -> None:
         client.close()
 
 
+def test_a_controller_that_stops_answering_mid_move(served: Served) -> None:
+    """The controller stops answering while a move runs: the client stops the job there
+    (LinkError, saying what it waited for) instead of commanding on; the controller comes
+    back, ends its move, and a new session drives it on."""
+    import threading
+
+    client = _client(served, timeout_s=1.0)
+    pid = served.process.pid
+    try:
+
+        def stop_once_it_moves() -> None:  # the controller's own word: RAPID runs
+            while not (client.feedback.latest() or _STILL).rapid_running:
+                time.sleep(0.001)
+            os.kill(pid, signal.SIGSTOP)
+
+        watcher = threading.Thread(target=stop_once_it_moves)
+        watcher.start()
+        try:
+            with pytest.raises(LinkError, match=r"did not answer|stale|no EGM feedback"):
+                # a slow move: seconds of the controller's time
+                client.move_joints(client.q_home + np.array([0.6, 0, 0, 0, 0, 0]), speed=0.05)
+        finally:
+            watcher.join()
+            os.kill(pid, signal.SIGCONT)
+    finally:
+        client.close()
+    again = _client(served)
+    try:
+        again.move_joints(again.q_home)
+        assert np.max(np.abs(again.read_joints() - again.q_home)) < 2e-4
+    finally:
+        again.close()
+
+
+def test_motors_off_or_manual_mode_are_refused_with_what_to_change(
+    served: Served, short_skull_run: Path, tmp_path: Path
+) -> None:
+    from scenarios.irc5.link_errors import ControllerRefusalError
+    from scenarios.jobs.serve import serve_job
+    from scenarios.twin.server import ServeOptions
+
+    rws = RWS(served.url)
+    rws.set_controller_state("motoroff")
+    try:
+        with pytest.raises(ControllerRefusalError, match=r"motors are off .*switch them on"):
+            _client(served)
+    finally:
+        rws.set_controller_state("motoron")
+        rws.close()
+    manual = serve_job(str(short_skull_run), ServeOptions(port=0, opmode="MANR"), out=tmp_path)
+    link = RwsLink(manual.url, "Default User", "robotics")
+    try:
+        with pytest.raises(ControllerRefusalError, match=r"MANR mode: .* AUTO"):
+            link.ready()
+    finally:
+        link.close()
+        manual.close()
+
+
+@pytest.mark.slow
+def test_a_scan_through_a_poor_network_sees_the_object_as_one_in_process(
+    tmp_path: Path,
+) -> None:
+    """The first pass of the skull job's scan through a network that answers RWS 20 to 30 ms
+    late and loses a fifth of the EGM packets, with a laser whose clock runs 200 ppm fast:
+    each profile still finds its pose (interpolated over the lost packets, the clock's offset
+    set again while the arm stands before the pass), and the scan sees the skull as the same
+    pass in process does."""
+    twin = serve(
+        tmp_path, extra=("--rws-latency", "20", "--rws-jitter", "10", "--egm-loss", "0.2",
+                         "--laser-drift", "200"),
+    )  # fmt: skip
+    try:
+        _compare_first_pass(twin, min_share=0.9)
+    finally:
+        stop(twin)
+
+
 @pytest.mark.slow
 def test_a_scan_over_the_network_sees_the_object_as_one_in_process(served: Served) -> None:
     """The first pass of the skull job's scan, run through the network and in this process on
@@ -153,6 +243,13 @@ def test_a_scan_over_the_network_sees_the_object_as_one_in_process(served: Serve
     real skull at its true pose. A reading paired with the wrong pose (a profile late or early
     by a control period moves its line 0.4 mm along the pass at this speed) shows as a spread
     the in-process scan does not have."""
+    _compare_first_pass(served, min_share=0.97)
+
+
+def _compare_first_pass(served: Served, min_share: float) -> None:
+    """The first scan pass through `served` against the same pass in process: at least
+    `min_share` of the points on the skull, the same median distance to its true surface
+    (20 um) and the same spread (50 um)."""
     from scenarios.configuration.config_files import load_config
     from scenarios.configuration.job_config import JobConfig
     from scenarios.jobs.job_plan import plan_job
@@ -186,7 +283,7 @@ def test_a_scan_over_the_network_sees_the_object_as_one_in_process(served: Serve
     # the points on the skull (the rest fell on the table around it)
     on_net, on_in = d_net[d_net < 3e-3], d_in[d_in < 3e-3]
     assert len(on_in) > 5000
-    assert len(on_net) == pytest.approx(len(on_in), rel=0.1)
+    assert min_share * len(on_in) <= len(on_net) <= 1.03 * len(on_in)
     # the same surface seen: medians within 20 um, the spread within 50 um (the arm's error,
     # the same on both, is most of either)
     assert abs(np.median(on_net) - np.median(on_in)) < 2e-5

@@ -15,6 +15,7 @@ from scenarios.cli.run_command import CellOption
 CONTROLLER = "Controller"
 EGM = "EGM"
 LASER = "Laser"
+NETWORK = "Network faults"
 CELL = "Cell"
 OUTPUT = "Output"
 
@@ -80,6 +81,26 @@ LaserClockOption = Annotated[
         LASER,
     ),
 ]
+RwsLatencyOption = Annotated[
+    float,
+    option("--rws-latency", "MS", "Each RWS answer this late [ms].", NETWORK, min=0.0),
+]
+RwsJitterOption = Annotated[
+    float,
+    option(
+        "--rws-jitter", "MS", "... and up to this much later still, at random [ms].", NETWORK,
+        min=0.0,
+    ),
+]  # fmt: skip
+EgmLossOption = Annotated[
+    float,
+    option("--egm-loss", "SHARE", "The share of EGM packets lost (0 to 1).", NETWORK, min=0.0,
+           max=0.99),
+]  # fmt: skip
+LaserDriftOption = Annotated[
+    float,
+    option("--laser-drift", "PPM", "The laser's clock runs this fast [ppm].", NETWORK),
+]
 SeedOption = Annotated[
     int | None,
     option("--seed", "INTEGER", "The real cell's seed (default: the job's).", CELL, min=0),
@@ -114,6 +135,10 @@ def serve(
     egm_host: EgmHostOption = "127.0.0.1",
     profiles: ProfilesOption = None,
     laser_clock: LaserClockOption = None,
+    rws_latency: RwsLatencyOption = 0.0,
+    rws_jitter: RwsJitterOption = 0.0,
+    egm_loss: EgmLossOption = 0.0,
+    laser_drift: LaserDriftOption = 0.0,
     seed: SeedOption = None,
     speed: SpeedOption = 1.0,
     cell: CellOption = None,
@@ -133,15 +158,19 @@ def serve(
 
     from scenarios.configuration.config_files import parse_assignment
     from scenarios.jobs.serve import serve_job
+    from scenarios.twin.network_faults import NetworkFaults
     from scenarios.twin.sensor_streams import LaserStream
     from scenarios.twin.server import ServeOptions, parse_address, parse_users
 
     rws_host, rws_port = parse_address(rws)
     users = parse_users(user or [])
-    laser = LaserStream(clock_offset_s=time.time() if laser_clock is None else laser_clock)
+    offset = time.time() if laser_clock is None else laser_clock
+    laser = LaserStream(clock_offset_s=offset, drift_ppm=laser_drift)
+    faults = NetworkFaults(rws_latency * 1e-3, rws_jitter * 1e-3, egm_loss)
     options = ServeOptions(
-        host or rws_host, rws_port, egm_port, egm_host, users, opmode.upper(), profiles, laser
-    )
+        host or rws_host, rws_port, egm_port, egm_host, users, opmode.upper(), profiles, laser,
+        faults,
+    )  # fmt: skip
     overrides = dict(parse_assignment(text) for text in assign or [])
     serving = serve_job(name, options, seed=seed, speed=speed, out=out, spawn=spawn, rrd=rrd,
                         progress=progress_lines(quiet),

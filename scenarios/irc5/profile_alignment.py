@@ -29,6 +29,17 @@ SAME_INSTANT_S = 1.0e-5
 MAX_GAP_S = 0.05
 
 
+def _offset_at(
+    stamp_s: float, offset_s: float | tuple[tuple[float, float], tuple[float, float]]
+) -> float:
+    if isinstance(offset_s, float):
+        return offset_s
+    (s0, o0), (s1, o1) = offset_s
+    if s1 <= s0:
+        return o0
+    return o0 + (o1 - o0) * (stamp_s - s0) / (s1 - s0)
+
+
 def _pose_at(t: float, times: np.ndarray, q: np.ndarray) -> np.ndarray | None:
     """Joints (6,) at the controller's time t [s] from samples at `times` (sorted), or None."""
     k = int(np.searchsorted(times, t))
@@ -44,12 +55,14 @@ def _pose_at(t: float, times: np.ndarray, q: np.ndarray) -> np.ndarray | None:
 def readings(
     profiles: Sequence[Received],
     feedback: Sequence[Feedback],
-    offset_s: float,
+    offset_s: float | tuple[tuple[float, float], tuple[float, float]],
     latency_s: float = 0.0,
     table_m: float | None = None,
 ) -> list[LaserReading]:
     """Each profile with the joints at its exposure, in the controller's time: its stamp less
-    `offset_s` and the sensor's `latency_s` [s]; profiles outside the samples' span or in a gap
+    `offset_s` (or, for a clock that drifts, the offset interpolated in the sensor's time
+    between two (stamp, offset) pairs measured before and after) and the sensor's
+    `latency_s` [s]; profiles outside the samples' span or in a gap
     wider than MAX_GAP_S are dropped. The table from the samples (or `table_m` [m])."""
     if not feedback:
         return []
@@ -59,7 +72,8 @@ def readings(
     tables = [feedback[i].table_m for i in first]
     out = []
     for r in profiles:
-        t = r.profile.stamp_s - offset_s - latency_s
+        stamp = r.profile.stamp_s
+        t = stamp - _offset_at(stamp, offset_s) - latency_s
         pose = _pose_at(t, times, q)
         if pose is None:
             continue

@@ -91,6 +91,7 @@ class RemoteController(Controller):
         self.moves = 0
         self.move_wall_s = 0.0
         link.ready()
+        link.wait_stopped(30.0)
         link.clear(own_modules)
         first = feedback.after(time.monotonic() - 1.0, 5.0)
         self._q_command = first.q.copy()
@@ -214,17 +215,21 @@ class RemoteController(Controller):
     ) -> list[LaserReading]:
         """The straight move as a fly-by move (the scan ends where the motion ends), the
         profiles that came while it ran paired with the poses by the sensor's clock, set
-        against the controller's standing still just before. The profiles come at the
-        sensor's own rate, which `period_s` [s] should be (see `_thinned`)."""
+        against the controller's while the arm stands just before and again just after (a
+        clock that drifts is followed linearly between). The profiles come at the sensor's
+        own rate, which `period_s` [s] should be (see `_thinned`)."""
         buffer = self._laser_buffer()
         before = self._standing_profile(buffer)
+        offset0 = self._offset()
         t0 = time.monotonic()
         end = self._linear(T_base_tcp, speed_m_s, 1.0, 0.0)
-        offset = self._offset()
-        buffer.until(end.time_s + offset, 5.0)  # the profiles made while moving have all come
-        found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offset)
-        started_s = before.profile.stamp_s - offset
-        return _thinned([r for r in found if r.time_s > started_s + 1e-6], period_s)
+        buffer.until(end.time_s + offset0, 5.0)  # the profiles made while moving have all come
+        after = self._standing_profile(buffer, since=time.monotonic())
+        offsets = ((before.profile.stamp_s, offset0), (after.profile.stamp_s, self._offset()))
+        found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offsets)
+        started_s = before.profile.stamp_s - offset0
+        moving = [r for r in found if started_s + 1e-6 < r.time_s <= end.time_s + 1e-6]
+        return _thinned(moving, period_s)
 
     def read_laser(self) -> LaserReading:
         """The next profile, with the encoders at its instant (the arm standing)."""
@@ -235,15 +240,16 @@ class RemoteController(Controller):
             raise LinkError("a laser profile came without a position sample at its time")
         return found[0]
 
-    def _standing_profile(self, buffer: ProfileBuffer) -> Received:
-        """The next profile made while the arm stands, with the sensor's clock set by it
-        against the controller's: its stamp less the newest position sample's time. Profiles
-        made while the arm moved may still be on their way for DRAIN_S after it stopped."""
+    def _standing_profile(self, buffer: ProfileBuffer, since: float = 0.0) -> Received:
+        """The next profile made while the arm stands (that came after `since`, the client's
+        monotonic clock [s]), with the sensor's clock set by it against the controller's: its
+        stamp less the newest position sample's time. Profiles made while the arm moved may
+        still be on their way for DRAIN_S after it stopped."""
         self.feedback.fresh(self.max_age_s)
         drained = self._stopped_at + DRAIN_S
         if (wait := drained - time.monotonic()) > 0.0:
             time.sleep(wait)
-        came = buffer.after(max(drained, self._last_profile_s), 2.0)
+        came = buffer.after(max(drained, self._last_profile_s, since), 2.0)
         sample = self.feedback.after(came.received_s, 1.0)
         self._last_profile_s = came.received_s
         self.sensor_offset_s = came.profile.stamp_s - sample.time_s

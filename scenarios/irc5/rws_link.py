@@ -162,6 +162,20 @@ class RwsLink:
         entries = self.call("read its event log", lambda: self.rws.read_event_log(0))
         return sorted(entries, key=lambda e: e.seqnum)
 
+    def wait_stopped(self, timeout_s: float, poll_s: float = 0.05) -> None:
+        """Wait up to `timeout_s` [s] for a program the controller runs (an earlier session's)
+        to end; ControllerRefusalError if it still runs."""
+        deadline = time.monotonic() + timeout_s
+        while self.call("tell its execution state", self.rws.get_execution_state).ctrlexecstate == (
+            "running"
+        ):
+            if time.monotonic() > deadline:
+                raise ControllerRefusalError(
+                    f"the controller still runs a program after {timeout_s:g} s: stop it (or "
+                    "wait for its end) before the job takes the cell"
+                )
+            time.sleep(poll_s)
+
     def clear(self, names: tuple[str, ...]) -> list[str]:
         """Unload the modules of `names` (a client's own, left by an earlier session) that
         are loaded; the controller's other modules stay. The names unloaded."""

@@ -36,10 +36,18 @@ _MCI_RUNNING = 3
 
 class EgmServer:
     """The controller's end of an EGM session with the client at `client` (host, port);
-    the controller's own UDP port is bound on `host` (any free port)."""
+    the controller's own UDP port is bound on `host` (any free port); `lose()` says whether
+    a packet is lost on the way (None: none is)."""
 
-    def __init__(self, client: tuple[str, int], host: str = "127.0.0.1") -> None:
+    def __init__(
+        self,
+        client: tuple[str, int],
+        host: str = "127.0.0.1",
+        lose: Callable[[], bool] | None = None,
+    ) -> None:
         self.client = client
+        #: Whether the next packet is lost on the way (a network's loss, injected).
+        self.lose = lose
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind((host, 0))
         self.sock.settimeout(0.2)
@@ -155,6 +163,9 @@ class EgmServer:
         message.rapidExecState.state = _RAPID[rapid_running]
         # the helper module's DataToSensor: the TCP check's beam input
         message.RAPIDfromRobot.digVal = snap.beam
+        if self.lose is not None and self.lose():
+            self.lost += 1
+            return
         try:
             self.sock.sendto(message.SerializeToString(), self.client)
             self.sent += 1

@@ -96,12 +96,20 @@ Upgrade = Callable[[str, web.WebSocketResponse], Awaitable[None]]
 class Server:
     """The HTTP server on `address` (port 0: any free one), serving from a thread of its own
     until `close()`: `route(request)` answers requests (on a thread of the executor),
-    `upgrade(path, websocket)` serves the websockets (on the event loop)."""
+    `upgrade(path, websocket)` serves the websockets (on the event loop); each answer goes
+    out `delay()` [s] late if given."""
 
     def __init__(
-        self, address: tuple[str, int], route: Route, upgrade: Upgrade, users: dict[str, str]
+        self,
+        address: tuple[str, int],
+        route: Route,
+        upgrade: Upgrade,
+        users: dict[str, str],
+        delay: Callable[[], float] | None = None,
     ) -> None:
         self.route = route
+        #: How late each answer goes out [s] (a network's latency, injected).
+        self.delay = delay
         self.upgrade = upgrade
         self.auth = Auth(dict(users))
         self.base = ""
@@ -163,6 +171,8 @@ class Server:
         )
         loop = asyncio.get_running_loop()
         response = await loop.run_in_executor(None, self._route, resource_request)
+        if self.delay is not None and (late := self.delay()) > 0.0:
+            await asyncio.sleep(late)
         return _answer(response, (hdrs.SET_COOKIE, f"{SESSION}={session}; path=/"))
 
     def _route(self, request: Request) -> Response:

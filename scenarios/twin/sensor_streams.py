@@ -4,7 +4,8 @@ with the laser in hand, the line laser's profiles on their own stream (cell.prof
 at the sensor's rate, stamped in the sensor's clock.
 
 The sensor's clock is the controller's time plus `clock_offset_s` (a sensor synchronised to
-the plant's PTP master keeps Unix time; the controller counts from its own start). The
+the plant's PTP master keeps Unix time; the controller counts from its own start), running
+`drift_ppm` fast (a free-running quartz drifts by tens of ppm). The
 twin's time stands still while nothing moves, and so do the stamps; the stream goes on.
 """
 
@@ -25,10 +26,12 @@ PERIOD_S = 0.004
 @dataclass(frozen=True)
 class LaserStream:
     """The line laser's stream: its profile period [s] (of the controller's time while the
-    arm moves; of the wall clock's standing) and its clock's offset from the controller's [s]."""
+    arm moves; of the wall clock's standing), its clock's offset from the controller's [s]
+    and its drift against it [ppm]."""
 
     period_s: float = 0.01
     clock_offset_s: float = 0.0
+    drift_ppm: float = 0.0
 
 
 class SensorStreams:
@@ -64,7 +67,8 @@ class SensorStreams:
             return
         reading = cell.read_laser()
         self._seqno += 1
-        stamp = reading.time_s + self.laser.clock_offset_s
+        laser = self.laser
+        stamp = reading.time_s * (1.0 + laser.drift_ppm * 1e-6) + laser.clock_offset_s
         self.profiles.send(Profile(self._seqno, stamp, reading.distances))
 
     def _due(self, snap: Snapshot, moving: bool) -> bool:

@@ -12,6 +12,7 @@ from scenarios.twin.digest import DEFAULT_USERS
 from scenarios.twin.egm import EgmServer
 from scenarios.twin.guidance import Guidance
 from scenarios.twin.http import Server
+from scenarios.twin.network_faults import Draws, NetworkFaults
 from scenarios.twin.profile_server import ProfileServer
 from scenarios.twin.rws import Rws
 from scenarios.twin.sensor_streams import LaserStream, SensorStreams
@@ -22,8 +23,9 @@ from scenarios.twin.twin_controller import TwinController
 class ServeOptions:
     """Where and how to serve: RWS on host:port (port 0: any free one), EGM to the client
     at egm_host:egm_port (None: no EGM), the laser's profiles on host:profiles_port (None: no
-    profile stream; 0: any free port) as `laser` says, the users (name -> password), and the
-    controller's operation mode (AUTO, or MANR: clients read only)."""
+    profile stream; 0: any free port) as `laser` says, the users (name -> password), the
+    controller's operation mode (AUTO, or MANR: clients read only), and the network's faults
+    injected."""
 
     host: str = "127.0.0.1"
     port: int = 8080
@@ -33,6 +35,7 @@ class ServeOptions:
     opmode: str = "AUTO"
     profiles_port: int | None = None
     laser: LaserStream = field(default_factory=LaserStream)
+    faults: NetworkFaults = field(default_factory=NetworkFaults)
 
 
 class ServedController:
@@ -41,13 +44,16 @@ class ServedController:
     def __init__(self, twin: TwinController, options: ServeOptions) -> None:
         self.twin = twin
         self.rws = Rws(twin)
+        draws = Draws(options.faults)
+        late = options.faults.rws_latency_s + options.faults.rws_jitter_s > 0.0
         self.http = Server(
             (options.host, options.port), self.rws.route, self.rws.subscriptions.serve,
-            dict(options.users),
+            dict(options.users), draws.rws_delay_s if late else None,
         )  # fmt: skip
         self.egm: EgmServer | None = None
         if options.egm_port is not None:
-            self.egm = EgmServer((options.egm_host, options.egm_port), options.host)
+            lose = draws.egm_lost if options.faults.egm_loss > 0.0 else None
+            self.egm = EgmServer((options.egm_host, options.egm_port), options.host, lose)
             twin.guidance = Guidance(twin.cell, self.egm, twin.elog)
         self.profiles: ProfileServer | None = None
         if options.profiles_port is not None:
