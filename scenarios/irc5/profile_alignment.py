@@ -41,11 +41,9 @@ def _offset_at(
 
 
 def _pose_at(t: float, times: np.ndarray, q: np.ndarray) -> np.ndarray | None:
-    """Joints (6,) at the controller's time t [s] from samples at `times` (sorted), or None."""
+    """Joints (6,) at the controller's time t [s] between samples at `times` (sorted, one per
+    instant), or None."""
     k = int(np.searchsorted(times, t))
-    for j in (k - 1, k):  # a sample at the profile's instant (a controller standing still)
-        if 0 <= j < len(times) and abs(times[j] - t) <= SAME_INSTANT_S:
-            return q[j]
     if k == 0 or k == len(times) or times[k] - times[k - 1] > MAX_GAP_S:
         return None
     w = (t - times[k - 1]) / (times[k] - times[k - 1])
@@ -62,23 +60,31 @@ def readings(
     """Each profile with the joints at its exposure, in the controller's time: its stamp less
     `offset_s` (or, for a clock that drifts, the offset interpolated in the sensor's time
     between two (stamp, offset) pairs measured before and after) and the sensor's
-    `latency_s` [s]; profiles outside the samples' span or in a gap
-    wider than MAX_GAP_S are dropped. The table from the samples (or `table_m` [m])."""
+    `latency_s` [s]. A profile at an instant the stream has samples of (a controller standing
+    still repeats its time) takes the sample that came nearest to it, each its own encoder
+    reading; else the joints are interpolated between the samples around it. Profiles
+    outside the samples' span or in a gap wider than MAX_GAP_S are dropped. The table from
+    the samples (or `table_m` [m])."""
     if not feedback:
         return []
-    # one sample per controller instant (a standing controller repeats its time): the first
-    times, first = np.unique(np.array([s.time_s for s in feedback]), return_index=True)
+    all_times = np.array([s.time_s for s in feedback])
+    arrived = np.array([s.received_s for s in feedback])
+    times, first = np.unique(all_times, return_index=True)
     q = np.array([feedback[i].q for i in first])
-    tables = [feedback[i].table_m for i in first]
     out = []
     for r in profiles:
         stamp = r.profile.stamp_s
         t = stamp - _offset_at(stamp, offset_s) - latency_s
-        pose = _pose_at(t, times, q)
+        same = np.flatnonzero(np.abs(all_times - t) <= SAME_INSTANT_S)
+        if len(same):
+            sample = feedback[int(same[np.argmin(np.abs(arrived[same] - r.received_s))])]
+            pose: np.ndarray | None = sample.q
+        else:
+            sample = feedback[int(first[min(int(np.searchsorted(times, t)), len(times) - 1)])]
+            pose = _pose_at(t, times, q)
         if pose is None:
             continue
-        k = min(int(np.searchsorted(times, t)), len(times) - 1)
-        table = tables[k] if tables[k] is not None else table_m
+        table = sample.table_m if sample.table_m is not None else table_m
         if table is None:
             raise LinkError("the table's position came neither with the EGM samples nor given")
         out.append(LaserReading(r.profile.distances, pose, float(table), float(t)))
