@@ -73,6 +73,10 @@ def _network(seed: int, speed: float, out: Path) -> tuple[dict, float]:
     return _results(out / "net"), wall
 
 
+def _mm(value: float | None) -> str:
+    return "-" if value is None else f"{value * 1e3:.3f}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=list(range(300, 310)))
@@ -90,17 +94,20 @@ def main() -> None:
         )  # fmt: skip
         ours, wall_net = _network(seed, args.speed, out)
         theirs = _results(out / "in")
-        e_in = {t["name"]: t["error_m"] for t in theirs["targets"]}
-        e_net = {t["name"]: t["error_m"] for t in ours["targets"]}
+        e_in = {t["name"]: t["error_m"] for t in theirs.get("targets", [])}
+        e_net = {t["name"]: t["error_m"] for t in ours.get("targets", [])}
+        if ours["status"] == "incomplete":
+            console.print(f"seed {seed}: network incomplete: {ours['reason']}")
         diffs = [abs(e_net[n] - e_in[n]) for n in e_in if n in e_net]
         worst = max([worst, *diffs])
         rows.append((seed, theirs, ours, max(diffs) if diffs else float("nan"), wall_in, wall_net))
         for name, t in theirs["timings_s"].items():
             stages_in.setdefault(name, []).append(t)
-        for name, t in ours["timings_s"].items():
+        for name, t in ours.get("timings_s", {}).items():
             stages_net.setdefault(name, []).append(t)
+        largest = f"{max(diffs) * 1e3:.3f} mm" if diffs else "-"
         console.print(f"seed {seed}: in process {theirs['status']}, network {ours['status']}, "
-                      f"largest target difference {max(diffs) * 1e3:.3f} mm")  # fmt: skip
+                      f"largest target difference {largest}")  # fmt: skip
     table = Table(title=f"skull across the network (twin at speed {args.speed:g}) vs in process")
     columns = (
         "seed", "status in / net", "rms in / net [mm]", "max in / net [mm]",
@@ -112,10 +119,11 @@ def main() -> None:
         table.add_row(
             str(seed),
             f"{theirs['status']} / {ours['status']}",
-            f"{theirs['target_error_rms_m'] * 1e3:.3f} / {ours['target_error_rms_m'] * 1e3:.3f}",
-            f"{theirs['target_error_max_m'] * 1e3:.3f} / {ours['target_error_max_m'] * 1e3:.3f}",
+            f"{_mm(theirs.get('target_error_rms_m'))} / {_mm(ours.get('target_error_rms_m'))}",
+            f"{_mm(theirs.get('target_error_max_m'))} / {_mm(ours.get('target_error_max_m'))}",
             f"{diff * 1e3:.3f}",
-            f"{theirs['cell_time_s']:.0f} / {ours['cell_time_s']:.0f}",
+            f"{theirs.get('cell_time_s', float('nan')):.0f} / "
+            f"{ours.get('cell_time_s', float('nan')):.0f}",
             f"{wall_in:.0f} / {wall_net:.0f}",
         )
     console.print(table)

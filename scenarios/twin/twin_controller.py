@@ -292,8 +292,10 @@ class TwinController:
         task = self.task.task()
         cell = self.cell
         try:
-            here = self.snapshot.q
             kinematics, tools = cell.nominal_kinematics, cell_tools(cell)
+            # where the arm stands: an encoder reading a hair past a limit the arm was sent to
+            # is at that limit
+            here = np.clip(self.snapshot.q, kinematics.lower, kinematics.upper)
             plan = plan_execution(task, kinematics, tools, here, cell.robot.joint_speed)
         except (RapidError, ExecutionError) as exc:
             message = str(exc).replace(f"{self.task.folder}/", "T_ROB1/")  # the client's names
