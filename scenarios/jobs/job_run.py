@@ -41,10 +41,11 @@ class JobRun:
         self.methods = plan.settings.localization.methods
         self.timings: dict[str, float] = {}
         self.pose_errors: dict[str, PoseEvaluation] | None = None
-        #: The controller's clock when the job began (a served controller's runs on between
-        #: jobs) [s].
-        self.started_s = cell.controller.time_s
-        self.time_at_verdict_s = self.started_s
+        #: When the job's cell time began on the controller's clock [s]: the simulated cell's
+        #: clock starts with the job (its settling at set-up counted in it); a controller
+        #: across the network has run on before the job.
+        self.started_s = 0.0 if cell.evaluator is not None else cell.controller.time_s
+        self.time_at_verdict_s = cell.controller.time_s
         self.exported = Exported()
         self.verifications: list[Verification] = []
         self._t0 = time.perf_counter()
