@@ -26,6 +26,7 @@ STANFORD = Path(__file__).parent / "data" / "stanford"
 #: module alone at the end (pytest-xdist's --dist loadfile with --no-loadscope-reorder).
 LONGEST_FIRST = (
     "test_readme_tables.py",  # 230
+    "test_controller_client.py",  # 110: a job across the network
     "test_docs_commands.py",  # 160
     "test_bench.py",  # 165
     "test_faults.py",  # 160

@@ -194,7 +194,7 @@ class TwinController:
             cell.kinematics.fk(q),
             cell.table_position(),
             cell.tool_in_hand,
-            cell.read_beam(),
+            self.streams.egm is not None and cell.read_beam(),  # streamed with EGM only
         )
 
     def _refresh(self) -> None:
