@@ -64,6 +64,8 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
     ),
     # Its short run is tests/test_readme_tables.py's assembly row (docs/benchmarks.md).
     "readme_tables.py": None,
+    # a job across the network: tests/test_controller_client.py runs one against the twin
+    "bench_network_job.py": None,
     "same_figures.py": (False, (("run", "keys compared", "keys that differ"),)),
     "verify_curve.py": (
         False,

@@ -9,6 +9,7 @@ than `max_age_s` (`fresh`): a link that went quiet stops the job (LinkError).
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 import time
@@ -100,10 +101,16 @@ class EgmFeedback:
         with self._changed:
             return self._samples[-1] if self._samples else None
 
-    def fresh(self, max_age_s: float) -> Feedback:
-        """The newest sample, if it came within `max_age_s` [s]; LinkError if not."""
+    def fresh(self, max_age_s: float, wait_s: float = 1.0) -> Feedback:
+        """The newest sample, if it came within `max_age_s` [s], else the next one if it
+        comes within `wait_s` [s] (a stream that paused: a busy computer); LinkError if
+        none does."""
         sample = self.latest()
         now = time.monotonic()
+        if sample is not None and now - sample.received_s > max_age_s and wait_s > 0.0:
+            with contextlib.suppress(LinkError):
+                return self.after(now, wait_s)
+            now = time.monotonic()
         if sample is None:
             raise LinkError(
                 f"no EGM feedback has come to UDP port {self.port}: is the controller's EGM "
@@ -112,7 +119,8 @@ class EgmFeedback:
         if now - sample.received_s > max_age_s:
             raise LinkError(
                 f"the EGM feedback is stale: the newest came {now - sample.received_s:.3f} s "
-                f"ago (at most {max_age_s:g} s); nothing is commanded on a stale reading"
+                f"ago (at most {max_age_s:g} s, and none came in {wait_s:g} s more); nothing is "
+                "commanded on a stale reading"
             )
         return sample
 
