@@ -4,7 +4,7 @@ set."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -101,6 +101,34 @@ SetOption = Annotated[
 ]
 
 
+ControllerOption = Annotated[
+    str | None,
+    option(
+        "--controller",
+        "URL",
+        "Run the job on this controller's Robot Web Services (http://HOST:PORT): a real "
+        "IRC5, or twincell serve. The user and password come from TWINCELL_RWS_USER and "
+        "TWINCELL_RWS_PASSWORD, or the file TWINCELL_RWS_CREDENTIALS names.",
+        CONTROLLER,
+    ),
+]
+EgmPortOption = Annotated[
+    int | None,
+    option(
+        "--egm-port",
+        "PORT",
+        "This computer's UDP port the controller's EGM stream comes to.",
+        CONTROLLER,
+        min=1,
+        max=65535,
+    ),
+]
+ProfilesOption = Annotated[
+    str | None,
+    option("--profiles", "HOST:PORT", "The line laser's profile stream.", CONTROLLER),
+]
+
+
 def run(
     name: Annotated[
         str | None, argument("JOB", "A shipped job (paper, skull, assembly) or a CONFIG.yaml file.")
@@ -125,32 +153,9 @@ def run(
     quiet: Annotated[bool, flag("--quiet", "No progress lines.", OUTPUT)] = False,
     spawn: Annotated[bool, flag("--spawn", "Show the run in a rerun viewer.", RECORDING)] = False,
     no_rrd: Annotated[bool, flag("--no-rrd", "Do not write run.rrd.", RECORDING)] = False,
-    controller: Annotated[
-        str | None,
-        option(
-            "--controller",
-            "URL",
-            "Run the job on this controller's Robot Web Services (http://HOST:PORT): a real "
-            "IRC5, or twincell serve. The user and password come from TWINCELL_RWS_USER and "
-            "TWINCELL_RWS_PASSWORD, or the file TWINCELL_RWS_CREDENTIALS names.",
-            CONTROLLER,
-        ),
-    ] = None,
-    egm_port: Annotated[
-        int | None,
-        option(
-            "--egm-port",
-            "PORT",
-            "This computer's UDP port the controller's EGM stream comes to.",
-            CONTROLLER,
-            min=1,
-            max=65535,
-        ),
-    ] = None,
-    profiles: Annotated[
-        str | None,
-        option("--profiles", "HOST:PORT", "The line laser's profile stream.", CONTROLLER),
-    ] = None,
+    controller: ControllerOption = None,
+    egm_port: EgmPortOption = None,
+    profiles: ProfilesOption = None,
 ) -> None:
     """Run a job headless and write a run folder.
 
@@ -170,11 +175,7 @@ def run(
     overrides = run_overrides(
         model=model, units=units, targets=targets, program=program, assign=assign, fault=fault
     )
-    address = None
-    if controller is not None:
-        from scenarios.jobs.network_job import ControllerAddress
-
-        address = ControllerAddress.parse(controller, egm_port, profiles)
+    address = _address(controller, egm_port, profiles)
     folder, result = run_job(
         name,
         seed=seed,
@@ -205,6 +206,15 @@ def run(
     if result.status in ("refused", "aborted"):
         typer.echo(f"twincell: {result.status} in {result.stage}: {result.reason}", err=True)
         raise typer.Exit(3 if result.status == "refused" else 4)
+
+
+def _address(controller: str | None, egm_port: int | None, profiles: str | None) -> Any:
+    """The controller across the network the job runs on, or None (the job's own cell)."""
+    if controller is None:
+        return None
+    from scenarios.jobs.network_job import ControllerAddress
+
+    return ControllerAddress.parse(controller, egm_port, profiles)
 
 
 def run_overrides(

@@ -169,11 +169,6 @@ class EgmFeedback:
             out.append(sample)
         return out[::-1]
 
-    def between(self, t0_s: float, t1_s: float) -> list[Feedback]:
-        """The samples the controller read from its time t0_s to t1_s [s], in order."""
-        with self._changed:
-            return [s for s in self._samples if t0_s <= s.time_s <= t1_s]
-
     def since(self, received_s: float) -> list[Feedback]:
         """The samples that came after `received_s` (the client's monotonic clock [s])."""
         with self._changed:
