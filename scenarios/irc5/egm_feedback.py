@@ -33,7 +33,8 @@ class Feedback:
     """One sample of the stream: the client's monotonic clock when it came `received_s` [s],
     the controller's clock when the encoders were read `time_s` [s], the header's sequence
     number, the encoders q (6,) [rad], the table [m] (None: no external axis), RAPID running,
-    motors on, and the beam of the TCP check (the helper module's DataToSensor digVal)."""
+    motors on, and the beam of the TCP check (broken: the helper module TcHelper's
+    DataToSensor tcToSensor{1}, the first dnum of RAPIDfromRobot, is 1)."""
 
     received_s: float
     time_s: float
@@ -59,8 +60,13 @@ def feedback_of(state: Any, received_s: float) -> Feedback:
         table,
         bool(state.rapid_running),
         bool(state.motors_on),
-        bool(message.RAPIDfromRobot.digVal),
+        _beam(message.RAPIDfromRobot.dnum),
     )
+
+
+def _beam(dnum: Any) -> bool:
+    """TcHelper's tcToSensor{1}: 1 while the beam is broken (no value: not broken)."""
+    return len(dnum) > 0 and float(dnum[0]) > 0.5
 
 
 class EgmFeedback:

@@ -2,7 +2,9 @@
 (MoveAbsJ, the table as external axis A) or a straight move (MoveL) of the TCP of the tool in
 hand, in the base frame (wobj0).
 
-Every module is named `MODULE` and loaded over the one before it. Targets are written for the
+Every module is named `MODULE` and loaded over the one before it. Its main calls the helper
+module's TcStream first (scenarios.irc5.helper_module: moving the program pointer to main
+resets EGM, whose stream carries the encoders and the beam). Targets are written for the
 controller's own arm, which is its nominal one (an IRC5 without the absolute-accuracy
 option): the client solves a target with the arm it moves with (the calibrated one, once it is
 calibrated) and writes the joints that solution has, or the pose the nominal arm puts there
@@ -16,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell.kinematics import Kinematics
+from scenarios.irc5.helper_module import STREAM_PROC
 from scenarios.rapid.rapid_text import (
     configuration,
     pose_text,
@@ -108,6 +111,7 @@ def joint_move(
         f"  CONST jointtarget jTo := [[{joints}],[{external}]];\n"
         f"{tool.declaration}"
         "  PROC main()\n"
+        f"    {STREAM_PROC};\n"
         f"    MoveAbsJ jTo, {_speed(*speed)}, {_zone(settle_s)}, {tool.rapid_name};\n"
         "  ENDPROC\n"
         "ENDMODULE\n"
@@ -135,6 +139,7 @@ def linear_move(
         f"{pose_text(T_base_tcp)[:-1]},[{cf1},{cf4},{cf6},{cfx}],[{external}]];\n"
         f"{tool.declaration}"
         "  PROC main()\n"
+        f"    {STREAM_PROC};\n"
         f"    MoveL {target}, {speed}, {_zone(settle_s)}, {tool.rapid_name};\n"
         "  ENDPROC\n"
         "ENDMODULE\n"

@@ -61,6 +61,30 @@ class _Rws(RWS):
     def close_session(self) -> None:
         self._session.close()
 
+    def _process_response(self, response: Any) -> Any:
+        if response.status_code == 401:  # abb_robot_client raises a bare Exception for it
+            raise ABBException("the user and password were refused (HTTP 401)", 401)
+        return super()._process_response(response)
+
+    def system(self) -> tuple[dict[str, str], list[str]]:
+        """The RobotWare system (rw/system's sys-system-li: name, rwversion, rwversionname)
+        and its options (each sys-option-li's option, e.g. "689-1 Externally Guided
+        Motion")."""
+        items = self._do_get("rw/system")["_embedded"]["_state"]
+        system = next((i for i in items if i.get("_type") == "sys-system-li"), {})
+        options = [str(i["option"]) for i in items if i.get("_type") == "sys-option-li"]
+        return system, options
+
+    def signal_type(self, name: str) -> str:
+        """The type (DI, DO, AI, AO, GI, GO) of the signal `name`, where the client reads
+        and writes it (abb_robot_client's Local/DRV_1)."""
+        state = self._do_get(f"rw/iosystem/signals/Local/DRV_1/{name}")["_embedded"]["_state"]
+        return str(state[0]["type"])
+
+    def mastership(self, action: str) -> None:
+        """Request or release the controller's mastership (write access)."""
+        self._do_post(f"rw/mastership?action={action}")
+
 
 class RwsLink:
     """The controller at `url` (http://HOST:PORT), as `user` with `password`; each request

@@ -24,6 +24,7 @@ from typing import Any
 from models.atomic import write_text
 from scenarios.configuration.config_files import load_config
 from scenarios.configuration.job_config import JobConfig
+from scenarios.irc5.helper_module import HELPER_FILE, helper_text
 from scenarios.jobs.execute_run_folder import job_program, rebuild_job_cell
 from scenarios.jobs.exported_run import (
     ExecutionResult,
@@ -179,6 +180,7 @@ def serve_job(
     options = replace(options, laser=laser)
     twin = TwinController(job.controller, folder, speed, touched, ended, say, options.opmode)
     twin.elog.listeners.append(lambda e: _log(job, e))
+    _helper_module(twin, say)
     if run is not None:
         _program_files(run, twin, say)
     served = ServedController(twin, options)
@@ -193,6 +195,16 @@ def serve_job(
 
 def _log(cell: JobCell, entry: ElogEntry) -> None:
     cell.log.say(f"event log {entry.code}: {entry.title}: {entry.desc}")
+
+
+def _helper_module(twin: TwinController, say: Progress) -> None:
+    """The cell as commissioned: twincell's helper module in $HOME and loaded into T_ROB1,
+    as its user loads it on a real controller."""
+    data = helper_text().encode("utf-8")
+    path = f"$HOME/{HELPER_FILE.name}"
+    twin.files.write(path, data)
+    twin.task.load(data, path, replace=False)
+    say(f"{path}: twincell's helper module, loaded into T_ROB1")
 
 
 def _program_files(run: Path, twin: TwinController, say: Progress) -> None:

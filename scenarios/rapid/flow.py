@@ -11,7 +11,9 @@ line), and refuses what it cannot follow before anything moves: IF, FOR, WHILE, 
 assignments (they change data the targets may depend on), late-bound calls, calls with
 arguments and recursion. RETURN ends the routine it is in and EXIT the program. A routine's
 error, backward and undo handlers run only when an error is raised, which the executor never
-does (an error stops the execution): they are not followed.
+does (an error stops the execution): they are not followed. Nor are TRAP routines: they run
+on interrupts, which the executor does not raise; a CONNECT (an interrupt linked to its TRAP)
+is a step that leaves the path as it is.
 """
 
 from __future__ import annotations
@@ -202,6 +204,9 @@ def _run(
             return True
         if s.kind == "EXIT":
             return False
+        if s.kind == "CONNECT":
+            steps.append(Step("CONNECT", s.routine, chain, s.line, (), (), None, program.module))
+            continue
         if s.kind != _CALL or s.call is None:
             raise program_error(
                 program.module,

@@ -72,6 +72,7 @@ KNOWN = _words(
     "PackRawBytes UnpackRawBytes PackDNHeader ReadRawBytes WriteRawBytes StrToVal "
     "TestSignDefine TestSignReset IDelete ISignalDI ISignalDO ISignalAI ISignalAO "
     "ISignalGI ISignalGO ITimer ISleep IWatch IEnable IDisable IError IPers IVarValue IRMQMessage "
+    "CONNECT "
     # files and sockets
     "Open Close Write WriteBin WriteStrBin WriteAnyBin ReadAnyBin WriteBlock ReadBlock Rewind "
     "ClearIOBuff OpenDir CloseDir MakeDir RemoveDir RemoveFile RenameFile CopyFile "

@@ -1,10 +1,11 @@
 """Externally Guided Motion (EGM), as an IRC5 streams it: every 4 ms an `EgmRobot` message
 (the joints measured and commanded [deg], the flange pose in the base frame [mm,
 quaternion], the table as external axis A [mm], the controller's time, the motors' and
-RAPID's states, and in `RAPIDfromRobot` the beam of the TCP check) goes by UDP to the
-client's port, and the `EgmSensor` messages the client sends back from there are references
-the arm follows: joints [deg] (`EGMRunJoint`), or a pose of tool0 in the base frame [mm, w x
-y z] (`EGMRunPose` with tool0 and wobj0), solved on the nominal arm.
+RAPID's states, and in `RAPIDfromRobot.dnum` the beam of the TCP check, as the helper
+module TcHelper's DataToSensor sends it) goes by UDP to the client's port, and the
+`EgmSensor` messages the client sends back from there are references the arm follows:
+joints [deg] (`EGMRunJoint`), or a pose of tool0 in the base frame [mm, w x y z]
+(`EGMRunPose` with tool0 and wobj0), solved on the nominal arm.
 
 The twin's EGM session stands open while it serves. Its feedback streams as a real
 controller's position stream does (`EGMActJoint ... \\StreamStart`), while programs run and
@@ -161,8 +162,8 @@ class EgmServer:
         message.motorState.state = _MOTORS[motors_on]
         message.mciState.state = _MCI_RUNNING
         message.rapidExecState.state = _RAPID[rapid_running]
-        # the helper module's DataToSensor: the TCP check's beam input
-        message.RAPIDfromRobot.digVal = snap.beam
+        # TcHelper's DataToSensor tcToSensor{1}: the TCP check's beam input diTcBeam
+        message.RAPIDfromRobot.dnum.append(1.0 if snap.beam else 0.0)
         if self.lose is not None and self.lose():
             self.lost += 1
             return

@@ -8,7 +8,8 @@ answers them (JSON with `json=1`: the state under `_embedded._state`, each item 
   set), `rw/rapid/symbols?action=search-symbols`;
 - `rw/iosystem/signals[/Local/DRV_1/NAME]` (get, set);
 - `rw/motionsystem/mechunits/ROB_1/jointtarget`, `/robtarget?tool=&wobj=&coordinate=`;
-- `rw/elog/0`; `rw/mastership` (request, release); `ctrl/$RAMDISK`, `ctrl/$HOME`;
+- `rw/system` (the RobotWare version and options); `rw/elog/0`; `rw/mastership` (request,
+  release: in automatic mode only); `ctrl/$RAMDISK`, `ctrl/$HOME`;
 - `fileservice/$HOME/...`, `fileservice/$RAMDISK/...` (PUT, GET, DELETE, folder listings);
 - `subscription` (execution state, controller state, operation mode, signals, event log,
   RAPID data) with its events on a websocket (`poll/N`); `logout`.
@@ -32,6 +33,9 @@ from scenarios.twin.subscriptions import Subscriptions
 from scenarios.twin.twin_controller import TwinController
 
 Handler = Callable[[Request, str], Response]
+#: The RobotWare the twin answers as: an IRC5's RobotWare 6, with the options the jobs use.
+ROBOTWARE = "6.15.03.00"
+OPTIONS = ("RobotWare Base", "616-1 PC Interface", "689-1 Externally Guided Motion")
 
 
 class Rws:
@@ -64,7 +68,8 @@ class Rws:
                 ("GET", r"rw/motionsystem/mechunits/ROB_1/jointtarget", p.jointtarget),
                 ("GET", r"rw/motionsystem/mechunits/ROB_1/robtarget", p.robtarget),
                 ("GET", r"rw/elog/0", p.elog),
-                ("POST", r"rw/mastership(?:/.*)?", lambda _r, _a: NO_CONTENT),
+                ("GET", r"rw/system", p.system),
+                ("POST", r"rw/mastership(?:/.*)?", p.mastership),
                 ("GET", r"ctrl/\$(RAMDISK|HOME|TEMP)", p.ctrl_path),
                 ("GET", r"fileservice/(.+)", p.read_file),
                 ("PUT", r"fileservice/(.+)", p.write_file),
@@ -268,7 +273,21 @@ class Rws:
                     return np.asarray(wobj.T_base_uframe @ wobj.T_uframe_oframe, dtype=float)
         raise not_found(f"wobj {name!r}: not wobj0 and not declared in the loaded modules")
 
-    # -- event log, files --------------------------------------------------------------------
+    # -- the system, mastership, the event log, files ----------------------------------------
+    def system(self, r: Request, arg: str = "") -> Response:
+        items = [{"_type": "sys-system-li", "_title": "system", "name": "twincell twin",
+                  "rwversion": ROBOTWARE, "rwversionname": ROBOTWARE}]  # fmt: skip
+        items += [{"_type": "sys-option-li", "_title": o, "option": o} for o in OPTIONS]
+        return state(r, items)
+
+    def mastership(self, r: Request, arg: str = "") -> Response:
+        action = r.query.get("action")
+        if action not in ("request", "release"):
+            raise bad_request(f"{r.path}: action {action!r}: give request or release")
+        if action == "request":
+            self.twin.require_auto("take mastership")
+        return NO_CONTENT
+
     def elog(self, r: Request, arg: str = "") -> Response:
         items = [_elog_item(e) for e in self.twin.elog.entries()]
         return state(r, items)

@@ -33,6 +33,8 @@ SIGNALS: tuple[SignalSpec, ...] = (
     SignalSpec("diToolLocked", "DI", "the tool changer's lock sensor: a tool is locked"),
     SignalSpec("aiToolNumber", "AI", "the tool in hand (0 none, 1 gripper, 2 screwer, ...)", 0, 9),
     SignalSpec("aiTablePosition", "AI", "the table axis' readout [mm]", -1e4, 1e4),
+    SignalSpec("diTcBeam", "DI", "the TCP check station's light barrier: its beam is broken "
+               "(read while EGM streams)"),
     SignalSpec("aoGripperOpening", "AO", "each finger's opening from the centre [mm]", 0, 50),
     SignalSpec("doToolLock", "DO", "the tool changer: 1 locks the tool seated against the "
                "flange, 0 releases the tool held"),

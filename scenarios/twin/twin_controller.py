@@ -213,7 +213,7 @@ class TwinController:
 
     def set_ctrlstate(self, state: str) -> None:
         """Motors on or off (`motoron`, `motoroff`); motors off halts a running program."""
-        self._require_auto("switch the motors")
+        self.require_auto("switch the motors")
         if state not in ("motoron", "motoroff"):
             raise bad_request(f"ctrl-state {state!r}: give motoron or motoroff")
         with self._lock:
@@ -246,7 +246,7 @@ class TwinController:
     def load_module(self, path: str, replace: bool = False) -> str:
         """Load the module file `path` (a file-service path) into T_ROB1; refused, with an
         event-log entry and nothing moved, if it does not read."""
-        self._require_auto("load a module")
+        self.require_auto("load a module")
         data = self.files.read(path)
         self._require_stopped("load a module")
         with self._lock:
@@ -255,7 +255,7 @@ class TwinController:
         return name
 
     def unload_module(self, name: str) -> None:
-        self._require_auto("unload a module")
+        self.require_auto("unload a module")
         self._require_stopped("unload a module")
         with self._lock:
             self.task.unload(name)
@@ -267,12 +267,12 @@ class TwinController:
     def set_symbol(self, path: str, value: str) -> None:
         """Write a RAPID datum (the loaded module's text changes; the program reads it at the
         next program pointer reset)."""
-        self._require_auto("write RAPID data")
+        self.require_auto("write RAPID data")
         symbol = self.task.set_symbol(path, value)
         self._changed(f"rapid:{symbol.url}", symbol.value)
 
     # -- execution ------------------------------------------------------------------------------
-    def _require_auto(self, what: str) -> None:
+    def require_auto(self, what: str) -> None:
         if self.opmode != "AUTO":
             raise not_allowed(
                 f"cannot {what} in manual mode ({self.opmode}): a remote client does so in "
@@ -287,7 +287,7 @@ class TwinController:
         """Plan the loaded task from main on the nominal arm, from where the arm stands (the
         data as they are now); a program that cannot run is refused here, with an event-log
         entry."""
-        self._require_auto("reset the program pointer")
+        self.require_auto("reset the program pointer")
         self._require_stopped("reset the program pointer")
         task = self.task.task()
         cell = self.cell
@@ -307,7 +307,7 @@ class TwinController:
 
     def start(self) -> None:
         """Run the program from its pointer on the worker."""
-        self._require_auto("start a program")
+        self.require_auto("start a program")
         with self._lock:
             if self.ctrlstate != "motoron":
                 raise not_allowed("the motors are off: a program starts with the motors on")
@@ -380,10 +380,12 @@ class TwinController:
         name = spec.name
         if name.startswith("diUser"):
             return self.signals["doUser" + name[6:]]
+        if name == "diTcBeam":
+            return float(self.snapshot.beam)
         return self.signals[name]
 
     def set_signal(self, spec: SignalSpec, text: str) -> None:
-        self._require_auto("set a signal")
+        self.require_auto("set a signal")
         value = parse_value(spec, text)
         if spec.name == "doToolLock":
             self._require_stopped("work the tool changer")
