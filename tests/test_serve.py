@@ -107,7 +107,8 @@ def test_rapid_data_over_rws(served: Serving) -> None:
     client.set_rapid_variable("pTeach", target)
     assert client.get_rapid_variable("pTeach") == target
     found = client.get_rapid_variables()
-    assert {item["name"] for item in found} == {"nArr"}  # the PERS data only
+    # the PERS data only: the user's, and the one of the helper module the twin loads
+    assert {item["name"] for item in found} == {"nArr", "tcToSensor"}
     # a CONST is read-only; a value of the wrong shape is refused; the value stays
     for name, value in (("nFixed", "5"), ("pTeach", "[[1,2],[1,0,0,0]]"), ("nCount", '"x"')):
         with pytest.raises(ABBException):

@@ -54,7 +54,8 @@ class PlannedMove:
 
 @dataclass(frozen=True, eq=False)
 class ExecutionPlan:
-    """A module ready to run: the file it came from, its name, the compensation it states
+    """A module ready to run: the file it came from (a task's folder, or the file of the
+    module that holds main), its name, the compensation it states
     (`! compensation: <word>`, else "nominal"), the cell's tool it needs in hand (None: the
     program moves the flange only), the start configuration q_start (6,) [rad] and the
     flange pose there T_base_flange_start (4, 4) (the kinematics it was planned with), the

@@ -169,7 +169,8 @@ def plan_execution(
     if not moves:
         raise RapidError(f"{main.label}: PROC {entry} runs no MoveJ, MoveL or MoveAbsJ")
     return ExecutionPlan(
-        main.label if len(task.modules) == 1 else task.label,
+        # the file of the module main is in, or the folder of a task of several modules
+        main.label if len(task.modules) == 1 or task.path is None else task.label,
         main.name,
         _task_compensation(task, main),
         state.cell_tool,
