@@ -80,9 +80,7 @@ def test_the_helper_module_reads_and_the_twin_runs_a_move_module_with_it_unchang
     q_start = np.array([0.0, 0.1, 0.1, 0.0, 0.5, 0.0])
     q_to = q_start + np.array([0.2, 0.0, 0.0, 0.0, 0.0, 0.1])
     move = read_module(joint_move(q_to, None, (100.0, 30.0), 0.0, Tool(None, np.eye(4))), "m")
-    plan = plan_execution(
-        RapidTask((move, helper)), kinematics, {}, q_start, robot.joint_speed
-    )
+    plan = plan_execution(RapidTask((move, helper)), kinematics, {}, q_start, robot.joint_speed)
     assert len(plan.moves) == 1
     # the module writes the joints in degrees to six significant digits: within 1e-5 rad
     np.testing.assert_allclose(plan.moves[0].q, q_to, atol=1e-5)
