@@ -154,10 +154,11 @@ class EgmFeedback:
         """Whether, among the samples that came after `since_s` (the client's monotonic clock
         [s]), one says RAPID runs and a later one that it stopped; waits up to `wait_s` [s]."""
         deadline = time.monotonic() + wait_s
+        ran, seen_s = False, since_s  # each sample looked at once, as it comes
         with self._changed:
             while True:
-                ran = False
-                for sample in self._samples_since(since_s):
+                for sample in self._samples_since(seen_s):
+                    seen_s = sample.received_s
                     if sample.rapid_running:
                         ran = True
                     elif ran:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from cell.cell_errors import CellError
-from registration.rigid import make_T, quat_wxyz_to_R
+from registration.rigid import R_to_quat_wxyz, make_T, quat_wxyz_to_R
 from scenarios.twin.egm_proto import EgmHeader, EgmRobot, EgmSensor
 from scenarios.twin.snapshot import Snapshot
 
@@ -175,9 +175,7 @@ class EgmServer:
 
 
 def _pose(cartesian: Any, T: np.ndarray) -> None:
-    from scipy.spatial.transform import Rotation
-
-    x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat()
+    w, x, y, z = R_to_quat_wxyz(T[:3, :3])  # every packet: scipy's Rotation costs ten times as much
     cartesian.pos.x, cartesian.pos.y, cartesian.pos.z = (T[:3, 3] * 1e3).tolist()
     cartesian.orient.u0, cartesian.orient.u1 = float(w), float(x)
     cartesian.orient.u2, cartesian.orient.u3 = float(y), float(z)

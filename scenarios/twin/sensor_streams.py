@@ -26,8 +26,8 @@ PERIOD_S = 0.004
 @dataclass(frozen=True)
 class LaserStream:
     """The line laser's stream: its profile period [s] (of the controller's time while the
-    arm moves; of the wall clock's standing), its clock's offset from the controller's [s]
-    and its drift against it [ppm]."""
+    arm moves; standing, of the wall clock's sped up as the twin's time runs), its clock's
+    offset from the controller's [s] and its drift against it [ppm]."""
 
     period_s: float = 0.01
     clock_offset_s: float = 0.0
@@ -36,17 +36,20 @@ class LaserStream:
 
 class SensorStreams:
     """The EGM feedback to `egm` (None: no EGM session) and the laser's profiles to
-    `profiles` (None: no profile stream)."""
+    `profiles` (None: no profile stream), of a twin whose time runs `speed` times the wall
+    clock's."""
 
     def __init__(
         self,
         egm: EgmServer | None = None,
         profiles: ProfileServer | None = None,
         laser: LaserStream | None = None,
+        speed: float = 1.0,
     ) -> None:
         self.egm = egm
         self.profiles = profiles
         self.laser = laser or LaserStream()
+        self.speed = speed
         self._seqno = 0
         self._next_s: float | None = None
         self._idle_ticks = 0
@@ -76,7 +79,7 @@ class SensorStreams:
         if not moving:
             self._next_s = None
             self._idle_ticks += 1
-            if self._idle_ticks * PERIOD_S < period:
+            if self._idle_ticks * PERIOD_S * self.speed < period:
                 return False
             self._idle_ticks = 0
             return True

@@ -58,7 +58,7 @@ class ServedController:
         self.profiles: ProfileServer | None = None
         if options.profiles_port is not None:
             self.profiles = ProfileServer((options.host, options.profiles_port))
-        twin.streams = SensorStreams(self.egm, self.profiles, options.laser)
+        twin.streams = SensorStreams(self.egm, self.profiles, options.laser, twin.pacer.speed)
 
     @property
     def url(self) -> str:
