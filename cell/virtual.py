@@ -104,6 +104,7 @@ class VirtualCell:
         self._tool_of_body = [by_id.get(int(root[b])) for b in range(m.nbody)]
         self._geom_name = _geom_names(m, layout, self._tool_of_body)
         self._geom_body = m.geom_bodyid.copy()
+        self._named: dict[str, np.ndarray] = {}
         # Fixed mesh objects whose contact is a proxy (convex pieces): their own surfaces.
         self._surfaces = {
             o.name: (SurfaceDistance(o.vertices, o.faces), T_TABLEBODY_TABLE @ o.T_table_object)
@@ -223,10 +224,11 @@ class VirtualCell:
         return dist, normal.reshape(-1, 3), names
 
     # -- contacts -----------------------------------------------------------------------------
-    def contacts(self, margin_m: float = 0.0) -> tuple[Contact, ...]:
+    def contacts(self, margin_m: float = 0.0, other: str | None = None) -> tuple[Contact, ...]:
         """What the moving side (the arm's links, the tool in hand) touches or comes within
         `margin_m` [m] of in the current pose: one `Contact` per pair of names, the smallest
-        distance, the deepest first."""
+        distance, the deepest first; with `other`, only the contacts with it (the same ones,
+        found sooner: a path checked clear of the object asks this at every step)."""
         if not (np.isfinite(margin_m) and 0.0 <= margin_m <= 0.5):
             raise CellConfigError(f"the contact margin must be in [0, 0.5] m, got {margin_m!r}")
         m, d = self.model, self.data
@@ -241,6 +243,11 @@ class VirtualCell:
             return ()
         geoms = d.contact.geom[:n]
         dist = d.contact.dist[:n]
+        if other is not None:
+            rows = (dist <= margin_m) & np.isin(geoms, self._geoms_named(other)).any(axis=1)
+            if not rows.any():
+                return ()
+            geoms, dist = geoms[rows], dist[rows]
         held = self.tool_in_hand
         closest: dict[tuple[str, str], float] = {}
         near_surface: set[tuple[int, str]] = set()  # (moving geom, object) to measure exactly
@@ -265,7 +272,15 @@ class VirtualCell:
             key = (self._geom_name[g], name)
             closest[key] = min(closest.get(key, np.inf), self._surface_distance(g, name))
         found = [Contact(a, b, dk) for (a, b), dk in closest.items() if dk <= margin_m]
+        if other is not None:
+            found = [c for c in found if c.other == other]
         return tuple(sorted(found, key=lambda c: c.distance_m))
+
+    def _geoms_named(self, name: str) -> np.ndarray:
+        """The ids of the geoms a contact calls `name`."""
+        if name not in self._named:
+            self._named[name] = np.flatnonzero(np.array(self._geom_name, dtype=object) == name)
+        return self._named[name]
 
     def _surface_distance(self, geom: int, name: str) -> float:
         """Signed distance [m] of moving geom `geom` to the own surface of object `name`

@@ -179,13 +179,13 @@ def test_a_seat_a_tenth_off_is_corrected_at_every_target(tmp_path: Path) -> None
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [2, 7, 40, 41])
+@pytest.mark.parametrize("seed", [2, 7])
 def test_no_false_abort_on_the_ur5(tmp_path: Path, seed: int) -> None:
-    """The UR5 cell, no fault, a small campaign: seeds 2 and 7 were stopped by a check
-    against the tooldata (0.41 and 0.33 mm read on good seats, tolerance 0.30). Against the
-    commissioning the seated screwer reads within four of its standard deviations, no check
-    stops the run and its program runs to the end; where the run claims its goals
-    ("complete"), it met them against the true targets (the evaluator)."""
+    """The UR5 cell, no fault: seeds 2 and 7 were stopped by a check against the tooldata
+    (0.41 and 0.33 mm read on good seats, tolerance 0.30). Against the commissioning the
+    seated screwer reads within four of its standard deviations, no check stops the run and
+    its program runs to the end; where the run claims its goals ("complete"), it met them
+    against the true targets (the evaluator)."""
     folder, _ = run_job(
         "skull",
         seed=seed,

@@ -64,6 +64,6 @@ def clear_of(
         cell.set_table(table_position_m)
         cell.set_tool(tool)
         cell.set_joints(q)
-        return not any(c.other == name for c in cell.contacts(margin_m))
+        return not cell.contacts(margin_m, other=name)
 
     return clear
