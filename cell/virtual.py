@@ -241,13 +241,7 @@ class VirtualCell:
         n = d.ncon
         if n == 0:
             return ()
-        geoms = d.contact.geom[:n]
-        dist = d.contact.dist[:n]
-        if other is not None:
-            rows = (dist <= margin_m) & np.isin(geoms, self._geoms_named(other)).any(axis=1)
-            if not rows.any():
-                return ()
-            geoms, dist = geoms[rows], dist[rows]
+        geoms, dist = self._pairs(d.contact.geom[:n], d.contact.dist[:n], margin_m, other)
         held = self.tool_in_hand
         closest: dict[tuple[str, str], float] = {}
         near_surface: set[tuple[int, str]] = set()  # (moving geom, object) to measure exactly
@@ -275,6 +269,16 @@ class VirtualCell:
         if other is not None:
             found = [c for c in found if c.other == other]
         return tuple(sorted(found, key=lambda c: c.distance_m))
+
+    def _pairs(
+        self, geoms: np.ndarray, dist: np.ndarray, margin_m: float, other: str | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The contact pairs (n, 2) and their distances (n,) [m] to look at: all, or those
+        with a geom of `other` within the margin."""
+        if other is None:
+            return geoms, dist
+        rows = (dist <= margin_m) & np.isin(geoms, self._geoms_named(other)).any(axis=1)
+        return geoms[rows], dist[rows]
 
     def _geoms_named(self, name: str) -> np.ndarray:
         """The ids of the geoms a contact calls `name`."""
