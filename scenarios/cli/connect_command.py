@@ -26,7 +26,7 @@ def connect(
         str | None, option("--json", "FILE", "Also write the findings to this JSON file.")
     ] = None,
 ) -> None:
-    """Check a controller for the jobs: options, signals, modules, motors, mode, mastership.
+    """Say what a controller lacks for the jobs, moving nothing.
 
     Asks the controller at URL (an IRC5 with RobotWare 6, or `twincell serve`) for its
     RobotWare and options, the signals of twincell's EIO.cfg, the helper module TcHelper
