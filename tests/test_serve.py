@@ -308,9 +308,44 @@ def _stop_and_start(served: Serving) -> None:
     while client.get_execution_state().ctrlexecstate == "running":
         assert time.monotonic() - t0 < 60.0
         time.sleep(0.05)
-    assert len(served.wait_executions(1, 60.0)) == 1
+    measured = served.wait_executions(1, 60.0)
+    assert len(measured) == 1, [e.desc for e in client.read_event_log()[:5]]
     assert served.executions[0].rms_m is not None
     assert served.executions[0].rms_m < 1e-3  # the job's goal holds after a stop and a start
+
+
+@pytest.mark.slow
+def test_a_stop_in_the_tool_change_waits_for_its_end(short_skull_run: Path, tmp_path: Path) -> None:
+    """A stop asked while the program's tool is being locked in the rack halts the program
+    once the tool change is done, not in the slot: started again, it runs to its end and is
+    measured (halted in the slot, it left by a joint move that swept the screwer through the
+    IR sensor hanging beside it, and the supervision stopped it)."""
+    served = serve_job(str(short_skull_run), ServeOptions(port=0), speed=5.0, out=tmp_path)
+    try:
+        client = RWS(served.url)
+        _load(client, "program.mod", client.read_file("$HOME/program.mod"))
+        assert client.get_digital_io("diToolLocked") == 0  # the program fetches its tool
+        client.resetpp()
+        client.start()
+        t0 = time.monotonic()
+        while client.get_digital_io("diToolLocked") == 0:  # locked in the slot: stop now
+            assert time.monotonic() - t0 < 30.0
+            time.sleep(0.005)
+        client.stop()
+        while client.get_execution_state().ctrlexecstate == "running":
+            assert time.monotonic() - t0 < 60.0
+            time.sleep(0.02)
+        log = [e.desc for e in client.read_event_log()[:5]]
+        assert any("during the tool change" in d for d in log), log
+        client.start()
+        while client.get_execution_state().ctrlexecstate == "running":
+            assert time.monotonic() - t0 < 120.0
+            time.sleep(0.05)
+        measured = served.wait_executions(1, 60.0)
+        assert len(measured) == 1, [e.desc for e in client.read_event_log()[:5]]
+        assert measured[0].rms_m is not None and measured[0].rms_m < 1e-3
+    finally:
+        served.close()
 
 
 @pytest.mark.slow

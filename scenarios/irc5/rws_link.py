@@ -71,7 +71,7 @@ class _Rws(RWS):
         and its options (each sys-option-li's option, e.g. "689-1 Externally Guided
         Motion")."""
         items = self._do_get("rw/system")["_embedded"]["_state"]
-        system = next((i for i in items if i.get("_type") == "sys-system-li"), {})
+        system: dict[str, str] = next((i for i in items if i.get("_type") == "sys-system-li"), {})
         options = [str(i["option"]) for i in items if i.get("_type") == "sys-option-li"]
         return system, options
 

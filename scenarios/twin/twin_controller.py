@@ -108,6 +108,10 @@ class TwinController:
         self._execution: Execution | None = None
         self._commands: queue.Queue[Callable[[], None]] = queue.Queue()
         self._halt = threading.Event()
+        #: A tool change runs: a client's stop waits for its end (halted in the rack, the arm
+        #: would leave it by a joint move through the tools beside the slot).
+        self._changing_tool = False
+        self._tools = controller.tools
         self._closing = threading.Event()
         self.pacer = WallClockPacer(speed, controller.time_s, self._lagging)
         #: What streams every control period (EGM feedback, the laser's profiles), and the
@@ -167,9 +171,13 @@ class TwinController:
         self.snapshot = self._snapshot(q, self._q_ref, time_s)
         self._publish(moving=True)
         self.pacer.keep_pace(time_s)
-        if self._halt.is_set():
+        if self._halt.is_set() and not self._finish_tool_change():
             return "stop requested by a client"
         return None
+
+    def _finish_tool_change(self) -> bool:
+        """Whether a stop waits for the tool change to end (not for motors off or closing)."""
+        return self._changing_tool and not (self.ctrlstate == "motoroff" or self._closing.is_set())
 
     def _stand_tick(self) -> None:
         """A control period standing still (on the worker): the encoders read anew and the
@@ -340,8 +348,14 @@ class TwinController:
             cell.set_absolute_accuracy(None)
             if execution.next_move < 0:
                 execution.start_time_s = cell.time_s
-                start_plan(cell, plan, from_here=True)
+                self._changing_tool = True
+                try:
+                    start_plan(cell, plan, from_here=True)
+                finally:
+                    self._changing_tool = False
                 execution.next_move = 0
+                if self._halt.is_set():  # a stop asked during the tool change: halt here
+                    raise MotionHaltedError("stop requested by a client during the tool change")
             while execution.next_move < len(plan.moves):
                 move = plan.moves[execution.next_move]
                 self._q_ref = move.q
@@ -377,11 +391,20 @@ class TwinController:
 
     # -- I/O ----------------------------------------------------------------------------------
     def signal(self, spec: SignalSpec) -> float:
-        name = spec.name
+        """A signal's value now: the cell's inputs as the newest snapshot has them (live while
+        a program runs, as a controller's inputs are), the outputs as set."""
+        name, snap = spec.name, self.snapshot
         if name.startswith("diUser"):
             return self.signals["doUser" + name[6:]]
         if name == "diTcBeam":
-            return float(self.snapshot.beam)
+            return float(snap.beam)
+        if name == "diToolLocked":
+            return float(snap.tool is not None)
+        if name == "aiToolNumber":
+            tools = self._tools
+            return float(tools.index(snap.tool) + 1) if snap.tool in tools else 0.0
+        if name == "aiTablePosition":
+            return snap.table_m * 1e3
         return self.signals[name]
 
     def set_signal(self, spec: SignalSpec, text: str) -> None:
