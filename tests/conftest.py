@@ -25,18 +25,15 @@ STANFORD = Path(__file__).parent / "data" / "stanford"
 #: handed out first, so that the two workers finish together instead of one running a long
 #: module alone at the end (pytest-xdist's --dist loadfile with --no-loadscope-reorder).
 LONGEST_FIRST = (
-    "test_docs_commands.py",  # 220
-    "test_readme_tables.py",  # 136
-    "test_bench.py",  # 125
-    "test_faults.py",  # 108
-    "test_controller_client.py",  # 90: a job across the network
-    "test_scan_plan.py",  # 79
-    "test_verify_curve.py",  # 69
-    "test_example_my_cell.py",  # 58
-    "test_refusal_proposals.py",  # 54
-    "test_tcp_check.py",  # 50
-    "test_calibration_benefit.py",  # 40
-    "test_interrupt.py",  # 39
+    "test_readme_tables.py",  # 230
+    "test_controller_client.py",  # 110: a job across the network
+    "test_docs_commands.py",  # 160
+    "test_bench.py",  # 165
+    "test_faults.py",  # 160
+    "test_scan_plan.py",  # 120
+    "test_verify_curve.py",  # 75
+    "test_interrupt.py",  # 70
+    "test_calibration_benefit.py",  # 70
 )
 
 

@@ -298,8 +298,10 @@ def _compare_first_pass(served: Served, min_share: float) -> None:
 @pytest.mark.slow
 def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path: Path) -> None:
     """The short skull job (its own seed) run against its real cell served in another process
-    completes within its goals, the twin measuring every target it touched and the exported
-    program, and its targets' RMS error is the same job's in process to 0.1 mm. Single targets
+    ends within its goals (complete; or at risk, where its error budget, drawn anew, comes
+    within reach of the goal: a loaded machine's twin, lagging the wall clock, has ended it
+    so), the twin measuring every target it touched and the exported program, and its
+    targets' RMS error is the same job's in process to 0.1 mm. Single targets
     differ more: the twin reads its encoders every control period and its laser at its own
     instants, so its noise is another draw than the job's in process, and the registration's
     share of a target moves with the draw by up to its predicted TRE (0.06 to 0.16 mm seen;
@@ -320,7 +322,8 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     finally:
         stop(twin)
     assert isinstance(ours, RunResult)
-    assert ours.status == theirs["status"] == "complete"
+    assert theirs["status"] == "complete"
+    assert ours.status in ("complete", "at_risk"), ours.reason
     assert all(check.met for check in ours.checks.values())
     errors = {t["name"]: t["error_m"] for t in theirs["targets"]}
     touched = {t.name: t.error_m for t in ours.methods[0].targets}
