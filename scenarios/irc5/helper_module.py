@@ -10,6 +10,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from scenarios.rapid.reader import read_module
+
 #: The shipped files a user loads on the controller.
 FOLDER = Path(__file__).parent / "controller_files"
 HELPER_FILE = FOLDER / "TcHelper.sys"
@@ -55,13 +57,11 @@ def helper_text() -> str:
 
 
 def helper_version() -> str:
-    """The shipped helper's version (its CONST tcHelperVersion)."""
-    match = re.search(
-        rf'CONST\s+string\s+{VERSION_SYMBOL}\s*:=\s*"([^"]*)"', helper_text(), re.IGNORECASE
-    )
-    if match is None:
+    """The shipped helper's version (its CONST tcHelperVersion, as the RAPID reader reads it)."""
+    declaration = read_module(HELPER_FILE).data.get(VERSION_SYMBOL)
+    if declaration is None or not isinstance(declaration.value, str):
         raise RuntimeError(f"{HELPER_FILE}: no CONST string {VERSION_SYMBOL}")
-    return match.group(1)
+    return declaration.value
 
 
 def needed_signals(text: str | None = None) -> tuple[SignalNeed, ...]:

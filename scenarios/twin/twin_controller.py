@@ -206,13 +206,9 @@ class TwinController:
         )
 
     def _refresh(self) -> None:
-        """A snapshot after a command that did not move (on the worker)."""
+        """A snapshot after a command that did not move (on the worker); the cell's inputs
+        are read from it (`signal`)."""
         self.snapshot = self._snapshot(self.cell.read_joints(), self._q_ref)
-        self.signals["diToolLocked"] = float(self.cell.tool_in_hand is not None)
-        tools = self.cell.tools
-        held = self.cell.tool_in_hand
-        self.signals["aiToolNumber"] = float(tools.index(held) + 1) if held in tools else 0.0
-        self.signals["aiTablePosition"] = self.cell.table_position() * 1e3
 
     # -- state --------------------------------------------------------------------------------
     def _changed(self, resource: str, value: str) -> None:
