@@ -1,12 +1,14 @@
 """The skull job across the network against the same job in process, seed by seed.
 
-    python bench/bench_network_job.py [--seeds 300 301 ...] [--speed 20] [--out DIR]
+    python bench/bench_network_job.py [--seeds 300 301 ...] [--speed 20] [--laser-latency MS]
+        [--out DIR]
 
 For each seed: `twincell run skull --seed S` in process; then `twincell serve skull --seed S`
 in a process of its own (a fresh real cell, its time --speed times the wall's) and
-`twincell run skull --seed S --controller ...` against it. Prints each seed's status and
-target errors both ways and their differences, the wall time of each stage both ways (the
-network's overhead per stage), and the cell time.
+`twincell run skull --seed S --controller ...` against it (its laser stamping each profile
+--laser-latency ms after its exposure, which the job's calibration identifies). Prints each
+seed's status and target errors both ways and their differences, the latency identified, the
+wall time of each stage both ways (the network's overhead per stage), and the cell time.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ def _results(folder: Path) -> dict:
     return json.loads(next(folder.glob("skull-*/results.json")).read_text())
 
 
-def _network(seed: int, speed: float, out: Path) -> tuple[dict, float]:
+def _network(seed: int, speed: float, latency_ms: float, out: Path) -> tuple[dict, float]:
     rws, egm, profiles = (
         _free(socket.SOCK_STREAM),
         _free(socket.SOCK_DGRAM),
@@ -54,7 +56,8 @@ def _network(seed: int, speed: float, out: Path) -> tuple[dict, float]:
         server = subprocess.Popen(
             [sys.executable, "-m", "scenarios.cli", "serve", "skull", "--seed", str(seed),
              "--speed", str(speed), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
-             "--profiles", str(profiles), "--out", str(out / "serve"), "--quiet"],
+             "--profiles", str(profiles), "--out", str(out / "serve"), "--quiet",
+             "--laser-latency", str(latency_ms)],
             stdout=sink, stderr=subprocess.STDOUT,
         )  # fmt: skip
     try:
@@ -77,10 +80,19 @@ def _mm(value: float | None) -> str:
     return "-" if value is None else f"{value * 1e3:.3f}"
 
 
+def _latency(result: dict) -> str:
+    """The laser's latency the network job's calibration identified, with its uncertainty."""
+    found = result.get("calibration") or {}
+    if found.get("laser_latency_s") is None:
+        return "-"
+    return f"{found['laser_latency_s'] * 1e3:.2f} +- {found['laser_latency_sigma_s'] * 1e3:.2f}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=list(range(300, 310)))
     parser.add_argument("--speed", type=float, default=20.0)
+    parser.add_argument("--laser-latency", type=float, default=0.0, metavar="MS")
     parser.add_argument("--out", type=Path, default=Path("/tmp/twincell_bench_network"))
     args = parser.parse_args()
     console = Console()
@@ -92,7 +104,7 @@ def main() -> None:
             "run", "skull", "--seed", str(seed), "--out", str(out / "in"), "--no-rrd",
             log=out / "in.log",
         )  # fmt: skip
-        ours, wall_net = _network(seed, args.speed, out)
+        ours, wall_net = _network(seed, args.speed, args.laser_latency, out)
         theirs = _results(out / "in")
         e_in = {t["name"]: t["error_m"] for t in theirs.get("targets", [])}
         e_net = {t["name"]: t["error_m"] for t in ours.get("targets", [])}
@@ -111,7 +123,8 @@ def main() -> None:
     table = Table(title=f"skull across the network (twin at speed {args.speed:g}) vs in process")
     columns = (
         "seed", "status in / net", "rms in / net [mm]", "max in / net [mm]",
-        "largest target diff [mm]", "cell time in / net [s]", "wall in / net [s]",
+        "largest target diff [mm]", "latency found [ms]", "cell time in / net [s]",
+        "wall in / net [s]",
     )  # fmt: skip
     for column in columns:
         table.add_column(column, justify="right")
@@ -122,6 +135,7 @@ def main() -> None:
             f"{_mm(theirs.get('target_error_rms_m'))} / {_mm(ours.get('target_error_rms_m'))}",
             f"{_mm(theirs.get('target_error_max_m'))} / {_mm(ours.get('target_error_max_m'))}",
             f"{diff * 1e3:.3f}",
+            _latency(ours),
             f"{theirs.get('cell_time_s', float('nan')):.0f} / "
             f"{ours.get('cell_time_s', float('nan')):.0f}",
             f"{wall_in:.0f} / {wall_net:.0f}",

@@ -398,3 +398,17 @@ class Controller(ABC):
     @abstractmethod
     def read_laser(self) -> LaserReading:
         """One laser line: distances (NaN = no return) and the encoder joints at that instant."""
+
+    @property
+    def laser_latency_s(self) -> float | None:
+        """The laser's latency from a line's exposure to its stamp [s] that its lines are
+        paired with the encoders by; None where each line comes with the encoders of its own
+        instant (nothing to identify)."""
+        return None
+
+    def set_laser_latency(self, latency_s: float) -> None:
+        """Pair the laser's lines with the encoders `latency_s` [s] before their stamps."""
+        raise NotImplementedError(
+            "this controller pairs each laser line with the encoders of its own instant: "
+            "it has no latency to set"
+        )

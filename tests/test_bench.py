@@ -66,6 +66,9 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
     "readme_tables.py": None,
     # a job across the network: tests/test_controller_client.py runs one against the twin
     "bench_network_job.py": None,
+    # the latency found through a twin served per latency: tests/test_controller_client.py
+    # finds 0, 8 (in the job) and 20 ms
+    "bench_laser_latency.py": None,
     "same_figures.py": (False, (("run", "keys compared", "keys that differ"),)),
     "verify_curve.py": (
         False,

@@ -30,6 +30,14 @@ from scenarios.irc5.line_profiler import ProfileBuffer, ProfileStream
 from scenarios.irc5.link_errors import LinkError
 from scenarios.irc5.remote_controller import RemoteController
 from scenarios.irc5.rws_link import RwsLink
+from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
+from scenarios.offline.cell_model import CellModel
+from scenarios.offline.laser_latency import (
+    LatencyEstimate,
+    LatencyPlan,
+    identify_latency,
+    sweep_sphere,
+)
 
 SPEED = 20.0
 _STILL = Feedback(0.0, 0.0, 0, np.zeros(6), None, False, True)
@@ -217,21 +225,50 @@ def test_motors_off_or_manual_mode_are_refused_with_what_to_change(
         manual.close()
 
 
+def _identified_latency(served: Served) -> LatencyEstimate:
+    """The laser's latency as the calibration identifies it (scenarios.offline.laser_latency),
+    on the middle sphere at the calibration's last table position, the arm nominal."""
+    client = _client(served)
+    try:
+        client.move_joints(client.q_home)
+        client.change_tool("laser")
+        client.move_table(-0.05)
+        T = nominal_T_base_table(client.table_position())
+        centres = DEFAULT_ARTIFACT.centres_table @ T[:3, :3].T + T[:3, 3]
+        sweeps = sweep_sphere(client, centres, DEFAULT_ARTIFACT.radius_m, LatencyPlan())
+        model = CellModel.nominal(client.kinematics)
+        found = identify_latency(
+            sweeps, model, client.laser_directions_tcp, DEFAULT_ARTIFACT.radius_m, 0.0
+        )
+        client.move_joints(client.q_home)
+        client.return_tool()
+    finally:
+        client.close()
+    print(f"latency {found.latency_s * 1e3:.3f} +- {found.sigma_s * 1e3:.3f} ms")
+    return found
+
+
 @pytest.mark.slow
 def test_a_scan_through_a_poor_network_sees_the_object_as_one_in_process(
     tmp_path: Path,
 ) -> None:
     """The first pass of the skull job's scan through a network that answers RWS 20 to 30 ms
-    late and loses a fifth of the EGM packets, with a laser whose clock runs 200 ppm fast:
-    each profile still finds its pose (interpolated over the lost packets, the clock's offset
-    set again while the arm stands before the pass), and the scan sees the skull as the same
-    pass in process does."""
+    late and loses a fifth of the EGM packets, with a laser whose clock runs 200 ppm fast and
+    that stamps each profile 20 ms after its exposure: the latency is identified on a sphere
+    to 1 ms (true: the twin's option, which the client never sees), each profile still finds
+    its pose (interpolated over the lost packets, the clock's offset set again while the arm
+    stands before the pass, less the latency), and the scan sees the skull as the same pass
+    in process does. Paired without the latency, each line would sit 20 ms of travel along
+    the pass (5 mm at 0.25 m/s) off."""
     twin = serve(
         tmp_path, extra=("--rws-latency", "20", "--rws-jitter", "10", "--egm-loss", "0.2",
-                         "--laser-drift", "200"),
+                         "--laser-drift", "200", "--laser-latency", "20"),
     )  # fmt: skip
     try:
-        _compare_first_pass(twin, min_share=0.9)
+        found = _identified_latency(twin)
+        assert found.latency_s == pytest.approx(0.020, abs=1e-3)
+        assert found.sigma_s < 5e-4  # its own uncertainty within half the tolerance
+        _compare_first_pass(twin, min_share=0.9, latency_s=found.latency_s)
     finally:
         stop(twin)
 
@@ -242,14 +279,17 @@ def test_a_scan_over_the_network_sees_the_object_as_one_in_process(served: Serve
     the same real cell (seed 0): each scan's points, rebuilt with the nominal arm, against the
     real skull at its true pose. A reading paired with the wrong pose (a profile late or early
     by a control period moves its line 0.4 mm along the pass at this speed) shows as a spread
-    the in-process scan does not have."""
+    the in-process scan does not have. The laser has no latency, and none is found (1 ms)."""
+    found = _identified_latency(served)
+    assert found.latency_s == pytest.approx(0.0, abs=1e-3)
     _compare_first_pass(served, min_share=0.97)
 
 
-def _compare_first_pass(served: Served, min_share: float) -> None:
-    """The first scan pass through `served` against the same pass in process: at least
-    `min_share` of the points on the skull, the same median distance to its true surface
-    (20 um) and the same spread (50 um)."""
+def _compare_first_pass(served: Served, min_share: float, latency_s: float = 0.0) -> None:
+    """The first scan pass through `served` (its lines paired with the encoders `latency_s`
+    [s] before their stamps) against the same pass in process: at least `min_share` of the
+    points on the skull, the same median distance to its true surface (20 um) and the same
+    spread (50 um)."""
     from scenarios.configuration.config_files import load_config
     from scenarios.configuration.job_config import JobConfig
     from scenarios.jobs.job_plan import plan_job
@@ -264,6 +304,7 @@ def _compare_first_pass(served: Served, min_share: float) -> None:
     scan_config = plan.settings.localization.scan
     job = cell_of_job("skull", seed=0)
     remote = _client(served)
+    remote.set_laser_latency(latency_s)
     try:
         ours = execute_scan(remote, passes, scan_config)
         table_m = remote.table_position()
@@ -305,13 +346,17 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     differ more: the twin reads its encoders every control period and its laser at its own
     instants, so its noise is another draw than the job's in process, and the registration's
     share of a target moves with the draw by up to its predicted TRE (0.06 to 0.16 mm seen;
-    bench/bench_network_job.py prints them seed by seed)."""
+    bench/bench_network_job.py prints them seed by seed). The twin's laser stamps each profile
+    8 ms after its exposure: the job's calibration finds that to 1 ms, or its scan's lines
+    would sit 2 mm along their passes off."""
     from scenarios.jobs.network_job import ControllerAddress
     from scenarios.jobs.runner import RunOptions, run_job
     from scenarios.results.run import RunResult
 
     theirs = json.loads((short_skull_run / "results.json").read_text())
-    twin = serve(tmp_path, str(short_skull_run), theirs["seed"], speed=SPEED)
+    twin = serve(
+        tmp_path, str(short_skull_run), theirs["seed"], SPEED, ("--laser-latency", "8")
+    )
     address = ControllerAddress(twin.url, twin.egm, ("127.0.0.1", twin.profiles))
     try:
         _folder, ours = run_job(
@@ -325,6 +370,10 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     assert theirs["status"] == "complete"
     assert ours.status in ("complete", "at_risk"), ours.reason
     assert all(check.met for check in ours.checks.values())
+    found = ours.calibration.summary
+    assert found is not None and found.laser_latency_s is not None
+    assert found.laser_latency_s == pytest.approx(0.008, abs=1e-3)
+    assert theirs["calibration"]["laser_latency_s"] is None  # in process: nothing to identify
     errors = {t["name"]: t["error_m"] for t in theirs["targets"]}
     touched = {t.name: t.error_m for t in ours.methods[0].targets}
     assert touched.keys() == errors.keys()

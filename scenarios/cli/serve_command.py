@@ -97,6 +97,14 @@ EgmLossOption = Annotated[
     option("--egm-loss", "SHARE", "The share of EGM packets lost (0 to 1).", NETWORK, min=0.0,
            max=0.99),
 ]  # fmt: skip
+LaserLatencyOption = Annotated[
+    float,
+    option(
+        "--laser-latency", "MS",
+        "The laser stamps each profile this long after its exposure [ms].", LASER, min=0.0,
+        max=500.0,
+    ),
+]  # fmt: skip
 LaserDriftOption = Annotated[
     float,
     option("--laser-drift", "PPM", "The laser's clock runs this fast [ppm].", NETWORK),
@@ -139,6 +147,7 @@ def serve(
     rws_jitter: RwsJitterOption = 0.0,
     egm_loss: EgmLossOption = 0.0,
     laser_drift: LaserDriftOption = 0.0,
+    laser_latency: LaserLatencyOption = 0.0,
     seed: SeedOption = None,
     speed: SpeedOption = 1.0,
     cell: CellOption = None,
@@ -165,7 +174,9 @@ def serve(
     rws_host, rws_port = parse_address(rws)
     users = parse_users(user or [])
     offset = time.time() if laser_clock is None else laser_clock
-    laser = LaserStream(clock_offset_s=offset, drift_ppm=laser_drift)
+    laser = LaserStream(
+        clock_offset_s=offset, drift_ppm=laser_drift, latency_s=laser_latency * 1e-3
+    )
     faults = NetworkFaults(rws_latency * 1e-3, rws_jitter * 1e-3, egm_loss)
     options = ServeOptions(
         host or rws_host, rws_port, egm_port, egm_host, users, opmode.upper(), profiles, laser,

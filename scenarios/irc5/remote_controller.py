@@ -55,11 +55,14 @@ _COLLISION, _SUPERVISION, _EXECUTION = 50204, 89006, 89005
 class ClientSettings:
     """How the client works the link: the oldest position sample a command may rest on
     `max_age_s` [s], the longest a move's program may run `move_timeout_s` [s] (wall clock),
-    and the modules it loads (each has a main), unloaded if an earlier session left them."""
+    the modules it loads (each has a main), unloaded if an earlier session left them, and the
+    laser's latency from exposure to stamp [s] until the calibration identifies it (its data
+    sheet's)."""
 
     max_age_s: float = 0.1
     move_timeout_s: float = 300.0
     own_modules: tuple[str, ...] = (MODULE,)
+    laser_latency_s: float = 0.0
 
 
 class RemoteController(Controller):
@@ -87,6 +90,7 @@ class RemoteController(Controller):
         own_modules = given.own_modules
         #: The sensor's clock minus the controller's [s], once measured.
         self.sensor_offset_s: float | None = None
+        self._latency_s = given.laser_latency_s
         #: Wall time spent in the moves' programs and in the requests around them [s].
         self.moves = 0
         self.move_wall_s = 0.0
@@ -226,13 +230,23 @@ class RemoteController(Controller):
         buffer.until(end.time_s + offset0, 5.0)  # the profiles made while moving have all come
         after = self._standing_profile(buffer, since=time.monotonic())
         offsets = ((before.profile.stamp_s, offset0), (after.profile.stamp_s, self._offset()))
-        found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offsets)
+        found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offsets, self._latency_s)
         started_s = before.profile.stamp_s - offset0
         moving = [r for r in found if started_s + 1e-6 < r.time_s <= end.time_s + 1e-6]
         return _thinned(moving, period_s)
 
+    @property
+    def laser_latency_s(self) -> float:
+        return self._latency_s
+
+    def set_laser_latency(self, latency_s: float) -> None:
+        if not abs(latency_s) <= 0.5:
+            raise ValueError(f"the laser's latency {latency_s!r} s: give -0.5 to 0.5 s")
+        self._latency_s = float(latency_s)
+
     def read_laser(self) -> LaserReading:
-        """The next profile, with the encoders at its instant (the arm standing)."""
+        """The next profile, with the encoders at its instant (the arm standing: the pose of
+        its exposure is the pose of its stamp, whatever the sensor's latency)."""
         buffer = self._laser_buffer()
         came = self._standing_profile(buffer)
         found = readings([came], self.feedback.since(came.received_s - 0.2), self._offset())

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell import Controller, Kinematics
+from cell import Controller, Kinematics, nominal_T_base_table
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT, SphereArtifact
 from scenarios.offline.calibration_identification import (
     CalibrationPriors,
@@ -59,6 +59,12 @@ from scenarios.offline.calibration_measurement import (
     measure_spheres,
 )
 from scenarios.offline.cell_model import CellModel
+from scenarios.offline.laser_latency import (
+    LatencyEstimate,
+    LatencyPlan,
+    identify_latency,
+    sweep_sphere,
+)
 from scenarios.results.evaluations import CalibrationSummary
 
 
@@ -81,6 +87,8 @@ class CalibrationResult:
         points, views, table_positions: inlier points, arm configurations, table positions
             used; iterations of the fit; groups identified; seconds: wall time [s].
         fitted: every point as the identified model places it (for a picture of the fit).
+        latency: the laser's latency identified on a sphere (None: not identified, its
+            lines come with the encoders of their instant).
     """
 
     model: CellModel
@@ -101,6 +109,7 @@ class CalibrationResult:
     groups: tuple[str, ...]
     seconds: float
     fitted: FittedPoints | None = None
+    latency: LatencyEstimate | None = None
 
     @property
     def kinematics(self) -> Kinematics:
@@ -125,6 +134,8 @@ class CalibrationResult:
             table_coefficients=tuple(
                 tuple(float(v) for v in row) for row in self.table_coefficients
             ),
+            laser_latency_s=None if self.latency is None else self.latency.latency_s,
+            laser_latency_sigma_s=None if self.latency is None else self.latency.sigma_s,
         )
 
 
@@ -137,21 +148,37 @@ def calibrate(
     on_view: Callable[[], None] | None = None,
     priors: CalibrationPriors | None = None,
     clear: Clear | None = None,
+    latency: LatencyPlan | None = None,
 ) -> CalibrationResult:
     """Measure the artifact (the views `clear` of the object) and identify the cell (see
-    the module's docstring). The controller is left as it was: the caller decides to use
-    the result."""
+    the module's docstring); with a `latency` plan and a controller that pairs the laser's
+    lines by time, sweep a sphere before the laser goes back and identify its latency
+    (scenarios.offline.laser_latency). The controller is left as it was: the caller decides
+    to use the result."""
     t0 = time.perf_counter()
     plan = plan or CalibrationPlan()
     priors = priors or CalibrationPriors()
-    m = measure_spheres(controller, artifact, plan, progress, on_view, clear)
+    paired_s = controller.laser_latency_s if latency is not None else None
+    m = measure_spheres(controller, artifact, plan, progress, on_view, clear, paired_s is None)
+    sweeps = None
+    if latency is not None and paired_s is not None:
+        T_base_table = nominal_T_base_table(controller.table_position())
+        centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
+        sweeps = sweep_sphere(controller, centres, artifact.radius_m, latency, clear)
+        controller.move_joints(controller.q_home)
+        controller.return_tool()
     robot = controller.robot
     fit = identify(m, robot, priors, max_residual_rms_m=max_residual_rms_m)
     layout = ParameterLayout.of(robot, priors, m.stations)
     dev, compliance, mount, scale, table = layout.unpack(fit.theta)
     stiffness = np.where(compliance > 0.0, 1.0 / np.where(compliance > 0, compliance, 1.0), np.inf)
+    model = cell_model(robot, fit, priors)
+    estimate = None
+    if sweeps is not None and paired_s is not None:
+        directions = controller.laser_directions_tcp
+        estimate = identify_latency(sweeps, model, directions, artifact.radius_m, paired_s)
     return CalibrationResult(
-        cell_model(robot, fit, priors),
+        model,
         robot.kinematics(dev),
         robot.parameters,
         dev,
@@ -169,4 +196,5 @@ def calibrate(
         tuple(priors.groups),
         time.perf_counter() - t0,
         fit.fitted,
+        estimate,
     )

@@ -86,7 +86,7 @@ class SphereMeasurements:
         return int(self.station_lines.max()) + 1 if len(self.station_lines) else 1
 
 
-def _view_pose(c: np.ndarray, tilt: float, heading: float, roll: float, d: float) -> np.ndarray:
+def view_pose(c: np.ndarray, tilt: float, heading: float, roll: float, d: float) -> np.ndarray:
     """(4, 4) laser TCP pose looking at `c` (3,) from `d` [m] away, its view tilted by `tilt`
     from straight down towards `heading` (about z), turned by `roll` about the view."""
     v = np.array([np.sin(tilt) * np.cos(heading), np.sin(tilt) * np.sin(heading), -np.cos(tilt)])
@@ -166,7 +166,7 @@ def plan_views(
             heading = 2 * np.pi * ((start[0] + k * golden) % 1.0)
             roll = np.pi * (2 * ((start[1] + k * golden**2) % 1.0) - 1)
             d = near + (far - near) * ((start[2] + k * golden**3) % 1.0)
-            poses.append((heading, _view_pose(c, tilt, heading, roll, d)))
+            poses.append((heading, view_pose(c, tilt, heading, roll, d)))
         for _heading, T in sorted(poses, key=lambda item: item[0]):
             r = kin.ik(T, q, LASER.T_tool_tcp, extra_seeds=8)
             # The view is approached from below (APPROACH_RAD): that start must be in range.
@@ -285,13 +285,14 @@ def measure_spheres(
     progress: Progress | None = None,
     on_view: Callable[[], None] | None = None,
     clear: Clear | None = None,
+    put_back: bool = True,
 ) -> SphereMeasurements:
     """Fetch the laser; at each of the plan's table positions, view every sphere; points
     within the radius + 10 mm of a sphere's nominal centre (and not on its post) are kept.
-    The laser ends back in its slot, put there with the kinematics that fetched it; a laser
-    found in hand is put back first (its mounting on the flange follows from the fetch).
-    `on_view()` is called with the arm at each view (e.g. to record the cell); only views
-    `clear` of the object are taken."""
+    The laser ends back in its slot, put there with the kinematics that fetched it (not
+    `put_back`: it stays in hand at the last view); a laser found in hand is put back first
+    (its mounting on the flange follows from the fetch). `on_view()` is called with the arm
+    at each view (e.g. to record the cell); only views `clear` of the object are taken."""
     say = progress or (lambda _msg: None)
     viewed = on_view or (lambda: None)
     if not plan.table_positions_m:
@@ -329,8 +330,9 @@ def measure_spheres(
         f"calibration: {n_views} views of {len(artifact.centres_table)} spheres at "
         f"{len(plan.table_positions_m)} table positions, {len(q_lines)} lines"
     )
-    controller.move_joints(controller.q_home)
-    controller.return_tool()
+    if put_back:
+        controller.move_joints(controller.q_home)
+        controller.return_tool()
     if not points:
         raise CalibrationError(
             f"no laser point within {margin * 1e3:.0f} mm of any sphere's nominal centre in "

@@ -15,6 +15,7 @@ from scenarios.offline.calibration import CalibrationResult, calibrate
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT, CalibrationError
 from scenarios.offline.calibration_identification import CalibrationPriors
 from scenarios.offline.calibration_measurement import CalibrationPlan, Clear
+from scenarios.offline.laser_latency import LatencyPlan
 from scenarios.offline.scan_passes import ObjectBox
 from scenarios.offline.settings import Calibration
 
@@ -73,8 +74,16 @@ def calibrate_arm(
         on_view=on_view,
         priors=calibration_priors(section),
         clear=clear,
+        latency=LatencyPlan() if section.latency else None,
     )
     controller.set_absolute_accuracy(calibration.kinematics)
+    if (latency := calibration.latency) is not None:
+        controller.set_laser_latency(latency.latency_s)
+        say(
+            f"calibration: the laser's latency {latency.latency_s * 1e3:.2f} "
+            f"+- {latency.sigma_s * 1e3:.2f} ms ({latency.lines} lines in {latency.sweeps} "
+            f"sweeps, residual rms {latency.residual_rms_m * 1e3:.3f} mm)"
+        )
     say(
         f"calibration: {calibration.points} points in {calibration.views} views, residual "
         f"rms {calibration.residual_rms_before_m * 1e3:.3f} mm (nominal arm) -> "

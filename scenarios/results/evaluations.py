@@ -82,7 +82,8 @@ class CalibrationSummary:
     views, table positions and iterations it used, the parameter groups it identified, and
     what it found: each kinematic parameter's deviation ([m] or [rad]), the joints'
     stiffness [N m/rad] (inf: not modelled), the laser's mounting ([m], [rad]) and range
-    scale, and the table's coefficients."""
+    scale, and the table's coefficients; the laser's latency [s] and its uncertainty [s] where
+    it was identified (a laser whose lines are paired with the arm by time), else None."""
 
     residual_rms_before_m: float
     residual_rms_after_m: float
@@ -98,6 +99,8 @@ class CalibrationSummary:
     laser_mount_rad: tuple[float, ...]
     laser_scale: float
     table_coefficients: tuple[tuple[float, ...], ...]
+    laser_latency_s: float | None = None
+    laser_latency_sigma_s: float | None = None
 
 
 @dataclass(frozen=True)

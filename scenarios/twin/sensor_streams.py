@@ -7,6 +7,13 @@ The sensor's clock is the controller's time plus `clock_offset_s` (a sensor sync
 the plant's PTP master keeps Unix time; the controller counts from its own start), running
 `drift_ppm` fast (a free-running quartz drifts by tens of ppm). The
 twin's time stands still while nothing moves, and so do the stamps; the stream goes on.
+
+The sensor's latency (`latency_s`, from a profile's exposure to its stamp: the camera's
+readout and the profile's processing) stamps each profile made while the arm moves that much
+after the instant it saw: its ranges are those of the arm's pose `latency_s` before its stamp.
+While the arm stands, the twin's time stands still and a profile's stamp is its exposure's,
+so the client's clock offset, set while standing, cannot take the latency up: only scans in
+motion show it, which is how it is identified (scenarios.offline.laser_latency).
 """
 
 from __future__ import annotations
@@ -21,17 +28,27 @@ from scenarios.twin.snapshot import Snapshot
 
 #: The controller's control period [s].
 PERIOD_S = 0.004
+#: The longest latency a laser's stream may be given [s] (line profilers: 1 to 50 ms).
+MAX_LATENCY_S = 0.5
 
 
 @dataclass(frozen=True)
 class LaserStream:
     """The line laser's stream: its profile period [s] (of the controller's time while the
     arm moves; standing, of the wall clock's sped up as the twin's time runs), its clock's
-    offset from the controller's [s] and its drift against it [ppm]."""
+    offset from the controller's [s], its drift against it [ppm], and its latency from
+    exposure to stamp [s]."""
 
     period_s: float = 0.01
     clock_offset_s: float = 0.0
     drift_ppm: float = 0.0
+    latency_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.latency_s <= MAX_LATENCY_S:
+            raise ValueError(
+                f"the laser's latency {self.latency_s!r} s: give 0 to {MAX_LATENCY_S:g} s"
+            )
 
 
 class SensorStreams:
@@ -71,7 +88,8 @@ class SensorStreams:
         reading = cell.read_laser()
         self._seqno += 1
         laser = self.laser
-        stamp = reading.time_s * (1.0 + laser.drift_ppm * 1e-6) + laser.clock_offset_s
+        seen_s = reading.time_s + (laser.latency_s if moving else 0.0)
+        stamp = seen_s * (1.0 + laser.drift_ppm * 1e-6) + laser.clock_offset_s
         self.profiles.send(Profile(self._seqno, stamp, reading.distances))
 
     def _due(self, snap: Snapshot, moving: bool) -> bool:
