@@ -184,6 +184,12 @@ class VirtualCell:
         d.qpos[adr + 3 : adr + 7] = R_to_quat_wxyz(d.site_xmat[self._flange].reshape(3, 3))
         mujoco.mj_kinematics(m, d)
 
+    def posed(self) -> mujoco.MjData:
+        """The state in the current pose (forward kinematics done, the tool in hand on the
+        flange): for drawing the cell as posed."""
+        self._place()
+        return self.data
+
     def T_world_body(self, name: str) -> np.ndarray:
         """(4, 4) world pose of body `name` in the current pose (the tool in hand on the
         flange)."""

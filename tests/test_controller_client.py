@@ -354,9 +354,7 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     from scenarios.results.run import RunResult
 
     theirs = json.loads((short_skull_run / "results.json").read_text())
-    twin = serve(
-        tmp_path, str(short_skull_run), theirs["seed"], SPEED, ("--laser-latency", "8")
-    )
+    twin = serve(tmp_path, str(short_skull_run), theirs["seed"], SPEED, ("--laser-latency", "8"))
     address = ControllerAddress(twin.url, twin.egm, ("127.0.0.1", twin.profiles))
     try:
         _folder, ours = run_job(

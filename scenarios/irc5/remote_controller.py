@@ -34,6 +34,7 @@ from models.robot import TABLE_SPEED, beam_line
 from scenarios.irc5.egm_feedback import EgmFeedback, Feedback
 from scenarios.irc5.line_profiler import ProfileBuffer, Received
 from scenarios.irc5.link_errors import ControllerRefusalError, LinkError, NotOfferedError
+from scenarios.irc5.motion_witness import MotionWitness
 from scenarios.irc5.move_modules import MODULE, Tool, joint_move, joint_speed, linear_move
 from scenarios.irc5.profile_alignment import readings
 from scenarios.irc5.rws_link import RwsLink
@@ -91,6 +92,8 @@ class RemoteController(Controller):
         #: The sensor's clock minus the controller's [s], once measured.
         self.sensor_offset_s: float | None = None
         self._latency_s = given.laser_latency_s
+        #: Hears each move's samples and each scan's lines (the run's recording), if set.
+        self.witness: MotionWitness | None = None
         #: Wall time spent in the moves' programs and in the requests around them [s].
         self.moves = 0
         self.move_wall_s = 0.0
@@ -233,7 +236,10 @@ class RemoteController(Controller):
         found = readings(buffer.since(t0), self.feedback.since(t0 - 0.1), offsets, self._latency_s)
         started_s = before.profile.stamp_s - offset0
         moving = [r for r in found if started_s + 1e-6 < r.time_s <= end.time_s + 1e-6]
-        return _thinned(moving, period_s)
+        lines = _thinned(moving, period_s)
+        if self.witness is not None:
+            self.witness.lines(lines)
+        return lines
 
     @property
     def laser_latency_s(self) -> float:
@@ -245,8 +251,7 @@ class RemoteController(Controller):
         self._latency_s = float(latency_s)
 
     def read_laser(self) -> LaserReading:
-        """The next profile, with the encoders at its instant (the arm standing: the pose of
-        its exposure is the pose of its stamp, whatever the sensor's latency)."""
+        """The next profile, with the encoders at its instant (standing: whatever its latency)."""
         buffer = self._laser_buffer()
         came = self._standing_profile(buffer)
         found = readings([came], self.feedback.since(came.received_s - 0.2), self._offset())
@@ -319,6 +324,8 @@ class RemoteController(Controller):
         self._stopped_at = stopped
         self.moves += 1
         self.move_wall_s += time.perf_counter() - t0
+        if self.witness is not None:
+            self.witness.moved(self.feedback.since(since - 0.05), self._tool)
         return end
 
     def _why_not_there(self, what: str) -> None:
@@ -362,6 +369,8 @@ class RemoteController(Controller):
             time.sleep(0.005)
         self._tool = self._tool_number_in_hand()
         self._last_read_s = time.monotonic()
+        if self.witness is not None:
+            self.witness.moved([self.feedback.fresh(self.max_age_s)], self._tool)
 
     # -- what this client does not offer ----------------------------------------------------
     @property

@@ -18,6 +18,7 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 from urllib.parse import urlparse
 
 import numpy as np
@@ -29,6 +30,7 @@ from registration.rigid import transform_points
 from scenarios.configuration.job_config import JobConfig
 from scenarios.irc5.egm_feedback import EgmFeedback
 from scenarios.irc5.line_profiler import ProfileBuffer, ProfileStream
+from scenarios.irc5.motion_witness import MotionWitness
 from scenarios.irc5.move_modules import MODULE
 from scenarios.irc5.remote_controller import ClientSettings, RemoteController
 from scenarios.irc5.rws_link import RwsLink
@@ -135,20 +137,48 @@ def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> Remo
 
 
 def network_job_cell(
-    config: JobConfig, plan: JobPlan, address: ControllerAddress
+    config: JobConfig, plan: JobPlan, address: ControllerAddress, recording: Any | None = None
 ) -> tuple[JobCell, RemoteController]:
     """The job's cell across the network: its controller (to close after the job), no
-    evaluator, the twin's measurements of the touches, no recording of the cell's physics."""
+    evaluator, the twin's measurements of the touches; with a `recording`, the cell drawn as
+    the job knows it, posed by the controller's stream (scenarios.realcell.recording.
+    remote_scene)."""
     controller = connect(config, plan.robot, address)
     try:
         touches = TwinTouches(controller, tuple(h.name for h in plan.virtual.burr_holes))
-        log = CellLog(None, controller, None)
+        if recording is not None:
+            controller.witness = _witness(config, plan, controller, recording)
+        log = CellLog(recording, controller, None)
         box = ObjectBox.of(plan.virtual.mesh.vertices, plan.T_table_nominal)
         cell = JobCell(controller, None, log, plan.T_table_nominal, box, touches)
     except BaseException:
         controller.close()
         raise
     return cell, controller
+
+
+def _witness(
+    config: JobConfig, plan: JobPlan, controller: RemoteController, recording: Any
+) -> MotionWitness:
+    """The recording's cell for a run across the network: the job's virtual cell, the arm
+    drawn with its meshes, the laser's rays from the controller's arm model."""
+    from models.robot.visuals import irb2400_visuals
+    from scenarios.offline.job_cell import job_virtual_cell
+    from scenarios.realcell.recording.remote_scene import RemoteScene
+
+    name = config.object_name
+    cell = job_virtual_cell(
+        plan.robot, config.cell.rack_xyz, plan.virtual, plan.T_table_nominal,
+        config.calibration.enabled, name,
+    )  # fmt: skip
+    looks = irb2400_visuals() if plan.robot.name == "irb2400" else ()
+
+    def laser_frame(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        T = controller.kinematics.fk(q) @ controller.T_flange_tcp("laser")
+        return T[:3, 3].copy(), controller.laser_directions_tcp @ T[:3, :3].T
+
+    recording.log_model(plan.virtual, plan.T_table_nominal)
+    return RemoteScene(recording, cell, name, plan.virtual.name, looks, laser_frame)
 
 
 def touch_robtarget(target: str) -> str:

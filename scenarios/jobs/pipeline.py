@@ -201,9 +201,9 @@ def run_cell_job(
     t_total = time.perf_counter()
     plan = plan_job(config, say, use_cache)
     if address is not None:
-        cell, remote = network_job_cell(config, plan, address)
+        cell, remote = network_job_cell(config, plan, address, recording)
         try:
-            return _run_stages(config, plan, cell, folder, say, t_total, stages, None, ())
+            return _run_stages(config, plan, cell, folder, say, t_total, stages, recording, ())
         finally:
             say(f"the link to {address.url}: {remote.link_summary()}")
             remote.close()

@@ -47,7 +47,8 @@ class RunOptions:
     (`rrd`), a live viewer (`spawn`), the user's cache folder read and written (`cache`:
     False makes the skull phantom and the scan plan anew and stores nothing; see
     models.cache); the `controller` across the network the job runs on (None: its real cell,
-    simulated in this process; no recording of the cell then)."""
+    simulated in this process; across the network, the recording draws the cell as the job
+    knows it, posed by the controller's stream)."""
 
     rrd: bool = True
     spawn: bool = False
@@ -99,7 +100,7 @@ def _cell(
     from scenarios.jobs.pipeline import run_cell_job
 
     remote = options.controller
-    recording = None if remote is not None else _recording(folder, config, options)
+    recording = _recording(folder, config, options)
     try:
         result = run_cell_job(
             config, folder.path, progress, recording, stages=stages, use_cache=options.cache,
