@@ -21,6 +21,7 @@ import igl
 import numpy as np
 import pytest
 from abb_robot_client.rws import RWS
+from rrd_reader import read_rrd
 
 from cell import LaserConfig, nominal_T_base_table
 from cell.irb2400_arm import irb2400
@@ -348,7 +349,8 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     share of a target moves with the draw by up to its predicted TRE (0.06 to 0.16 mm seen;
     bench/bench_network_job.py prints them seed by seed). The twin's laser stamps each profile
     8 ms after its exposure: the job's calibration finds that to 1 ms, or its scan's lines
-    would sit 2 mm along their passes off."""
+    would sit 2 mm along their passes off. The run is recorded: the arm posed by the
+    controller's stream through the whole run, the laser's rays only while it scans."""
     from scenarios.jobs.network_job import ControllerAddress
     from scenarios.jobs.runner import RunOptions, run_job
     from scenarios.results.run import RunResult
@@ -357,10 +359,10 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     twin = serve(tmp_path, str(short_skull_run), theirs["seed"], SPEED, ("--laser-latency", "8"))
     address = ControllerAddress(twin.url, twin.egm, ("127.0.0.1", twin.profiles))
     try:
-        _folder, ours = run_job(
+        folder, ours = run_job(
             short_skull_run / "config.yaml",
             out=tmp_path / "runs",
-            options=RunOptions(rrd=False, controller=address),
+            options=RunOptions(rrd=True, controller=address),
         )
     finally:
         stop(twin)
@@ -380,3 +382,24 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     exported = ours.exported_program
     assert exported is not None and exported.target_error_rms_m is not None  # the twin's
     assert exported.target_error_rms_m < 5e-4
+    assert ours.cell_time_s is not None
+    _recorded_as_it_ran(folder / "run.rrd", ours.cell_time_s)
+
+
+def _recorded_as_it_ran(rrd: Path, cell_time_s: float) -> None:
+    """The arm's last link drawn from the start to the end of the run at the recording's
+    frame rate or more while it moved; every laser ray while the laser scans (the
+    calibration's views and sweeps, the scan, the verification), none while it executes."""
+    entities = read_rrd(rrd)
+    times = [t for t, _, _ in entities["/world/cell/arm/link6"].rows if t is not None]
+    assert min(times) < 1.0 and max(times) > 0.95 * cell_time_s
+    assert len(times) > 10 * cell_time_s  # 30 Hz of the controller's time while moving
+    phases = sorted(
+        (t, c["TextLog:text"][0].split(" == ")[0].removeprefix("== "))
+        for t, _, c in entities["/log"].rows
+        if t is not None and c["TextLog:text"][0].startswith("== ")
+    )
+    rays = [t for t, _, _ in entities["/world/laser/rays"].rows if t is not None]
+    assert len(rays) > 500
+    during = {max((p for p in phases if p[0] <= t), default=(0.0, "none"))[1] for t in rays}
+    assert during <= {"calibrate", "scan", "verify"}, during
