@@ -223,7 +223,9 @@ def _calibration_fields(data: JsonObject) -> JsonObject:
         mean = data.get(f"tcp_error_{label}_mean_m")
         return None if mean is None else {"mean_m": mean, "max_m": data[f"tcp_error_{label}_max_m"]}
 
-    summary = data if data["enabled"] else None
+    # the laser's latency is identified across the network only; earlier runs have no key
+    latency = {k: data.get(k) for k in ("laser_latency_s", "laser_latency_sigma_s")}
+    summary = data | latency if data["enabled"] else None
     return data | {
         "summary": summary,
         "nominal": error("nominal"),
