@@ -125,3 +125,22 @@ def test_the_twin_stamps_profiles_made_in_motion_its_latency_late() -> None:
 def test_a_latency_out_of_range_is_refused() -> None:
     with pytest.raises(ValueError, match="latency"):
         LaserStream(latency_s=-0.001)
+
+
+def test_a_data_sheet_latency_is_given_to_the_client_and_not_identified() -> None:
+    """`calibration.latency: 0.008`: the client pairs the lines 8 ms back from the start and
+    the calibration sweeps nothing; by default it starts at 0 and the calibration identifies."""
+    from scenarios.configuration.config_files import load_config
+    from scenarios.configuration.job_config import JobConfig
+    from scenarios.jobs.network_job import client_settings
+    from scenarios.scenario_errors import ScenarioError
+
+    given = load_config("skull", {"calibration.latency": 0.008})
+    assert isinstance(given, JobConfig)
+    assert client_settings(given).laser_latency_s == 0.008
+    default = load_config("skull", {})
+    assert isinstance(default, JobConfig)
+    assert default.calibration.latency == "identify"
+    assert client_settings(default).laser_latency_s == 0.0
+    with pytest.raises(ScenarioError, match="identify"):
+        load_config("skull", {"calibration.latency": "auto"})

@@ -108,6 +108,17 @@ def credentials(environ: Mapping[str, str] | None = None) -> tuple[str, str]:
     return DEFAULT_USER
 
 
+def client_settings(config: JobConfig) -> ClientSettings:
+    """How the client works: its own modules and the program's unloaded from an earlier
+    session; the laser's latency from the data sheet where the job gives it (else 0 until
+    the calibration identifies it)."""
+    latency = config.calibration.latency
+    return ClientSettings(
+        own_modules=(MODULE, PROGRAM_MODULE),
+        laser_latency_s=0.0 if latency == "identify" else float(latency),
+    )
+
+
 def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> RemoteController:
     """The job's controller across the network, with the cell's data sheets (the arm, the
     rack's place, the laser's rays)."""
@@ -126,7 +137,7 @@ def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> Remo
             robot.kinematics(),
             config.cell.rack_xyz,
             LaserConfig(),
-            settings=ClientSettings(own_modules=(MODULE, PROGRAM_MODULE)),
+            settings=client_settings(config),
         )
     except BaseException:
         if profiles is not None:

@@ -74,7 +74,7 @@ def calibrate_arm(
         on_view=on_view,
         priors=calibration_priors(section),
         clear=clear,
-        latency=LatencyPlan() if section.latency else None,
+        latency=LatencyPlan() if section.latency == "identify" else None,
     )
     controller.set_absolute_accuracy(calibration.kinematics)
     if (latency := calibration.latency) is not None:

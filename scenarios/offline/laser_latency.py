@@ -141,8 +141,7 @@ def sweep_sphere(
     raise CalibrationError(
         f"no sphere can be swept clear of the object (laser {plan.standoff_m * 1e3:.0f} mm above "
         f"its centre, {(radius_m + plan.overrun_m) * 2e3:.0f} mm long) to identify the laser's "
-        "latency: set calibration.latency: false and give the laser's latency from its data "
-        "sheet"
+        "latency: set calibration.latency to the laser's latency from its data sheet [s]"
     )
 
 

@@ -12,7 +12,7 @@ Values are SI ([m], [rad] where the key says so, degrees only in keys ending in 
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
@@ -210,13 +210,14 @@ class Calibration(Section):
     `max_tilt_deg` from the vertical. `identify` names what is fitted (`arm`, always; the
     joints' `stiffness`; the `laser`'s mounting and scale; the `table` axis), each held by its
     data-sheet prior (`priors`). The run stops if the fit's residual RMS exceeds
-    `max_residual_rms_m` [m]. `enabled: false` keeps the data sheet's cell. `latency`: with a
-    laser whose lines are paired with the arm's pose by time (a controller across the
-    network), its latency is identified on a sphere swept both ways at two speeds
-    (scenarios.offline.laser_latency); false keeps the client's."""
+    `max_residual_rms_m` [m]. `enabled: false` keeps the data sheet's cell. `latency`: the
+    latency of a laser whose lines are paired with the arm's pose by time (a controller
+    across the network): `identify` (on a sphere swept both ways at two speeds,
+    scenarios.offline.laser_latency), or a number [s], the sensor's data sheet's, used as
+    it is."""
 
     enabled: bool = True
-    latency: bool = True
+    latency: Literal["identify"] | Annotated[float, Field(ge=-0.5, le=0.5)] = "identify"
     table_positions_m: tuple[float, ...] = Field((-0.45, -0.25, -0.05), min_length=1)
     views_per_sphere: int = Field(48, ge=4, le=200)
     lines_per_view: int = Field(10, ge=1, le=100)
