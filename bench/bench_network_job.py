@@ -15,22 +15,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
-import socket
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+from bench_support.served_twin import served
 from rich.console import Console
 from rich.table import Table
-
-
-def _free(kind: socket.SocketKind) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _twincell(*args: str, log: Path) -> float:
@@ -46,33 +39,13 @@ def _results(folder: Path) -> dict:
 
 
 def _network(seed: int, speed: float, latency_ms: float, out: Path) -> tuple[dict, float]:
-    rws, egm, profiles = (
-        _free(socket.SOCK_STREAM),
-        _free(socket.SOCK_DGRAM),
-        _free(socket.SOCK_STREAM),
-    )
-    log = out / "serve.log"
-    with log.open("w") as sink:
-        server = subprocess.Popen(
-            [sys.executable, "-m", "scenarios.cli", "serve", "skull", "--seed", str(seed),
-             "--speed", str(speed), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),
-             "--profiles", str(profiles), "--out", str(out / "serve"), "--quiet",
-             "--laser-latency", str(latency_ms)],
-            stdout=sink, stderr=subprocess.STDOUT,
-        )  # fmt: skip
-    try:
-        while "serving http" not in log.read_text():
-            if server.poll() is not None:
-                raise RuntimeError(log.read_text())
-            time.sleep(0.1)
+    extra = ("--laser-latency", str(latency_ms))
+    with served("skull", seed, speed, out, *extra) as ports:
         wall = _twincell(
             "run", "skull", "--seed", str(seed), "--out", str(out / "net"),
-            "--controller", f"http://127.0.0.1:{rws}", "--egm-port", str(egm),
-            "--profiles", f"127.0.0.1:{profiles}", log=out / "net.log",
+            "--controller", ports.url, "--egm-port", str(ports.egm),
+            "--profiles", f"127.0.0.1:{ports.profiles}", log=out / "net.log",
         )  # fmt: skip
-    finally:
-        server.send_signal(signal.SIGTERM)
-        server.wait(timeout=60)
     return _results(out / "net"), wall
 
 

@@ -32,13 +32,7 @@ from scenarios.irc5.link_errors import LinkError
 from scenarios.irc5.remote_controller import RemoteController
 from scenarios.irc5.rws_link import RwsLink
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
-from scenarios.offline.cell_model import CellModel
-from scenarios.offline.laser_latency import (
-    LatencyEstimate,
-    LatencyPlan,
-    identify_latency,
-    sweep_sphere,
-)
+from scenarios.offline.laser_latency import LatencyEstimate, latency_alone
 
 SPEED = 20.0
 _STILL = Feedback(0.0, 0.0, 0, np.zeros(6), None, False, True)
@@ -231,18 +225,7 @@ def _identified_latency(served: Served) -> LatencyEstimate:
     on the middle sphere at the calibration's last table position, the arm nominal."""
     client = _client(served)
     try:
-        client.move_joints(client.q_home)
-        client.change_tool("laser")
-        client.move_table(-0.05)
-        T = nominal_T_base_table(client.table_position())
-        centres = DEFAULT_ARTIFACT.centres_table @ T[:3, :3].T + T[:3, 3]
-        sweeps = sweep_sphere(client, centres, DEFAULT_ARTIFACT.radius_m, LatencyPlan())
-        model = CellModel.nominal(client.kinematics)
-        found = identify_latency(
-            sweeps, model, client.laser_directions_tcp, DEFAULT_ARTIFACT.radius_m, 0.0
-        )
-        client.move_joints(client.q_home)
-        client.return_tool()
+        found = latency_alone(client, DEFAULT_ARTIFACT, -0.05)
     finally:
         client.close()
     print(f"latency {found.latency_s * 1e3:.3f} +- {found.sigma_s * 1e3:.3f} ms")

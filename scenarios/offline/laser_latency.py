@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell import Controller, Kinematics, LaserReading
+from cell import Controller, Kinematics, LaserReading, nominal_T_base_table
 from models.robot import LASER
-from scenarios.offline.calibration_artifact import CalibrationError
+from scenarios.offline.calibration_artifact import CalibrationError, SphereArtifact
 from scenarios.offline.calibration_measurement import Clear, path_clear, view_pose
 from scenarios.offline.cell_model import CellModel
 
@@ -243,3 +243,30 @@ def identify_latency(
         sweeps=used,
         residual_rms_m=rms,
     )
+
+
+def latency_alone(
+    controller: Controller,
+    artifact: SphereArtifact,
+    table_m: float,
+    plan: LatencyPlan | None = None,
+    clear: Clear | None = None,
+) -> LatencyEstimate:
+    """The laser's latency without calibrating the arm (a laser changed, say): the laser
+    fetched, the table at `table_m` [m], a sphere of `artifact` swept as `plan` says, the
+    points placed by the controller's arm and the laser's drawing; the laser back in its
+    slot. The arm's own errors move the sphere alike in every sweep: they leave the latency
+    as it is."""
+    plan = plan or LatencyPlan()
+    controller.move_joints(controller.q_home)
+    controller.change_tool(LASER.name)
+    controller.move_table(table_m)
+    T_base_table = nominal_T_base_table(controller.table_position())
+    centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
+    paired_s = controller.laser_latency_s or 0.0
+    sweeps = sweep_sphere(controller, centres, artifact.radius_m, plan, clear)
+    controller.move_joints(controller.q_home)
+    controller.return_tool()
+    model = CellModel.nominal(controller.kinematics)
+    directions = controller.laser_directions_tcp
+    return identify_latency(sweeps, model, directions, artifact.radius_m, paired_s)
