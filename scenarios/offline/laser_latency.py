@@ -119,8 +119,8 @@ def sweep_sphere(
     plan: LatencyPlan,
     clear: Clear | None = None,
 ) -> LatencySweeps:
-    """Sweep the laser (in hand) across the first sphere of `centres_base` (S, 3) [m] that a
-    sweep reaches clear of the object, forth and back at each of the plan's speeds; the arm
+    """Sweep the laser (in hand) across the highest sphere of `centres_base` (S, 3) [m] that
+    a sweep reaches clear of the object, forth and back at each of the plan's speeds; the arm
     comes to the sweep by a joint move and ends at its start, both moves checked clear, as is
     the move home from there."""
     kin, table_m = controller.kinematics, controller.table_position()
