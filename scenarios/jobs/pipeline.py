@@ -201,6 +201,12 @@ def run_cell_job(
     t_total = time.perf_counter()
     plan = plan_job(config, say, use_cache)
     if address is not None:
+        if not config.calibration.enabled and config.calibration.latency == "identify":
+            say(
+                "warning: with the calibration off, the laser's latency is not identified: its "
+                "lines are paired with the encoders of their stamps (calibration.latency gives "
+                "the data sheet's)"
+            )
         cell, remote = network_job_cell(config, plan, address, recording)
         try:
             return _run_stages(config, plan, cell, folder, say, t_total, stages, recording, ())
