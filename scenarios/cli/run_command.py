@@ -183,7 +183,7 @@ def run(
         progress=progress_lines(quiet),
         overrides=overrides,
         options=RunOptions(
-            rrd=not no_rrd and address is None,
+            rrd=not no_rrd,
             spawn=spawn,
             cache=not no_cache,
             controller=address,
