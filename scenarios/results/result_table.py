@@ -60,6 +60,14 @@ def _calibration_rows(result: RunResult) -> Rows:
             f"{_mm(figures.summary.residual_rms_after_m)}",
         ),
     ]
+    summary = figures.summary
+    if summary.laser_latency_s is not None and summary.laser_latency_sigma_s is not None:
+        rows.append(
+            (
+                "laser's latency, identified [ms]",
+                f"{summary.laser_latency_s * 1e3:.2f} +- {summary.laser_latency_sigma_s * 1e3:.2f}",
+            )
+        )
     if figures.nominal is not None:
         rows.append(
             (
