@@ -333,19 +333,22 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     bench/bench_network_job.py prints them seed by seed). The twin's laser stamps each profile
     8 ms after its exposure: the job's calibration finds that to 1 ms, or its scan's lines
     would sit 2 mm along their passes off. The run is recorded: the arm posed by the
-    controller's stream through the whole run, the laser's rays only while it scans."""
+    controller's stream through the whole run, the laser's rays only while it scans. The
+    cell's commissioning is the in-process run's record of the same cell (`--commissioning`):
+    the job reads no tool at the beam for it and keeps that record."""
     from scenarios.jobs.network_job import ControllerAddress
     from scenarios.jobs.runner import RunOptions, run_job
     from scenarios.results.run import RunResult
 
     theirs = json.loads((short_skull_run / "results.json").read_text())
+    commissioned = short_skull_run / "commissioning.json"
     twin = serve(tmp_path, str(short_skull_run), theirs["seed"], SPEED, ("--laser-latency", "8"))
     address = ControllerAddress(twin.url, twin.egm, ("127.0.0.1", twin.profiles))
     try:
         folder, ours = run_job(
             short_skull_run / "config.yaml",
             out=tmp_path / "runs",
-            options=RunOptions(rrd=True, controller=address),
+            options=RunOptions(rrd=True, controller=address, commissioning=commissioned),
         )
     finally:
         stop(twin)
@@ -367,6 +370,9 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     assert exported.target_error_rms_m < 5e-4
     assert ours.cell_time_s is not None
     _recorded_as_it_ran(folder / "run.rrd", ours.cell_time_s)
+    kept = json.loads((folder / "commissioning.json").read_text())
+    assert kept == json.loads(commissioned.read_text())
+    assert ours.tool_checks and all(check.referenced for check in ours.tool_checks)
 
 
 def _recorded_as_it_ran(rrd: Path, cell_time_s: float) -> None:

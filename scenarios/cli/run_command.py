@@ -128,6 +128,19 @@ ProfilesOption = Annotated[
     option("--profiles", "HOST:PORT", "The line laser's profile stream.", CONTROLLER),
 ]
 
+CommissioningOption = Annotated[
+    Path | None,
+    option(
+        "--commissioning",
+        "FILE",
+        "The cell's commissioning record from an earlier run on it (its commissioning.json): "
+        "the TCP checks compare with it instead of reading the tool at the beam anew.",
+        CELL,
+        exists=True,
+        dir_okay=False,
+    ),
+]
+
 
 def run(
     name: Annotated[
@@ -142,6 +155,7 @@ def run(
     program: ProgramOption = None,
     no_cache: NoCacheOption = False,
     cell: CellOption = None,
+    commissioning: CommissioningOption = None,
     fault: FaultOption = None,
     list_faults: Annotated[
         bool, flag("--list-faults", "List the faults and exit.", FAULTS)
@@ -187,6 +201,7 @@ def run(
             spawn=spawn,
             cache=not no_cache,
             controller=address,
+            commissioning=commissioning,
         ),
         cell=cell,
     )

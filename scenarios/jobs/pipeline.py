@@ -23,6 +23,7 @@ from cell.robot_arm import Robot
 from cell.sim.faults import FAULT_KINDS, Fault
 from models.model import ObjectModel
 from scenarios.configuration.job_config import JobConfig
+from scenarios.jobs.commissioner import Commissioner
 from scenarios.jobs.job_plan import JobPlan, plan_job
 from scenarios.jobs.job_report import finish_job
 from scenarios.jobs.job_run import JobRun
@@ -30,16 +31,12 @@ from scenarios.jobs.network_job import ControllerAddress, network_job_cell
 from scenarios.jobs.run_log import RunLog
 from scenarios.jobs.stage_tracker import StageTracker
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
 from scenarios.offline.operations import target_operations
-from scenarios.offline.tcp_check import POINTERS
-from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.setup import JobCell, build_job_cell
 from scenarios.results.beam import Commissioning
 from scenarios.results.budget_result import ErrorBudget
 from scenarios.results.evaluations import TouchMeasure
-from scenarios.results.json_converter import unstructure
 from scenarios.results.run import RunResult
 from scenarios.results.verification_result import TcpCheck
 from scenarios.stages.calibrate_stage import Calibrate
@@ -151,39 +148,6 @@ def job_stages(config: JobConfig, plan: JobPlan) -> tuple[Stage, ...]:
     return tuple(stages)
 
 
-class Commissioner:
-    """The job's real cell as it was commissioned, made when a stage first asks: the job's
-    tool read at the beam (scenarios.offline.commissioning) on a copy of the cell without
-    the job's faults or its recording, moving with the arm's model the job's controller
-    moves with then (a cell is commissioned with the calibration it runs on); the
-    commissioning's cell time is not the job's. Written to commissioning.json."""
-
-    def __init__(self, config: JobConfig, plan: JobPlan, job: JobRun, say: Progress) -> None:
-        self._config, self._plan, self._job, self._say = config, plan, job, say
-        self._record: Commissioning | None = None
-
-    def __call__(self) -> Commissioning | None:
-        config, plan, job = self._config, self._plan, self._job
-        tool = config.operations.tool
-        if not config.verify.tool_reference or tool not in POINTERS:
-            return None
-        if self._record is None:
-            t0 = time.perf_counter()
-            copy = job.cell.controller  # across the network: the cell itself, now
-            if job.cell.evaluator is not None:
-                copy = job_cell(config, plan.virtual, plan.real, plan.robot).controller
-                copy.set_absolute_accuracy(job.cell.controller.absolute_accuracy)
-            name = f"{plan.robot.name}, seed {config.seed}"
-            self._record = commission(copy, (tool,), name)
-            write_json(job.folder / COMMISSIONING_FILE, unstructure(self._record))
-            job.timings["commissioning"] = time.perf_counter() - t0
-            self._say(
-                f"the cell's commissioning: the {tool} read {len(self._record.references)} "
-                "times at the beam"
-            )
-        return self._record
-
-
 def run_cell_job(
     config: JobConfig,
     folder: Path,
@@ -192,11 +156,14 @@ def run_cell_job(
     stages: StageTracker | None = None,
     use_cache: bool = True,
     address: ControllerAddress | None = None,
+    commissioning: Path | None = None,
 ) -> RunResult:
     """Run a cell job into `folder`; returns its result (written by the caller). `stages`
     hears each stage as it begins; `use_cache`: the skull phantom and the scan plan may come
     from the user's cache folder (see plan_job); `address`: the controller across the network
-    the job runs on (None: the job's real cell, simulated here)."""
+    the job runs on (None: the job's real cell, simulated here); `commissioning`: the cell's
+    commissioning record from an earlier run (None: the job commissions when it first needs
+    to, scenarios.jobs.commissioner)."""
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
     plan = plan_job(config, say, use_cache)
@@ -209,13 +176,17 @@ def run_cell_job(
             )
         cell, remote = network_job_cell(config, plan, address, recording)
         try:
-            return _run_stages(config, plan, cell, folder, say, t_total, stages, recording, ())
+            return _run_stages(
+                config, plan, cell, folder, say, t_total, stages, recording, (), commissioning
+            )
         finally:
             say(f"the link to {address.url}: {remote.link_summary()}")
             remote.close()
     faults = job_faults(config, plan.virtual, plan.T_table_nominal)
     cell = job_cell(config, plan.virtual, plan.real, plan.robot, recording, faults)
-    return _run_stages(config, plan, cell, folder, say, t_total, stages, recording, faults)
+    return _run_stages(
+        config, plan, cell, folder, say, t_total, stages, recording, faults, commissioning
+    )
 
 
 def _run_stages(
@@ -228,6 +199,7 @@ def _run_stages(
     stages: StageTracker | None,
     recording: Any | None,
     faults: tuple[Fault, ...],
+    given: Path | None = None,
 ) -> RunResult:
     """The job's stages on its `cell`, in one loop, and its result."""
     if recording is not None and plan.scan_plan is not None:
@@ -236,7 +208,7 @@ def _run_stages(
         say("faults injected: " + ", ".join(f.name for f in faults))
     log = RunLog(cell.controller, cell.evaluator, cell.log, say, stages, recording)
     job = JobRun(cell, log, plan, folder, recording)
-    commissioning = Commissioner(config, plan, job, log.say)
+    commissioning = Commissioner(config, plan, job, log.say, given)
     hooks = RunHooks(
         cell.touches, cell.log, log.say, log.detect, log.checked, log.budgeted, commissioning
     )

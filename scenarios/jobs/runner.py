@@ -48,12 +48,14 @@ class RunOptions:
     False makes the skull phantom and the scan plan anew and stores nothing; see
     models.cache); the `controller` across the network the job runs on (None: its real cell,
     simulated in this process; across the network, the recording draws the cell as the job
-    knows it, posed by the controller's stream)."""
+    knows it, posed by the controller's stream); the cell's `commissioning` record from an
+    earlier run (None: the job commissions the cell when it first needs to)."""
 
     rrd: bool = True
     spawn: bool = False
     cache: bool = True
     controller: ControllerAddress | None = None
+    commissioning: Path | None = None
 
 
 JobResult = RunResult | PaperResult
@@ -104,7 +106,7 @@ def _cell(
     try:
         result = run_cell_job(
             config, folder.path, progress, recording, stages=stages, use_cache=options.cache,
-            address=remote,
+            address=remote, commissioning=options.commissioning,
         )  # fmt: skip
         if recording is not None:
             recording.close(keep=True)
