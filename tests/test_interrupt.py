@@ -171,6 +171,7 @@ def test_a_stop_while_the_recording_closes_discards_it(
         stages: Any,
         use_cache: bool,
         address: Any = None,
+        commissioning: Any = None,
     ) -> Done:
         stages.enter("export")
         return Done()
