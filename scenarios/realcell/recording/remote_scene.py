@@ -4,7 +4,7 @@ rack, the virtual model at its nominal pose, the calibration spheres) is posed b
 controller streamed: the encoders and the table from each move's EGM samples, the tool the
 changer reports; the laser's lines are drawn as the client paired them with the encoders.
 
-`RemoteScene` is the controller's witness (scenarios.irc5.remote_controller.MotionWitness):
+`RemoteScene` is the controller's witness (scenarios.irc5.motion_witness.MotionWitness):
 after each move it hears the move's samples, after each scan its lines.
 """
 
