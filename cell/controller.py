@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.cell_errors import ToolChangerError, UnknownNameError
+from cell.cell_errors import CellConfigError, ToolChangerError, UnknownNameError
 from cell.kinematics import Kinematics
 from cell.laser import laser_points_base
 from cell.layout import LaserConfig
@@ -407,8 +407,9 @@ class Controller(ABC):
         return None
 
     def set_laser_latency(self, latency_s: float) -> None:
-        """Pair the laser's lines with the encoders `latency_s` [s] before their stamps."""
-        raise NotImplementedError(
-            "this controller pairs each laser line with the encoders of its own instant: "
-            "it has no latency to set"
+        """Pair the laser's lines with the encoders `latency_s` [s] before their stamps;
+        CellConfigError where each line comes with the encoders of its own instant."""
+        raise CellConfigError(
+            f"a laser latency of {latency_s!r} s: this controller pairs each laser line with "
+            "the encoders of its own instant, so it has no latency to set"
         )

@@ -144,3 +144,15 @@ def test_a_data_sheet_latency_is_given_to_the_client_and_not_identified() -> Non
     assert client_settings(default).laser_latency_s == 0.0
     with pytest.raises(ScenarioError, match="identify"):
         load_config("skull", {"calibration.latency": "auto"})
+
+
+def test_a_controller_that_pairs_lines_by_their_own_instant_refuses_a_latency() -> None:
+    """In process each laser line comes with the encoders of its instant: no latency to
+    identify (the calibration sweeps nothing) and none to set."""
+    from cell.cell_errors import CellConfigError
+    from cell.sim import CellConfig, make_cell
+
+    controller, _truth = make_cell(CellConfig())
+    assert controller.laser_latency_s is None
+    with pytest.raises(CellConfigError, match="its own instant"):
+        controller.set_laser_latency(0.008)

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell import Controller, Kinematics, nominal_T_base_table
+from cell import Controller, Kinematics
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT, SphereArtifact
 from scenarios.offline.calibration_identification import (
     CalibrationPriors,
@@ -63,7 +63,7 @@ from scenarios.offline.laser_latency import (
     LatencyEstimate,
     LatencyPlan,
     identify_latency,
-    sweep_sphere,
+    sweep_artifact,
 )
 from scenarios.results.evaluations import CalibrationSummary
 
@@ -162,9 +162,7 @@ def calibrate(
     m = measure_spheres(controller, artifact, plan, progress, on_view, clear, paired_s is None)
     sweeps = None
     if latency is not None and paired_s is not None:
-        T_base_table = nominal_T_base_table(controller.table_position())
-        centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
-        sweeps = sweep_sphere(controller, centres, artifact.radius_m, latency, clear)
+        sweeps = sweep_artifact(controller, artifact, latency, clear)
         controller.move_joints(controller.q_home)
         controller.return_tool()
     robot = controller.robot

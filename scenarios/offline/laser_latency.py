@@ -145,6 +145,16 @@ def sweep_sphere(
     )
 
 
+def sweep_artifact(
+    controller: Controller, artifact: SphereArtifact, plan: LatencyPlan, clear: Clear | None = None
+) -> LatencySweeps:
+    """`sweep_sphere` over the spheres of `artifact` at the table's position now (their
+    nominal centres)."""
+    T_base_table = nominal_T_base_table(controller.table_position())
+    centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
+    return sweep_sphere(controller, centres, artifact.radius_m, plan, clear)
+
+
 def _sweep_points(
     sweep: tuple[LaserReading, ...],
     model: CellModel,
@@ -218,7 +228,10 @@ def identify_latency(
     ]
     p = np.concatenate([part[0] for part in parts])
     v = np.concatenate([part[1] for part in parts])
-    line = np.concatenate([part[2] + 100_000 * k for k, part in enumerate(parts)])
+    # each point's (sweep, line): the lines are the independent samples
+    line = np.concatenate(
+        [np.column_stack([np.full(len(part[2]), k), part[2]]) for k, part in enumerate(parts)]
+    )
     used = sum(1 for part in parts if len(part[0]))
     if used < 2 or len(p) < 50:
         raise CalibrationError(
@@ -232,7 +245,7 @@ def identify_latency(
         scale = 1.4826 * float(np.median(np.abs(r - np.median(r))))
         keep = np.abs(r) <= 3.5 * max(scale, 1e-6)
         x, r, JtJ = _fit(p, v, x[:3], radius_m, keep)
-    n, lines = int(np.count_nonzero(keep)), len(np.unique(line[keep]))
+    n, lines = int(np.count_nonzero(keep)), len(np.unique(line[keep], axis=0))
     rms = float(np.sqrt(np.mean(r[keep] ** 2)))
     cov = np.linalg.inv(JtJ) * rms**2 * (n / max(lines, 1))
     return LatencyEstimate(
@@ -261,10 +274,8 @@ def latency_alone(
     controller.move_joints(controller.q_home)
     controller.change_tool(LASER.name)
     controller.move_table(table_m)
-    T_base_table = nominal_T_base_table(controller.table_position())
-    centres = artifact.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]
     paired_s = controller.laser_latency_s or 0.0
-    sweeps = sweep_sphere(controller, centres, artifact.radius_m, plan, clear)
+    sweeps = sweep_artifact(controller, artifact, plan, clear)
     controller.move_joints(controller.q_home)
     controller.return_tool()
     model = CellModel.nominal(controller.kinematics)
