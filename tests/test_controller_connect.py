@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 from abb_robot_client.rws import RWS
 
+from cell.controller import SETTLE_S
 from cell.irb2400_arm import irb2400
 from scenarios.cli import main
 from scenarios.irc5 import controller_check
 from scenarios.irc5.controller_check import check_controller
-from scenarios.irc5.egm_feedback import feedback_of
+from scenarios.irc5.egm_feedback import beam_of, feedback_of
 from scenarios.irc5.helper_module import (
     HELPER,
     HELPER_FILE,
@@ -27,6 +28,7 @@ from scenarios.irc5.helper_module import (
     helper_version,
     needed_signals,
 )
+from scenarios.irc5.link_errors import ControllerRefusalError
 from scenarios.irc5.move_modules import Tool, joint_move
 from scenarios.irc5.rws_link import RwsLink
 from scenarios.jobs.serve import Serving, serve_job
@@ -90,7 +92,34 @@ def test_the_helper_module_reads_and_the_twin_runs_a_move_module_with_it_unchang
         assert instruction in skipped, instruction
 
 
+@pytest.mark.parametrize(
+    ("settle_s", "zone", "stop_time_s"),
+    [(0.0, "z0", None), (SETTLE_S, "fine", None), (0.2, "fine \\Inpos:=tcStop", 0.2)],
+)
+def test_a_move_module_stands_the_time_the_client_asks(
+    settle_s: float, zone: str, stop_time_s: float | None
+) -> None:
+    """A move that settles the controller's own time is a `fine` point; one that settles
+    another time names a stoppointdata of type stoptime, which the twin's planner reads back
+    as the time the arm stands still (the executor settles that long); none is fly-by."""
+    robot = irb2400()
+    q_start = np.array([0.0, 0.1, 0.1, 0.0, 0.5, 0.0])
+    text = joint_move(q_start + 0.1, None, (100.0, 30.0), settle_s, Tool(None, np.eye(4)))
+    assert f", {zone}, tool0;" in text
+    move = read_module(text, "m")
+    helper = read_module(HELPER_FILE)
+    plan = plan_execution(
+        RapidTask((move, helper)), robot.kinematics(), {}, q_start, robot.joint_speed
+    )
+    (planned,) = plan.moves
+    assert planned.stop == (settle_s > 0.0)
+    assert planned.stop_time_s == stop_time_s
+
+
 def test_the_beam_arrives_in_the_first_dnum_of_the_stream() -> None:
+    """tcToSensor{1} is the first dnum; a stream without RAPIDfromRobot (an EGM that sends
+    no DataToSensor values) is refused when the beam is read, not read as a beam unbroken."""
+
     class State:
         joint_angles = np.zeros(6)
         external_axes = None
@@ -101,9 +130,10 @@ def test_the_beam_arrives_in_the_first_dnum_of_the_stream() -> None:
             self.robot_message = EgmRobot()
             self.robot_message.RAPIDfromRobot.dnum.extend(dnum)
 
-    assert feedback_of(State([1.0]), 0.0).beam
-    assert not feedback_of(State([0.0]), 0.0).beam
-    assert not feedback_of(State([]), 0.0).beam
+    assert beam_of(feedback_of(State([1.0]), 0.0)) is True
+    assert beam_of(feedback_of(State([0.0]), 0.0)) is False
+    with pytest.raises(ControllerRefusalError, match=r"no RAPIDfromRobot.*update the controller"):
+        beam_of(feedback_of(State([]), 0.0))
 
 
 def test_connect_finds_all_on_the_commissioned_twin(

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from cell.controller import SETTLE_S
 from cell.irb2400_arm import irb2400
 from cell.sim import CellConfig, make_cell
 from models.robot import TOOLS
@@ -30,7 +31,7 @@ from scenarios.jobs.execute_run_folder import (
     rebuild_job_cell,
 )
 from scenarios.jobs.job_plan import job_robot, object_models
-from scenarios.rapid.executor import ExecutionError, execute_plan
+from scenarios.rapid.executor import ExecutionError, execute_plan, run_move
 from scenarios.rapid.planner import plan_execution
 from scenarios.rapid.rapid_text import configuration
 from scenarios.rapid.reader import read_module
@@ -388,6 +389,7 @@ def test_a_folder_without_its_files_is_refused(
         ("    MoveC p1, p1, v100, fine, tool0;", "MoveC", "MoveC is not executed"),
         ("    MoveL p1, v100 \\T:=3, fine, tool0;", "\\T:=3", "\\T are not executed"),
         ("    MoveJ p1, vFast, fine, tool0;", "MoveJ p1, vFast", "speed vFast"),
+        ("    MoveJ p1, v100, fine \\Inpos:=vFast, tool0;", "Inpos:=vFast", "\\Inpos:=vFast"),
     ],
 )
 def test_what_the_executor_cannot_follow_is_refused_naming_its_line(
@@ -427,3 +429,52 @@ def test_what_the_executor_cannot_follow_is_refused_naming_its_line(
     assert str(raised.value).startswith(f"module Flow:{line}: "), str(raised.value)
     assert message in str(raised.value)
     assert re.search(r"\n", str(raised.value)) is None
+
+
+@pytest.mark.parametrize(
+    ("stop", "declared", "stop_time_s"),
+    [
+        ("fine", "", None),
+        ("fine \\Inpos:=inpos50", "", None),
+        ("fine \\Inpos:=stoptime1_0", "", 1.0),
+        ("fine \\Inpos:=sStand", '[stoptime, FALSE, [0, 0, 0, 0], 0.25, 0, "", 0, 0]', 0.25),
+        ("fine \\Inpos:=sStand", '[inpos, TRUE, [25, 40, 0.1, 5], 0, 0, "", 0, 0]', None),
+    ],
+)
+def test_a_stop_point_stands_its_stoppointdata_s_stoptime(
+    stop: str, declared: str, stop_time_s: float | None
+) -> None:
+    """A stop point's \\Inpos of type stoptime (RAPID's predefined stoptime0_5 .. 1_5, or
+    one declared) is the time the arm stands still there; of type inpos, or none, the
+    controller settles as at fine (None)."""
+    robot = irb2400()
+    kin = robot.kinematics()
+    q = np.array([0.1, 0.3, 0.1, 0.4, -0.8, 0.5])
+    lines = ["MODULE Stand", _robtarget("p1", kin.fk(q), configuration(kin, q))]
+    if declared:
+        lines.append(f"  CONST stoppointdata sStand := {declared};")
+    lines += ["  PROC main()", f"    MoveJ p1, v100, {stop}, tool0;", "  ENDPROC", "ENDMODULE", ""]
+    module = read_module("\n".join(lines), "stand.mod")
+    plan = plan_execution(module, kin, {}, robot.q_home, robot.joint_speed)
+    (move,) = plan.moves
+    assert move.stop and move.stop_time_s == stop_time_s
+
+    class Cell:  # what run_move asks of a controller, and the settling it was told
+        kinematics = kin
+        time_s = 0.0
+
+        def __init__(self) -> None:
+            self.settled: list[float] = []
+
+        def table_position(self) -> float:
+            return 0.0
+
+        def move_joints(self, q: np.ndarray, speed: float, settle_s: float) -> None:
+            self.settled.append(settle_s)
+
+        def read_joints(self) -> np.ndarray:
+            return move.q
+
+    cell = Cell()
+    run_move(cell, plan, move)  # type: ignore[arg-type]
+    assert cell.settled == [SETTLE_S if stop_time_s is None else stop_time_s]

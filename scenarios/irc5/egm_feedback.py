@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from abb_robot_client.egm import EGM
 
-from scenarios.irc5.link_errors import LinkError
+from scenarios.irc5.link_errors import ControllerRefusalError, LinkError
 
 #: The stream's period on an IRC5 [s] (EGM application manual, 3HAC073318-001: 4 ms).
 PERIOD_S = 0.004
@@ -34,7 +34,8 @@ class Feedback:
     the controller's clock when the encoders were read `time_s` [s], the header's sequence
     number, the encoders q (6,) [rad], the table [m] (None: no external axis), RAPID running,
     motors on, and the beam of the TCP check (broken: the helper module TcHelper's
-    DataToSensor tcToSensor{1}, the first dnum of RAPIDfromRobot, is 1)."""
+    DataToSensor tcToSensor{1}, the first dnum of RAPIDfromRobot, is 1; None: the packet
+    carries no RAPIDfromRobot, see `beam_of`)."""
 
     received_s: float
     time_s: float
@@ -43,7 +44,7 @@ class Feedback:
     table_m: float | None
     rapid_running: bool
     motors_on: bool
-    beam: bool = False
+    beam: bool | None = False
 
 
 def feedback_of(state: Any, received_s: float) -> Feedback:
@@ -64,9 +65,24 @@ def feedback_of(state: Any, received_s: float) -> Feedback:
     )
 
 
-def _beam(dnum: Any) -> bool:
-    """TcHelper's tcToSensor{1}: 1 while the beam is broken (no value: not broken)."""
-    return len(dnum) > 0 and float(dnum[0]) > 0.5
+def _beam(dnum: Any) -> bool | None:
+    """TcHelper's tcToSensor{1}: 1 while the beam is broken (no value: not known)."""
+    return float(dnum[0]) > 0.5 if len(dnum) > 0 else None
+
+
+def beam_of(sample: Feedback) -> bool:
+    """The beam in a sample of the stream; raises ControllerRefusalError where the stream
+    carries no RAPIDfromRobot: the controller's EGM sends no DataToSensor values (RobotWare
+    6.07-6.10's egm.proto has no such field), or the helper module's TcStream did not start
+    the stream with them."""
+    if sample.beam is None:
+        raise ControllerRefusalError(
+            "the controller's EGM stream carries no RAPIDfromRobot values, so the TCP "
+            "check's beam cannot be read with the joints: the helper module TcHelper starts "
+            "it with EGMActJoint \\DataToSensor, which needs a RobotWare whose EGM sends "
+            "RAPIDfromRobot (not 6.07-6.10): update the controller's RobotWare"
+        )
+    return sample.beam
 
 
 class EgmFeedback:

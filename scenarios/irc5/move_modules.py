@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cell.controller import SETTLE_S
 from cell.kinematics import Kinematics
 from scenarios.irc5.helper_module import STREAM_PROC
 from scenarios.rapid.rapid_text import (
@@ -29,6 +30,8 @@ from scenarios.rapid.rapid_text import (
 
 #: The module's name on the controller.
 MODULE = "TcMove"
+#: The stoppointdata of a stop point that stands its own time.
+STOP = "tcStop"
 _UNUSED = "9E+09"
 #: A speeddata's external axes' speeds: not limiting [mm/s, deg/s].
 _EXTERNAL = "5000, 1000"
@@ -63,8 +66,24 @@ def _speed(v_tcp_mm_s: float, v_ori_deg_s: float) -> str:
 
 
 def _zone(settle_s: float) -> str:
-    """A stop point (fine: the controller settles) if the move settles, else fly-by (z0)."""
-    return "fine" if settle_s > 0.0 else "z0"
+    """A stop point if the move settles, else fly-by (z0). A stop point is `fine` where the
+    settling asked is the controller's own (SETTLE_S), else `fine \\Inpos:=STOP`: the arm
+    stands `settle_s` still there (see `_stop_declaration`)."""
+    if settle_s <= 0.0:
+        return "z0"
+    return "fine" if abs(settle_s - SETTLE_S) < 1e-9 else f"fine \\Inpos:={STOP}"
+
+
+def _stop_declaration(settle_s: float) -> str:
+    """The module's stoppointdata line where its stop point stands its own time: of type
+    stoptime, the arm standing still `settle_s` [s] before the program goes on ("" where the
+    zone needs none)."""
+    if "Inpos" not in _zone(settle_s):
+        return ""
+    return (
+        f"  CONST stoppointdata {STOP} := "
+        f'[stoptime, FALSE, [0, 0, 0, 0], {rapid_number(settle_s)}, 0, "", 0, 0];\n'
+    )
 
 
 def joint_speed(
@@ -110,6 +129,7 @@ def joint_move(
         f"MODULE {MODULE}\n"
         f"  CONST jointtarget jTo := [[{joints}],[{external}]];\n"
         f"{tool.declaration}"
+        f"{_stop_declaration(settle_s)}"
         "  PROC main()\n"
         f"    {STREAM_PROC};\n"
         f"    MoveAbsJ jTo, {_speed(*speed)}, {_zone(settle_s)}, {tool.rapid_name};\n"
@@ -138,6 +158,7 @@ def linear_move(
         f"  CONST robtarget {target} := "
         f"{pose_text(T_base_tcp)[:-1]},[{cf1},{cf4},{cf6},{cfx}],[{external}]];\n"
         f"{tool.declaration}"
+        f"{_stop_declaration(settle_s)}"
         "  PROC main()\n"
         f"    {STREAM_PROC};\n"
         f"    MoveL {target}, {speed}, {_zone(settle_s)}, {tool.rapid_name};\n"

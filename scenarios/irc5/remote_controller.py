@@ -31,7 +31,7 @@ from cell.layout import LaserConfig
 from cell.readings import LaserReading
 from cell.robot_arm import Robot
 from models.robot import TABLE_SPEED, beam_line
-from scenarios.irc5.egm_feedback import EgmFeedback, Feedback
+from scenarios.irc5.egm_feedback import EgmFeedback, Feedback, beam_of
 from scenarios.irc5.line_profiler import ProfileBuffer, Received
 from scenarios.irc5.link_errors import ControllerRefusalError, LinkError, NotOfferedError
 from scenarios.irc5.motion_witness import MotionWitness
@@ -390,10 +390,10 @@ class RemoteController(Controller):
         for sample in self.feedback.since(t0):
             if start.time_s < sample.time_s <= end.time_s:
                 seen.setdefault(sample.time_s, sample)
-        return [(s.q.copy(), s.beam) for _t, s in sorted(seen.items())]
+        return [(s.q.copy(), beam_of(s)) for _t, s in sorted(seen.items())]
 
     def read_beam(self) -> bool:
-        return self.feedback.fresh(self.max_age_s).beam
+        return beam_of(self.feedback.fresh(self.max_age_s))
 
     def servo(self, q_ref: np.ndarray, period_s: float) -> None:
         raise NotOfferedError("streamed joint references (servo): send them with EGM directly")

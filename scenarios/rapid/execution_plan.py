@@ -30,6 +30,8 @@ class PlannedMove:
         speed_fraction: the fraction of the joints' speed limits of a joint move.
         stop: a stop point (fine, \\Inpos); touch: a MoveL to a stop point.
         source: the file (or module) the move is written in.
+        stop_time_s: how long the arm stands still at a stop point whose \\Inpos is a
+            stoppointdata of type stoptime [s]; None: the controller settles as at `fine`.
     """
 
     instruction: str
@@ -50,6 +52,7 @@ class PlannedMove:
     stop: bool
     touch: bool
     source: str = ""
+    stop_time_s: float | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -4,8 +4,9 @@ IRC5 controller without the absolute-accuracy option runs it.
 `execute_plan` changes to the cell's tool the program's tooldata stands for, goes to the
 start configuration, and runs the moves with the controller: MoveJ and MoveAbsJ as joint
 moves at the speed fraction that gives the programmed TCP speed, MoveL as straight moves
-with the program's tooldata TCP at v_tcp. A stop point settles, a fly-by point does not (the
-cell's controller reaches it without blending the corner). At each MoveL to a stop point
+with the program's tooldata TCP at v_tcp. A stop point settles (SETTLE_S, or the stoptime of its
+\\Inpos stoppointdata), a fly-by point does not (the cell's controller reaches it without
+blending the corner). At each MoveL to a stop point
 (a touch) it calls `on_touch(target)`.
 """
 
@@ -123,7 +124,9 @@ def run_move(
     encoders after it; `on_move(what)` after each motion. Raises ExecutionError naming the
     line if the move fails on the cell; a halt asked from outside (MotionHaltedError) passes."""
     moved = on_move or (lambda _what: None)
-    settle = SETTLE_S if move.stop else 0.0
+    settle = 0.0
+    if move.stop:
+        settle = SETTLE_S if move.stop_time_s is None else move.stop_time_s
     try:
         table = move.table_position_m
         if table is not None and abs(controller.table_position() - table) > 1e-9:

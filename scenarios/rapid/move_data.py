@@ -228,6 +228,39 @@ def stop_point(module: ModuleScope, text: str, options: dict[str, str | None], l
     )
 
 
+#: RAPID's predefined stoppointdata of type stoptime: the time the arm stands still [s].
+STOP_TIMES = {"stoptime0_5": 0.5, "stoptime1_0": 1.0, "stoptime1_5": 1.5}
+_STOPTIME = 2.0  # the stoppoint constant stoptime (scenarios.rapid.reader.STOPPOINT_TYPES)
+
+
+def stop_time(module: ModuleScope, options: dict[str, str | None], line: int) -> float | None:
+    """How long the arm stands still at a stop point whose \\Inpos names a stoppointdata of
+    type stoptime [s]; None where the controller settles as at `fine` (no \\Inpos, or one of
+    type inpos or fllwtime)."""
+    key = (options.get("inpos") or "").strip()
+    if not key:
+        return None
+    if key.casefold() in STOP_TIMES:
+        return STOP_TIMES[key.casefold()]
+    if re.fullmatch(r"(?i)inpos\d+|fllwtime\d_\d", key):
+        return None
+    value = _declared(module, key, "stoppointdata", line)
+    if not (isinstance(value, tuple) and len(value) == 8 and isinstance(value[3], float)):
+        raise program_error(
+            module,
+            line,
+            f"\\Inpos:={key} is neither a predefined stoppointdata (inpos20 .. inpos100, "
+            "stoptime0_5 .. stoptime1_5, fllwtime0_5 .. fllwtime1_5) nor a declared "
+            "stoppointdata [type, progsynch, inpos, stoptime, followtime, signal, relation, "
+            "checkvalue]",
+        )
+    if value[0] != _STOPTIME:
+        return None
+    if not (math.isfinite(value[3]) and value[3] >= 0.0):
+        raise program_error(module, line, f"the stoptime of {key} must be >= 0 s")
+    return value[3]
+
+
 def table_position(module: ModuleScope, eax_a: float, line: int, state: PlanState) -> float | None:
     """The table during a move: external axis A [mm -> m], or where it was if unused."""
     if abs(eax_a) >= _UNUSED_AXIS:

@@ -45,6 +45,7 @@ from scenarios.rapid.move_data import (
     num_value,
     object_frame,
     stop_point,
+    stop_time,
     table_position,
     target_data,
 )
@@ -128,6 +129,7 @@ def _plan_move(
         stop,
         instruction == "MoveL" and stop,
         module.label,
+        stop_time(module, options, line) if stop else None,
     )
     state.q, state.table_m = q, table
     return planned

@@ -51,12 +51,19 @@ _QUATERNION_NORM_TOLERANCE = 1e-3
 # Values: literals, poses
 
 
+#: RAPID's predefined constants of type stoppoint (a stoppointdata's first component).
+STOPPOINT_TYPES = {"inpos": 1.0, "stoptime": 2.0, "fllwtime": 3.0}
+
+
 def _literal(node: Node | None) -> object:
-    """The Python value of a literal (float, bool, str, nested tuples), None if not one."""
+    """The Python value of a literal (float, bool, str, nested tuples; a stoppoint constant
+    as its number), None if not one."""
     if node is None:
         return None
     if node.kind in ("num", "str", "bool"):
         return node.value
+    if node.kind == "name" and str(node.value).casefold() in STOPPOINT_TYPES:
+        return STOPPOINT_TYPES[str(node.value).casefold()]
     if node.kind == "unary" and node.value in ("-", "+") and node.items[0].kind == "num":
         value = as_float(node.items[0].value)
         return -value if node.value == "-" else value
