@@ -18,6 +18,7 @@ from abb_robot_client.rws import RWS
 from cell.controller import SETTLE_S
 from cell.irb2400_arm import irb2400
 from scenarios.cli import main
+from scenarios.cli.connect_command import render
 from scenarios.irc5 import controller_check
 from scenarios.irc5.controller_check import check_controller
 from scenarios.irc5.egm_feedback import beam_of, feedback_of
@@ -147,7 +148,8 @@ def test_connect_finds_all_on_the_commissioned_twin(
     assert sum(w.startswith("signal ") for w in whats) == len(needed_signals())
     out = tmp_path / "connect.json"
     assert main(["connect", served.url, "--json", str(out)]) == 0
-    assert "all 13 as the jobs need them" in capsys.readouterr().out
+    assert f"all {len(whats)} as the jobs need them" in capsys.readouterr().out
+    assert len(whats) == 21  # 3 options, 11 signals
     assert '"ok": true' in out.read_text()
 
 
@@ -173,6 +175,28 @@ def test_connect_names_manual_mode_and_refused_credentials(tmp_path: Path) -> No
         serving.close()
     assert [f.what for f in refused.findings] == ["credentials"]
     assert "TWINCELL_RWS_PASSWORD" in refused.findings[0].change
+
+
+def test_a_device_s_signals_missing_leave_the_other_jobs_ready() -> None:
+    """A controller without the gripper's signals and option serves the skull job: they are
+    named, with the jobs that need them, and the controller is ready for the others."""
+    lacking = controller_check._option("613-1", "Collision Detection", "x", ["616-1 PC"])
+    findings = (
+        controller_check.Finding("answers", True, "twin"),
+        controller_check._for_device(lacking, "gripper"),
+        controller_check._for_device(
+            controller_check.Finding("signal diGripperReady", False, "no such signal"), "gripper"
+        ),
+    )
+    report = controller_check.ControllerCheck("http://cell", findings)
+    assert report.ok and report.missing == () and len(report.missing_for_some) == 2
+    text = render(report)
+    assert "(needed by jobs that grip only)" in text
+    assert "2 that only some jobs need missing" in text
+    bare = controller_check.ControllerCheck(
+        "http://cell", (controller_check.Finding("motors", False, "motoroff"), *findings[1:])
+    )
+    assert not bare.ok and [f.what for f in bare.missing] == ["motors"]
 
 
 def test_robotware_7_and_missing_options_are_named() -> None:

@@ -66,14 +66,20 @@ def render(report: ControllerCheck) -> str:
     width = max(len(f.what) for f in report.findings)
     lines = [f"controller {report.url}"]
     for f in report.findings:
-        lines.append(f"  {'ok' if f.ok else 'MISSING':8} {f.what:{width}}  {f.found}")
+        found = f"{f.found} (needed by {f.needed_by} only)" if f.needed_by else f.found
+        lines.append(f"  {'ok' if f.ok else 'MISSING':8} {f.what:{width}}  {found}")
         if f.change:
             lines.append(f"  {'':8} {'':{width}}  -> {f.change}")
-    missing = len(report.missing)
+    missing, some = len(report.missing), len(report.missing_for_some)
     if missing:
         lines.append(
             f"{missing} of {len(report.findings)} not as the jobs need them: change them, then "
             "connect again"
+        )
+    elif some:
+        lines.append(
+            f"all that every job needs as it needs them; {some} that only some jobs need "
+            "missing (each says which jobs)"
         )
     else:
         lines.append(f"all {len(report.findings)} as the jobs need them")

@@ -8,7 +8,7 @@ change. Nothing moves and nothing is written but a mastership taken and given ba
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from scenarios.irc5.helper_module import (
     HELPER,
@@ -26,15 +26,24 @@ from scenarios.irc5.rws_link import RwsLink
 ROBOTWARE_MAJOR = 6
 
 
+#: The jobs that alone need a device's signals and options (helper_module.DEVICE_SIGNALS).
+DEVICE_JOBS = {
+    "gripper": "jobs that grip",
+    "screwer": "jobs that drive screws",
+    "ir": "jobs that probe with the IR sensor",
+}
+
+
 @dataclass(frozen=True)
 class Finding:
     """One thing checked: what, whether it is as the jobs need it, what the controller has,
-    and what to change ("" if nothing)."""
+    what to change ("" if nothing), and the jobs that alone need it ("": every job)."""
 
     what: str
     ok: bool
     found: str
     change: str = ""
+    needed_by: str = ""
 
 
 @dataclass(frozen=True)
@@ -46,11 +55,18 @@ class ControllerCheck:
 
     @property
     def ok(self) -> bool:
-        return bool(self.findings) and all(f.ok for f in self.findings)
+        """Every job's needs are met (a device's, only some jobs need, may be missing)."""
+        return bool(self.findings) and not self.missing
 
     @property
     def missing(self) -> tuple[Finding, ...]:
-        return tuple(f for f in self.findings if not f.ok)
+        """What every job needs and the controller lacks."""
+        return tuple(f for f in self.findings if not f.ok and not f.needed_by)
+
+    @property
+    def missing_for_some(self) -> tuple[Finding, ...]:
+        """What only some jobs need and the controller lacks."""
+        return tuple(f for f in self.findings if not f.ok and f.needed_by)
 
 
 def check_controller(link: RwsLink) -> ControllerCheck:
@@ -64,8 +80,9 @@ def check_controller(link: RwsLink) -> ControllerCheck:
         return ControllerCheck(link.url, (Finding("credentials", False, str(exc), _LOGIN),))
     findings = [Finding("answers", True, f"{system.get('name', '?')} at {link.url}")]
     findings.append(_robotware(system))
-    findings += [_option(o.number, o.name, o.used_for, options) for o in OPTIONS]
-    findings += [_signal(link, n.name, n.type) for n in needed_signals()]
+    findings += [_for_device(_option(o.number, o.name, o.used_for, options), o.device)
+                 for o in OPTIONS]  # fmt: skip
+    findings += [_for_device(_signal(link, n.name, n.type), n.device) for n in needed_signals()]
     findings.append(_helper(link))
     findings += _state(link)
     return ControllerCheck(link.url, tuple(findings))
@@ -76,6 +93,11 @@ _REACH = (
     "with Robot Web Services) and the network"
 )
 _LOGIN = "set TWINCELL_RWS_USER and TWINCELL_RWS_PASSWORD (or TWINCELL_RWS_CREDENTIALS)"
+
+
+def _for_device(finding: Finding, device: str) -> Finding:
+    """The finding, marked as needed by the jobs of `device` alone ("": every job)."""
+    return replace(finding, needed_by=DEVICE_JOBS[device]) if device else finding
 
 
 def _robotware(system: dict[str, str]) -> Finding:

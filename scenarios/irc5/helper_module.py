@@ -23,14 +23,28 @@ STREAM_PROC = "TcStream"
 VERSION_SYMBOL = "tcHelperVersion"
 
 
+#: The signals and options a device needs, by the tool that carries it: only jobs that use
+#: the tool need them (the others run on a controller without them).
+DEVICE_SIGNALS: dict[str, str] = {
+    "aoGripperOpening": "gripper",
+    "diGripperReady": "gripper",
+    "aoSpindleSpeed": "screwer",
+    "aoSpindleTime": "screwer",
+    "doSpindleStart": "screwer",
+    "diSpindleDone": "screwer",
+    "aiIrRange": "ir",
+}
+
+
 @dataclass(frozen=True)
 class RobotWareOption:
-    """A RobotWare option: its number (as the controller's option list begins) and name, and
-    what the jobs use it for."""
+    """A RobotWare option: its number (as the controller's option list begins) and name,
+    what the jobs use it for, and the tool whose jobs alone need it ("": every job)."""
 
     number: str
     name: str
     used_for: str
+    device: str = ""
 
 
 OPTIONS: tuple[RobotWareOption, ...] = (
@@ -40,15 +54,20 @@ OPTIONS: tuple[RobotWareOption, ...] = (
     RobotWareOption(
         "689-1", "Externally Guided Motion", "the joints and the beam streamed every 4 ms"
     ),
+    RobotWareOption(
+        "613-1", "Collision Detection", "MotionSup \\Off around a grip", device="gripper"
+    ),
 )
 
 
 @dataclass(frozen=True)
 class SignalNeed:
-    """A signal the jobs use: its name and type (DI, DO, AI, AO)."""
+    """A signal the jobs use: its name and type (DI, DO, AI, AO), and the tool whose jobs
+    alone need it ("": every job)."""
 
     name: str
     type: str
+    device: str = ""
 
 
 def helper_text() -> str:
@@ -74,5 +93,6 @@ def needed_signals(text: str | None = None) -> tuple[SignalNeed, ...]:
         name = re.search(r'-Name\s+"([^"]+)"', line)
         kind = re.search(r'-SignalType\s+"([^"]+)"', line)
         if name is not None and kind is not None:
-            needs.append(SignalNeed(name.group(1), kind.group(1).upper()))
+            signal = name.group(1)
+            needs.append(SignalNeed(signal, kind.group(1).upper(), DEVICE_SIGNALS.get(signal, "")))
     return tuple(needs)

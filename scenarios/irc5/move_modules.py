@@ -74,6 +74,12 @@ def _zone(settle_s: float) -> str:
     return "fine" if abs(settle_s - SETTLE_S) < 1e-9 else f"fine \\Inpos:={STOP}"
 
 
+def _supervision(supervised: bool) -> str:
+    """The line that switches the motion supervision off for the module's move ("" if it
+    watches: moving the program pointer to main switches it on again)."""
+    return "" if supervised else "    MotionSup \\Off;\n"
+
+
 def _stop_declaration(settle_s: float) -> str:
     """The module's stoppointdata line where its stop point stands its own time: of type
     stoptime, the arm standing still `settle_s` [s] before the program goes on ("" where the
@@ -119,9 +125,11 @@ def joint_move(
     speed: tuple[float, float],
     settle_s: float,
     tool: Tool,
+    supervised: bool = True,
 ) -> str:
     """The module of a MoveAbsJ to `q` (6,) [rad] with the table at `table_m` [m] (None: where
-    it is), at `speed` (v_tcp [mm/s], v_ori [deg/s])."""
+    it is), at `speed` (v_tcp [mm/s], v_ori [deg/s]), the motion supervision off if not
+    `supervised`."""
     joints = ", ".join(rapid_number(v) for v in np.degrees(q))
     table = _UNUSED if table_m is None else rapid_number(table_m * 1e3)
     external = ", ".join([table] + [_UNUSED] * 5)
@@ -132,6 +140,7 @@ def joint_move(
         f"{_stop_declaration(settle_s)}"
         "  PROC main()\n"
         f"    {STREAM_PROC};\n"
+        f"{_supervision(supervised)}"
         f"    MoveAbsJ jTo, {_speed(*speed)}, {_zone(settle_s)}, {tool.rapid_name};\n"
         "  ENDPROC\n"
         "ENDMODULE\n"
@@ -146,9 +155,11 @@ def linear_move(
     angular_speed_rad_s: float,
     settle_s: float,
     target: str = "pTo",
+    supervised: bool = True,
 ) -> str:
     """The module of a MoveL of the tool's TCP to where the joints `q_end` (6,) [rad] put it on
-    the controller's `nominal` arm (with their confdata), in the base frame, named `target`."""
+    the controller's `nominal` arm (with their confdata), in the base frame, named `target`,
+    the motion supervision off if not `supervised`."""
     T_base_tcp = nominal.fk(q_end) @ tool.T_flange_tcp
     cf1, cf4, cf6, cfx = configuration(nominal, q_end)
     external = ", ".join([_UNUSED] * 6)
@@ -161,6 +172,7 @@ def linear_move(
         f"{_stop_declaration(settle_s)}"
         "  PROC main()\n"
         f"    {STREAM_PROC};\n"
+        f"{_supervision(supervised)}"
         f"    MoveL {target}, {speed}, {_zone(settle_s)}, {tool.rapid_name};\n"
         "  ENDPROC\n"
         "ENDMODULE\n"

@@ -9,6 +9,8 @@ controller, or `twincell serve` standing in for one, from another process.
   RWS poll. Nothing is commanded on a stream older than `max_age_s`.
 - The tool changer: the `doToolLock` output, the `diToolLocked` and `aiToolNumber` inputs;
   picking and returning a tool are the controller API's own sequences of moves around them.
+  The gripper, the screwer, the IR sensor and switching the motion supervision off:
+  scenarios.irc5.remote_devices.
 - The line laser: its own profile stream (scenarios.irc5.line_profiler), paired with the
   poses by time (scenarios.irc5.profile_alignment).
 - A stop of the controller's supervision is read from its event log and raised as the
@@ -21,6 +23,7 @@ import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 
@@ -37,6 +40,7 @@ from scenarios.irc5.link_errors import ControllerRefusalError, LinkError, NotOff
 from scenarios.irc5.motion_witness import MotionWitness
 from scenarios.irc5.move_modules import MODULE, Tool, joint_move, joint_speed, linear_move
 from scenarios.irc5.profile_alignment import readings
+from scenarios.irc5.remote_devices import Devices
 from scenarios.irc5.rws_link import RwsLink
 
 #: How far the encoders may stand from a move's target when the controller says the program
@@ -86,6 +90,7 @@ class RemoteController(Controller):
     ) -> None:
         super().__init__(robot, kinematics, rack_xyz, laser, limits)
         self.link, self.feedback, self.profiles = link, feedback, profiles
+        self.devices = Devices(link, self._why_not_there)
         given = settings or ClientSettings()
         self.max_age_s, self.move_timeout_s = given.max_age_s, given.move_timeout_s
         own_modules = given.own_modules
@@ -103,7 +108,7 @@ class RemoteController(Controller):
         first = feedback.after(time.monotonic() - 1.0, 5.0)
         self._q_command = first.q.copy()
         self._last_read_s = first.received_s
-        self._tool = self._tool_number_in_hand()
+        self._tool = self.devices.tool_in_hand(self.tools)
         self._stopped_at = self._last_profile_s = time.monotonic()
 
     # -- state ------------------------------------------------------------------------------
@@ -128,17 +133,6 @@ class RemoteController(Controller):
             raise LinkError("the controller's EGM feedback carries no external axis A (table)")
         return table
 
-    def _tool_number_in_hand(self) -> str | None:
-        number = round(self.link.analog("aiToolNumber"))
-        if number == 0:
-            return None
-        if not 1 <= number <= len(self.tools):
-            raise ControllerRefusalError(
-                f"aiToolNumber says tool {number}; the cell's tools are 1..{len(self.tools)}: "
-                f"{', '.join(self.tools)}"
-            )
-        return self.tools[number - 1]
-
     # -- motion -----------------------------------------------------------------------------
     def _carried(self, T_flange_tcp: np.ndarray | None = None) -> Tool:
         """The tool a move carries: the one in hand (with `T_flange_tcp`, if a program's
@@ -162,7 +156,7 @@ class RemoteController(Controller):
         speeds = joint_speed(
             self.nominal_kinematics, q0, q1, tool.T_flange_tcp, speed, self.robot.joint_speed
         )
-        text = joint_move(q1, table_m, speeds, settle_s, tool)
+        text = joint_move(q1, table_m, speeds, settle_s, tool, self.devices.supervised)
         end = self._run(text, f"MoveAbsJ to [{', '.join(f'{v:.4f}' for v in q1)}] rad")
         self._q_command = q1.copy()
         if np.max(np.abs(end.q - q1)) > _window(settle_s):
@@ -199,9 +193,9 @@ class RemoteController(Controller):
         arm the controller moves with, the target written for the controller's nominal arm."""
         tool = self._carried(T_flange_tcp)
         q_end = self.kinematics.solve(T_base_tcp, self._q_command, tool.T_flange_tcp)
-        text = linear_move(
-            self.nominal_kinematics, q_end, tool, speed_m_s, angular_speed_rad_s, settle_s
-        )
+        speeds = (speed_m_s, angular_speed_rad_s)
+        text = linear_move(self.nominal_kinematics, q_end, tool, *speeds, settle_s,
+                           supervised=self.devices.supervised)  # fmt: skip
         end = self._run(text, "MoveL")
         self._q_command = q_end
         if np.max(np.abs(end.q - q_end)) > _window(settle_s):
@@ -300,7 +294,7 @@ class RemoteController(Controller):
         controller plans and runs it; the client's own moves start from where it ends."""
         end = self._run(text, f"the program {module}", module)
         self._q_command = end.q.copy()
-        self._tool = self._tool_number_in_hand()
+        self._tool = self.devices.tool_in_hand(self.tools)
 
     # -- the program runs and their stops ---------------------------------------------------
     def _run(self, text: str, what: str, module: str = MODULE) -> Feedback:
@@ -328,7 +322,7 @@ class RemoteController(Controller):
             self.witness.moved(self.feedback.since(since - 0.05), self._tool)
         return end
 
-    def _why_not_there(self, what: str) -> None:
+    def _why_not_there(self, what: str) -> NoReturn:
         """The arm did not end where it was sent: the event log's stop, raised as it was."""
         for entry in reversed(self.link.events()):
             if entry.code == _COLLISION:
@@ -341,7 +335,7 @@ class RemoteController(Controller):
             if entry.code == 10007:  # the program's start: nothing stopped it
                 break
         raise ControllerRefusalError(
-            f"{what} ended off its target and the controller's event log says nothing of it"
+            f"{what} did not end as asked, and the controller's event log says nothing of it"
         )
 
     # -- the tool changer -------------------------------------------------------------------
@@ -358,16 +352,11 @@ class RemoteController(Controller):
         self._set_lock(0)
         return held
 
-    def _set_lock(self, value: int, timeout_s: float = 5.0) -> None:
+    def _set_lock(self, value: int) -> None:
         """Set doToolLock and wait for diToolLocked to follow (a RAPID WaitDI \\MaxTime)."""
         self.feedback.fresh(self.max_age_s)
-        self.link.set_digital("doToolLock", value)
-        deadline = time.monotonic() + timeout_s
-        while self.link.digital("diToolLocked") != value:
-            if time.monotonic() > deadline:
-                self._why_not_there("the tool changer")
-            time.sleep(0.005)
-        self._tool = self._tool_number_in_hand()
+        self.devices.set_lock(value)
+        self._tool = self.devices.tool_in_hand(self.tools)
         self._last_read_s = time.monotonic()
         if self.witness is not None:
             self.witness.moved([self.feedback.fresh(self.max_age_s)], self._tool)
@@ -402,17 +391,24 @@ class RemoteController(Controller):
         if clock is not None:
             raise NotOfferedError("a remote controller's time runs by its own clock (pace)")
 
+    # -- the devices on the controller's I/O (scenarios.irc5.remote_devices) ---------------
     def supervision_off(self) -> AbstractContextManager[None]:
-        raise NotOfferedError("switching the motion supervision off is not offered over RWS")
+        return self.devices.supervision_off()
+
+    def _device(self, tool: str) -> Devices:
+        """The devices, with `tool` in hand and the position stream fresh."""
+        self._require(tool)
+        self.feedback.fresh(self.max_age_s)
+        return self.devices
 
     def set_gripper(self, opening_m: float) -> None:
-        raise NotOfferedError("the gripper (set_gripper) is not offered over RWS")
+        self._device("gripper").set_gripper(opening_m)
 
     def spin_screwer(self, rad_s: float, seconds: float) -> None:
-        raise NotOfferedError("the screwer's spindle (spin_screwer) is not offered over RWS")
+        self._device("screwer").spin_screwer(rad_s, seconds)
 
     def read_ir(self) -> float | None:
-        raise NotOfferedError("the IR sensor (read_ir) is not offered over RWS")
+        return self._device("ir").read_ir()
 
     def link_summary(self) -> str:
         """What the link carried: moves and their wall time, requests, samples and profiles

@@ -32,6 +32,7 @@ class PlannedMove:
         source: the file (or module) the move is written in.
         stop_time_s: how long the arm stands still at a stop point whose \\Inpos is a
             stoppointdata of type stoptime [s]; None: the controller settles as at `fine`.
+        supervised: the motion supervision watches the move (False after MotionSup \\Off).
     """
 
     instruction: str
@@ -53,6 +54,7 @@ class PlannedMove:
     touch: bool
     source: str = ""
     stop_time_s: float | None = None
+    supervised: bool = True
 
 
 @dataclass(frozen=True, eq=False)

@@ -4,15 +4,16 @@ IRC5 controller without the absolute-accuracy option runs it.
 `execute_plan` changes to the cell's tool the program's tooldata stands for, goes to the
 start configuration, and runs the moves with the controller: MoveJ and MoveAbsJ as joint
 moves at the speed fraction that gives the programmed TCP speed, MoveL as straight moves
-with the program's tooldata TCP at v_tcp. A stop point settles (SETTLE_S, or the stoptime of its
-\\Inpos stoppointdata), a fly-by point does not (the cell's controller reaches it without
-blending the corner). At each MoveL to a stop point
-(a touch) it calls `on_touch(target)`.
+with the program's tooldata TCP at v_tcp. A stop point settles (SETTLE_S, or the stoptime
+of its \\Inpos stoppointdata), a fly-by point does not (the cell's controller reaches it
+without blending the corner); a move after MotionSup \\Off runs with the supervision off.
+At each MoveL to a stop point (a touch) it calls `on_touch(target)`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -132,12 +133,13 @@ def run_move(
         if table is not None and abs(controller.table_position() - table) > 1e-9:
             controller.move_table(table)
             moved("table")
-        if move.instruction == "MoveL":
-            controller.move_linear(
-                move.T_base_tcp, move.v_tcp_m_s, move.v_ori_rad_s, settle, move.T_flange_tcp
-            )
-        else:
-            controller.move_joints(move.q, move.speed_fraction, settle)
+        with nullcontext() if move.supervised else controller.supervision_off():
+            if move.instruction == "MoveL":
+                controller.move_linear(
+                    move.T_base_tcp, move.v_tcp_m_s, move.v_ori_rad_s, settle, move.T_flange_tcp
+                )
+            else:
+                controller.move_joints(move.q, move.speed_fraction, settle)
     except MotionHaltedError:
         raise
     except CellError as exc:

@@ -102,6 +102,7 @@ class PlanState:
     conf_l: bool = True
     override: float = 1.0
     v_max_m_s: float = math.inf
+    supervised: bool = True
     cell_tool: str | None = None
     cell_tool_line: int = 0
 

@@ -9,7 +9,8 @@ base frame T_base_tcp = T_base_uframe @ T_uframe_oframe @ T_wobj_tcp, the table,
 the zone (scenarios.rapid.move_data) and the joints: MoveJ solves the target in the
 robtarget's confdata, MoveL follows the straight line from the previous point and must end in
 the robtarget's confdata (ConfL\\On), MoveAbsJ takes its jointtarget [deg]
-(scenarios.rapid.nominal_motion). A RapidError `<file>:<line>: <what>` names the first move or
+(scenarios.rapid.nominal_motion); a move after MotionSup \\Off runs with the motion
+supervision off (until MotionSup \\On). A RapidError `<file>:<line>: <what>` names the first move or
 instruction that cannot run.
 
 The program is a module or a task of several modules (scenarios.rapid.task): `main` runs
@@ -130,6 +131,7 @@ def _plan_move(
         instruction == "MoveL" and stop,
         module.label,
         stop_time(module, options, line) if stop else None,
+        state.supervised,
     )
     state.q, state.table_m = q, table
     return planned
@@ -184,8 +186,14 @@ def plan_execution(
 
 
 def _set_state(module: ModuleScope, step: Step, state: PlanState) -> bool:
-    """Apply ConfJ, ConfL or VelSet to `state`; False for any other instruction."""
+    """Apply ConfJ, ConfL, MotionSup or VelSet to `state`; False for any other instruction."""
     name = step.instruction.casefold()
+    if name == "motionsup":
+        switch = {o.partition(":=")[0].lstrip("\\").strip().casefold() for o in step.options}
+        if not ({"on"} <= switch <= {"on", "tunevalue"} or switch == {"off"}):
+            raise program_error(module, step.line, "MotionSup needs \\On or \\Off")
+        state.supervised = "on" in switch
+        return True
     if name in ("confj", "confl"):
         switch = {o.lstrip("\\").strip().casefold() for o in step.options}
         if switch not in ({"on"}, {"off"}):

@@ -35,7 +35,12 @@ from scenarios.twin.twin_controller import TwinController
 Handler = Callable[[Request, str], Response]
 #: The RobotWare the twin answers as: an IRC5's RobotWare 6, with the options the jobs use.
 ROBOTWARE = "6.15.03.00"
-OPTIONS = ("RobotWare Base", "616-1 PC Interface", "689-1 Externally Guided Motion")
+OPTIONS = (
+    "RobotWare Base",
+    "616-1 PC Interface",
+    "613-1 Collision Detection",
+    "689-1 Externally Guided Motion",
+)
 
 
 class Rws:

@@ -1,7 +1,8 @@
 """The controller's I/O signals (RWS `rw/iosystem/signals/Local/DRV_1/NAME`): the cell's own,
-which read or drive its devices (the tool changer's lock sensor, the table's readout, the
-gripper), and plain user outputs and inputs a client's program may use. Digital values are
-0 or 1; analog ones in the unit their name gives."""
+which read or drive its devices (the tool changer, the table's readout, the gripper, the
+screwer, the IR sensor: scenarios.twin.cell_io), and plain user outputs and inputs a
+client's program may use. Digital values are 0 or 1; analog ones in the unit their
+description gives."""
 
 from __future__ import annotations
 
@@ -36,6 +37,18 @@ SIGNALS: tuple[SignalSpec, ...] = (
     SignalSpec("diTcBeam", "DI", "the TCP check station's light barrier: its beam is broken "
                "(read while EGM streams)"),
     SignalSpec("aoGripperOpening", "AO", "each finger's opening from the centre [mm]", 0, 50),
+    SignalSpec("diGripperReady", "DI", "the gripper's fingers have come to rest after its "
+               "last command"),
+    SignalSpec("aoSpindleSpeed", "AO", "the screwer's tightening program: the spindle's speed "
+               "[rad/s]", 0, 200),
+    SignalSpec("aoSpindleTime", "AO", "the screwer's tightening program: how long the spindle "
+               "turns [s]", 0, 10),
+    SignalSpec("doSpindleStart", "DO", "the screwer: its rising edge runs the tightening "
+               "program once"),
+    SignalSpec("diSpindleDone", "DI", "the screwer's program ran to its end since the start "
+               "was set (0 again when it is reset)"),
+    SignalSpec("aiIrRange", "AI", "the IR sensor's distance while it is in hand [mm] (0: "
+               "nothing in its range)", 0, 1000),
     SignalSpec("doToolLock", "DO", "the tool changer: 1 locks the tool seated against the "
                "flange, 0 releases the tool held"),
     *(SignalSpec(f"doUser{k}", "DO", "a user output") for k in range(1, 9)),

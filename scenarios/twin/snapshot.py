@@ -12,8 +12,9 @@ import numpy as np
 class Snapshot:
     """What the controller knows at its time `time_s` [s]: the encoders q (6,) [rad], the
     joints it commands q_ref (6,) [rad], the flange T_base_flange (4, 4) [m] (nominal
-    kinematics), the table's readout [m], the tool in hand and the TCP check's beam (broken
-    or not)."""
+    kinematics), the table's readout [m], the tool in hand, the TCP check's beam (broken
+    or not) and the IR sensor's distance [m] while it is in hand (None: nothing in range, or
+    not in hand)."""
 
     time_s: float
     q: np.ndarray
@@ -22,3 +23,4 @@ class Snapshot:
     table_m: float
     tool: str | None
     beam: bool = False
+    ir_m: float | None = None

@@ -37,13 +37,14 @@ from scenarios.rapid.executor import (
 from scenarios.rapid.module import RapidModule
 from scenarios.rapid.planner import cell_tools, plan_execution
 from scenarios.rapid.syntax import RapidError
+from scenarios.twin.cell_io import DEVICE_OUTPUTS, CellIo
 from scenarios.twin.controller_errors import ControllerError, bad_request, not_allowed
 from scenarios.twin.elog import EventLog
 from scenarios.twin.file_service import FileService
 from scenarios.twin.guidance import PERIOD_S, Guidance
 from scenarios.twin.pacing import WallClockPacer
 from scenarios.twin.sensor_streams import SensorStreams
-from scenarios.twin.signals import SIGNALS, SignalSpec, parse_value
+from scenarios.twin.signals import SignalSpec, parse_value
 from scenarios.twin.snapshot import Snapshot
 from scenarios.twin.symbols import Symbol
 from scenarios.twin.task_modules import TaskModules
@@ -98,7 +99,6 @@ class TwinController:
         self.execstate = "stopped"
         self.cycle = "once"
         self.speedratio = 100
-        self.signals: dict[str, float] = {s.name: 0.0 for s in SIGNALS}
         #: Hear every state change: (resource, value), e.g. ("execution", "running").
         self.listeners: list[Listener] = []
         self._on_touch = on_touch or (lambda _t, _tool: None)
@@ -114,6 +114,10 @@ class TwinController:
         self._tools = controller.tools
         self._closing = threading.Event()
         self.pacer = WallClockPacer(speed, controller.time_s, self._lagging)
+        #: The I/O signals and the devices behind them.
+        self.io = CellIo(
+            controller, self.elog, self.submit, self.pacer.relock, self._refresh, self._changed
+        )
         #: What streams every control period (EGM feedback, the laser's profiles), and the
         #: EGM guidance (None: no EGM session); set by the server.
         self.streams = SensorStreams()
@@ -203,6 +207,7 @@ class TwinController:
             cell.table_position(),
             cell.tool_in_hand,
             self.streams.egm is not None and cell.read_beam(),  # streamed with EGM only
+            cell.read_ir() if cell.tool_in_hand == "ir" else None,
         )
 
     def _refresh(self) -> None:
@@ -387,56 +392,16 @@ class TwinController:
 
     # -- I/O ----------------------------------------------------------------------------------
     def signal(self, spec: SignalSpec) -> float:
-        """A signal's value now: the cell's inputs as the newest snapshot has them (live while
-        a program runs, as a controller's inputs are), the outputs as set."""
-        name, snap = spec.name, self.snapshot
-        if name.startswith("diUser"):
-            return self.signals["doUser" + name[6:]]
-        if name == "diTcBeam":
-            return float(snap.beam)
-        if name == "diToolLocked":
-            return float(snap.tool is not None)
-        if name == "aiToolNumber":
-            tools = self._tools
-            return float(tools.index(snap.tool) + 1) if snap.tool in tools else 0.0
-        if name == "aiTablePosition":
-            return snap.table_m * 1e3
-        return self.signals[name]
+        """A signal's value now (scenarios.twin.cell_io)."""
+        return self.io.read(spec, self.snapshot)
 
     def set_signal(self, spec: SignalSpec, text: str) -> None:
+        """Set an output; one that drives a device waits for the program to stop."""
         self.require_auto("set a signal")
         value = parse_value(spec, text)
-        if spec.name == "doToolLock":
-            self._require_stopped("work the tool changer")
-            self.submit(lambda: self._tool_lock(value == 1.0))
-        if spec.name == "aoGripperOpening":
-            if self.cell.tool_in_hand != "gripper":
-                raise not_allowed("aoGripperOpening: the gripper is not in hand")
-            self._require_stopped("drive the gripper")
-            self.submit(lambda: self._gripper(value))
-        self.signals[spec.name] = value
-        self._changed(f"signal:{spec.name}", str(value))
-
-    def _tool_lock(self, lock: bool) -> None:
-        """Lock the tool seated against the flange, or release the one held (on the worker);
-        a lock the supervision refuses is in the event log, and no tool is held."""
-        self.pacer.relock(self.cell.time_s)
-        try:
-            if lock:
-                self.cell.lock()
-            else:
-                self.cell.unlock()
-        except SupervisionError as exc:
-            self.elog.add("supervision", str(exc))
-        except CellError as exc:
-            self.elog.add("execution_error", f"the tool changer: {exc}")
-        finally:
-            self._refresh()
-
-    def _gripper(self, opening_mm: float) -> None:
-        self.pacer.relock(self.cell.time_s)
-        self.cell.set_gripper(opening_mm * 1e-3)
-        self._refresh()
+        if spec.name in DEVICE_OUTPUTS:
+            self._require_stopped(f"drive {spec.name}")
+        self.io.write(spec, value)
 
     # -- EGM ----------------------------------------------------------------------------------
     def _egm_tick(self) -> None:
