@@ -115,6 +115,21 @@ def test_a_move_module_stands_the_time_the_client_asks(
     (planned,) = plan.moves
     assert planned.stop == (settle_s > 0.0)
     assert planned.stop_time_s == stop_time_s
+    assert planned.supervised
+
+
+def test_a_move_module_outside_the_supervision_plans_its_move_unsupervised() -> None:
+    """A move the client runs with the supervision off has MotionSup \\Off before it; the
+    twin's planner reads the move as unsupervised (its executor runs it so)."""
+    robot = irb2400()
+    q_start = np.array([0.0, 0.1, 0.1, 0.0, 0.5, 0.0])
+    text = joint_move(q_start + 0.1, None, (100.0, 30.0), SETTLE_S, Tool(None, np.eye(4)), False)
+    assert "    MotionSup \\Off;\n    MoveAbsJ" in text
+    plan = plan_execution(
+        RapidTask((read_module(text, "m"), read_module(HELPER_FILE))),
+        robot.kinematics(), {}, q_start, robot.joint_speed,
+    )  # fmt: skip
+    assert [m.supervised for m in plan.moves] == [False]
 
 
 def test_the_beam_arrives_in_the_first_dnum_of_the_stream() -> None:

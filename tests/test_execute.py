@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -478,3 +480,52 @@ def test_a_stop_point_stands_its_stoppointdata_s_stoptime(
     cell = Cell()
     run_move(cell, plan, move)  # type: ignore[arg-type]
     assert cell.settled == [SETTLE_S if stop_time_s is None else stop_time_s]
+
+
+def test_motion_sup_off_runs_the_moves_after_it_unsupervised() -> None:
+    """MotionSup \\Off switches the supervision off for the moves after it, \\On back on;
+    the executor runs an unsupervised move inside the controller's supervision_off."""
+    robot = irb2400()
+    kin = robot.kinematics()
+    q = np.array([0.1, 0.3, 0.1, 0.4, -0.8, 0.5])
+    lines = [
+        "MODULE Sup", _robtarget("p1", kin.fk(q), configuration(kin, q)), "  PROC main()",
+        "    MoveJ p1, v100, fine, tool0;", "    MotionSup \\Off;",
+        "    MoveJ p1, v100, fine, tool0;", "    MotionSup \\On;",
+        "    MoveJ p1, v100, fine, tool0;", "  ENDPROC", "ENDMODULE", "",
+    ]  # fmt: skip
+    plan = plan_execution(
+        read_module("\n".join(lines), "sup.mod"), kin, {}, robot.q_home, robot.joint_speed
+    )
+    assert [m.supervised for m in plan.moves] == [True, False, True]
+
+    class Cell:  # what run_move asks of a controller, and whether it supervised each move
+        kinematics = kin
+        time_s = 0.0
+
+        def __init__(self) -> None:
+            self.watching = True
+            self.watched: list[bool] = []
+
+        @contextmanager
+        def supervision_off(self) -> Iterator[None]:
+            self.watching = False
+            yield
+            self.watching = True
+
+        def table_position(self) -> float:
+            return 0.0
+
+        def move_joints(self, q: np.ndarray, speed: float, settle_s: float) -> None:
+            self.watched.append(self.watching)
+
+        def read_joints(self) -> np.ndarray:
+            return q
+
+    cell = Cell()
+    for move in plan.moves:
+        run_move(cell, plan, move)  # type: ignore[arg-type]
+    assert cell.watched == [True, False, True]
+    bad = "\n".join(lines).replace("MotionSup \\On", "MotionSup \\Fast")
+    with pytest.raises(RapidError, match="MotionSup needs"):
+        plan_execution(read_module(bad, "sup.mod"), kin, {}, robot.q_home, robot.joint_speed)

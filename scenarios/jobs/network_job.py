@@ -199,18 +199,23 @@ def touch_robtarget(target: str) -> str:
 
 class TwinTouches:
     """The job's touches as the twin across the network measures them: each touch a stop
-    named for its target (`record_touch`), the measurements read back from the controller's
-    EXECUTIONS folder (`targets`); none from a real controller."""
+    named for its target (`record_touch`; a method's prefix, "surface:", is the job's own
+    and not in the name), the measurements read back from the controller's EXECUTIONS folder
+    and paired with the touches in their order (`targets`); none from a real controller."""
 
     def __init__(self, controller: RemoteController, target_names: tuple[str, ...]) -> None:
         self._controller = controller
         self._names = set(target_names)
         self._before = set(controller.link.files(EXECUTIONS))
         self._read: dict[str, JsonObject] = {}
+        #: The touches recorded, by their full names, in order.
+        self._touched: list[str] = []
 
     def record_touch(self, target: str, tool: str) -> None:
-        if target in self._names:
-            self._controller.stop_named(touch_robtarget(target))
+        name = target.rpartition(":")[2]
+        if name in self._names:
+            self._touched.append(target)
+            self._controller.stop_named(touch_robtarget(name))
 
     def executions(self) -> list[JsonObject]:
         """What the twin measured of this job's programs since it began (execution.json's
@@ -227,22 +232,28 @@ class TwinTouches:
         T_base_object_estimate: np.ndarray,
         prefix: str = "",
     ) -> tuple[TargetEvaluation, ...]:
-        """Each target's last measured touch, its registration share from the estimate."""
-        last: dict[str, JsonObject] = {}
+        """Each target's last measured touch of those named with `prefix`, its registration
+        share from the estimate."""
+        pending, last = list(self._touched), {}
         for execution in self.executions():
-            if str(execution["program"]).startswith(MODULE):  # the job's own moves
-                last.update((str(t["name"]), t) for t in execution["targets"])
+            if not str(execution["program"]).startswith(MODULE):  # not the job's own moves
+                continue
+            for t in execution["targets"]:  # the first touch of its name not yet paired
+                k = next(i for i, f in enumerate(pending) if f.rpartition(":")[2] == t["name"])
+                last[pending.pop(k)] = t
         holes = {h.name: h for h in virtual.burr_holes}
         out = []
         for name, t in last.items():
-            hole = holes[name]
+            if not name.startswith(prefix):
+                continue
+            hole = holes[name.removeprefix(prefix)]
             p = transform_points(
                 T_base_object_estimate, (hole.p_entry - touch_offset_m * hole.direction)[None]
             )[0]
             p_true = np.array(t["p_true_base_m"], dtype=float)
             out.append(
                 TargetEvaluation(
-                    prefix + name,
+                    name,
                     float(t["error_m"]),
                     float(t["axis_error_deg"]),
                     float(t["depth_error_m"]),
