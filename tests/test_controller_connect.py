@@ -8,6 +8,7 @@ away, and the signals the client itself reads and writes."""
 from __future__ import annotations
 
 import re
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from scenarios.irc5.egm_feedback import beam_of, feedback_of
 from scenarios.irc5.helper_module import (
     HELPER,
     HELPER_FILE,
+    UDP_DEVICE,
     helper_text,
     helper_version,
     needed_signals,
@@ -43,18 +45,31 @@ from scenarios.twin.signals import BY_NAME
 REMOTE = Path(__file__).parents[1] / "scenarios" / "irc5" / "remote_controller.py"
 
 
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+#: The UDP port the served twin streams EGM to (its UDP device's remote port).
+EGM_PORT = _free_udp_port()
+
+
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[Serving]:
-    """The skull job's real cell served in process on a free port, as commissioned."""
-    serving = serve_job("skull", ServeOptions(port=0), out=tmp_path)
+    """The skull job's real cell served in process on a free port, as commissioned, its EGM
+    streaming to this computer's EGM_PORT."""
+    serving = serve_job("skull", ServeOptions(port=0, egm_port=EGM_PORT), out=tmp_path)
     yield serving
     serving.close()
 
 
-def _check(serving: Serving, password: str = "robotics") -> controller_check.ControllerCheck:
+def _check(
+    serving: Serving, password: str = "robotics", egm_port: int | None = EGM_PORT
+) -> controller_check.ControllerCheck:
     link = RwsLink(serving.url, "Default User", password, timeout_s=5.0)
     try:
-        return check_controller(link)
+        return check_controller(link, egm_port)
     finally:
         link.close()
 
@@ -162,9 +177,10 @@ def test_connect_finds_all_on_the_commissioned_twin(
         assert what in whats
     assert sum(w.startswith("signal ") for w in whats) == len(needed_signals())
     out = tmp_path / "connect.json"
-    assert main(["connect", served.url, "--json", str(out)]) == 0
+    assert main(["connect", served.url, "--egm-port", str(EGM_PORT), "--json", str(out)]) == 0
     assert f"all {len(whats)} as the jobs need them" in capsys.readouterr().out
-    assert len(whats) == 21  # 3 options, 11 signals
+    assert len(whats) == 22  # 3 options, 11 signals, the UDP device
+    assert f"UDP device {UDP_DEVICE}" in whats
     assert '"ok": true' in out.read_text()
 
 
@@ -179,11 +195,37 @@ def test_connect_names_what_was_taken_away(served: Serving) -> None:
     assert main(["connect", served.url]) == 1
 
 
+def test_connect_names_a_udp_device_that_streams_elsewhere_or_is_missing(
+    served: Serving, tmp_path: Path
+) -> None:
+    """The UDP device EGM streams to is read from the system configuration: a port other
+    than the job's is named with the port to set; a controller without the device (the twin
+    served without EGM) is told to add it, with this computer's address."""
+    elsewhere = _missing(_check(served, egm_port=EGM_PORT + 1))
+    assert set(elsewhere) == {f"UDP device {UDP_DEVICE}"}
+    assert f"remote port to {EGM_PORT + 1}" in elsewhere[f"UDP device {UDP_DEVICE}"]
+    bare = serve_job("skull", ServeOptions(port=0), out=tmp_path / "bare")
+    try:
+        missing = _missing(_check(bare))
+    finally:
+        bare.close()
+    assert set(missing) == {f"UDP device {UDP_DEVICE}"}
+    change = missing[f"UDP device {UDP_DEVICE}"]
+    assert f"a UDPUC named {UDP_DEVICE}, remote address 127.0.0.1" in change
+    assert f"remote port {EGM_PORT}" in change
+
+
+def test_the_helper_module_streams_to_the_device_the_twin_serves() -> None:
+    assert f'"{UDP_DEVICE}"' in helper_text()
+    assert re.search(rf'EGMSetupUC ROB_1, egmTc, "default", "{UDP_DEVICE}"', helper_text())
+    assert ServeOptions().egm_device == UDP_DEVICE
+
+
 def test_connect_names_manual_mode_and_refused_credentials(tmp_path: Path) -> None:
     serving = serve_job("skull", ServeOptions(port=0, opmode="MANR"), out=tmp_path)
     try:
-        missing = _missing(_check(serving))
-        assert set(missing) == {"operating mode", "mastership"}
+        missing = _missing(_check(serving, egm_port=None))
+        assert set(missing) == {"operating mode", "mastership", f"UDP device {UDP_DEVICE}"}
         assert "automatic" in missing["operating mode"]
         refused = _check(serving, password="wrong")
     finally:

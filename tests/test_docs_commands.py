@@ -61,10 +61,10 @@ ELSEWHERE = {
         "tests/test_controller_client.py: the twin in a process of its own, free ports",
     "twincell run skull --controller http://127.0.0.1:8080 --egm-port 6510 --profiles "
     "127.0.0.1:6511": "tests/test_controller_client.py: a job across the network",
-    "twincell connect http://192.168.125.1:80": "tests/test_controller_connect.py: no IRC5 "
-        "here; the twin, and what it lacks",
-    "twincell connect http://127.0.0.1:8080": "tests/test_controller_connect.py: the twin "
-        "served in process",
+    "twincell connect http://192.168.125.1:80 --egm-port 6510": "tests/test_controller_connect"
+        ".py: no IRC5 here; the twin, and what it lacks",
+    "twincell connect http://127.0.0.1:8080 --egm-port 6510": "tests/test_controller_connect"
+        ".py: the twin served in process",
 }  # fmt: skip
 
 

@@ -13,7 +13,7 @@ if TYPE_CHECKING:
 
 EXAMPLES = (
     "twincell connect http://192.168.125.1:80",
-    "twincell connect http://127.0.0.1:8080 --json connect.json",
+    "twincell connect http://127.0.0.1:8080 --egm-port 6510 --json connect.json",
 )
 
 
@@ -25,12 +25,23 @@ def connect(
     json_file: Annotated[
         str | None, option("--json", "FILE", "Also write the findings to this JSON file.")
     ] = None,
+    egm_port: Annotated[
+        int | None,
+        option(
+            "--egm-port",
+            "PORT",
+            "The UDP port the job will be given: the controller's UDP device must stream to it.",
+            min=1,
+            max=65535,
+        ),
+    ] = None,
 ) -> None:
     """Say what a controller lacks for the jobs, moving nothing.
 
     Asks the controller at URL (an IRC5 with RobotWare 6, or `twincell serve`) for its
-    RobotWare and options, the signals of twincell's EIO.cfg, the helper module TcHelper
-    and its version, the motors, the operating mode, mastership and the program's state;
+    RobotWare and options, the signals of twincell's EIO.cfg, the UDP device TcPC its EGM
+    streams to (this computer's address; with --egm-port, that port), the helper module
+    TcHelper and its version, the motors, the operating mode, mastership and the program's state;
     says what each is and what to change. The user and password come from
     TWINCELL_RWS_USER and TWINCELL_RWS_PASSWORD, or the file TWINCELL_RWS_CREDENTIALS
     names. Nothing moves. Exit status 0 if the controller has all the jobs need, 1 if not.
@@ -51,7 +62,7 @@ def connect(
     user, password = credentials()
     link = RwsLink(url, user, password, timeout)
     try:
-        report = check_controller(link)
+        report = check_controller(link, egm_port)
     finally:
         link.close()
     typer.echo(render(report))

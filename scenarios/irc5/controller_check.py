@@ -1,20 +1,25 @@
 """What a controller lacks for twincell's jobs (`twincell connect URL`): whether it answers and
 takes the user's credentials, its RobotWare and options, the signals of the shipped EIO.cfg,
-the helper module and its version, the motors, the operating mode, mastership, and whether a
+the UDP device EGM streams to (this computer, the job's --egm-port), the helper module and
+its version, the motors, the operating mode, mastership, and whether a
 program runs. Each finding says what the controller has and, where it falls short, what to
 change. Nothing moves and nothing is written but a mastership taken and given back.
 """
 
 from __future__ import annotations
 
+import contextlib
+import socket
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from urllib.parse import urlparse
 
 from scenarios.irc5.helper_module import (
     HELPER,
     HELPER_FILE,
     IO_FILE,
     OPTIONS,
+    UDP_DEVICE,
     VERSION_SYMBOL,
     helper_version,
     needed_signals,
@@ -69,9 +74,10 @@ class ControllerCheck:
         return tuple(f for f in self.findings if not f.ok and f.needed_by)
 
 
-def check_controller(link: RwsLink) -> ControllerCheck:
-    """Check the controller `link` reaches; a controller that does not answer, or refuses the
-    credentials, is the one finding."""
+def check_controller(link: RwsLink, egm_port: int | None = None) -> ControllerCheck:
+    """Check the controller `link` reaches (`egm_port`: the UDP port the job will be given,
+    None: not checked); a controller that does not answer, or refuses the credentials, is
+    the one finding."""
     try:
         system, options = link.call("tell its system", link.rws.system)
     except LinkError as exc:
@@ -83,6 +89,7 @@ def check_controller(link: RwsLink) -> ControllerCheck:
     findings += [_for_device(_option(o.number, o.name, o.used_for, options), o.device)
                  for o in OPTIONS]  # fmt: skip
     findings += [_for_device(_signal(link, n.name, n.type), n.device) for n in needed_signals()]
+    findings.append(_udp_device(link, egm_port))
     findings.append(_helper(link))
     findings += _state(link)
     return ControllerCheck(link.url, tuple(findings))
@@ -130,6 +137,42 @@ def _signal(link: RwsLink, name: str, kind: str) -> Finding:
     if found.upper() != kind:
         return Finding(what, False, f"a {found}", f"make it a {kind} ({IO_FILE.name})")
     return Finding(what, True, found)
+
+
+def _udp_device(link: RwsLink, egm_port: int | None) -> Finding:
+    """The transmission protocol the helper module streams EGM to: a UDPUC whose remote
+    address is this computer's, as the controller reaches it, and whose port is the job's."""
+    what, here = f"UDP device {UDP_DEVICE}", _address_towards(link.url)
+    where = (
+        f"Configuration > Communication > Transmission Protocol: a UDPUC named {UDP_DEVICE}, "
+        f"remote address {here}"
+    )
+    try:
+        found = link.call(
+            f"read {UDP_DEVICE}", lambda: link.rws.cfg_instance("SIO", "COM_TRP", UDP_DEVICE)
+        )
+    except ControllerRefusalError:
+        port = "" if egm_port is None else f", remote port {egm_port}"
+        return Finding(what, False, "no such transmission protocol", f"add it: {where}{port}")
+    kind, address = found.get("Type", "?"), found.get("RemoteAdress", "?")
+    port_text = found.get("RemotePortNumber", "?")
+    has = f"a {kind} to {address}:{port_text}"
+    if kind != "UDPUC":
+        return Finding(what, False, has, f"make it a UDPUC ({where})")
+    if address != here:
+        return Finding(what, False, has, f"set its remote address to {here} (this computer)")
+    if egm_port is not None and port_text != str(egm_port):
+        return Finding(what, False, has, f"set its remote port to {egm_port} (--egm-port)")
+    return Finding(what, True, has)
+
+
+def _address_towards(url: str) -> str:
+    """This computer's address on the route to the controller at `url` (no packet sent)."""
+    host = urlparse(url).hostname or "127.0.0.1"
+    with contextlib.suppress(OSError), socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.connect((socket.gethostbyname(host), 9))
+        return str(s.getsockname()[0])
+    return "?"
 
 
 def _helper(link: RwsLink) -> Finding:

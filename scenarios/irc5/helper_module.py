@@ -21,6 +21,9 @@ HELPER = "TcHelper"
 STREAM_PROC = "TcStream"
 #: The helper's CONST that says which version of it is loaded.
 VERSION_SYMBOL = "tcHelperVersion"
+#: The transmission protocol (a UDPUC) TcStream sets EGM up for: its remote address and port
+#: are the job's computer's and its --egm-port.
+UDP_DEVICE = "TcPC"
 
 
 #: The signals and options a device needs, by the tool that carries it: only jobs that use

@@ -81,6 +81,12 @@ class _Rws(RWS):
         state = self._do_get(f"rw/iosystem/signals/Local/DRV_1/{name}")["_embedded"]["_state"]
         return str(state[0]["type"])
 
+    def cfg_instance(self, domain: str, kind: str, name: str) -> dict[str, str]:
+        """The attributes (title -> value) of an instance of the system configuration, e.g.
+        SIO's COM_TRP `TcPC` (rw/cfg/{domain}/{kind}/instances/{name})."""
+        found = self._do_get(f"rw/cfg/{domain}/{kind}/instances/{name}")["_embedded"]["_state"]
+        return {str(a["_title"]): str(a.get("value", "")) for a in found[0].get("attrib", [])}
+
     def mastership(self, action: str) -> None:
         """Request or release the controller's mastership (write access)."""
         self._do_post(f"rw/mastership?action={action}")

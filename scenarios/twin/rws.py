@@ -8,6 +8,7 @@ answers them (JSON with `json=1`: the state under `_embedded._state`, each item 
   set), `rw/rapid/symbols?action=search-symbols`;
 - `rw/iosystem/signals[/Local/DRV_1/NAME]` (get, set);
 - `rw/motionsystem/mechunits/ROB_1/jointtarget`, `/robtarget?tool=&wobj=&coordinate=`;
+- `rw/cfg/SIO/COM_TRP/instances/NAME` (the UDP device EGM streams to, when it does);
 - `rw/system` (the RobotWare version and options); `rw/elog/0`; `rw/mastership` (request,
   release: in automatic mode only); `ctrl/$RAMDISK`, `ctrl/$HOME`;
 - `fileservice/$HOME/...`, `fileservice/$RAMDISK/...` (PUT, GET, DELETE, folder listings);
@@ -49,6 +50,8 @@ class Rws:
     def __init__(self, twin: TwinController) -> None:
         self.twin = twin
         self.subscriptions = Subscriptions(twin)
+        #: The system configuration's UDP devices: name -> (remote address, port).
+        self.udp_devices: dict[str, tuple[str, int]] = {}
         p = self
         self.routes: list[tuple[str, re.Pattern[str], Handler]] = [
             (m, re.compile(rx + "$"), h)
@@ -74,6 +77,7 @@ class Rws:
                 ("GET", r"rw/motionsystem/mechunits/ROB_1/robtarget", p.robtarget),
                 ("GET", r"rw/elog/0", p.elog),
                 ("GET", r"rw/system", p.system),
+                ("GET", r"rw/cfg/SIO/COM_TRP/instances/([^/]+)", p.udp_device),
                 ("POST", r"rw/mastership(?:/.*)?", p.mastership),
                 ("GET", r"ctrl/\$(RAMDISK|HOME|TEMP)", p.ctrl_path),
                 ("GET", r"fileservice/(.+)", p.read_file),
@@ -284,6 +288,18 @@ class Rws:
                   "rwversion": ROBOTWARE, "rwversionname": ROBOTWARE}]  # fmt: skip
         items += [{"_type": "sys-option-li", "_title": o, "option": o} for o in OPTIONS]
         return state(r, items)
+
+    def udp_device(self, r: Request, arg: str = "") -> Response:
+        """A transmission protocol of the system configuration (RWS's cfg instance: each
+        attribute's `_title` and `value`; ABB spells RemoteAdress so)."""
+        name = _name(r, arg)
+        found = {n.casefold(): (n, d) for n, d in self.udp_devices.items()}.get(name.casefold())
+        if found is None:
+            raise not_found(f"COM_TRP instance {name!r}: no such transmission protocol")
+        (title, (host, port)) = found
+        values = {"Name": title, "Type": "UDPUC", "RemoteAdress": host, "RemotePortNumber": port}
+        attrib = [{"_type": "cfg-ia-t-li", "_title": k, "value": str(v)} for k, v in values.items()]
+        return state(r, [{"_type": "cfg-dt-instance-li", "_title": title, "attrib": attrib}])
 
     def mastership(self, r: Request, arg: str = "") -> Response:
         action = r.query.get("action")

@@ -36,6 +36,9 @@ class ServeOptions:
     profiles_port: int | None = None
     laser: LaserStream = field(default_factory=LaserStream)
     faults: NetworkFaults = field(default_factory=NetworkFaults)
+    #: The transmission protocol (UDP device) of the system configuration EGM streams to:
+    #: the one the helper module's TcStream names (scenarios.irc5.helper_module.UDP_DEVICE).
+    egm_device: str = "TcPC"
 
 
 class ServedController:
@@ -54,6 +57,7 @@ class ServedController:
         if options.egm_port is not None:
             lose = draws.egm_lost if options.faults.egm_loss > 0.0 else None
             self.egm = EgmServer((options.egm_host, options.egm_port), options.host, lose)
+            self.rws.udp_devices[options.egm_device] = (options.egm_host, options.egm_port)
             twin.guidance = Guidance(twin.cell, self.egm, twin.elog)
         self.profiles: ProfileServer | None = None
         if options.profiles_port is not None:
