@@ -1,11 +1,12 @@
-"""The skull job across the network against the same job in process, seed by seed.
+"""A job across the network against the same job in process, seed by seed.
 
-    python bench/bench_network_job.py [--seeds 300 301 ...] [--speed 20] [--laser-latency MS]
-        [--out DIR]
+    python bench/bench_network_job.py [--job skull] [--seeds 300 301 ...] [--speed 20]
+        [--laser-latency MS] [--out DIR]
 
-For each seed: `twincell run skull --seed S` in process; then `twincell serve skull --seed S`
-in a process of its own (a fresh real cell, its time --speed times the wall's) and
-`twincell run skull --seed S --controller ...` against it (its laser stamping each profile
+For each seed: `twincell run JOB --seed S` in process (the skull job, or the assembly job:
+IR probing, a pick with the gripper, the screwer's touches); then `twincell serve JOB --seed
+S` in a process of its own (a fresh real cell, its time --speed times the wall's) and
+`twincell run JOB --seed S --controller ...` against it (its laser stamping each profile
 --laser-latency ms after its exposure, which the job's calibration identifies). Prints each
 seed's status and target errors both ways and their differences, the latency identified, the
 wall time of each stage both ways (the network's overhead per stage), and the cell time.
@@ -35,14 +36,14 @@ def _twincell(*args: str, log: Path) -> float:
 
 
 def _results(folder: Path) -> dict:
-    return json.loads(next(folder.glob("skull-*/results.json")).read_text())
+    return json.loads(next(folder.glob("*-*/results.json")).read_text())
 
 
-def _network(seed: int, speed: float, latency_ms: float, out: Path) -> tuple[dict, float]:
+def _network(job: str, seed: int, speed: float, latency_ms: float, out: Path) -> tuple[dict, float]:
     extra = ("--laser-latency", str(latency_ms))
-    with served("skull", seed, speed, out, *extra) as ports:
+    with served(job, seed, speed, out, *extra) as ports:
         wall = _twincell(
-            "run", "skull", "--seed", str(seed), "--out", str(out / "net"),
+            "run", job, "--seed", str(seed), "--out", str(out / "net"),
             "--controller", ports.url, "--egm-port", str(ports.egm),
             "--profiles", f"127.0.0.1:{ports.profiles}", log=out / "net.log",
         )  # fmt: skip
@@ -63,6 +64,7 @@ def _latency(result: dict) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--job", choices=("skull", "assembly"), default="skull")
     parser.add_argument("--seeds", type=int, nargs="+", default=list(range(300, 310)))
     parser.add_argument("--speed", type=float, default=20.0)
     parser.add_argument("--laser-latency", type=float, default=0.0, metavar="MS")
@@ -74,10 +76,10 @@ def main() -> None:
         out = args.out / f"seed{seed}"
         out.mkdir(parents=True, exist_ok=True)
         wall_in = _twincell(
-            "run", "skull", "--seed", str(seed), "--out", str(out / "in"), "--no-rrd",
+            "run", args.job, "--seed", str(seed), "--out", str(out / "in"), "--no-rrd",
             log=out / "in.log",
         )  # fmt: skip
-        ours, wall_net = _network(seed, args.speed, args.laser_latency, out)
+        ours, wall_net = _network(args.job, seed, args.speed, args.laser_latency, out)
         theirs = _results(out / "in")
         e_in = {t["name"]: t["error_m"] for t in theirs.get("targets", [])}
         e_net = {t["name"]: t["error_m"] for t in ours.get("targets", [])}
@@ -93,7 +95,8 @@ def main() -> None:
         largest = f"{max(diffs) * 1e3:.3f} mm" if diffs else "-"
         console.print(f"seed {seed}: in process {theirs['status']}, network {ours['status']}, "
                       f"largest target difference {largest}")  # fmt: skip
-    table = Table(title=f"skull across the network (twin at speed {args.speed:g}) vs in process")
+    title = f"{args.job} across the network (twin at speed {args.speed:g}) vs in process"
+    table = Table(title=title)
     columns = (
         "seed", "status in / net", "rms in / net [mm]", "max in / net [mm]",
         "largest target diff [mm]", "latency found [ms]", "cell time in / net [s]",

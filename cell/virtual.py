@@ -283,13 +283,14 @@ class VirtualCell:
         with a geom of `other` within the margin."""
         if other is None:
             return geoms, dist
-        rows = (dist <= margin_m) & np.isin(geoms, self._geoms_named(other)).any(axis=1)
+        rows = (dist <= margin_m) & self._geoms_named(other)[geoms].any(axis=1)
         return geoms[rows], dist[rows]
 
     def _geoms_named(self, name: str) -> np.ndarray:
-        """The ids of the geoms a contact calls `name`."""
+        """(ngeom,) bool: the geoms a contact calls `name` (a lookup by geom id, as fast as
+        the path checks that ask it at every step need)."""
         if name not in self._named:
-            self._named[name] = np.flatnonzero(np.array(self._geom_name, dtype=object) == name)
+            self._named[name] = np.array(self._geom_name, dtype=object) == name
         return self._named[name]
 
     def _surface_distance(self, geom: int, name: str) -> float:

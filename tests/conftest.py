@@ -4,12 +4,15 @@ short skull job that several files inspect, run once per session."""
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import json
 import os
 import shutil
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -106,21 +109,53 @@ def _exclusive(lock: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+#: The packages whose files a run depends on, and the libraries whose versions it does.
+_PACKAGES = ("cell", "models", "registration", "scenarios")
+_LIBRARIES = ("mujoco", "pin", "numpy", "scipy", "trimesh", "rerun-sdk", "libigl")
+
+
+def _code_key(job: str) -> str:
+    """A digest of the job's text, every file of the packages and the libraries' versions:
+    a run kept under it was made by this code, on these libraries."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256(job.encode())
+    for package in _PACKAGES:
+        for path in sorted((root / package).rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                digest.update(str(path.relative_to(root)).encode())
+                digest.update(path.read_bytes())
+    for library in _LIBRARIES:
+        digest.update(f"{library}={metadata.version(library)}".encode())
+    digest.update(sys.version.encode())
+    return digest.hexdigest()[:20]
+
+
 @pytest.fixture(scope="session")
-def short_skull_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def short_skull_run(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The run folder of `twincell run short.yaml` (SHORT_SKULL, with its recording and
-    figures), run once per test session: under pytest-xdist the first worker to need it runs
-    it in the session's common temporary folder while any other waits, then all read it.
-    The tests read the folder and write nothing into it."""
+    figures), run once: under pytest-xdist the first worker to need it runs it while any
+    other waits, then all read it. It is kept in pytest's cache under a digest of the code
+    and the libraries (`_code_key`), so that the next session on the same code (the slow
+    tier after the fast one) reads it instead of running it again; without the cache
+    (`-p no:cacheprovider`), in the session's temporary folder. The tests read the folder
+    and write nothing into it."""
     from scenarios.cli.app import main
 
-    base = tmp_path_factory.getbasetemp()
-    if "PYTEST_XDIST_WORKER" in os.environ:
-        base = base.parent  # each worker's is one folder of the session's
-    root = base / "short_skull"
-    with _exclusive(base / "short_skull.lock"):
+    cache = getattr(pytestconfig, "cache", None)
+    if cache is not None:
+        home = Path(cache.mkdir("twincell_short_skull"))
+    else:
+        base = tmp_path_factory.getbasetemp()
+        if "PYTEST_XDIST_WORKER" in os.environ:
+            base = base.parent  # each worker's is one folder of the session's
+        home = base / "short_skull"
+        home.mkdir(exist_ok=True)
+    root = home / _code_key(SHORT_SKULL)
+    with _exclusive(home / "lock"):
         if not (root / "complete").is_file():
-            shutil.rmtree(root, ignore_errors=True)  # what a failed attempt left
+            for old in home.iterdir():  # what a failed attempt or older code left
+                if old.is_dir():
+                    shutil.rmtree(old, ignore_errors=True)
             root.mkdir()
             config = root / "short.yaml"
             config.write_text(SHORT_SKULL)

@@ -283,10 +283,9 @@ class RemoteController(Controller):
     def stop_named(self, robtarget: str) -> None:
         """A stop point where the arm stands, its target named `robtarget` in the program the
         controller runs (what watches the controller's programs sees a touch by its name)."""
-        tool = self._carried()
-        text = linear_move(
-            self.nominal_kinematics, self._q_command, tool, 0.01, 0.1, SETTLE_S, robtarget
-        )
+        tool, supervised = self._carried(), self.devices.supervised
+        text = linear_move(self.nominal_kinematics, self._q_command, tool, 0.01, 0.1, SETTLE_S,
+                           robtarget, supervised)  # fmt: skip
         self._run(text, f"the stop at {robtarget}")
 
     def run_program(self, module: str, text: str) -> None:
