@@ -111,7 +111,6 @@ class TwinController:
         #: A tool change runs: a client's stop waits for its end (halted in the rack, the arm
         #: would leave it by a joint move through the tools beside the slot).
         self._changing_tool = False
-        self._tools = controller.tools
         self._closing = threading.Event()
         self.pacer = WallClockPacer(speed, controller.time_s, self._lagging)
         #: The I/O signals and the devices behind them.
@@ -396,7 +395,7 @@ class TwinController:
         return self.io.read(spec, self.snapshot)
 
     def set_signal(self, spec: SignalSpec, text: str) -> None:
-        """Set an output; one that drives a device waits for the program to stop."""
+        """Set an output; one that drives a device is refused while the program runs."""
         self.require_auto("set a signal")
         value = parse_value(spec, text)
         if spec.name in DEVICE_OUTPUTS:
