@@ -1,8 +1,9 @@
 """The cell's devices on the controller's I/O, as the client works them over Robot Web
 Services (the signals of the shipped EIO.cfg; the twin serves them: scenarios.twin.cell_io):
 
-- the tool in hand: `aiToolNumber` (the tool changer's lock is the controller API's own
-  sequence: scenarios.irc5.remote_controller);
+- the tool changer: its lock valve `doToolLock` set and `diToolLocked` waited for, the tool
+  in hand read from `aiToolNumber` (fetching and returning a tool are the controller API's
+  own sequences of moves around them: scenarios.irc5.remote_controller);
 - the gripper: `aoGripperOpening` [mm], then `diGripperReady` waited for (the fingers at
   rest, on the part or at the opening);
 - the screwer: its tightening program's `aoSpindleSpeed` [rad/s] and `aoSpindleTime` [s],
@@ -21,6 +22,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import NoReturn
 
 from scenarios.irc5.link_errors import ControllerRefusalError
 from scenarios.irc5.rws_link import RwsLink
@@ -36,7 +38,7 @@ class Devices:
     """The devices behind the controller at `link`; `why(what)` raises what the event log
     says of a device that did not answer (scenarios.irc5.remote_controller)."""
 
-    def __init__(self, link: RwsLink, why: Callable[[str], None]) -> None:
+    def __init__(self, link: RwsLink, why: Callable[[str], NoReturn]) -> None:
         self.link = link
         self._why = why
         #: The motion supervision watches the moves (False inside `supervision_off`).
