@@ -21,6 +21,7 @@ import igl
 import numpy as np
 import pytest
 from abb_robot_client.rws import RWS
+from bench_support.served_twin import free_port
 from rrd_reader import read_rrd
 
 from cell import LaserConfig, nominal_T_base_table
@@ -36,12 +37,6 @@ from scenarios.offline.laser_latency import LatencyEstimate, latency_alone
 
 SPEED = 20.0
 _STILL = Feedback(0.0, 0.0, 0, np.zeros(6), None, False, True)
-
-
-def _free_port(kind: socket.SocketKind) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @dataclass
@@ -65,8 +60,8 @@ def serve(
 ) -> Served:
     """`twincell serve JOB` for `seed` in a process of its own, its time `speed` times the
     wall's, with the `extra` options, its lines to serve.log in `out`."""
-    rws, egm = _free_port(socket.SOCK_STREAM), _free_port(socket.SOCK_DGRAM)
-    profiles = _free_port(socket.SOCK_STREAM)
+    rws, egm = free_port(socket.SOCK_STREAM), free_port(socket.SOCK_DGRAM)
+    profiles = free_port(socket.SOCK_STREAM)
     command = [
         sys.executable, "-m", "scenarios.cli", "serve", job, "--seed", str(seed),
         "--speed", str(speed), "--rws", f"127.0.0.1:{rws}", "--egm-port", str(egm),

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from abb_robot_client.rws import RWS
+from bench_support.served_twin import free_port
 
 from cell.controller import SETTLE_S
 from cell.irb2400_arm import irb2400
@@ -45,14 +46,8 @@ from scenarios.twin.signals import BY_NAME
 REMOTE = Path(__file__).parents[1] / "scenarios" / "irc5" / "remote_controller.py"
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 #: The UDP port the served twin streams EGM to (its UDP device's remote port).
-EGM_PORT = _free_udp_port()
+EGM_PORT = free_port(socket.SOCK_DGRAM)
 
 
 @pytest.fixture

@@ -15,6 +15,7 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from bench_support.served_twin import free_port
 
 from cell import LaserConfig, ToolChangerError
 from cell.irb2400_arm import irb2400
@@ -30,15 +31,9 @@ from scenarios.twin.server import ServeOptions
 pytestmark = pytest.mark.slow
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @pytest.fixture(scope="module")
 def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Serving, RemoteController]]:
-    port = _free_udp_port()
+    port = free_port(socket.SOCK_DGRAM)
     serving = serve_job(
         "assembly", ServeOptions(port=0, egm_port=port), speed=50.0,
         out=tmp_path_factory.mktemp("serve"),

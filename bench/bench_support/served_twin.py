@@ -27,7 +27,8 @@ class Ports:
         return f"http://127.0.0.1:{self.rws}"
 
 
-def _free(kind: socket.SocketKind) -> int:
+def free_port(kind: socket.SocketKind) -> int:
+    """A port of `kind` (SOCK_STREAM: TCP, SOCK_DGRAM: UDP) free on 127.0.0.1 now."""
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
@@ -37,7 +38,9 @@ def _free(kind: socket.SocketKind) -> int:
 def served(job: str, seed: int, speed: float, out: Path, *extra: str) -> Iterator[Ports]:
     """`twincell serve JOB --seed SEED --speed SPEED EXTRA...`, its serve folder and log
     (serve.log) in `out`, until the block ends."""
-    ports = Ports(_free(socket.SOCK_STREAM), _free(socket.SOCK_DGRAM), _free(socket.SOCK_STREAM))
+    ports = Ports(
+        free_port(socket.SOCK_STREAM), free_port(socket.SOCK_DGRAM), free_port(socket.SOCK_STREAM)
+    )
     out.mkdir(parents=True, exist_ok=True)
     log = out / "serve.log"
     with log.open("w") as sink:

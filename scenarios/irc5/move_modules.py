@@ -65,13 +65,18 @@ def _speed(v_tcp_mm_s: float, v_ori_deg_s: float) -> str:
     return f"[{rapid_number(v_tcp)}, {rapid_number(v_ori)}, {_EXTERNAL}]"
 
 
+def _stands_own_time(settle_s: float) -> bool:
+    """Whether a stop point settles another time than the controller's own (SETTLE_S)."""
+    return settle_s > 0.0 and abs(settle_s - SETTLE_S) >= 1e-9
+
+
 def _zone(settle_s: float) -> str:
     """A stop point if the move settles, else fly-by (z0). A stop point is `fine` where the
     settling asked is the controller's own (SETTLE_S), else `fine \\Inpos:=STOP`: the arm
     stands `settle_s` still there (see `_stop_declaration`)."""
     if settle_s <= 0.0:
         return "z0"
-    return "fine" if abs(settle_s - SETTLE_S) < 1e-9 else f"fine \\Inpos:={STOP}"
+    return f"fine \\Inpos:={STOP}" if _stands_own_time(settle_s) else "fine"
 
 
 def _supervision(supervised: bool) -> str:
@@ -84,7 +89,7 @@ def _stop_declaration(settle_s: float) -> str:
     """The module's stoppointdata line where its stop point stands its own time: of type
     stoptime, the arm standing still `settle_s` [s] before the program goes on ("" where the
     zone needs none)."""
-    if "Inpos" not in _zone(settle_s):
+    if not _stands_own_time(settle_s):
         return ""
     return (
         f"  CONST stoppointdata {STOP} := "
