@@ -136,7 +136,9 @@ def test_a_rapid_program_for_a_ur5_is_refused(tmp_path: Path) -> None:
 
 
 def test_bad_cells_are_refused_naming_what_is_valid(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match=r"unknown cell 'kuka'; shipped: ur5, or give a \.yaml"):
+    with pytest.raises(
+        ConfigError, match=r"unknown cell 'kuka'; shipped: point_laser, ur5, or give a \.yaml"
+    ):
         load_config("skull", cell="kuka")
     with pytest.raises(ConfigError, match=r"robot file 'my_arm\.urdf' needs `flange`"):
         load_config("skull", {"cell.robot.model": "my_arm.urdf"})

@@ -15,6 +15,7 @@ from pydantic import (
 from cell.robots import BUILTIN
 from scenarios.offline.settings import (
     FixtureTolerance,
+    LaserSection,
     NominalPlacement,
     Section,
 )
@@ -153,11 +154,12 @@ class RobotSection(Section):
 
 class CellSection(Section):
     """The cell: its robot, where the tool rack stands (`rack_xyz` [m]: the rack frame, the
-    slots 0.25 m apart along x from it and 0.8 m above it), the object, and the error
-    sources of the real cell and of the model."""
+    slots 0.25 m apart along x from it and 0.8 m above it), its laser, the object, and the
+    error sources of the real cell and of the model."""
 
     robot: RobotSection = RobotSection()
     rack_xyz: tuple[float, float, float] = (0.0, -0.85, 0.0)
+    laser: LaserSection = LaserSection()
     object: ObjectSection = ObjectSection()
     noise: Noise = Noise()
 

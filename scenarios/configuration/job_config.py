@@ -91,6 +91,7 @@ class JobConfig(Section):
         return PlanningSettings(
             seed=self.seed,
             rack_xyz=self.cell.rack_xyz,
+            laser=self.cell.laser,
             object_name=self.object_name,
             fixing=obj.fixing,
             placement=NominalPlacement(**p.model_dump(include=set(NominalPlacement.model_fields))),

@@ -23,13 +23,13 @@ from urllib.parse import urlparse
 
 import numpy as np
 
-from cell.layout import LaserConfig
 from cell.robot_arm import Robot
 from models.model import ObjectModel
 from registration.rigid import transform_points
 from scenarios.configuration.job_config import JobConfig
 from scenarios.irc5.egm_feedback import EgmFeedback
 from scenarios.irc5.line_profiler import ProfileBuffer, ProfileStream
+from scenarios.irc5.link_errors import NotOfferedError
 from scenarios.irc5.motion_witness import MotionWitness
 from scenarios.irc5.move_modules import MODULE
 from scenarios.irc5.remote_controller import ClientSettings, RemoteController
@@ -121,7 +121,15 @@ def client_settings(config: JobConfig) -> ClientSettings:
 
 def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> RemoteController:
     """The job's controller across the network, with the cell's data sheets (the arm, the
-    rack's place, the laser's rays)."""
+    rack's place, the laser's rays). A point laser is refused before anything connects: its
+    reading through the controller's analog input and EGM is not offered yet."""
+    if config.cell.laser.kind != "line":
+        raise NotOfferedError(
+            f"cell.laser.kind {config.cell.laser.kind!r} across the network: the client reads "
+            "a line profiler's own stream (--profiles); a point laser's reading through the "
+            "controller's analog input is not offered yet. Run this job in process (without "
+            "--controller), or with a line profiler (cell.laser.kind: line)"
+        )
     user, password = credentials()
     link = RwsLink(address.url, user, password)
     feedback = EgmFeedback(address.egm_port)
@@ -136,7 +144,7 @@ def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> Remo
             robot,
             robot.kinematics(),
             config.cell.rack_xyz,
-            LaserConfig(),
+            config.cell.laser.data_sheet(),
             settings=client_settings(config),
         )
     except BaseException:

@@ -5,8 +5,9 @@ truth in them).
 The laser is fetched from its slot (its mounting on the flange follows from the fetch); at
 each of the plan's table positions it looks at each sphere from many arm configurations
 (tilts, headings, turns of the laser about its axis, near and far), a few static laser lines
-per view, every joint coming to a view from below; it ends back in its slot, put there with
-the kinematics that fetched it (scenarios.offline.calibration).
+per view (a point laser: at a few stops across the sphere), every joint coming to a view
+from below; it ends back in its slot, put there with the kinematics that fetched it
+(scenarios.offline.calibration).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell import Controller, Kinematics, nominal_T_base_table
-from cell.cell_errors import CellError
+from cell.cell_errors import CellError, UnreachableTargetError
 from cell.controller import RACK_APPROACH_M
 from models.robot import LASER
 from registration.rigid import make_T
@@ -221,6 +222,19 @@ def _move(controller: Controller, q: np.ndarray, sphere: int, settle_s: float = 
         raise CalibrationError(f"a calibration view of sphere {sphere + 1} failed: {exc}") from exc
 
 
+#: A point laser's stops across a sphere at each view: this many, evenly within this many
+#: radii either side of the view along the laser's x axis, reached at this speed [m/s]. It
+#: reads standing still at each, averaged, as the line laser does at its views: a single
+#: reading, or readings taken while the arm moves, calibrate the arm worse.
+STOPS = 7
+STOP_RADII = 0.9
+STOP_SPEED_M_S = 0.1
+
+#: What a view reads: (measured joints (6,) [rad], table readout [m], points (M, 3) in the
+#: laser frame [m]), one per view of a line laser, one per stop of a point laser.
+Line = tuple[np.ndarray, float, np.ndarray]
+
+
 def _view_sphere(
     controller: Controller,
     sphere: int,
@@ -229,30 +243,66 @@ def _view_sphere(
     centre_base: np.ndarray,
     artifact: SphereArtifact,
     viewed: Callable[[], None],
-) -> tuple[np.ndarray, float, np.ndarray] | None:
+) -> list[Line]:
     """Move to the view `q` (6,) [rad] of sphere `sphere` (its nominal centre `centre_base`
-    (3,) [m]), tell `viewed()`, and read `lines_per_view` laser lines standing still,
-    averaged ray by ray: the mean measured joints, the table readout [m] and the points
-    (M, 3) in the laser frame within the sphere's radius + 10 mm of its centre and not on
-    its post; None if none is."""
+    (3,) [m]), tell `viewed()`, and read it: a line laser reads `lines_per_view` lines
+    standing still, averaged ray by ray (one line: the mean measured joints, the table
+    readout and the points); a point laser stops at places across the sphere and reads as
+    many at each (`_stops`: a line per stop). Only points within the sphere's radius + 10 mm
+    of its centre and not on its post are kept; a line left without one is dropped."""
     # Every joint comes to a view from the same side (from below), so that the drives' lost
     # motion is the same at every view (ISO 9283's unidirectional approach): the fit sees it
     # as a constant, not as noise.
     _move(controller, q - APPROACH_RAD, sphere, settle_s=0.0)
     _move(controller, q, sphere, settle_s=0.2)
     viewed()
-    readings = [controller.read_laser() for _ in range(lines_per_view)]
-    ranges = np.array([r.distances for r in readings])
-    index = np.flatnonzero(np.all(np.isfinite(ranges), axis=0))
-    q_view = np.mean([r.q_measured for r in readings], axis=0)
-    p_laser = controller.laser_directions_tcp[index] * ranges[:, index].mean(axis=0)[:, None]
-    T = controller.kinematics.fk(q_view) @ controller.T_flange_tcp()
-    rel = p_laser @ T[:3, :3].T + T[:3, 3] - centre_base
+    dirs = controller.laser_directions_tcp
+    if len(dirs) == 1:
+        lines = _stops(controller, sphere, artifact.radius_m, lines_per_view)
+    else:
+        readings = [controller.read_laser() for _ in range(lines_per_view)]
+        ranges = np.array([r.distances for r in readings])
+        index = np.flatnonzero(np.all(np.isfinite(ranges), axis=0))
+        q_view = np.mean([r.q_measured for r in readings], axis=0)
+        p_laser = dirs[index] * ranges[:, index].mean(axis=0)[:, None]
+        lines = [(q_view, readings[0].table_position_m, p_laser)]
     margin = artifact.radius_m + 0.01
-    keep = (np.linalg.norm(rel, axis=1) < margin) & (rel[:, 2] > -0.6 * artifact.radius_m)
-    if not np.any(keep):
-        return None
-    return q_view, readings[0].table_position_m, p_laser[keep]
+    out = []
+    for q_line, table_m, p_laser in lines:
+        T = controller.kinematics.fk(q_line) @ controller.T_flange_tcp()
+        rel = p_laser @ T[:3, :3].T + T[:3, 3] - centre_base
+        keep = (np.linalg.norm(rel, axis=1) < margin) & (rel[:, 2] > -0.6 * artifact.radius_m)
+        if np.any(keep):
+            out.append((q_line, table_m, p_laser[keep]))
+    return out
+
+
+def _stops(controller: Controller, sphere: int, radius_m: float, readings: int) -> list[Line]:
+    """A point laser's stops across the sphere it looks at: STOPS places along the laser's x
+    axis within STOP_RADII radii of the view, `readings` readings standing still at each,
+    averaged (a line per stop with a return; a stop the arm does not reach is left out,
+    refused before it moves)."""
+    T_view = controller.kinematics.fk(controller.read_joints()) @ controller.T_flange_tcp()
+    out = []
+    for u in np.linspace(-STOP_RADII, STOP_RADII, STOPS):
+        T = T_view.copy()
+        T[:3, 3] += u * radius_m * T_view[:3, 0]
+        if not controller.reachable(T):
+            continue
+        try:
+            controller.move_linear(T, speed_m_s=STOP_SPEED_M_S, settle_s=0.2)
+        except UnreachableTargetError:
+            continue
+        except CellError as exc:
+            raise CalibrationError(
+                f"a calibration view of sphere {sphere + 1} failed: {exc}"
+            ) from exc
+        got = [controller.read_laser() for _ in range(readings)]
+        d = np.array([r.distances[0] for r in got])
+        if np.all(np.isfinite(d)):
+            q = np.mean([r.q_measured for r in got], axis=0)
+            out.append((q, got[0].table_position_m, controller.laser_directions_tcp * d.mean()))
+    return out
 
 
 def _station(
@@ -317,15 +367,13 @@ def measure_spheres(
             seen = _view_sphere(
                 controller, s, view.q, plan.lines_per_view, centres[s], artifact, viewed
             )
-            if seen is None:
-                continue
-            q_view, table_position_m, keep_points = seen
-            q_lines.append(q_view)
-            table_lines.append(table_position_m)
-            station_lines.append(k)
-            lines.append(np.full(len(keep_points), len(q_lines) - 1))
-            spheres.append(np.full(len(keep_points), s))
-            points.append(keep_points)
+            for q_view, table_position_m, keep_points in seen:
+                q_lines.append(q_view)
+                table_lines.append(table_position_m)
+                station_lines.append(k)
+                lines.append(np.full(len(keep_points), len(q_lines) - 1))
+                spheres.append(np.full(len(keep_points), s))
+                points.append(keep_points)
     say(
         f"calibration: {n_views} views of {len(artifact.centres_table)} spheres at "
         f"{len(plan.table_positions_m)} table positions, {len(q_lines)} lines"

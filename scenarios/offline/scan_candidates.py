@@ -17,9 +17,9 @@ from cell.virtual import VirtualCell
 from models.robot import LASER
 from registration import transform_points
 from registration.rigid import invert
-from scenarios.offline.scan_passes import ObjectBox, PlannedPass, plan_pass
+from scenarios.offline.scan_passes import ObjectBox, PlannedPass, plan_pass, raster_for
 from scenarios.offline.scan_timing import joint_move_s, pass_seconds
-from scenarios.offline.settings import Scan, ScanPass
+from scenarios.offline.settings import Raster, Scan, ScanPass
 from scenarios.offline.table_candidates import UnreachablePlanError
 
 #: Laser lines [m] apart along a candidate's sweep in its prediction (the real pass reads
@@ -66,6 +66,10 @@ class PlanningCell:
     laser: tuple[np.ndarray, tuple[float, float], float]
     T_base_table: Callable[[float], np.ndarray] = nominal_T_base_table
     object_name: str = "object"
+
+    def raster(self, section: Scan) -> Raster | None:
+        """The `section`'s raster where the laser is a point (`Scan.raster`), else None."""
+        return raster_for(section, self.laser[0])
 
     def predict(self, planned: PlannedPass) -> tuple[np.ndarray, np.ndarray]:
         """Points (M, 3) and normals (M, 3) in the model frame that the pass' laser sees of
@@ -118,26 +122,37 @@ def _predict(
     object_name: str,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Points (M, 3) and normals (M, 3) in the model frame that the pass' laser sees of the
-    object in the virtual cell."""
+    object in the virtual cell: every PREDICT_RAY_STRIDE-th ray of a line laser's fan, every
+    raster_stride-th line of a point laser's raster, a reading every PREDICT_LINE_SPACING_M
+    along each line."""
     cell.set_table(planned.table_position_m)
     T_world_table = cell.T_world_site("table_top")
-    p0, p1 = planned.T_table_start[:3, 3], planned.T_table_end[:3, 3]
-    n_lines = max(2, int(np.ceil(np.linalg.norm(p1 - p0) / PREDICT_LINE_SPACING_M)) + 1)
     R = T_world_table[:3, :3] @ planned.T_table_start[:3, :3]
     dirs = dirs_tcp[::PREDICT_RAY_STRIDE] @ R.T
     cos_max = np.cos(max_incidence_rad)
     points, normals = [], []
-    for s in np.linspace(0.0, 1.0, n_lines):
-        origin = T_world_table[:3, :3] @ (p0 + s * (p1 - p0)) + T_world_table[:3, 3]
-        dist, normal, name = cell.cast(origin, dirs, range_m[1])
-        ok = (name == object_name) & (dist >= range_m[0]) & (dist <= range_m[1])
-        ok &= -np.einsum("ij,ij->i", normal, dirs) >= cos_max
-        points.append(origin + dist[ok, None] * dirs[ok])
-        normals.append(normal[ok])
+    for start, end in planned.lines()[:: raster_stride(planned)]:
+        p0, p1 = start[:3, 3], end[:3, 3]
+        n_lines = max(2, int(np.ceil(np.linalg.norm(p1 - p0) / PREDICT_LINE_SPACING_M)) + 1)
+        for s in np.linspace(0.0, 1.0, n_lines):
+            origin = T_world_table[:3, :3] @ (p0 + s * (p1 - p0)) + T_world_table[:3, 3]
+            dist, normal, name = cell.cast(origin, dirs, range_m[1])
+            ok = (name == object_name) & (dist >= range_m[0]) & (dist <= range_m[1])
+            ok &= -np.einsum("ij,ij->i", normal, dirs) >= cos_max
+            points.append(origin + dist[ok, None] * dirs[ok])
+            normals.append(normal[ok])
     T_object_world = invert(T_world_table @ T_table_object)
     p = transform_points(T_object_world, np.concatenate(points))
     n = np.concatenate(normals) @ T_object_world[:3, :3].T
     return p, n
+
+
+def raster_stride(planned: PlannedPass) -> int:
+    """Every how many lines of the pass' raster its prediction casts: lines at least
+    PREDICT_LINE_SPACING_M apart (1 for a line laser's pass)."""
+    if not planned.raster_m:
+        return 1
+    return max(1, round(PREDICT_LINE_SPACING_M / planned.raster_m[0]))
 
 
 def _clear(
@@ -147,23 +162,26 @@ def _clear(
     T_base_table: Callable[[float], np.ndarray],
     margin_m: float,
 ) -> bool:
-    """Whether the arm with the laser follows the pass' line clear of everything by
-    `margin_m` [m] in the virtual cell (checked at COLLISION_SAMPLES points)."""
+    """Whether the arm with the laser follows the pass' line (a raster's first and last
+    lines) clear of everything by `margin_m` [m] in the virtual cell (checked at
+    COLLISION_SAMPLES points of each)."""
     cell.set_tool("laser")
     cell.set_table(planned.table_position_m)
     T_base = T_base_table(planned.table_position_m)
     q = planned.q_start
-    p0, p1 = planned.T_table_start[:3, 3], planned.T_table_end[:3, 3]
-    for s in np.linspace(0.0, 1.0, COLLISION_SAMPLES):
-        T = planned.T_table_start.copy()
-        T[:3, 3] = p0 + s * (p1 - p0)
-        r = kin.ik(T_base @ T, q, LASER.T_tool_tcp, extra_seeds=0)
-        if not r.success:
-            return False
-        q = r.q
-        cell.set_joints(q)
-        if cell.contacts(margin_m):
-            return False
+    lines = planned.lines()
+    for start, end in lines[:: max(1, len(lines) - 1)]:
+        p0, p1 = start[:3, 3], end[:3, 3]
+        for s in np.linspace(0.0, 1.0, COLLISION_SAMPLES):
+            T = start.copy()
+            T[:3, 3] = p0 + s * (p1 - p0)
+            r = kin.ik(T_base @ T, q, LASER.T_tool_tcp, extra_seeds=0)
+            if not r.success:
+                return False
+            q = r.q
+            cell.set_joints(q)
+            if cell.contacts(margin_m):
+                return False
     return True
 
 
@@ -173,11 +191,14 @@ def candidates(
     """The reachable candidates whose line clears the cell by `margin_m` [m], with their
     predicted points, and how many were tried."""
     kin, cell, q_home = where.kin, where.cell, where.q_home
+    raster = where.raster(section)
     found = []
     specs = candidate_specs(where.box, section)
     for i, spec in enumerate(specs):
         try:
-            planned = plan_pass(kin, where.box, section, spec, i, q_home, where.T_base_table)
+            planned = plan_pass(
+                kin, where.box, section, spec, i, q_home, where.T_base_table, raster=raster
+            )
         except UnreachablePlanError:
             continue
         if not _clear(cell, kin, planned, where.T_base_table, margin_m):
@@ -199,9 +220,16 @@ def candidates(
 POINTS_MARGIN = 1.2
 
 
-def predicted_object_points(seen: list[np.ndarray] | tuple[np.ndarray, ...], section: Scan) -> int:
-    """How many of the object's points a scan of passes whose predictions saw `seen` (each
-    (M_k, 3)) reads: the prediction's every PREDICT_RAY_STRIDE-th ray and a line every
-    PREDICT_LINE_SPACING_M, scaled to every ray and a line every speed x period."""
+def predicted_object_points(
+    seen: list[np.ndarray] | tuple[np.ndarray, ...],
+    section: Scan,
+    passes: list[PlannedPass] | tuple[PlannedPass, ...] = (),
+) -> int:
+    """How many of the object's points a scan of `passes` whose predictions saw `seen` (each
+    (M_k, 3)) reads: the prediction's every PREDICT_RAY_STRIDE-th ray (a raster's every
+    raster_stride-th line) and a reading every PREDICT_LINE_SPACING_M, scaled to every ray
+    (every line) and a reading every speed x period."""
     lines = PREDICT_LINE_SPACING_M / (section.speed_m_s * section.period_s)
-    return int(sum(len(p) for p in seen) * PREDICT_RAY_STRIDE * lines)
+    strides = [raster_stride(p) if p.raster_m else PREDICT_RAY_STRIDE for p in passes]
+    strides += [PREDICT_RAY_STRIDE] * (len(seen) - len(strides))
+    return int(sum(len(p) * k for p, k in zip(seen, strides, strict=True)) * lines)

@@ -20,7 +20,7 @@ from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
 from scenarios.offline.cell_model import CellModel
-from scenarios.offline.settings import Scan, ScanPass
+from scenarios.offline.settings import Raster, Scan, ScanPass
 from scenarios.offline.table_candidates import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.program.tool_change import change_tool_safely
 
@@ -53,7 +53,9 @@ class PlannedPass:
     """A straight laser pass: laser TCP poses (4, 4) at its ends in the table frame, the
     table position [m] at which the arm follows it, and the joints (6,) at its start;
     `q_via`: joints (6,) the arm moves through on its way to the start (a transit that would
-    otherwise sweep the laser through the object)."""
+    otherwise sweep the laser through the object). A point laser's pass is a raster: after
+    that first line, one line at each of `raster_m` [m] from it along the laser's x axis
+    (across the sweep), each run back the way the one before came (`lines`)."""
 
     name: str
     T_table_start: np.ndarray
@@ -62,6 +64,24 @@ class PlannedPass:
     q_start: np.ndarray
     T_base_table: np.ndarray | None = None
     q_via: tuple[np.ndarray, ...] = ()
+    raster_m: tuple[float, ...] = ()
+
+    def lines(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """The pass' straight lines in the order they are run: their (start, end) laser TCP
+        poses (4, 4) in the table frame."""
+        out = [(self.T_table_start, self.T_table_end)]
+        x = self.T_table_start[:3, 0]
+        for k, offset in enumerate(self.raster_m, start=1):
+            a, b = self.T_table_start.copy(), self.T_table_end.copy()
+            a[:3, 3] += offset * x
+            b[:3, 3] += offset * x
+            out.append((b, a) if k % 2 else (a, b))
+        return tuple(out)
+
+    @property
+    def T_table_last(self) -> np.ndarray:
+        """(4, 4) the laser TCP pose in the table frame where the pass ends."""
+        return self.lines()[-1][1]
 
     def T_base(self, T_table: np.ndarray) -> np.ndarray:
         """(4, 4) the pose T_table (in the table frame) in the base frame at this pass' table
@@ -106,6 +126,19 @@ def laser_orientation(tilt_rad: float) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
+def raster_for(section: Scan, directions_tcp: np.ndarray) -> Raster | None:
+    """The scan's raster (`Scan.raster`) for a point laser (one ray, `directions_tcp` (1, 3)),
+    None for a line laser, whose fan covers a pass' width in one line."""
+    return section.raster if len(np.asarray(directions_tcp).reshape(-1, 3)) == 1 else None
+
+
+def raster_offsets(raster: Raster) -> np.ndarray:
+    """(n,) the raster's lines' offsets [m] along the laser's x axis from the pass' own
+    line: `step_m` apart from -`half_width_m` to +`half_width_m`."""
+    n = int(np.floor(2.0 * raster.half_width_m / raster.step_m + 1e-9)) + 1
+    return -raster.half_width_m + raster.step_m * np.arange(n)
+
+
 def _pose(R: np.ndarray, p: np.ndarray) -> np.ndarray:
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R, p
@@ -144,11 +177,15 @@ def choose_table_position(
     what: str,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
     positions: tuple[float, ...] = TABLE_CANDIDATES_M,
+    raster_m: tuple[float, ...] = (),
 ) -> tuple[float, np.ndarray]:
     """The first table position of `positions` [m] at which the nominal arm follows the
-    straight line between two poses (4, 4) of the table frame with the TCP `T_tcp`, and
-    the joints (6,) at its start."""
+    straight line between two poses (4, 4) of the table frame with the TCP `T_tcp` (and a
+    raster's middle and last lines beside it, `raster_m`: see PlannedPass), and the joints
+    (6,) at its start."""
     lo, hi = TABLE_TRAVEL
+    lines = PlannedPass(what, T_table_start, T_table_end, 0.0, q_seed, raster_m=raster_m).lines()
+    others = lines[1:] if len(lines) <= 3 else (lines[len(lines) // 2], lines[-1])
     for s in positions:
         if not lo <= s <= hi:
             continue
@@ -156,7 +193,11 @@ def choose_table_position(
         q = line_solution(
             kin, T_tcp, T_base_table @ T_table_start, T_base_table @ T_table_end, q_seed
         )
-        if q is not None:
+        q_line = q
+        for a, b in others:
+            if q_line is not None:
+                q_line = line_solution(kin, T_tcp, T_base_table @ a, T_base_table @ b, q_line)
+        if q is not None and q_line is not None:
             return s, q
     raise UnreachablePlanError(f"{what}: no table position in {positions} m lets the arm follow it")
 
@@ -170,10 +211,12 @@ def plan_pass(
     q_seed: np.ndarray,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
     positions: tuple[float, ...] = TABLE_CANDIDATES_M,
+    raster: Raster | None = None,
 ) -> PlannedPass:
     """One pass over the object's nominal box (see `ScanPass`), the `index`-th of its plan
     (even: sweeping along +y of its heading, odd: back), at the first table position of
-    `positions` [m] at which the arm follows it."""
+    `positions` [m] at which the arm follows it; a point laser's `raster` of lines across
+    it (None: a line laser's single line)."""
     heading = np.deg2rad(spec.heading_deg)
     ch, sh = np.cos(heading), np.sin(heading)
     Rz = np.array([[ch, -sh, 0.0], [sh, ch, 0.0], [0.0, 0.0, 1.0]])
@@ -185,14 +228,19 @@ def plan_pass(
     standoff = config.standoff_m if spec.standoff_m is None else spec.standoff_m
     p_mid = aim - (reach + standoff) * view
     sign = 1.0 if index % 2 == 0 else -1.0
+    offsets = raster_offsets(raster) if raster is not None else np.zeros(1)
+    p_mid = p_mid + offsets[0] * R[:, 0]  # a raster's first line
+    raster_m = tuple(float(o - offsets[0]) for o in offsets[1:])
     T_start = _pose(R, p_mid - sign * width * sweep)
     T_end = _pose(R, p_mid + sign * width * sweep)
     name = f"pass {index + 1} (tilt {spec.tilt_deg:g} deg, heading {spec.heading_deg:g} deg"
-    name += ")" if spec.standoff_m is None else f", {spec.standoff_m * 1e3:.0f} mm away)"
+    name += "" if spec.standoff_m is None else f", {spec.standoff_m * 1e3:.0f} mm away"
+    name += f", {len(offsets)} lines)" if raster is not None else ")"
     s_table, q_start = choose_table_position(
-        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, f"scan pass {index + 1}", table, positions
-    )
-    return PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table))
+        kin, LASER.T_tool_tcp, T_start, T_end, q_seed, f"scan pass {index + 1}", table,
+        positions, raster_m,
+    )  # fmt: skip
+    return PlannedPass(name, T_start, T_end, s_table, q_start, table(s_table), (), raster_m)
 
 
 def plan_scan(
@@ -202,13 +250,14 @@ def plan_scan(
     q_seed: np.ndarray,
     table: Callable[[float], np.ndarray] = nominal_T_base_table,
     specs: tuple[ScanPass, ...] | None = None,
+    raster: Raster | None = None,
 ) -> tuple[PlannedPass, ...]:
     """The passes `specs` (default the configuration's) over the object's nominal box (see
-    `plan_pass`), alternating sweep direction so that consecutive passes join without
-    crossing over the object."""
+    `plan_pass`; a point laser's `raster`), alternating sweep direction so that consecutive
+    passes join without crossing over the object."""
     passes = []
     for i, spec in enumerate(config.passes if specs is None else specs):
-        passes.append(plan_pass(kin, box, config, spec, i, q_seed, table))
+        passes.append(plan_pass(kin, box, config, spec, i, q_seed, table, raster=raster))
         q_seed = passes[-1].q_start
     return tuple(passes)
 
@@ -301,20 +350,27 @@ RETREAT_SPEED_M_S = 0.2
 
 def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> list[LaserReading]:
     """One pass on the cell: the arm through its via points, the table to its position, the
-    arm to its start, the sweep, then the laser up and away from the object."""
+    arm to its start, the sweep (a raster's lines one after the other, the arm stepping
+    across between them without stopping), then the laser up and away from the object."""
+    lines = [(planned.T_base(a), planned.T_base(b)) for a, b in planned.lines()]
+    readings: list[LaserReading] = []
     try:
         for q in planned.q_via:
             controller.move_joints(q)
         if abs(controller.table_position() - planned.table_position_m) > 1e-6:
             controller.move_table(planned.table_position_m)
         controller.move_joints(planned.q_start)
-        T_base_end = planned.T_base(planned.T_table_end)
-        readings = controller.scan_linear(
-            T_base_end, speed_m_s=config.speed_m_s, period_s=config.period_s
-        )
+        for k, (T_base_start, T_base_end) in enumerate(lines):
+            last = k == len(lines) - 1
+            if k:
+                controller.move_linear(T_base_start, speed_m_s=config.speed_m_s, settle_s=0.0)
+            readings += controller.scan_linear(
+                T_base_end, speed_m_s=config.speed_m_s, period_s=config.period_s,
+                **({} if last else {"settle_s": 0.0}),
+            )  # fmt: skip
     except CellError as exc:
         raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
-    for T_up in risen(T_base_end):
+    for T_up in risen(lines[-1][1]):
         try:
             controller.move_linear(T_up, speed_m_s=RETREAT_SPEED_M_S)
             break

@@ -192,7 +192,8 @@ def _choose_plan(
     needed = POINTS_MARGIN * section.min_points
 
     def enough(passes: list[Candidate]) -> bool:
-        return predicted_object_points([c.points_model for c in passes], section) >= needed
+        seen = [c.points_model for c in passes]
+        return predicted_object_points(seen, section, [c.planned for c in passes]) >= needed
 
     picked, records, tre, unique = choose_passes(
         found_all, targets_model, errors, goal, budget, tell, is_unique, min_gain, enough
@@ -241,8 +242,10 @@ def _fixed_plan(
     predicted TRE at `targets_model` (K, 3, model frame) of the plan and of each pass
     added in turn, and each pass' share of the information."""
     kin, q_home, T_base_table = where.kin, where.q_home, where.T_base_table
+    raster = where.raster(section)
     passes = route_transits(
-        where.cell, kin, plan_scan_fixed(kin, where.box, section, q_home, T_base_table),
+        where.cell, kin,
+        plan_scan_fixed(kin, where.box, section, q_home, T_base_table, None, raster),
         q_home, T_base_table,
     )  # fmt: skip
     found = []
@@ -307,8 +310,10 @@ def _auto_plan(
     crossing) and routed in the virtual cell."""
     kin, q_home, T_base_table = where.kin, where.q_home, where.T_base_table
     specs = tuple(c.spec for c in picked)
+    raster = where.raster(section)
     passes = route_transits(
-        where.cell, kin, plan_scan_fixed(kin, where.box, section, q_home, T_base_table, specs),
+        where.cell, kin,
+        plan_scan_fixed(kin, where.box, section, q_home, T_base_table, specs, raster),
         q_home, T_base_table,
     )  # fmt: skip
     return ScanPlan(
@@ -338,7 +343,8 @@ def replan(
     for k, (spec, planned) in enumerate(zip(plan.specs, plan.passes, strict=True)):
         s = planned.table_position_m
         order = (s, *(p for p in TABLE_CANDIDATES_M if p != s))
-        again = plan_pass(kin, box, section, spec, k, planned.q_start, table, order)
+        raster = section.raster if planned.raster_m else None
+        again = plan_pass(kin, box, section, spec, k, planned.q_start, table, order, raster)
         out.append(replace(again, q_via=planned.q_via))
     return tuple(out)
 
@@ -347,7 +353,9 @@ def _few_points(picked: list[Candidate], section: Scan, tre: np.ndarray, goal_m:
     """Why a plan whose passes see too few of the object's points refuses, and the change
     that would let it run: the lower `min_points` its predicted TRE already meets the goal
     with, or a longer budget."""
-    seen = predicted_object_points([c.points_model for c in picked], section)
+    seen = predicted_object_points(
+        [c.points_model for c in picked], section, [c.planned for c in picked]
+    )
     change = (
         f"set localization.scan.min_points={_round_down(seen / POINTS_MARGIN)} (this plan's "
         f"predicted TRE, {np.max(tre) * 1e3:.3f} mm, meets the {goal_m * 1e3:.3f} mm goal with "

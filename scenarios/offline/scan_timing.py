@@ -22,15 +22,21 @@ def joint_move_s(q_from: np.ndarray, q_to: np.ndarray, joint_speed: np.ndarray) 
     return float(np.max(QUINTIC_PEAK * dq / joint_speed)) + SETTLE_S
 
 
-def _line_s(length_m: float, speed_m_s: float) -> float:
+def _line_s(length_m: float, speed_m_s: float, settle_s: float = SETTLE_S) -> float:
     """Cell time [s] of a straight move of `length_m` [m] at `speed_m_s` and its settling."""
-    return QUINTIC_PEAK * length_m / speed_m_s + SETTLE_S
+    return QUINTIC_PEAK * length_m / speed_m_s + settle_s
 
 
 def pass_seconds(planned: PlannedPass, section: Scan) -> float:
-    """Cell time [s] of a pass itself: its sweep and the laser's rise after it."""
-    length = float(np.linalg.norm(planned.T_table_end[:3, 3] - planned.T_table_start[:3, 3]))
-    return _line_s(length, section.speed_m_s) + _line_s(RETREAT_M, RETREAT_SPEED_M_S)
+    """Cell time [s] of a pass itself: its sweep (a raster's lines and the steps between
+    them, not settled but the last) and the laser's rise after it."""
+    total, end = 0.0, None
+    for start, stop in planned.lines():
+        if end is not None:
+            total += _line_s(float(np.linalg.norm(start[:3, 3] - end)), section.speed_m_s, 0.0)
+        total += _line_s(float(np.linalg.norm(stop[:3, 3] - start[:3, 3])), section.speed_m_s, 0.0)
+        end = stop[:3, 3]
+    return total + SETTLE_S + _line_s(RETREAT_M, RETREAT_SPEED_M_S)
 
 
 def scan_seconds(

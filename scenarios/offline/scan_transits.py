@@ -41,10 +41,10 @@ def retreat_q(
     """The joints (6,) at the end of a pass after the laser's rise (as the scan runs it:
     RETREAT_M up, or half of it), or None if the arm does not follow."""
     T_base = T_base_table(planned.table_position_m)
-    end = kin.ik(T_base @ planned.T_table_end, planned.q_start, LASER.T_tool_tcp, extra_seeds=4)
+    end = kin.ik(T_base @ planned.T_table_last, planned.q_start, LASER.T_tool_tcp, extra_seeds=4)
     if not end.success:
         return None
-    for T_up in risen(T_base @ planned.T_table_end):
+    for T_up in risen(T_base @ planned.T_table_last):
         up = kin.ik(T_up, end.q, LASER.T_tool_tcp, extra_seeds=0)
         if up.success:
             return up.q

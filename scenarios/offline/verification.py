@@ -375,14 +375,16 @@ def _rescan(
             planned.name,
             model.T_base_table,
             order,
+            planned.raster_m,
         )
     same = abs(s - planned.table_position_m) < 1e-9
     if same:  # as it was scanned: its joints and its way there
         strip = replace(planned, T_base_table=model.T_base_table(s))
     else:
         strip = PlannedPass(
-            planned.name, planned.T_table_start, planned.T_table_end, s, q, model.T_base_table(s)
-        )
+            planned.name, planned.T_table_start, planned.T_table_end, s, q,
+            model.T_base_table(s), (), planned.raster_m,
+        )  # fmt: skip
     table_before = controller.table_position()
     again = execute_scan(controller, (strip,), section, say, model)
     # The table goes back where the scan left it: the tool change that follows is planned

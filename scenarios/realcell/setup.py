@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from cell import Controller, FixedMesh, FixedPrimitive, LaserConfig, LooseMesh
+from cell import Controller, FixedMesh, FixedPrimitive, LooseMesh
 from cell.irb2400_arm import irb2400
 from cell.robot_arm import Robot
 from cell.sim import (
@@ -33,6 +33,7 @@ from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
 from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.scan_passes import ObjectBox
+from scenarios.offline.settings import LaserSection
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.real_placement import draw_true_pose
@@ -69,9 +70,10 @@ def cell_config(
     robot: Robot | None = None,
     rack_xyz: tuple[float, float, float] = RACK_POS,
     faults: tuple[Fault, ...] = (),
+    laser: LaserSection | None = None,
 ) -> CellConfig:
     """The real cell's configuration from the run's noise section, with its `robot` (default
-    the built-in arm) and the tool rack at `rack_xyz` [m]."""
+    the built-in arm), the tool rack at `rack_xyz` [m] and its `laser`."""
     return CellConfig(
         seed=seed,
         robot=robot or irb2400(),
@@ -87,7 +89,7 @@ def cell_config(
             noise.table_pitch_sigma_rad,
             noise.table_yaw_sigma_rad,
         ),
-        laser=LaserConfig(sigma_m=noise.laser_sigma_m),
+        laser=(laser or LaserSection()).data_sheet(noise.laser_sigma_m),
         fixtures=fixtures,
         faults=faults,
     )
@@ -121,7 +123,7 @@ def build_job_cell(
     stream = 6 if loose else 5  # the true placement's random stream
     rgba = (0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0)
     crop_margin_m = config.localization.scan.crop_margin_m
-    noise, rack_xyz = config.cell.noise, config.cell.rack_xyz
+    noise, rack_xyz, laser = config.cell.noise, config.cell.rack_xyz, config.cell.laser
     rng = np.random.default_rng(np.random.SeedSequence([seed, stream]))
     T_table_nominal = nominal_pose(placement, virtual.mesh.vertices)
     T_table_true = draw_true_pose(placement, real.mesh.vertices, rng)
@@ -137,13 +139,13 @@ def build_job_cell(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
         real_cell = replace(
-            cell_config(noise, seed, spheres, robot, rack_xyz, faults), parts=(part,)
+            cell_config(noise, seed, spheres, robot, rack_xyz, faults, laser), parts=(part,)
         )
     else:
         fixed = FixedMesh(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
-        real_cell = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz, faults)
+        real_cell = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz, faults, laser)
     controller, truth = make_cell(real_cell)
     evaluator = Evaluator(truth, real, name)
     log = CellLog(recording, controller, evaluator, name, virtual.name)

@@ -20,6 +20,7 @@ from scenarios.offline.scan_passes import (
     crop_to_object,
     execute_scan,
     plan_scan,
+    raster_for,
 )
 from scenarios.offline.scan_plan import ScanPlan, plan_job_scan, replan
 from scenarios.offline.settings import PlanningSettings
@@ -44,7 +45,10 @@ def scan_stage(
     section = ctx.settings.localization.scan
     kin = controller.kinematics.for_tool("laser")
     if scan_plan is None or scan_plan.mode == "fixed":
-        plan = plan_scan(kin, box, section, controller.read_joints(), model.T_base_table)
+        raster = raster_for(section, controller.laser_directions_tcp)
+        plan = plan_scan(
+            kin, box, section, controller.read_joints(), model.T_base_table, raster=raster
+        )
     else:  # the chosen passes, for the arm and table the cell now believes
         section = section.model_copy(update={"speed_m_s": scan_plan.speed_m_s})
         plan = replan(kin, box, section, scan_plan, model.T_base_table)
@@ -76,7 +80,7 @@ def job_scan_plan(
     cell = job_virtual_cell(
         robot, settings.rack_xyz, virtual, T_table_object, settings.calibration.enabled, name
     )
-    laser = cell.layout.laser  # the laser's data sheet: rays, range, grazing limit
+    laser = settings.laser.data_sheet()  # the laser's data sheet: rays, range, grazing limit
     kin = robot.kinematics().for_tool("laser")
     shape = MeshModel(virtual.mesh.vertices, virtual.mesh.faces)
     noise = section.planning.range_sigma_m
