@@ -65,6 +65,8 @@ ELSEWHERE = {
         ".py: no IRC5 here; the twin, and what it lacks",
     "twincell connect http://127.0.0.1:8080 --egm-port 6510": "tests/test_controller_connect"
         ".py: the twin served in process",
+    "twincell run skull --cell point_laser": "tests/test_point_laser.py: the same job (without "
+        "its recording), its goals, calibration and rasters checked against the truth",
 }  # fmt: skip
 
 
