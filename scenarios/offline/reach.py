@@ -19,7 +19,7 @@ from cell.controller import RACK_APPROACH_M
 from cell.robot_arm import Robot
 from models.robot import TOOLS
 from scenarios.offline.program_plan import plan_program
-from scenarios.offline.scan_passes import ObjectBox, plan_scan
+from scenarios.offline.scan_passes import ObjectBox, plan_scan, raster_for
 from scenarios.offline.settings import PlanningSettings
 from scenarios.offline.table_candidates import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.program.program_types import Operation
@@ -96,7 +96,9 @@ def check_reach(
     scan_tables: tuple[float, ...] = ()
     try:
         if "surface" in config.localization.methods:
-            plan = plan_scan(kin, box, config.localization.scan, q)
+            scan = config.localization.scan
+            raster = raster_for(scan, config.laser.data_sheet().directions_tcp())
+            plan = plan_scan(kin, box, scan, q, raster=raster)
             scan_tables = tuple(p.table_position_m for p in plan)
         if pick is not None:
             plan_program(kin, _TCP["gripper"], "gripper", (pick,), T_table_object, q, spins=2)
