@@ -1,6 +1,7 @@
 """The skull job on the point laser's cell against the line laser's, seed by seed.
 
-    python bench/bench_point_laser.py [--seeds 400 401 ...] [--jobs 2] [--out DIR]
+    python bench/bench_point_laser.py [--seeds 400 401 ...] [--lasers point line] [--jobs 2]
+        [--out DIR]
 
 For each seed: `twincell run skull --seed S --cell point_laser` (the seed paper's analog
 distance sensor: one ray, its passes rasters of lines, the calibration at stops across the
@@ -43,18 +44,19 @@ def _mm(value: float | None) -> str:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[400, 401, 402, 403, 404])
+    parser.add_argument("--lasers", nargs="+", choices=list(LASERS), default=list(LASERS))
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="twincell-point-laser-"))
-    runs = [(seed, laser) for seed in args.seeds for laser in LASERS]
+    runs = [(seed, laser) for seed in args.seeds for laser in args.lasers]
     with ThreadPoolExecutor(args.jobs) as pool:
         results = list(pool.map(lambda run: _run(*run, out), runs))
     table = Table(title="the skull job: point laser against line laser")
     for header in ("seed", "laser", "status", "target RMS / max [mm]", "TCP calibrated [mm]",
                    "passes", "scan [s]", "cell time [s]"):  # fmt: skip
         table.add_column(header)
-    met = dict.fromkeys(LASERS, 0)
+    met = dict.fromkeys(args.lasers, 0)
     for (seed, laser), r in zip(runs, results, strict=True):
         plan = r.get("scan_plan") or {}
         calibration = r.get("calibration") or {}

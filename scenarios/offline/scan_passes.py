@@ -273,7 +273,7 @@ def execute_scan(
     """Run the passes on the (real) cell with the laser in hand; every line's points are
     rebuilt with the cell's `model` (the arm the controller moves with, the laser's mounting
     and range scale, the table frame at the line's table readout; default the data
-    sheet's) and go into the table frame. A pass that lost a stretch of lines (the laser's
+    sheet's) and go into the table frame. A pass that lost a stretch of lines (a line laser's
     plausibility) is run once more; `detect(code, message, action)` hears of it."""
     say = progress or (lambda _msg: None)
     change_tool_safely(controller, "laser")
@@ -289,7 +289,7 @@ def execute_scan(
     for k, planned in enumerate(plan):
         for attempt in range(2):
             readings = _run_pass(controller, planned, config)
-            gap = longest_gap(readings)
+            gap = longest_gap(readings) if len(dirs) > 1 else 0  # see GAP_LINES
             if gap < GAP_LINES:
                 break
             message = f"{planned.name}: {gap} laser lines in a row without a return"
@@ -327,7 +327,8 @@ def execute_scan(
 
 
 #: A pass whose laser returns nothing for this many lines in a row has lost a stretch: a
-#: line always sees the table or the object within the laser's range.
+#: line always sees the table or the object within the laser's range. Not a point laser's:
+#: its one ray leaves its range wherever a tilted raster line runs off the object.
 GAP_LINES = 5
 
 
