@@ -153,3 +153,14 @@ def test_a_point_laser_across_the_network_is_refused_naming_what_to_change(
     result = json.loads((out / "latest" / "results.json").read_text())
     assert (result["status"], result["stage"]) == ("incomplete", "setup")
     assert "not offered yet" in result["reason"]
+
+
+def test_a_point_laser_cell_is_not_served(capsys: pytest.CaptureFixture[str]) -> None:
+    """The twin streams a line profiler's profiles: `twincell serve` refuses a point laser's
+    cell before it builds it, saying what it serves."""
+    from scenarios.cli.app import main
+
+    assert main(["serve", "skull", "--cell", "point_laser", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "cell.laser.kind 'point' is not served yet" in err
+    assert "cell.laser.kind: line" in err

@@ -151,6 +151,12 @@ def serve_job(
     robot = job_robot(config.cell.robot)
     if not robot.rapid:
         raise ScenarioError(f"{name}: the job's arm, the {robot.name}, does not run RAPID")
+    if config.cell.laser.kind != "line":
+        raise ScenarioError(
+            f"{name}: cell.laser.kind {config.cell.laser.kind!r} is not served yet: the twin "
+            "streams a line profiler's profiles (cell.laser.kind: line); run a point laser's "
+            "job in process"
+        )
     user = job_program(config, run) if run is not None else None
     virtual, real = object_models(config, user)
     folder = serve_folder(out, config)
