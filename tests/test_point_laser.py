@@ -15,6 +15,7 @@ from cell.irb2400_arm import irb2400
 from cell.trajectory import QUINTIC_PEAK
 from scenarios.configuration.config_files import load_config
 from scenarios.configuration.job_config import JobConfig
+from scenarios.offline.laser_sheet import LaserSection
 from scenarios.offline.scan_passes import (
     RETREAT_M,
     RETREAT_SPEED_M_S,
@@ -23,7 +24,7 @@ from scenarios.offline.scan_passes import (
     raster_for,
 )
 from scenarios.offline.scan_timing import pass_seconds
-from scenarios.offline.settings import LaserSection, Raster, Scan, ScanPass
+from scenarios.offline.settings import Raster, Scan, ScanPass
 
 
 def test_a_point_laser_is_one_ray_along_the_tcp_z() -> None:

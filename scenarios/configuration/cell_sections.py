@@ -13,9 +13,9 @@ from pydantic import (
 )
 
 from cell.robots import BUILTIN
+from scenarios.offline.laser_sheet import LaserSection
 from scenarios.offline.settings import (
     FixtureTolerance,
-    LaserSection,
     NominalPlacement,
     Section,
 )

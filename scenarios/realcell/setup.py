@@ -31,9 +31,9 @@ from scenarios.configuration.cell_sections import Noise
 from scenarios.configuration.job_config import JobConfig
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_step import check_artifact_clearance
+from scenarios.offline.laser_sheet import LaserSection
 from scenarios.offline.nominal_placement import nominal_pose
 from scenarios.offline.scan_passes import ObjectBox
-from scenarios.offline.settings import LaserSection
 from scenarios.realcell.cell_log import CellLog
 from scenarios.realcell.evaluation import Evaluator
 from scenarios.realcell.real_placement import draw_true_pose
