@@ -23,6 +23,7 @@ from cell.controller import RACK_APPROACH_M
 from models.robot import LASER
 from registration.rigid import make_T
 from scenarios.offline.calibration_artifact import CalibrationError, SphereArtifact
+from scenarios.offline.laser_sheet import single_ray
 
 Progress = Callable[[str], None]
 #: How far below each view every joint starts its last move to it [rad].
@@ -257,7 +258,7 @@ def _view_sphere(
     _move(controller, q, sphere, settle_s=0.2)
     viewed()
     dirs = controller.laser_directions_tcp
-    if len(dirs) == 1:
+    if single_ray(dirs):
         lines = _stops(controller, sphere, artifact.radius_m, lines_per_view)
     else:
         readings = [controller.read_laser() for _ in range(lines_per_view)]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, field_validator
 
 from cell.layout import LaserConfig
@@ -43,3 +44,9 @@ class LaserSection(BaseModel):
         if self.kind == "point":
             return LaserConfig(1, 0.0, lo, hi, sigma_m)
         return LaserConfig(range_min_m=lo, range_max_m=hi, sigma_m=sigma_m)
+
+
+def single_ray(directions_tcp: np.ndarray) -> bool:
+    """Whether a laser of these ray directions (N, 3) (a controller's data sheet) is a point
+    laser: one ray, where a line profiler's fan has many."""
+    return len(np.asarray(directions_tcp).reshape(-1, 3)) == 1

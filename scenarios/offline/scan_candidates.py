@@ -223,7 +223,7 @@ POINTS_MARGIN = 1.2
 def predicted_object_points(
     seen: list[np.ndarray] | tuple[np.ndarray, ...],
     section: Scan,
-    passes: list[PlannedPass] | tuple[PlannedPass, ...] = (),
+    passes: list[PlannedPass] | tuple[PlannedPass, ...],
 ) -> int:
     """How many of the object's points a scan of `passes` whose predictions saw `seen` (each
     (M_k, 3)) reads: the prediction's every PREDICT_RAY_STRIDE-th ray (a raster's every
@@ -231,5 +231,4 @@ def predicted_object_points(
     (every line) and a reading every speed x period."""
     lines = PREDICT_LINE_SPACING_M / (section.speed_m_s * section.period_s)
     strides = [raster_stride(p) if p.raster_m else PREDICT_RAY_STRIDE for p in passes]
-    strides += [PREDICT_RAY_STRIDE] * (len(seen) - len(strides))
     return int(sum(len(p) * k for p, k in zip(seen, strides, strict=True)) * lines)

@@ -16,10 +16,12 @@ import numpy as np
 
 from cell import Controller, Kinematics, LaserReading, nominal_T_base_table, points_in_table_frame
 from cell.cell_errors import CellError, UnreachableTargetError
+from cell.controller import SETTLE_S
 from cell.trajectory import straight_path
 from models.robot import LASER, TABLE_TRAVEL
 from registration import transform_points
 from scenarios.offline.cell_model import CellModel
+from scenarios.offline.laser_sheet import single_ray
 from scenarios.offline.settings import Raster, Scan, ScanPass
 from scenarios.offline.table_candidates import TABLE_CANDIDATES_M, UnreachablePlanError
 from scenarios.program.tool_change import change_tool_safely
@@ -68,15 +70,8 @@ class PlannedPass:
 
     def lines(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
         """The pass' straight lines in the order they are run: their (start, end) laser TCP
-        poses (4, 4) in the table frame."""
-        out = [(self.T_table_start, self.T_table_end)]
-        x = self.T_table_start[:3, 0]
-        for k, offset in enumerate(self.raster_m, start=1):
-            a, b = self.T_table_start.copy(), self.T_table_end.copy()
-            a[:3, 3] += offset * x
-            b[:3, 3] += offset * x
-            out.append((b, a) if k % 2 else (a, b))
-        return tuple(out)
+        poses (4, 4) in the table frame (`raster_lines`)."""
+        return raster_lines(self.T_table_start, self.T_table_end, self.raster_m)
 
     @property
     def T_table_last(self) -> np.ndarray:
@@ -126,10 +121,26 @@ def laser_orientation(tilt_rad: float) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
+def raster_lines(
+    T_start: np.ndarray, T_end: np.ndarray, raster_m: tuple[float, ...]
+) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """The (start, end) poses (4, 4) of a raster's lines in the order they are run: the line
+    from `T_start` to `T_end`, then one at each of `raster_m` [m] from it along the laser's
+    x axis, each run back the way the one before came."""
+    out = [(T_start, T_end)]
+    x = T_start[:3, 0]
+    for k, offset in enumerate(raster_m, start=1):
+        a, b = T_start.copy(), T_end.copy()
+        a[:3, 3] += offset * x
+        b[:3, 3] += offset * x
+        out.append((b, a) if k % 2 else (a, b))
+    return tuple(out)
+
+
 def raster_for(section: Scan, directions_tcp: np.ndarray) -> Raster | None:
-    """The scan's raster (`Scan.raster`) for a point laser (one ray, `directions_tcp` (1, 3)),
+    """The scan's raster (`Scan.raster`) for a point laser (`single_ray(directions_tcp)`),
     None for a line laser, whose fan covers a pass' width in one line."""
-    return section.raster if len(np.asarray(directions_tcp).reshape(-1, 3)) == 1 else None
+    return section.raster if single_ray(directions_tcp) else None
 
 
 def raster_offsets(raster: Raster) -> np.ndarray:
@@ -184,7 +195,7 @@ def choose_table_position(
     raster's middle and last lines beside it, `raster_m`: see PlannedPass), and the joints
     (6,) at its start."""
     lo, hi = TABLE_TRAVEL
-    lines = PlannedPass(what, T_table_start, T_table_end, 0.0, q_seed, raster_m=raster_m).lines()
+    lines = raster_lines(T_table_start, T_table_end, raster_m)
     others = lines[1:] if len(lines) <= 3 else (lines[len(lines) // 2], lines[-1])
     for s in positions:
         if not lo <= s <= hi:
@@ -289,7 +300,7 @@ def execute_scan(
     for k, planned in enumerate(plan):
         for attempt in range(2):
             readings = _run_pass(controller, planned, config)
-            gap = longest_gap(readings) if len(dirs) > 1 else 0  # see GAP_LINES
+            gap = 0 if single_ray(dirs) else longest_gap(readings)  # see GAP_LINES
             if gap < GAP_LINES:
                 break
             message = f"{planned.name}: {gap} laser lines in a row without a return"
@@ -366,9 +377,8 @@ def _run_pass(controller: Controller, planned: PlannedPass, config: Scan) -> lis
             if k:
                 controller.move_linear(T_base_start, speed_m_s=config.speed_m_s, settle_s=0.0)
             readings += controller.scan_linear(
-                T_base_end, speed_m_s=config.speed_m_s, period_s=config.period_s,
-                **({} if last else {"settle_s": 0.0}),
-            )  # fmt: skip
+                T_base_end, config.speed_m_s, config.period_s, SETTLE_S if last else 0.0
+            )
     except CellError as exc:
         raise UnreachablePlanError(f"{planned.name} failed on the cell: {exc}") from exc
     for T_up in risen(lines[-1][1]):
