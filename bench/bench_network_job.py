@@ -1,13 +1,15 @@
 """A job across the network against the same job in process, seed by seed.
 
-    python bench/bench_network_job.py [--job skull] [--seeds 300 301 ...] [--speed 20]
-        [--laser-latency MS] [--out DIR]
+    python bench/bench_network_job.py [--job skull] [--cell CELL] [--seeds 300 301 ...]
+        [--speed 20] [--laser-latency MS] [--out DIR]
 
 For each seed: `twincell run JOB --seed S` in process (the skull job, or the assembly job:
 IR probing, a pick with the gripper, the screwer's touches); then `twincell serve JOB --seed
 S` in a process of its own (a fresh real cell, its time --speed times the wall's) and
 `twincell run JOB --seed S --controller ...` against it (its laser stamping each profile
---laser-latency ms after its exposure, which the job's calibration identifies). Prints each
+--laser-latency ms after its exposure, which the job's calibration identifies), all in the
+shipped cell --cell if given (point_laser: the laser on the controller's analog input, read
+in the EGM stream). Prints each
 seed's status and target errors both ways and their differences, the latency identified, the
 wall time of each stage both ways (the network's overhead per stage), and the cell time.
 """
@@ -39,11 +41,13 @@ def _results(folder: Path) -> dict:
     return json.loads(next(folder.glob("*-*/results.json")).read_text())
 
 
-def _network(job: str, seed: int, speed: float, latency_ms: float, out: Path) -> tuple[dict, float]:
-    extra = ("--laser-latency", str(latency_ms))
+def _network(
+    job: str, seed: int, speed: float, latency_ms: float, out: Path, cell: tuple[str, ...]
+) -> tuple[dict, float]:
+    extra = ("--laser-latency", str(latency_ms), *cell)
     with served(job, seed, speed, out, *extra) as ports:
         wall = _twincell(
-            "run", job, "--seed", str(seed), "--out", str(out / "net"),
+            "run", job, "--seed", str(seed), "--out", str(out / "net"), *cell,
             "--controller", ports.url, "--egm-port", str(ports.egm),
             "--profiles", f"127.0.0.1:{ports.profiles}", log=out / "net.log",
         )  # fmt: skip
@@ -65,21 +69,23 @@ def _latency(result: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--job", choices=("skull", "assembly"), default="skull")
+    parser.add_argument("--cell", default=None, help="a shipped cell (default: the job's)")
     parser.add_argument("--seeds", type=int, nargs="+", default=list(range(300, 310)))
     parser.add_argument("--speed", type=float, default=20.0)
     parser.add_argument("--laser-latency", type=float, default=0.0, metavar="MS")
     parser.add_argument("--out", type=Path, default=Path("/tmp/twincell_bench_network"))
     args = parser.parse_args()
     console = Console()
+    cell = () if args.cell is None else ("--cell", args.cell)
     rows, stages_in, stages_net, worst = [], {}, {}, 0.0
     for seed in args.seeds:
         out = args.out / f"seed{seed}"
         out.mkdir(parents=True, exist_ok=True)
         wall_in = _twincell(
-            "run", args.job, "--seed", str(seed), "--out", str(out / "in"), "--no-rrd",
+            "run", args.job, "--seed", str(seed), "--out", str(out / "in"), "--no-rrd", *cell,
             log=out / "in.log",
         )  # fmt: skip
-        ours, wall_net = _network(args.job, seed, args.speed, args.laser_latency, out)
+        ours, wall_net = _network(args.job, seed, args.speed, args.laser_latency, out, cell)
         theirs = _results(out / "in")
         e_in = {t["name"]: t["error_m"] for t in theirs.get("targets", [])}
         e_net = {t["name"]: t["error_m"] for t in ours.get("targets", [])}

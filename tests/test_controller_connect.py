@@ -87,7 +87,7 @@ def test_the_shipped_signals_are_those_the_client_uses_and_the_twin_serves() -> 
 def test_the_helper_module_reads_and_the_twin_runs_a_move_module_with_it_unchanged() -> None:
     helper = read_module(HELPER_FILE)
     assert read_task([HELPER_FILE]).warnings == () and helper.name == HELPER
-    assert helper_version() == "1"
+    assert helper_version() == "2"
     robot = irb2400()
     kinematics = robot.kinematics()
     q_start = np.array([0.0, 0.1, 0.1, 0.0, 0.5, 0.0])
@@ -174,7 +174,7 @@ def test_connect_finds_all_on_the_commissioned_twin(
     out = tmp_path / "connect.json"
     assert main(["connect", served.url, "--egm-port", str(EGM_PORT), "--json", str(out)]) == 0
     assert f"all {len(whats)} as the jobs need them" in capsys.readouterr().out
-    assert len(whats) == 22  # 3 options, 11 signals, the UDP device
+    assert len(whats) == 23  # 3 options, 12 signals, the UDP device
     assert f"UDP device {UDP_DEVICE}" in whats
     assert '"ok": true' in out.read_text()
 

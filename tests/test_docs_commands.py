@@ -67,6 +67,11 @@ ELSEWHERE = {
         ".py: the twin served in process",
     "twincell run skull --cell point_laser": "tests/test_point_laser.py: the same job (without "
         "its recording), its goals, calibration and rasters checked against the truth",
+    "twincell serve skull --cell point_laser --speed 10 --egm-port 6510 --laser-latency 8":
+        "tests/test_analog_laser.py: the same cell served in a process of its own, free ports",
+    "twincell run skull --cell point_laser --controller http://127.0.0.1:8080 --egm-port 6510":
+        "tests/test_analog_laser.py: the latency and a raster through the network against "
+        "the same in process; the whole job: bench/bench_network_job.py --cell point_laser",
 }  # fmt: skip
 
 

@@ -135,33 +135,3 @@ def test_the_skull_job_on_the_point_laser_cell_meets_its_goals(tmp_path: Path) -
     plan = result["scan_plan"]
     assert 0.8 <= plan["scan_time_s"] / plan["predicted_scan_time_s"] <= 1.2, plan
     assert not [s for s in result["supervision"] if s["code"] == "laser_gap"]
-
-
-def test_a_point_laser_across_the_network_is_refused_naming_what_to_change(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """The client reads a line profiler's stream: a point laser's job against a controller
-    is refused before anything connects (no controller answers at this address), saying
-    what to change, in the run's results too (stopped in its setup)."""
-    from scenarios.cli.app import main
-
-    out = tmp_path / "runs"
-    args = ["run", "skull", "--cell", "point_laser", "--controller", "http://127.0.0.1:9"]
-    assert main([*args, "--egm-port", "6599", "--out", str(out), "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert "cell.laser.kind 'point' across the network" in err
-    assert "cell.laser.kind: line" in err
-    result = json.loads((out / "latest" / "results.json").read_text())
-    assert (result["status"], result["stage"]) == ("incomplete", "setup")
-    assert "not offered yet" in result["reason"]
-
-
-def test_a_point_laser_cell_is_not_served(capsys: pytest.CaptureFixture[str]) -> None:
-    """The twin streams a line profiler's profiles: `twincell serve` refuses a point laser's
-    cell before it builds it, saying what it serves."""
-    from scenarios.cli.app import main
-
-    assert main(["serve", "skull", "--cell", "point_laser", "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert "cell.laser.kind 'point' is not served yet" in err
-    assert "cell.laser.kind: line" in err

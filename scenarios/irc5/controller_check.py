@@ -36,6 +36,7 @@ DEVICE_JOBS = {
     "gripper": "jobs that grip",
     "screwer": "jobs that drive screws",
     "ir": "jobs that probe with the IR sensor",
+    "point laser": "jobs with a point laser (cell.laser.kind: point)",
 }
 
 

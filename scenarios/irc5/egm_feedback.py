@@ -14,6 +14,7 @@ import socket
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,9 +34,10 @@ class Feedback:
     """One sample of the stream: the client's monotonic clock when it came `received_s` [s],
     the controller's clock when the encoders were read `time_s` [s], the header's sequence
     number, the encoders q (6,) [rad], the table [m] (None: no external axis), RAPID running,
-    motors on, and the beam of the TCP check (broken: the helper module TcHelper's
+    motors on, the beam of the TCP check (broken: the helper module TcHelper's
     DataToSensor tcToSensor{1}, the first dnum of RAPIDfromRobot, is 1; None: the packet
-    carries no RAPIDfromRobot, see `beam_of`)."""
+    carries no RAPIDfromRobot, see `beam_of`), and the point laser's input aiLaserRange [mm]
+    with the count of its readings (tcToSensor{2} and {3}; None: not streamed)."""
 
     received_s: float
     time_s: float
@@ -45,6 +47,8 @@ class Feedback:
     rapid_running: bool
     motors_on: bool
     beam: bool | None = False
+    laser_mm: float | None = None
+    laser_reads: int | None = None
 
 
 def feedback_of(state: Any, received_s: float) -> Feedback:
@@ -61,7 +65,9 @@ def feedback_of(state: Any, received_s: float) -> Feedback:
         table,
         bool(state.rapid_running),
         bool(state.motors_on),
-        _beam(message.RAPIDfromRobot.dnum),
+        _beam(dnum := message.RAPIDfromRobot.dnum),
+        float(dnum[1]) if len(dnum) > 2 else None,
+        int(dnum[2]) if len(dnum) > 2 else None,
     )
 
 
@@ -100,6 +106,8 @@ class EgmFeedback:
         #: Samples received, and samples the sequence numbers say were lost on the way.
         self.received = 0
         self.lost = 0
+        #: Called with each sample as it comes, on the stream's thread (a point laser's reader).
+        self.listeners: list[Callable[[Feedback], None]] = []
         self._thread = threading.Thread(target=self._receive, name="egm-feedback", daemon=True)
         self._thread.start()
 
@@ -118,6 +126,8 @@ class EgmFeedback:
                 self._samples.append(sample)
                 self.received += 1
                 self._changed.notify_all()
+            for listener in list(self.listeners):
+                listener(sample)
 
     def latest(self) -> Feedback | None:
         with self._changed:

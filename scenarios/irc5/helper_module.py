@@ -36,6 +36,7 @@ DEVICE_SIGNALS: dict[str, str] = {
     "doSpindleStart": "screwer",
     "diSpindleDone": "screwer",
     "aiIrRange": "ir",
+    "aiLaserRange": "point laser",
 }
 
 

@@ -28,6 +28,10 @@ ProfileSink = Callable[[Profile], None]
 class LineProfiler(ABC):
     """A line profiler's stream of profiles."""
 
+    #: Whether the profiles are stamped in the controller's own clock (a sensor read on the
+    #: controller's input: no offset between the clocks to measure).
+    controller_clock = False
+
     @abstractmethod
     def start(self, sink: ProfileSink) -> None:
         """Start streaming: `sink(profile)` for each profile, from a thread of the adapter's."""

@@ -63,10 +63,14 @@ def readings(
     `latency_s` [s]. A profile at an instant the stream has samples of (a controller standing
     still repeats its time) takes the sample that came nearest to it, each its own encoder
     reading; else the joints are interpolated between the samples around it. Profiles
-    outside the samples' span or in a gap wider than MAX_GAP_S are dropped. The table from
-    the samples (or `table_m` [m])."""
+    outside the samples' span or in a gap wider than MAX_GAP_S are dropped, and so are those
+    that repeat the number of the one before (a point laser's reading that several EGM
+    packets carried: the first packet's is kept). The table from the samples (or `table_m`
+    [m])."""
     if not feedback:
         return []
+    profiles = [r for k, r in enumerate(profiles)
+                if k == 0 or r.profile.seqno != profiles[k - 1].profile.seqno]  # fmt: skip
     all_times = np.array([s.time_s for s in feedback])
     arrived = np.array([s.received_s for s in feedback])
     times, first = np.unique(all_times, return_index=True)

@@ -11,8 +11,9 @@ controller, or `twincell serve` standing in for one, from another process.
   picking and returning a tool are the controller API's own sequences of moves around them.
   The gripper, the screwer, the IR sensor and switching the motion supervision off:
   scenarios.irc5.remote_devices.
-- The line laser: its own profile stream (scenarios.irc5.line_profiler), paired with the
-  poses by time (scenarios.irc5.profile_alignment).
+- The laser: a line profiler's own stream (scenarios.irc5.line_profiler), or a point laser
+  on the controller's analog input that the EGM stream carries (scenarios.irc5.analog_laser),
+  paired with the poses by time (scenarios.irc5.profile_alignment).
 - A stop of the controller's supervision is read from its event log and raised as the
   SupervisionError it was; a move the controller refuses or fails is a ControllerRefusalError.
 """
@@ -72,7 +73,7 @@ class ClientSettings:
 
 class RemoteController(Controller):
     """The controller at the other end of `link` (RWS), its position stream `feedback` (EGM)
-    and the laser's `profiles` (None: no line laser), with the cell's data sheets: the arm
+    and the laser's `profiles` (None: no laser stream), with the cell's data sheets: the arm
     (`robot`, its nominal `kinematics`), the rack's place, the laser's rays; `settings` how
     the client waits and what it loads."""
 
@@ -256,8 +257,9 @@ class RemoteController(Controller):
     def _standing_profile(self, buffer: ProfileBuffer, since: float = 0.0) -> Received:
         """The next profile made while the arm stands (that came after `since`, the client's
         monotonic clock [s]), with the sensor's clock set by it against the controller's: its
-        stamp less the newest position sample's time. Profiles made while the arm moved may
-        still be on their way for DRAIN_S after it stopped."""
+        stamp less the newest position sample's time (nothing for a sensor the controller
+        stamps). Profiles made while the arm moved may still be on their way for DRAIN_S after
+        it stopped."""
         self.feedback.fresh(self.max_age_s)
         drained = self._stopped_at + DRAIN_S
         if (wait := drained - time.monotonic()) > 0.0:
@@ -265,7 +267,8 @@ class RemoteController(Controller):
         came = buffer.after(max(drained, self._last_profile_s, since), 2.0)
         sample = self.feedback.after(came.received_s, 1.0)
         self._last_profile_s = came.received_s
-        self.sensor_offset_s = came.profile.stamp_s - sample.time_s
+        clocked = buffer.sensor.controller_clock  # stamped by the controller: no offset
+        self.sensor_offset_s = 0.0 if clocked else came.profile.stamp_s - sample.time_s
         return came
 
     def _offset(self) -> float:

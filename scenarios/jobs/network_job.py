@@ -27,9 +27,9 @@ from cell.robot_arm import Robot
 from models.model import ObjectModel
 from registration.rigid import transform_points
 from scenarios.configuration.job_config import JobConfig
+from scenarios.irc5.analog_laser import AnalogLaser
 from scenarios.irc5.egm_feedback import EgmFeedback
 from scenarios.irc5.line_profiler import ProfileBuffer, ProfileStream
-from scenarios.irc5.link_errors import NotOfferedError
 from scenarios.irc5.motion_witness import MotionWitness
 from scenarios.irc5.move_modules import MODULE
 from scenarios.irc5.remote_controller import ClientSettings, RemoteController
@@ -121,20 +121,16 @@ def client_settings(config: JobConfig) -> ClientSettings:
 
 def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> RemoteController:
     """The job's controller across the network, with the cell's data sheets (the arm, the
-    rack's place, the laser's rays). A point laser is refused before anything connects: its
-    reading through the controller's analog input and EGM is not offered yet."""
-    if config.cell.laser.kind != "line":
-        raise NotOfferedError(
-            f"cell.laser.kind {config.cell.laser.kind!r} across the network: the client reads "
-            "a line profiler's own stream (--profiles); a point laser's reading through the "
-            "controller's analog input is not offered yet. Run this job in process (without "
-            "--controller), or with a line profiler (cell.laser.kind: line)"
-        )
+    rack's place, the laser's rays). A point laser is read on the controller's analog input,
+    from the EGM stream; a line laser from its own profile stream (`address.profiles`)."""
     user, password = credentials()
+    sheet = config.cell.laser.data_sheet()
     link = RwsLink(address.url, user, password)
     feedback = EgmFeedback(address.egm_port)
     profiles = None
-    if address.profiles is not None:
+    if config.cell.laser.kind == "point":
+        profiles = ProfileBuffer(AnalogLaser(feedback, sheet))
+    elif address.profiles is not None:
         profiles = ProfileBuffer(ProfileStream(*address.profiles))
     try:
         return RemoteController(
@@ -144,7 +140,7 @@ def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> Remo
             robot,
             robot.kinematics(),
             config.cell.rack_xyz,
-            config.cell.laser.data_sheet(),
+            sheet,
             settings=client_settings(config),
         )
     except BaseException:

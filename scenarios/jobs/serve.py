@@ -151,12 +151,6 @@ def serve_job(
     robot = job_robot(config.cell.robot)
     if not robot.rapid:
         raise ScenarioError(f"{name}: the job's arm, the {robot.name}, does not run RAPID")
-    if config.cell.laser.kind != "line":
-        raise ScenarioError(
-            f"{name}: cell.laser.kind {config.cell.laser.kind!r} is not served yet: the twin "
-            "streams a line profiler's profiles (cell.laser.kind: line); run a point laser's "
-            "job in process"
-        )
     user = job_program(config, run) if run is not None else None
     virtual, real = object_models(config, user)
     folder = serve_folder(out, config)
@@ -181,9 +175,11 @@ def serve_job(
         if serving is not None:
             _measured(serving, record, targets, say)
 
-    # the laser streams at the rate the job's scan reads it (its data sheet's)
-    laser = replace(options.laser, period_s=config.localization.scan.period_s)
-    options = replace(options, laser=laser)
+    # the laser streams at the rate the job's scan reads it (its data sheet's); a point laser
+    # reads on the controller's analog input, into the EGM stream, with no stream of its own
+    analog = config.cell.laser.kind == "point"
+    laser = replace(options.laser, period_s=config.localization.scan.period_s, analog=analog)
+    options = replace(options, laser=laser, profiles_port=None if analog else options.profiles_port)
     twin = TwinController(job.controller, folder, speed, touched, ended, say, options.opmode)
     twin.elog.listeners.append(lambda e: _log(job, e))
     _helper_module(twin, say)
@@ -196,6 +192,8 @@ def serve_job(
         say(f"EGM to {served.egm.client[0]}:{served.egm.client[1]} every 4 ms")
     if served.profiles is not None:
         say(f"the line laser's profiles on TCP port {served.profiles.port}")
+    if analog:
+        say("the point laser on the analog input aiLaserRange, streamed with EGM by TcHelper")
     return serving
 
 

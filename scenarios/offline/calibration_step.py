@@ -61,10 +61,12 @@ def calibrate_arm(
     say: Progress,
     on_view: Callable[[], None] | None = None,
     clear: Clear | None = None,
+    laser_period_s: float = LatencyPlan.period_s,
 ) -> CalibrationResult:
     """Calibrate the arm on the reference spheres (the views `clear` of the object) and give
     the controller the calibrated kinematics (the scan, the IK and the program use it from
-    then on)."""
+    then on); the laser's latency, where it is identified, from sweeps read at the laser's
+    period `laser_period_s` [s]."""
     say("calibration: the laser views the reference spheres")
     calibration = calibrate(
         controller,
@@ -74,7 +76,7 @@ def calibrate_arm(
         on_view=on_view,
         priors=calibration_priors(section),
         clear=clear,
-        latency=LatencyPlan() if section.latency == "identify" else None,
+        latency=LatencyPlan(period_s=laser_period_s) if section.latency == "identify" else None,
     )
     controller.set_absolute_accuracy(calibration.kinematics)
     if (latency := calibration.latency) is not None:

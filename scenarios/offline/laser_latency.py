@@ -12,6 +12,9 @@ moves the sphere the same way in every sweep and is the centre's, not the latenc
 
 Each point is moved back along the laser's own velocity at its line (from the encoders of the
 lines around it), so a sweep need not be at its nominal speed where it crosses the sphere.
+A point laser's sweeps cross the sphere along one great circle: they see the centre along the
+sweep and in height, not across it, so the centre's coordinate across the sweeps stays at its
+nominal (off by a millimetre, it changes the circle's radius by microns).
 The sweeps run where the calibration ends, with the laser in hand at its last table position,
 and only for a controller that pairs its lines by time (`Controller.laser_latency_s`).
 """
@@ -30,7 +33,8 @@ from scenarios.offline.cell_model import CellModel
 
 #: The points along a sweep checked reachable and clear of the object.
 SAMPLES_PER_SWEEP = 9
-#: A sweep's lines kept for the fit: those with this many points on the sphere or more.
+#: A sweep's lines kept for the fit: those with this many points on the sphere or more (a
+#: point laser's: its one).
 MIN_POINTS_PER_LINE = 5
 
 
@@ -178,7 +182,7 @@ def _sweep_points(
         p = p @ T_tools[k, :3, :3].T + T_tools[k, :3, 3]
         rel = p - centre
         near = (np.linalg.norm(rel, axis=1) < radius_m + 0.005) & (rel[:, 2] > -0.5 * radius_m)
-        if np.count_nonzero(near) >= MIN_POINTS_PER_LINE:
+        if np.count_nonzero(near) >= min(MIN_POINTS_PER_LINE, len(directions)):
             points.append(p[near])
             speeds.append(np.repeat(velocity[k][None], np.count_nonzero(near), axis=0))
             line.append(np.full(np.count_nonzero(near), k))
@@ -188,27 +192,45 @@ def _sweep_points(
 
 
 def _fit(
-    p: np.ndarray, v: np.ndarray, centre: np.ndarray, radius_m: float, keep: np.ndarray
+    p: np.ndarray,
+    v: np.ndarray,
+    centre: np.ndarray,
+    radius_m: float,
+    keep: np.ndarray,
+    basis: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Gauss-Newton for the centre (3,) and the latency's correction (the points moved back
-    along their velocity by it) over the points `keep`: (x (4,), residuals (N,) of all
-    points, J^T J (4, 4))."""
-    x = np.append(centre, 0.0)
-    JtJ = np.eye(4)
+    """Gauss-Newton for the centre (moved from `centre` (3,) along the columns of `basis`
+    (3, k) only) and the latency's correction (the points moved back along their velocity by
+    it) over the points `keep`: (x (4,): the centre and the correction, residuals (N,) of
+    all points, J^T J (k + 1, k + 1), the last row and column the latency's)."""
+    c, dt = np.asarray(centre, dtype=float).copy(), 0.0
+    JtJ = np.eye(basis.shape[1] + 1)
     for _ in range(20):
-        q = p - v * x[3]
-        rel = q - x[:3]
+        q = p - v * dt
+        rel = q - c
         dist = np.linalg.norm(rel, axis=1)
         u = rel / dist[:, None]
         r = dist - radius_m
-        J = np.column_stack([-u, -np.einsum("ij,ij->i", u, v)])
+        J = np.column_stack([-u @ basis, -np.einsum("ij,ij->i", u, v)])
         JtJ = J[keep].T @ J[keep]
         step = np.linalg.solve(JtJ, -J[keep].T @ r[keep])
-        x = x + step
-        if np.max(np.abs(step[:3])) < 1e-9 and abs(step[3]) < 1e-7:
+        c, dt = c + basis @ step[:-1], dt + float(step[-1])
+        if np.max(np.abs(step[:-1])) < 1e-9 and abs(step[-1]) < 1e-7:
             break
-    q = p - v * x[3]
-    return x, np.linalg.norm(q - x[:3], axis=1) - radius_m, JtJ
+    q = p - v * dt
+    return np.append(c, dt), np.linalg.norm(q - c, axis=1) - radius_m, JtJ
+
+
+def _centre_basis(v: np.ndarray, single_ray: bool) -> np.ndarray:
+    """The directions (3, k) the sphere's centre is fitted along: all three for a line laser;
+    for a point laser, along the sweeps (their mean direction of travel, `v` (N, 3) the
+    points' velocities) and the height across them, not across the sweeps."""
+    if not single_ray:
+        return np.eye(3)
+    along = np.linalg.eigh(v.T @ v)[1][:, -1]  # forth and back: the axis of travel
+    across = np.cross(along, [0.0, 0.0, 1.0])
+    across = across / np.linalg.norm(across)
+    return np.column_stack([along, np.cross(across, along)])
 
 
 def identify_latency(
@@ -233,6 +255,7 @@ def identify_latency(
         [np.column_stack([np.full(len(part[2]), k), part[2]]) for k, part in enumerate(parts)]
     )
     used = sum(1 for part in parts if len(part[0]))
+    basis = _centre_basis(v, len(directions_tcp) == 1) if len(v) else np.eye(3)
     if used < 2 or len(p) < 50:
         raise CalibrationError(
             f"the latency sweeps over sphere {measured.sphere + 1} saw it in {used} of "
@@ -240,17 +263,17 @@ def identify_latency(
             "moves?"
         )
     keep = np.ones(len(p), dtype=bool)
-    x, r, JtJ = _fit(p, v, measured.centre_base, radius_m, keep)
+    x, r, JtJ = _fit(p, v, measured.centre_base, radius_m, keep, basis)
     for _ in range(2):
         scale = 1.4826 * float(np.median(np.abs(r - np.median(r))))
         keep = np.abs(r) <= 3.5 * max(scale, 1e-6)
-        x, r, JtJ = _fit(p, v, x[:3], radius_m, keep)
+        x, r, JtJ = _fit(p, v, x[:3], radius_m, keep, basis)
     n, lines = int(np.count_nonzero(keep)), len(np.unique(line[keep], axis=0))
     rms = float(np.sqrt(np.mean(r[keep] ** 2)))
     cov = np.linalg.inv(JtJ) * rms**2 * (n / max(lines, 1))
     return LatencyEstimate(
         latency_s=float(latency_paired_s + x[3]),
-        sigma_s=float(np.sqrt(cov[3, 3])),
+        sigma_s=float(np.sqrt(cov[-1, -1])),
         points=n,
         lines=lines,
         sweeps=used,

@@ -32,6 +32,7 @@ def calibrate_stage(ctx: StageContext) -> CalibrationResult:
         ctx.hooks.say,
         lambda: ctx.hooks.moved("view"),
         clear_of(cell, "laser", name, margin),
+        settings.localization.scan.period_s,
     )
 
 

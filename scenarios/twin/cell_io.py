@@ -15,6 +15,8 @@ gives:
   `diSpindleDone` is 1 once it has, and 0 again when the start is reset.
 - `aiIrRange` [mm]: the IR sensor's distance while it is in hand; 0 where nothing is in its
   range.
+- `aiLaserRange` [mm]: the point laser's distance while it is in hand, as the streams last
+  set it (scenarios.twin.sensor_streams); 0 where nothing is in its range.
 """
 
 from __future__ import annotations

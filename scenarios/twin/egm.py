@@ -1,8 +1,8 @@
 """Externally Guided Motion (EGM), as an IRC5 streams it: every 4 ms an `EgmRobot` message
 (the joints measured and commanded [deg], the flange pose in the base frame [mm,
 quaternion], the table as external axis A [mm], the controller's time, the motors' and
-RAPID's states, and in `RAPIDfromRobot.dnum` the beam of the TCP check, as the helper
-module TcHelper's DataToSensor sends it) goes by UDP to the client's port, and the
+RAPID's states, and in `RAPIDfromRobot.dnum` what the helper module TcHelper's
+DataToSensor sends: scenarios.twin.sensor_streams) goes by UDP to the client's port, and the
 `EgmSensor` messages the client sends back from there are references the arm follows:
 joints [deg] (`EGMRunJoint`), or a pose of tool0 in the base frame [mm, w x y z]
 (`EGMRunPose` with tool0 and wobj0), solved on the nominal arm.
@@ -145,8 +145,15 @@ class EgmServer:
         self.refused += 1
 
     # -- feedback ---------------------------------------------------------------------------
-    def feedback(self, snap: Snapshot, motors_on: bool, rapid_running: bool) -> None:
-        """Send an EgmRobot message of the controller's snapshot `snap` to the client."""
+    def feedback(
+        self,
+        snap: Snapshot,
+        motors_on: bool,
+        rapid_running: bool,
+        to_sensor: tuple[float, ...] = (),
+    ) -> None:
+        """Send an EgmRobot message of the controller's snapshot `snap` to the client, with
+        `to_sensor` in RAPIDfromRobot.dnum (TcHelper's tcToSensor)."""
         message: Any = EgmRobot()
         self._seq += 1
         message.header.seqno = self._seq
@@ -162,8 +169,7 @@ class EgmServer:
         message.motorState.state = _MOTORS[motors_on]
         message.mciState.state = _MCI_RUNNING
         message.rapidExecState.state = _RAPID[rapid_running]
-        # TcHelper's DataToSensor tcToSensor{1}: the TCP check's beam input diTcBeam
-        message.RAPIDfromRobot.dnum.append(1.0 if snap.beam else 0.0)
+        message.RAPIDfromRobot.dnum.extend(to_sensor)
         if self.lose is not None and self.lose():
             self.lost += 1
             return

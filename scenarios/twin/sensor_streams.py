@@ -1,7 +1,14 @@
 """What the served controller streams every control period, moving or standing: the EGM
-feedback (the encoders, the flange, the table as external axis A, the controller's time) and,
-with the laser in hand, the line laser's profiles on their own stream (cell.profile_frames)
-at the sensor's rate, stamped in the sensor's clock.
+feedback (the encoders, the flange, the table as external axis A, the controller's time, and
+the helper module TcHelper's DataToSensor values) and, with the laser in hand, the laser's
+readings at the sensor's rate: a line laser's profiles on their own stream
+(cell.profile_frames), stamped in the sensor's clock; a point laser's distance on the
+controller's analog input aiLaserRange, which TcHelper's trap copies into the EGM packets.
+
+TcHelper's tcToSensor, as each packet carries it: {1} the TCP check's beam (1: broken), {2}
+the point laser's distance [mm] (0: nothing in its range, or no point laser in hand), {3} how
+many times the input's trap ran (a new reading; the trap runs when the input changes, at the
+I/O system's update, here the laser's period).
 
 The sensor's clock is the controller's time plus `clock_offset_s` (a sensor synchronised to
 the plant's PTP master keeps Unix time; the controller counts from its own start), running
@@ -13,12 +20,17 @@ readout and the profile's processing) stamps each profile made while the arm mov
 after the instant it saw: its ranges are those of the arm's pose `latency_s` before its stamp.
 While the arm stands, the twin's time stands still and a profile's stamp is its exposure's,
 so the client's clock offset, set while standing, cannot take the latency up: only scans in
-motion show it, which is how it is identified (scenarios.offline.laser_latency).
+motion show it, which is how it is identified (scenarios.offline.laser_latency). A point
+laser's input likewise shows, while the arm moves, the distance it saw `latency_s` before
+(the sensor's response and its analog output's filter).
 """
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
+
+import numpy as np
 
 from cell import Controller
 from cell.profile_frames import Profile
@@ -34,15 +46,17 @@ MAX_LATENCY_S = 0.5
 
 @dataclass(frozen=True)
 class LaserStream:
-    """The line laser's stream: its profile period [s] (of the controller's time while the
-    arm moves; standing, of the wall clock's sped up as the twin's time runs), its clock's
-    offset from the controller's [s], its drift against it [ppm], and its latency from
-    exposure to stamp [s]."""
+    """The laser's stream: its period [s] (of the controller's time while the arm moves;
+    standing, of the wall clock's sped up as the twin's time runs), its clock's offset from
+    the controller's [s], its drift against it [ppm], its latency from exposure to stamp [s],
+    and whether it is a point laser on the analog input (`analog`: its readings ride the EGM
+    packets in the controller's own clock, offset and drift do not apply)."""
 
     period_s: float = 0.01
     clock_offset_s: float = 0.0
     drift_ppm: float = 0.0
     latency_s: float = 0.0
+    analog: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.latency_s <= MAX_LATENCY_S:
@@ -70,6 +84,10 @@ class SensorStreams:
         self._seqno = 0
         self._next_s: float | None = None
         self._idle_ticks = 0
+        #: The analog input aiLaserRange [mm] and how many times TcHelper's trap copied it.
+        self.laser_mm = 0.0
+        self.trapped = 0
+        self._seen: deque[tuple[float, float]] = deque()
 
     @property
     def streaming(self) -> bool:
@@ -81,8 +99,11 @@ class SensorStreams:
     ) -> None:
         """One control period of the streams: EGM feedback of `snap`, and a profile if one is
         due (`moving`: by the controller's time; standing: every period of the wall clock)."""
+        if self.laser.analog:
+            self._analog(cell, snap, moving)
         if self.egm is not None:
-            self.egm.feedback(snap, motors_on, running)
+            to_sensor = (1.0 if snap.beam else 0.0, self.laser_mm, float(self.trapped))
+            self.egm.feedback(snap, motors_on, running, to_sensor)
         if self.profiles is None or cell.tool_in_hand != "laser" or not self._due(snap, moving):
             return
         reading = cell.read_laser()
@@ -91,6 +112,29 @@ class SensorStreams:
         seen_s = reading.time_s + (laser.latency_s if moving else 0.0)
         stamp = seen_s * (1.0 + laser.drift_ppm * 1e-6) + laser.clock_offset_s
         self.profiles.send(Profile(self._seqno, stamp, reading.distances))
+
+    def _analog(self, cell: Controller, snap: Snapshot, moving: bool) -> None:
+        """The point laser's input at `snap`: the distance it saw `latency_s` before while the
+        arm moves, its reading now while it stands; the trap runs where the input changed."""
+        if cell.tool_in_hand != "laser":
+            self._seen.clear()
+            value = 0.0
+        elif not self._due(snap, moving):
+            return
+        else:
+            distance = float(cell.read_laser().distances[0])
+            seen = distance * 1e3 if np.isfinite(distance) else 0.0
+            if not moving:
+                self._seen.clear()
+                value = seen
+            else:
+                self._seen.append((snap.time_s, seen))
+                value = self.laser_mm
+                while self._seen and self._seen[0][0] <= snap.time_s - self.laser.latency_s + 1e-9:
+                    value = self._seen.popleft()[1]
+        if value != self.laser_mm:
+            self.laser_mm = value
+            self.trapped += 1
 
     def _due(self, snap: Snapshot, moving: bool) -> bool:
         period = self.laser.period_s

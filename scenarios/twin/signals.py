@@ -49,6 +49,8 @@ SIGNALS: tuple[SignalSpec, ...] = (
                "was set (0 again when it is reset)"),
     SignalSpec("aiIrRange", "AI", "the IR sensor's distance while it is in hand [mm] (0: "
                "nothing in its range)", 0, 1000),
+    SignalSpec("aiLaserRange", "AI", "the point laser's distance while it is in hand [mm] (0: "
+               "nothing in its range; streamed with EGM by TcHelper)", 0, 1000),
     SignalSpec("doToolLock", "DO", "the tool changer: 1 locks the tool seated against the "
                "flange, 0 releases the tool held"),
     *(SignalSpec(f"doUser{k}", "DO", "a user output") for k in range(1, 9)),

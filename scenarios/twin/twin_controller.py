@@ -191,6 +191,7 @@ class TwinController:
     def _publish(self, moving: bool) -> None:
         motors_on, running = self.ctrlstate == "motoron", self.execstate == "running"
         self.streams.publish(self.cell, self.snapshot, motors_on, running, moving)
+        self.io.values["aiLaserRange"] = self.streams.laser_mm
 
     def _lagging(self, message: str) -> None:
         self.elog.add("lagging", message)
