@@ -101,7 +101,8 @@ LaserLatencyOption = Annotated[
     float,
     option(
         "--laser-latency", "MS",
-        "The laser stamps each profile this long after its exposure [ms].", LASER, min=0.0,
+        "The laser stamps each profile this long after its exposure (a point laser: its input "
+        "shows each distance this long late) [ms].", LASER, min=0.0,
         max=500.0,
     ),
 ]  # fmt: skip
