@@ -224,12 +224,13 @@ def _move(controller: Controller, q: np.ndarray, sphere: int, settle_s: float = 
 
 
 #: A point laser's stops across a sphere at each view: this many, evenly within this many
-#: radii either side of the view along the laser's x axis, reached at this speed [m/s]. It
-#: reads standing still at each, averaged, as the line laser does at its views: a single
-#: reading, or readings taken while the arm moves, calibrate the arm worse.
+#: radii either side of the view along the laser's x axis, each reached by a joint move (a
+#: straight line between two would cross the wrist's singularity where the laser looks
+#: straight down: a controller refuses it). It reads standing still at each, averaged, as
+#: the line laser does at its views: a single reading, or readings taken while the arm
+#: moves, calibrate the arm worse.
 STOPS = 7
 STOP_RADII = 0.9
-STOP_SPEED_M_S = 0.1
 
 #: What a view reads: (measured joints (6,) [rad], table readout [m], points (M, 3) in the
 #: laser frame [m]), one per view of a line laser, one per stop of a point laser.
@@ -282,7 +283,7 @@ def _stops(controller: Controller, sphere: int, radius_m: float, readings: int) 
     """A point laser's stops across the sphere it looks at: STOPS places along the laser's x
     axis within STOP_RADII radii of the view, `readings` readings standing still at each,
     averaged (a line per stop with a return; a stop the arm does not reach is left out,
-    refused before it moves)."""
+    before it moves)."""
     T_view = controller.kinematics.fk(controller.read_joints()) @ controller.T_flange_tcp()
     out = []
     for u in np.linspace(-STOP_RADII, STOP_RADII, STOPS):
@@ -291,13 +292,10 @@ def _stops(controller: Controller, sphere: int, radius_m: float, readings: int) 
         if not controller.reachable(T):
             continue
         try:
-            controller.move_linear(T, speed_m_s=STOP_SPEED_M_S, settle_s=0.2)
+            q_stop = controller.solve_ik(T)
         except UnreachableTargetError:
             continue
-        except CellError as exc:
-            raise CalibrationError(
-                f"a calibration view of sphere {sphere + 1} failed: {exc}"
-            ) from exc
+        _move(controller, q_stop, sphere, settle_s=0.2)
         got = [controller.read_laser() for _ in range(readings)]
         d = np.array([r.distances[0] for r in got])
         if np.all(np.isfinite(d)):
