@@ -8,6 +8,7 @@ runs the point laser's cell served in another process against the same cell in p
 from __future__ import annotations
 
 import itertools
+import json
 from pathlib import Path
 
 import igl
@@ -285,3 +286,20 @@ def _analog_client(served: Served) -> RemoteController:
         feedback.close()
         link.close()
         raise
+
+
+def test_a_profile_stream_for_a_point_laser_is_refused_before_anything_connects(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """No controller answers at this address: the refusal comes first, names what was given
+    and what to change, and the run's results record the stop (incomplete, in its setup)."""
+    from scenarios.cli.app import main
+
+    out = tmp_path / "runs"
+    args = ["run", "skull", "--cell", "point_laser", "--controller", "http://127.0.0.1:9"]
+    args += ["--egm-port", "6599", "--profiles", "127.0.0.1:6598", "--out", str(out), "--quiet"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "--profiles 127.0.0.1:6598" in err and "give no --profiles" in err
+    result = json.loads((out / "latest" / "results.json").read_text())
+    assert (result["status"], result["stage"]) == ("incomplete", "setup")

@@ -122,7 +122,14 @@ def client_settings(config: JobConfig) -> ClientSettings:
 def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> RemoteController:
     """The job's controller across the network, with the cell's data sheets (the arm, the
     rack's place, the laser's rays). A point laser is read on the controller's analog input,
-    from the EGM stream; a line laser from its own profile stream (`address.profiles`)."""
+    from the EGM stream; a line laser from its own profile stream (`address.profiles`). A
+    profile stream given for a point laser is refused before anything connects."""
+    if config.cell.laser.kind == "point" and address.profiles is not None:
+        raise ScenarioError(
+            f"--profiles {address.profiles[0]}:{address.profiles[1]}: the cell's laser is a "
+            "point laser (cell.laser.kind: point), read on the controller's analog input in "
+            "the EGM stream; give no --profiles"
+        )
     user, password = credentials()
     sheet = config.cell.laser.data_sheet()
     link = RwsLink(address.url, user, password)
