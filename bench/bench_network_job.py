@@ -28,6 +28,8 @@ from bench_support.served_twin import served
 from rich.console import Console
 from rich.table import Table
 
+from scenarios.configuration.config_files import load_config
+
 
 def _twincell(*args: str, log: Path) -> float:
     """Run `twincell ARGS`, its output to `log`; its wall time [s]."""
@@ -46,10 +48,13 @@ def _network(
 ) -> tuple[dict, float]:
     extra = ("--laser-latency", str(latency_ms), *cell)
     with served(job, seed, speed, out, *extra) as ports:
+        # a point laser comes in the EGM stream; a line profiler on a stream of its own
+        point = load_config(job, {}, cell[1] if cell else None).cell.laser.kind == "point"
+        stream = () if point else ("--profiles", f"127.0.0.1:{ports.profiles}")
         wall = _twincell(
             "run", job, "--seed", str(seed), "--out", str(out / "net"), *cell,
-            "--controller", ports.url, "--egm-port", str(ports.egm),
-            "--profiles", f"127.0.0.1:{ports.profiles}", log=out / "net.log",
+            "--controller", ports.url, "--egm-port", str(ports.egm), *stream,
+            log=out / "net.log",
         )  # fmt: skip
     return _results(out / "net"), wall
 
