@@ -223,8 +223,9 @@ def _fit(
 
 def _centre_basis(v: np.ndarray, single_ray: bool) -> np.ndarray:
     """The directions (3, k) the sphere's centre is fitted along: all three for a line laser;
-    for a point laser, along the sweeps (their mean direction of travel, `v` (N, 3) the
-    points' velocities) and the height across them, not across the sweeps."""
+    for a point laser, along the sweeps (the principal axis of `v` (N, 3), the points'
+    velocities: the sweeps run forth and back along one level line) and the height across
+    them, not across the sweeps."""
     if not single_ray:
         return np.eye(3)
     along = np.linalg.eigh(v.T @ v)[1][:, -1]  # forth and back: the axis of travel
