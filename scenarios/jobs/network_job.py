@@ -88,6 +88,17 @@ class ControllerAddress:
             stream = (host, int(port))
         return cls(url.rstrip("/"), egm_port, stream)
 
+    def check_laser(self, kind: str) -> None:
+        """ScenarioError where a profile stream is given for a point laser (`kind` "point"),
+        whose readings come in the EGM stream."""
+        if kind == "point" and self.profiles is not None:
+            host, port = self.profiles
+            raise ScenarioError(
+                f"--profiles {host}:{port}: the cell's laser is a point laser (cell.laser.kind: "
+                "point), read on the controller's analog input in the EGM stream; give no "
+                "--profiles"
+            )
+
 
 def credentials(environ: Mapping[str, str] | None = None) -> tuple[str, str]:
     """The RWS user and password: TWINCELL_RWS_USER and TWINCELL_RWS_PASSWORD, else the file
@@ -122,14 +133,8 @@ def client_settings(config: JobConfig) -> ClientSettings:
 def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> RemoteController:
     """The job's controller across the network, with the cell's data sheets (the arm, the
     rack's place, the laser's rays). A point laser is read on the controller's analog input,
-    from the EGM stream; a line laser from its own profile stream (`address.profiles`). A
-    profile stream given for a point laser is refused before anything connects."""
-    if config.cell.laser.kind == "point" and address.profiles is not None:
-        raise ScenarioError(
-            f"--profiles {address.profiles[0]}:{address.profiles[1]}: the cell's laser is a "
-            "point laser (cell.laser.kind: point), read on the controller's analog input in "
-            "the EGM stream; give no --profiles"
-        )
+    from the EGM stream; a line laser from its own profile stream (`address.profiles`)."""
+    address.check_laser(config.cell.laser.kind)
     user, password = credentials()
     sheet = config.cell.laser.data_sheet()
     link = RwsLink(address.url, user, password)

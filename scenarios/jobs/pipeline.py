@@ -166,6 +166,8 @@ def run_cell_job(
     to, scenarios.jobs.commissioner)."""
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
+    if address is not None:
+        address.check_laser(config.cell.laser.kind)  # before any planning
     plan = plan_job(config, say, use_cache)
     if address is not None:
         if not config.calibration.enabled and config.calibration.latency == "identify":
