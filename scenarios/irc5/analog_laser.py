@@ -5,6 +5,11 @@ reading over as a one-ray profile: stamped with the controller's time of the pac
 numbered by that count, so a reading that several packets carry is one reading
 (scenarios.irc5.profile_alignment keeps its first packet's).
 
+A reading whose first packet may have been lost on the way (a gap in the packets' sequence
+numbers, across which the count rose by less than one a packet) cannot be paired with its
+pose: it could have come in the lost packet, a control period earlier. It is left out, every
+packet that carries it.
+
 The reading travels in the controller's own clock: there is no offset between clocks to
 measure. What remains is the latency from the surface's distance to the input's change (the
 sensor's response, its output's filter, the I/O system's update), which the calibration
@@ -33,6 +38,8 @@ class AnalogLaser(LineProfiler):
         self.feedback = feedback
         self.range_m = (laser.range_min_m, laser.range_max_m)
         self._sink: ProfileSink | None = None
+        self._last: tuple[int, int] | None = None  # the last packet's (seqno, count)
+        self._unpaired: int | None = None  # the count of a reading left out
 
     def start(self, sink: ProfileSink) -> None:
         self._sink = sink
@@ -41,7 +48,14 @@ class AnalogLaser(LineProfiler):
     def _take(self, sample: Feedback) -> None:
         if self._sink is None or sample.laser_mm is None or sample.laser_reads is None:
             return  # the stream carries no laser: a helper module without it
-        self._sink(Profile(sample.laser_reads, sample.time_s, self.distances(sample.laser_mm)))
+        count, last = sample.laser_reads, self._last
+        self._last = (sample.seqno, count)
+        if last is not None and count != last[1]:
+            gap, rose = sample.seqno - last[0], count - last[1]
+            self._unpaired = count if gap > 1 and rose < gap else None
+        if count == self._unpaired:
+            return
+        self._sink(Profile(count, sample.time_s, self.distances(sample.laser_mm)))
 
     def distances(self, laser_mm: float) -> np.ndarray:
         """The one ray's distance (1,) [m] of an input's value [mm]: NaN outside the range."""
