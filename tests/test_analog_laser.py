@@ -237,11 +237,15 @@ def test_a_point_laser_s_latency_is_found_within_a_millisecond(latency_s: float)
 @pytest.mark.slow
 def test_a_point_laser_served_in_another_process_scans_as_in_process(tmp_path: Path) -> None:
     """The skull job's point-laser cell (seed 0) served in another process, its laser 8 ms
-    late: the calibration's sweeps find the latency (1 ms; the twin's option, which the
-    client never sees), and the scan's first raster, read through the input in the EGM
-    stream, sees the skull as the same raster in process does, both against the truth of
-    the same real cell. Paired without the latency, each reading would sit 8 ms of travel
-    (0.8 mm at 0.1 m/s) along its line."""
+    late and a tenth of the EGM packets lost: the calibration's sweeps find the latency
+    (1 ms; the twin's option, which the client never sees), and the scan's first raster,
+    read through the input in the EGM stream, sees the skull as the same raster in process
+    does, both against the truth of the same real cell. The readings the lost packets
+    carried are gone (a tenth); the input changes at every packet while the arm moves, so
+    the count tells which packet each other reading came in, and they sit where the
+    in-process raster's do. Paired without the latency, each reading would sit 8 ms of
+    travel (0.8 mm at 0.1 m/s) along its line; paired with the packet after a lost one, 4 ms
+    (0.4 mm)."""
     from scenarios.configuration.config_files import load_config
     from scenarios.configuration.job_config import JobConfig
     from scenarios.jobs.job_plan import plan_job
@@ -254,7 +258,8 @@ def test_a_point_laser_served_in_another_process_scans_as_in_process(tmp_path: P
     assert plan.scan_plan is not None
     passes, scan = plan.scan_plan.passes[:1], plan.settings.localization.scan
     assert len(passes[0].lines()) > 1  # a raster
-    twin = serve(tmp_path, extra=("--cell", "point_laser", "--laser-latency", "8"))
+    extra = ("--cell", "point_laser", "--laser-latency", "8", "--egm-loss", "0.1")
+    twin = serve(tmp_path, extra=extra)
     try:
         client = _analog_client(twin)
         try:
@@ -287,7 +292,7 @@ def test_a_point_laser_served_in_another_process_scans_as_in_process(tmp_path: P
         f"{np.median(on_in) * 1e3:.4f} mm, q95 {np.percentile(on_in, 95) * 1e3:.4f} mm"
     )
     assert len(on_in) > 500
-    assert 0.95 * len(on_in) <= len(on_net) <= 1.05 * len(on_in)
+    assert 0.8 * len(on_in) <= len(on_net) <= 0.97 * len(on_in)
     # the same surface seen (the arm's error, the same on both, is most of either)
     assert abs(np.median(on_net) - np.median(on_in)) < 3e-5
     assert abs(np.percentile(on_net, 95) - np.percentile(on_in, 95)) < 6e-5
