@@ -7,8 +7,8 @@ numbered by that count, so a reading that several packets carry is one reading
 
 A reading whose first packet may have been lost on the way (a gap in the packets' sequence
 numbers, across which the count rose by less than one a packet) cannot be paired with its
-pose: it could have come in the lost packet, a control period earlier. It is left out, every
-packet that carries it.
+pose: it could have come in the lost packet, a control period earlier. Every packet that
+carries it hands it over as no return (the stream goes on, and gives no point).
 
 The reading travels in the controller's own clock: there is no offset between clocks to
 measure. What remains is the latency from the surface's distance to the input's change (the
@@ -53,9 +53,9 @@ class AnalogLaser(LineProfiler):
         if last is not None and count != last[1]:
             gap, rose = sample.seqno - last[0], count - last[1]
             self._unpaired = count if gap > 1 and rose < gap else None
-        if count == self._unpaired:
-            return
-        self._sink(Profile(count, sample.time_s, self.distances(sample.laser_mm)))
+        unpaired = count == self._unpaired
+        d = np.array([np.nan]) if unpaired else self.distances(sample.laser_mm)
+        self._sink(Profile(count, sample.time_s, d))
 
     def distances(self, laser_mm: float) -> np.ndarray:
         """The one ray's distance (1,) [m] of an input's value [mm]: NaN outside the range."""
