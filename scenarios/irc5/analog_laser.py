@@ -39,7 +39,7 @@ class AnalogLaser(LineProfiler):
         self.range_m = (laser.range_min_m, laser.range_max_m)
         self._sink: ProfileSink | None = None
         self._last: tuple[int, int] | None = None  # the last packet's (seqno, count)
-        self._unpaired: int | None = None  # the count of a reading left out
+        self._unpaired: int | None = None  # the count of a reading that reads as no return
 
     def start(self, sink: ProfileSink) -> None:
         self._sink = sink
