@@ -44,12 +44,18 @@ def _results(folder: Path) -> dict:
 
 
 def _network(
-    job: str, seed: int, speed: float, latency_ms: float, out: Path, cell: tuple[str, ...]
+    job: str,
+    seed: int,
+    speed: float,
+    latency_ms: float,
+    out: Path,
+    cell: tuple[str, ...],
+    point: bool,
 ) -> tuple[dict, float]:
+    """The job against its twin served; a `point` laser comes in the EGM stream, a line
+    profiler on a stream of its own."""
     extra = ("--laser-latency", str(latency_ms), *cell)
     with served(job, seed, speed, out, *extra) as ports:
-        # a point laser comes in the EGM stream; a line profiler on a stream of its own
-        point = load_config(job, {}, cell[1] if cell else None).cell.laser.kind == "point"
         stream = () if point else ("--profiles", f"127.0.0.1:{ports.profiles}")
         wall = _twincell(
             "run", job, "--seed", str(seed), "--out", str(out / "net"), *cell,
@@ -82,6 +88,7 @@ def main() -> None:
     args = parser.parse_args()
     console = Console()
     cell = () if args.cell is None else ("--cell", args.cell)
+    point = load_config(args.job, {}, args.cell).cell.laser.kind == "point"
     rows, stages_in, stages_net, worst = [], {}, {}, 0.0
     for seed in args.seeds:
         out = args.out / f"seed{seed}"
@@ -90,7 +97,7 @@ def main() -> None:
             "run", args.job, "--seed", str(seed), "--out", str(out / "in"), "--no-rrd", *cell,
             log=out / "in.log",
         )  # fmt: skip
-        ours, wall_net = _network(args.job, seed, args.speed, args.laser_latency, out, cell)
+        ours, wall_net = _network(args.job, seed, args.speed, args.laser_latency, out, cell, point)
         theirs = _results(out / "in")
         e_in = {t["name"]: t["error_m"] for t in theirs.get("targets", [])}
         e_net = {t["name"]: t["error_m"] for t in ours.get("targets", [])}

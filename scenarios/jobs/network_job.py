@@ -133,8 +133,8 @@ def client_settings(config: JobConfig) -> ClientSettings:
 def connect(config: JobConfig, robot: Robot, address: ControllerAddress) -> RemoteController:
     """The job's controller across the network, with the cell's data sheets (the arm, the
     rack's place, the laser's rays). A point laser is read on the controller's analog input,
-    from the EGM stream; a line laser from its own profile stream (`address.profiles`)."""
-    address.check_laser(config.cell.laser.kind)
+    from the EGM stream; a line laser from its own profile stream (`address.profiles`; one
+    given for a point laser is refused before the job plans: ControllerAddress.check_laser)."""
     user, password = credentials()
     sheet = config.cell.laser.data_sheet()
     link = RwsLink(address.url, user, password)

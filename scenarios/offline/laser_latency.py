@@ -30,6 +30,7 @@ from models.robot import LASER
 from scenarios.offline.calibration_artifact import CalibrationError, SphereArtifact
 from scenarios.offline.calibration_measurement import Clear, path_clear, view_pose
 from scenarios.offline.cell_model import CellModel
+from scenarios.offline.laser_sheet import single_ray
 
 #: The points along a sweep checked reachable and clear of the object.
 SAMPLES_PER_SWEEP = 9
@@ -256,13 +257,13 @@ def identify_latency(
         [np.column_stack([np.full(len(part[2]), k), part[2]]) for k, part in enumerate(parts)]
     )
     used = sum(1 for part in parts if len(part[0]))
-    basis = _centre_basis(v, len(directions_tcp) == 1) if len(v) else np.eye(3)
     if used < 2 or len(p) < 50:
         raise CalibrationError(
             f"the latency sweeps over sphere {measured.sphere + 1} saw it in {used} of "
             f"{len(parts)} sweeps ({len(p)} points): is the laser's stream coming while the arm "
             "moves?"
         )
+    basis = _centre_basis(v, single_ray(directions_tcp))
     keep = np.ones(len(p), dtype=bool)
     x, r, JtJ = _fit(p, v, measured.centre_base, radius_m, keep, basis)
     for _ in range(2):

@@ -150,7 +150,7 @@ class EgmServer:
         snap: Snapshot,
         motors_on: bool,
         rapid_running: bool,
-        to_sensor: tuple[float, ...] = (),
+        to_sensor: tuple[float, ...],
     ) -> None:
         """Send an EgmRobot message of the controller's snapshot `snap` to the client, with
         `to_sensor` in RAPIDfromRobot.dnum (TcHelper's tcToSensor)."""
