@@ -199,9 +199,11 @@ class CellConfig:
     """Everything that defines a simulated cell: its `robot` (cell.robot_arm), where its tool
     rack stands (`rack_xyz` [m], the rack frame; the slots are 0.25 m apart along x and 0.8 m
     above it), the error sources, the objects on the table, the faults it will have
-    (cell.sim.faults). `seed` draws the real cell's errors."""
+    (cell.sim.faults). `seed` draws the real cell's errors; `noise_draw` its run-to-run noise
+    (its sensors', the table's repeatability, the moves'), 0 being the seed's own draw."""
 
     seed: int = 0
+    noise_draw: int = 0
     robot: Robot = field(default_factory=irb2400)
     rack_xyz: tuple[float, float, float] = RACK_POS
     arm: ArmErrors = field(default_factory=ArmErrors)

@@ -32,6 +32,13 @@ def _carry_loose_parts(sim: Simulation, config: CellConfig) -> None:
     mujoco.mj_forward(sim.model, sim.data)
 
 
+def _stream(config: CellConfig, kind: int) -> np.random.SeedSequence:
+    """The seed of one of the cell's run-to-run noise streams: its sensors' and the table's
+    (`kind` 2), the moves' (3); another `noise_draw` draws them anew on the same cell."""
+    draw = [config.noise_draw] if config.noise_draw else []
+    return np.random.SeedSequence([config.seed, kind, *draw])
+
+
 def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTruth]:
     """Build the real cell described by `config` (default: default errors, seed 0).
 
@@ -41,7 +48,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTrut
     config = config or CellConfig()
     params = draw_real_parameters(config)
     sim = Simulation(build_real_model(config, params), config.robot.q_home)
-    rng = np.random.default_rng(np.random.SeedSequence([config.seed, 2]))
+    rng = np.random.default_rng(_stream(config, 2))
     table = TableAxis(
         sim, params.table_bias_m, config.table.repeat_sigma_m, rng, params.table_profile
     )
@@ -53,7 +60,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTrut
     laser.faults = faults
     _bind_object(sim, config, faults, laser)
     ir = IRSensor(sim.model, sim.tcp_site[IR.name], config.ir, rng)
-    moves = np.random.default_rng(np.random.SeedSequence([config.seed, 3]))
+    moves = np.random.default_rng(_stream(config, 3))
     t = config.tools
     changer = ToolChanger(sim, t.changer_sigma_m, t.changer_sigma_rad, moves)
     changer.faults = faults

@@ -69,7 +69,10 @@ class ToolNoise(Section):
 
 
 class Noise(Section):
-    """Error sources of the real cell and of the model."""
+    """Error sources of the real cell and of the model. `draw` is which draw of the cell's
+    run-to-run noise a run meets (its sensors', the table's repeatability, the moves'): 0 is
+    the seed's own, another number the same real cell, its object placed as it was, run
+    again."""
 
     laser_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     arm_length_sigma_m: float = Field(1.5e-4, ge=0.0, le=0.01)
@@ -84,6 +87,7 @@ class Noise(Section):
     tools: ToolNoise = ToolNoise()
     model_deformation_rms_m: float = Field(0.24e-3, ge=0.0, le=0.01)
     model_noise_rms_m: float = Field(0.18e-3, ge=0.0, le=0.01)
+    draw: int = Field(0, ge=0)
 
 
 class ObjectSection(Section):

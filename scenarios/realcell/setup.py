@@ -76,6 +76,7 @@ def cell_config(
     the built-in arm), the tool rack at `rack_xyz` [m] and its `laser`."""
     return CellConfig(
         seed=seed,
+        noise_draw=noise.draw,
         robot=robot or irb2400(),
         rack_xyz=rack_xyz,
         arm=ArmErrors(noise.arm_length_sigma_m, noise.arm_offset_sigma_rad),
