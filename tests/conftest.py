@@ -40,6 +40,18 @@ LONGEST_FIRST = (
 )
 
 
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
+    """`-n auto` (pyproject.toml's addopts): a worker per CPU this process may keep busy
+    (scenarios.workers.usable_cpus), instead of pytest-xdist's count of the machine's
+    physical cores (psutil), which is one on two hardware threads of one core and the host's
+    on a container given fewer. PYTEST_XDIST_AUTO_NUM_WORKERS still decides where set."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return None  # pytest-xdist's own hook reads it
+    from scenarios.workers import usable_cpus
+
+    return usable_cpus()
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable for the rest
