@@ -172,6 +172,7 @@ def test_a_stop_while_the_recording_closes_discards_it(
         use_cache: bool,
         address: Any = None,
         commissioning: Any = None,
+        calibration: Any = None,
     ) -> Done:
         stages.enter("export")
         return Done()

@@ -141,6 +141,20 @@ CommissioningOption = Annotated[
     ),
 ]
 
+CalibrationOption = Annotated[
+    Path | None,
+    option(
+        "--calibration",
+        "FILE",
+        "The cell's calibration from an earlier run on it (its calibration.json): the job "
+        "starts from it instead of calibrating (refused if made on another cell or more "
+        "than calibration.max_age_h ago).",
+        CELL,
+        exists=True,
+        dir_okay=False,
+    ),
+]
+
 
 def run(
     name: Annotated[
@@ -156,6 +170,7 @@ def run(
     no_cache: NoCacheOption = False,
     cell: CellOption = None,
     commissioning: CommissioningOption = None,
+    calibration: CalibrationOption = None,
     fault: FaultOption = None,
     list_faults: Annotated[
         bool, flag("--list-faults", "List the faults and exit.", FAULTS)
@@ -202,6 +217,7 @@ def run(
             cache=not no_cache,
             controller=address,
             commissioning=commissioning,
+            calibration=calibration,
         ),
         cell=cell,
     )

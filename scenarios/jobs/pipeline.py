@@ -129,12 +129,15 @@ def job_faults(
     return tuple(out)
 
 
-def job_stages(config: JobConfig, plan: JobPlan) -> tuple[Stage, ...]:
-    """The job's stages, in order: calibrate (if the job calibrates), probe and scan +
+def job_stages(
+    config: JobConfig, plan: JobPlan, calibration: Path | None = None
+) -> tuple[Stage, ...]:
+    """The job's stages, in order: calibrate (if the job calibrates: the calibration
+    `calibration` an earlier run saved where given), probe and scan +
     register (its localization methods), check, verify (a surface match, if the job
     verifies: a disagreement runs scan, register and check again), execute, export."""
     methods = config.localization.methods
-    stages: list[Stage] = [Calibrate()] if config.calibration.enabled else []
+    stages: list[Stage] = [Calibrate(calibration)] if config.calibration.enabled else []
     if "probe" in methods:
         stages.append(Probe())
     localize: tuple[Stage, ...] = ()
@@ -157,13 +160,16 @@ def run_cell_job(
     use_cache: bool = True,
     address: ControllerAddress | None = None,
     commissioning: Path | None = None,
+    calibration: Path | None = None,
 ) -> RunResult:
     """Run a cell job into `folder`; returns its result (written by the caller). `stages`
     hears each stage as it begins; `use_cache`: the skull phantom and the scan plan may come
     from the user's cache folder (see plan_job); `address`: the controller across the network
     the job runs on (None: the job's real cell, simulated here); `commissioning`: the cell's
     commissioning record from an earlier run (None: the job commissions when it first needs
-    to, scenarios.jobs.commissioner)."""
+    to, scenarios.jobs.commissioner); `calibration`: the cell's calibration an earlier run
+    saved (None: the job calibrates, where it calibrates at all)."""
+    given = (commissioning, calibration)
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
     if address is not None:
@@ -179,16 +185,14 @@ def run_cell_job(
         cell, remote = network_job_cell(config, plan, address, recording)
         try:
             return _run_stages(
-                config, plan, cell, folder, say, t_total, stages, recording, (), commissioning
+                config, plan, cell, folder, say, t_total, stages, recording, (), given
             )
         finally:
             say(f"the link to {address.url}: {remote.link_summary()}")
             remote.close()
     faults = job_faults(config, plan.virtual, plan.T_table_nominal)
     cell = job_cell(config, plan.virtual, plan.real, plan.robot, recording, faults)
-    return _run_stages(
-        config, plan, cell, folder, say, t_total, stages, recording, faults, commissioning
-    )
+    return _run_stages(config, plan, cell, folder, say, t_total, stages, recording, faults, given)
 
 
 def _run_stages(
@@ -201,16 +205,17 @@ def _run_stages(
     stages: StageTracker | None,
     recording: Any | None,
     faults: tuple[Fault, ...],
-    given: Path | None = None,
+    given: tuple[Path | None, Path | None] = (None, None),
 ) -> RunResult:
-    """The job's stages on its `cell`, in one loop, and its result."""
+    """The job's stages on its `cell`, in one loop, and its result; `given`: the cell's
+    commissioning record and calibration from earlier runs, where given."""
     if recording is not None and plan.scan_plan is not None:
         recording.log_scan_plan(0.0, plan.scan_plan)
     if faults:
         say("faults injected: " + ", ".join(f.name for f in faults))
     log = RunLog(cell.controller, cell.evaluator, cell.log, say, stages, recording)
     job = JobRun(cell, log, plan, folder, recording)
-    commissioning = Commissioner(config, plan, job, log.say, given)
+    commissioning = Commissioner(config, plan, job, log.say, given[0])
     hooks = RunHooks(
         cell.touches, cell.log, log.say, log.detect, log.checked, log.budgeted, commissioning
     )
@@ -220,5 +225,5 @@ def _run_stages(
         JobState.start(CellModel.nominal(controller.nominal_kinematics)), folder, plan.user,
     )  # fmt: skip
     job.timings["setup"] = time.perf_counter() - t_total
-    ran = run_stages(job_stages(config, plan), ctx, job.enter, job.saw)
+    ran = run_stages(job_stages(config, plan, given[1]), ctx, job.enter, job.saw)
     return finish_job(config, plan, job, ran, t_total)

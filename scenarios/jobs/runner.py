@@ -49,13 +49,15 @@ class RunOptions:
     models.cache); the `controller` across the network the job runs on (None: its real cell,
     simulated in this process; across the network, the recording draws the cell as the job
     knows it, posed by the controller's stream); the cell's `commissioning` record from an
-    earlier run (None: the job commissions the cell when it first needs to)."""
+    earlier run (None: the job commissions the cell when it first needs to); the cell's
+    `calibration` an earlier run saved (None: the job calibrates it)."""
 
     rrd: bool = True
     spawn: bool = False
     cache: bool = True
     controller: ControllerAddress | None = None
     commissioning: Path | None = None
+    calibration: Path | None = None
 
 
 JobResult = RunResult | PaperResult
@@ -107,6 +109,7 @@ def _cell(
         result = run_cell_job(
             config, folder.path, progress, recording, stages=stages, use_cache=options.cache,
             address=remote, commissioning=options.commissioning,
+            calibration=options.calibration,
         )  # fmt: skip
         if recording is not None:
             recording.close(keep=True)

@@ -227,9 +227,11 @@ class Calibration(Section):
     latency of a laser whose lines are paired with the arm's pose by time (a controller
     across the network): `identify` (on a sphere swept both ways at two speeds,
     scenarios.offline.laser_latency), or a number [s], the sensor's data sheet's, used as
-    it is."""
+    it is. `max_age_h`: the oldest saved calibration a job starts from (`twincell run
+    --calibration FILE`) [h]."""
 
     enabled: bool = True
+    max_age_h: float = Field(24.0, gt=0.0)
     latency: Literal["identify"] | Annotated[float, Field(ge=-0.5, le=0.5)] = "identify"
     table_positions_m: tuple[float, ...] = Field((-0.45, -0.25, -0.05), min_length=1)
     views_per_sphere: int = Field(48, ge=4, le=200)

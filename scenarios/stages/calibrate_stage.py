@@ -5,10 +5,22 @@ object by the fixture's tolerance."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from datetime import UTC, datetime
+from pathlib import Path
 
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.job_cell import clear_of, job_virtual_cell, placement_uncertainty_m
+from scenarios.offline.saved_calibration import (
+    CALIBRATION_FILE,
+    SavedCalibration,
+    read_calibration,
+    rebuilt,
+    saved,
+    to_json,
+)
+from scenarios.outputs.run_folder import write_json
+from scenarios.scenario_errors import ScenarioError
 from scenarios.stages.context import StageContext
 from scenarios.stages.stage import Outcome
 from scenarios.stages.state import JobState
@@ -36,6 +48,38 @@ def calibrate_stage(ctx: StageContext) -> CalibrationResult:
     )
 
 
+def cell_name(ctx: StageContext) -> str:
+    """The cell as a calibration or a commissioning record names it: its arm and its seed."""
+    return f"{ctx.controller.robot.name}, seed {ctx.settings.seed}"
+
+
+def given_calibration(ctx: StageContext, path: Path) -> tuple[CalibrationResult, SavedCalibration]:
+    """The calibration an earlier run on this cell saved in `path` (checked: its cell, its
+    arm, its age), given to the controller as `calibrate_stage` gives its own: the
+    calibrated arm, and the laser's latency where the controller pairs lines by time."""
+    controller, settings = ctx.controller, ctx.settings
+    now = datetime.now(UTC)
+    kept = read_calibration(
+        path, cell_name(ctx), controller.robot, settings.calibration.max_age_h, now
+    )
+    result = rebuilt(kept, controller.robot)
+    controller.set_absolute_accuracy(result.kinematics)
+    if controller.laser_latency_s is not None:
+        if result.latency is not None:
+            controller.set_laser_latency(result.latency.latency_s)
+        elif settings.calibration.latency == "identify":
+            raise ScenarioError(
+                f"--calibration {path} has no laser latency (the laser it was made with "
+                "paired its lines with the encoders of their instant): give the sensor's "
+                "calibration.latency [s], or leave --calibration out to identify it now"
+            )
+    ctx.hooks.say(
+        f"calibration: from {path} (made {kept.age_s(now) / 3600.0:.1f} h ago on "
+        f"{kept.cell}; residual rms {kept.residual_rms_after_m * 1e3:.3f} mm)"
+    )
+    return result, kept
+
+
 @dataclass(frozen=True)
 class Calibrated(Outcome):
     """The calibration; from here on the stages believe its cell model."""
@@ -48,8 +92,10 @@ class Calibrated(Outcome):
 
 @dataclass(frozen=True)
 class Calibrate:
-    """The stage "calibrate": every later stage uses the calibrated arm."""
+    """The stage "calibrate": every later stage uses the calibrated arm; `given`: the
+    calibration an earlier run on the cell saved (`twincell run --calibration FILE`)."""
 
+    given: Path | None = None
     name: str = "calibrate"
     title: str = "the arm, the laser and the table, on the spheres"
 
@@ -57,4 +103,12 @@ class Calibrate:
         return True
 
     def run(self, ctx: StageContext) -> Calibrated:
-        return Calibrated(calibrate_stage(ctx))
+        """Calibrate (or take the calibration `given`), and keep it in the run's folder
+        (calibration.json) for later jobs on the same cell."""
+        if self.given is None:
+            result = calibrate_stage(ctx)
+            kept = saved(result, cell_name(ctx), datetime.now(UTC))
+        else:
+            result, kept = given_calibration(ctx, self.given)
+        write_json(ctx.folder / CALIBRATION_FILE, to_json(kept))
+        return Calibrated(result)
