@@ -39,6 +39,7 @@ from scenarios.results.budget_result import ErrorBudget
 from scenarios.results.evaluations import TouchMeasure
 from scenarios.results.run import RunResult
 from scenarios.results.verification_result import TcpCheck
+from scenarios.scenario_errors import ScenarioError
 from scenarios.stages.calibrate_stage import Calibrate
 from scenarios.stages.check_stage import Check
 from scenarios.stages.context import StageContext
@@ -172,6 +173,11 @@ def run_cell_job(
     given = (commissioning, calibration)
     say = progress or (lambda _msg: None)
     t_total = time.perf_counter()
+    if calibration is not None and not config.calibration.enabled:
+        raise ScenarioError(
+            f"--calibration {calibration} is given to a job that keeps the data sheet's cell "
+            "(calibration.enabled: false): leave one of them out"
+        )
     if address is not None:
         address.check_laser(config.cell.laser.kind)  # before any planning
     plan = plan_job(config, say, use_cache)
