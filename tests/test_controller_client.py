@@ -326,12 +326,13 @@ def test_a_job_across_the_network_as_in_process(short_skull_run: Path, tmp_path:
     instants, so its noise is another draw than the job's in process, and the registration's
     share of a target moves with the draw by up to its predicted TRE (up to 0.17 mm seen on
     ten seeds, where two runs of the same cell in process, `cell.noise.draw` 0 and 1, moved
-    one by up to 0.16 mm; bench/bench_network_job.py prints both seed by seed). The twin's laser stamps each profile
-    8 ms after its exposure: the job's calibration finds that to 1 ms, or its scan's lines
-    would sit 2 mm along their passes off. The run is recorded: the arm posed by the
-    controller's stream through the whole run, the laser's rays only while it scans. The
-    cell's commissioning is the in-process run's record of the same cell (`--commissioning`):
-    the job reads no tool at the beam for it and keeps that record."""
+    one by up to 0.16 mm; bench/bench_network_job.py prints both seed by seed). The twin's
+    laser stamps each profile 8 ms after its exposure: the job's calibration finds that to
+    1 ms, or its scan's lines would sit 2 mm along their passes off. The run is recorded:
+    the arm posed by the controller's stream through the whole run, the laser's rays only
+    while it scans. The cell's commissioning is the in-process run's record of the same
+    cell (`--commissioning`): the job reads no tool at the beam for it and keeps that
+    record."""
     from scenarios.jobs.network_job import ControllerAddress
     from scenarios.jobs.runner import RunOptions, run_job
     from scenarios.results.run import RunResult
