@@ -86,7 +86,8 @@ def test_the_model_reads_back_to_the_bit(identified, tmp_path: Path) -> None:
         ({}, NOW + timedelta(hours=30), "30.0 h old, more than calibration.max_age_h = 24 h"),
         ({}, NOW - timedelta(minutes=5), "after now"),
         ({"format": 7}, NOW, "not a saved calibration (layout 7, this twincell reads 1)"),
-        ({"deviations": "none"}, NOW, "not a saved calibration"),
+        ({"T_tool_laser": "none"}, NOW, "not a saved calibration"),
+        ({"summary": {"views": 3}}, NOW, "not a saved calibration"),
     ],
 )
 def test_a_calibration_not_of_this_cell_and_time_is_refused(

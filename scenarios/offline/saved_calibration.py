@@ -26,12 +26,8 @@ from cell.robot_arm import Robot
 from scenarios.offline.calibration import CalibrationResult
 from scenarios.offline.cell_model import CellModel, CompliantKinematics, TableModel
 from scenarios.offline.laser_latency import LatencyEstimate
-from scenarios.results.json_converter import (
-    register_layout,
-    structure,
-    unbounded_numbers,
-    unstructure,
-)
+from scenarios.results.evaluations import CalibrationSummary
+from scenarios.results.json_converter import structure, unstructure
 from scenarios.scenario_errors import ScenarioError
 
 #: The saved calibration's file in a run folder.
@@ -43,32 +39,20 @@ FORMAT = 1
 @dataclass(frozen=True)
 class SavedCalibration:
     """A calibration as a file keeps it: the cell it was made on (`cell`, as the job names
-    it: "<arm>, seed <seed>") and when (`made_utc`, ISO 8601), the arm's deviations by
-    parameter name with the joints' compliance (joints 2 and 3 [rad/(N m)]; used where
-    `groups` holds "stiffness"), the laser's optical frame on its tool (`T_tool_laser`, 4 x
-    4) and range scale, the table's terms (6, 2), and the calibration's own figures
-    (scenarios.offline.calibration.CalibrationResult)."""
+    it: "<arm>, seed <seed>") and when (`made_utc`, ISO 8601); its figures and what it found
+    as results.json keeps them (`summary`: the arm's deviations by parameter name, the
+    laser's mounting and scale, the table's terms, ...); and what the model needs besides:
+    the joints' compliance (joints 2 and 3 [rad/(N m)], used where the summary's groups hold
+    "stiffness"), the laser's optical frame on its tool (`T_tool_laser`, 4 x 4), the spheres'
+    centres it found (S, 3) and the laser's latency where it was identified."""
 
     format: int
     cell: str
     made_utc: str
-    parameters: tuple[str, ...]
-    deviations: np.ndarray
+    summary: CalibrationSummary
     compliance: np.ndarray
     T_tool_laser: np.ndarray
-    laser_scale: float
-    table_coefficients: np.ndarray
-    groups: tuple[str, ...]
-    stiffness_nm_rad: tuple[float, ...]
-    laser_mount: np.ndarray
     centres_table: np.ndarray
-    residual_rms_before_m: float
-    residual_rms_after_m: float
-    points: int
-    views: int
-    table_positions: int
-    iterations: int
-    seconds: float
     latency: LatencyEstimate | None
 
     def age_s(self, now: datetime) -> float:
@@ -86,42 +70,31 @@ def saved(result: CalibrationResult, cell: str, now: datetime) -> SavedCalibrati
         else np.zeros(2)
     )
     return SavedCalibration(
-        FORMAT, cell, now.astimezone(UTC).isoformat(), tuple(result.parameters),
-        np.asarray(result.deviations, dtype=float), compliance,
-        np.asarray(model.T_tool_laser, dtype=float), float(model.laser_scale),
-        np.asarray(model.table.coefficients, dtype=float), tuple(result.groups),
-        tuple(float(v) for v in result.stiffness_nm_rad), np.asarray(result.laser_mount),
-        np.asarray(result.centres_table), result.residual_rms_before_m,
-        result.residual_rms_after_m, result.points, result.views, result.table_positions,
-        result.iterations, result.seconds, result.latency,
+        FORMAT, cell, now.astimezone(UTC).isoformat(), result.summary(), compliance,
+        np.asarray(model.T_tool_laser, dtype=float), np.asarray(result.centres_table),
+        result.latency,
     )  # fmt: skip
 
 
 def rebuilt(calibration: SavedCalibration, robot: Robot) -> CalibrationResult:
     """The calibration result of the saved one on the arm `robot` (its parameters must be the
     file's): the model the run used, its figures; no fitted points."""
-    links = robot.kinematics(calibration.deviations)
+    summary = calibration.summary
+    deviations = np.array(list(summary.deviations.values()))
+    links = robot.kinematics(deviations)
     kinematics: Kinematics = links
-    if "stiffness" in calibration.groups:
+    if "stiffness" in summary.groups:
         kinematics = CompliantKinematics(links, calibration.compliance)
-    model = CellModel(
-        kinematics,
-        calibration.T_tool_laser,
-        calibration.laser_scale,
-        TableModel(calibration.table_coefficients),
-    )
+    table = np.array(summary.table_coefficients)
+    model = CellModel(kinematics, calibration.T_tool_laser, summary.laser_scale, TableModel(table))
     return CalibrationResult(
-        model, links, calibration.parameters, calibration.deviations,
-        np.array(calibration.stiffness_nm_rad), calibration.laser_mount, calibration.laser_scale,
-        calibration.table_coefficients, calibration.centres_table,
-        calibration.residual_rms_before_m, calibration.residual_rms_after_m,
-        calibration.points, calibration.views, calibration.table_positions,
-        calibration.iterations, calibration.groups, calibration.seconds, None,
-        calibration.latency,
+        model, links, tuple(summary.deviations), deviations,
+        np.array(summary.stiffness_nm_rad), np.array([*summary.laser_mount_m,
+        *summary.laser_mount_rad]), summary.laser_scale, table, calibration.centres_table,
+        summary.residual_rms_before_m, summary.residual_rms_after_m, summary.points,
+        summary.views, summary.table_positions, summary.iterations, summary.groups,
+        summary.seconds, None, calibration.latency,
     )  # fmt: skip
-
-
-register_layout(SavedCalibration, stiffness_nm_rad=unbounded_numbers())
 
 
 def to_json(calibration: SavedCalibration) -> dict[str, object]:
@@ -152,9 +125,10 @@ def read_calibration(
             f"{what} was made on the cell {calibration.cell!r}; this job's cell is {cell!r}: "
             "give that cell's calibration, or leave --calibration out to calibrate now"
         )
-    if calibration.parameters != tuple(robot.parameters):
+    parameters = tuple(calibration.summary.deviations)
+    if parameters != tuple(robot.parameters):
         raise ScenarioError(
-            f"{what} holds the deviations of another arm model ({len(calibration.parameters)} "
+            f"{what} holds the deviations of another arm model ({len(parameters)} "
             f"parameters, this arm has {len(robot.parameters)}): leave --calibration out to "
             "calibrate now"
         )

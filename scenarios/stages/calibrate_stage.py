@@ -75,7 +75,7 @@ def given_calibration(ctx: StageContext, path: Path) -> tuple[CalibrationResult,
             )
     ctx.hooks.say(
         f"calibration: from {path} (made {kept.age_s(now) / 3600.0:.1f} h ago on "
-        f"{kept.cell}; residual rms {kept.residual_rms_after_m * 1e3:.3f} mm)"
+        f"{kept.cell}; residual rms {kept.summary.residual_rms_after_m * 1e3:.3f} mm)"
     )
     return result, kept
 
