@@ -101,6 +101,27 @@ def test_another_noise_draw_is_the_same_cell_with_other_noise() -> None:
     assert abs(correlation) < 0.1, correlation
 
 
+def test_a_warm_arm_stands_off_a_cold_one_by_its_zero_shift() -> None:
+    """Three cells alike but for how long the arm has run when their clocks start: cold, one
+    time constant and ten: at the same encoder readings (the motors at home, no noise) the
+    links stand off the cold arm's by `warmup_rad` (motor less link) times 1 - exp(-t/tau),
+    to 2e-7 rad (each arm's servo stands within 1e-7 rad of its set-point at rest), a
+    thousandth of the shift."""
+    shift = np.array([0.0, 2e-4, -1.5e-4, 0.0, 1e-4, 0.0])
+    motors, links = {}, {}
+    for warm_s in (0.0, 600.0, 6000.0):
+        drives = replace(DriveErrors.off(), warmup_rad=tuple(shift), warmup_tau_s=600.0,
+                         warm_s=warm_s)  # fmt: skip
+        controller, truth = make_cell(replace(CellConfig(seed=2).ideal(), drives=drives))
+        motors[warm_s], links[warm_s] = controller.read_joints(), truth.q()
+    np.testing.assert_allclose(motors[0.0], motors[6000.0], atol=1e-7)
+    np.testing.assert_allclose(motors[0.0], motors[600.0], atol=1e-7)
+    settled = 0.2  # the cell settles that long when it is built: its clock's start
+    for warm_s in (600.0, 6000.0):
+        grown = np.exp(-settled / 600.0) - np.exp(-(warm_s + settled) / 600.0)
+        np.testing.assert_allclose(links[0.0] - links[warm_s], shift * grown, atol=2e-7)
+
+
 def _same_parameters(a: RealParameters, b: RealParameters) -> None:
     for name in ("deviations", "table_bias_m", "stiffness_nm_rad", "laser_scale", "table_profile"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)

@@ -136,3 +136,33 @@ def test_a_job_from_a_saved_calibration_skips_its_cell_time(
     assert json.loads((folder / CALIBRATION_FILE).read_text()) == json.loads(given.read_text())
     for key in ("tcp_error_calibrated_mean_m", "tcp_error_calibrated_max_m"):
         assert again["calibration"][key] == pytest.approx(first["calibration"][key], abs=1e-8)
+
+
+@pytest.mark.slow
+def test_a_calibration_kept_while_the_arm_warmed_up_misses_the_goal(tmp_path: Path) -> None:
+    """An arm whose joints 2 and 3 shift their zero by 0.5 mrad as it warms up (more than
+    the goal allows at the tool): the skull job calibrated cold meets its goals; two hours
+    later (four time constants) the same cell run from that calibration misses the RMS goal
+    (0.5 mm), measured against the truth, while the same warm cell calibrated anew meets
+    it. Calibrating once fails visibly where the drift exceeds the goal."""
+    warm = ["--set", "cell.noise.drives.warmup_rad=[0,5e-4,5e-4,0,0,0]"]
+    later = ["--set", "cell.noise.drives.warm_s=7200"]
+    cold = _job(tmp_path / "cold", *warm)
+    given = str(tmp_path / "cold" / "latest" / CALIBRATION_FILE)
+    stale = _job(tmp_path / "stale", *warm, *later, "--calibration", given)
+    fresh = _job(tmp_path / "fresh", *warm, *later)
+    assert cold["status"] == fresh["status"] == "complete"
+    for met in (cold, fresh):
+        assert met["target_error_rms_m"] <= 0.5e-3 and met["target_error_max_m"] <= 1.0e-3
+    assert stale["target_error_rms_m"] > 0.5e-3, stale["target_error_rms_m"]
+
+
+def _job(out: Path, *args: str) -> dict:
+    """results.json of `twincell run skull --seed 5 ARGS` into `out` (no recording)."""
+    done = subprocess.run(
+        [sys.executable, "-m", "scenarios.cli", "run", "skull", "--seed", "5", *args,
+         "--out", str(out), "--no-rrd", "--quiet"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert done.returncode in (0, 6), done.stdout + done.stderr  # 6: complete, goal at risk
+    return json.loads((out / "latest" / "results.json").read_text())

@@ -5,7 +5,8 @@ The controller commands motor angles. A link stops short of its motor by
 - the gearbox's torsion under the gravity torque of the arm and its payload (joints 2, 3),
 - half the joint's lost motion, on the side the joint came from,
 - a small random spread redrawn at every move (the arm's pose repeatability),
-- a slow zero drift as the arm warms up (off by default),
+- a slow zero drift as the arm warms up, linear or approaching its warm state (off by
+  default),
 so the encoders (on the motors) read the commanded angles while the links, and the tool,
 are elsewhere. All of it is the real cell's (cell.sim.config.DriveErrors); the controller knows
 none of it.
@@ -54,6 +55,7 @@ class Drives:
         self._half_lost = np.asarray(errors.hysteresis_rad, dtype=float) / 2.0
         self._drift = np.zeros(6)
         self._drift[1:3] = errors.drift_rad_per_s
+        self._warmup = np.asarray(errors.warmup_rad, dtype=float)
         self._tool_in_hand = tool_in_hand
         self._rng = rng
         self._models: dict[str | None, tuple[pin.Model, pin.Data]] = {}
@@ -73,7 +75,11 @@ class Drives:
 
     def offset(self, q: np.ndarray) -> np.ndarray:
         """(6,) motor angle minus link angle [rad] at joints `q` (6,) now."""
-        out = self._half_lost * self.direction + self.jitter + self._drift * self.sim.time
+        t = self.sim.time
+        out = self._half_lost * self.direction + self.jitter + self._drift * t
+        if self._warmup.any():
+            errors = self.errors
+            out = out + self._warmup * -np.expm1(-(errors.warm_s + t) / errors.warmup_tau_s)
         if self._compliance.any():
             out = out + self._compliance * self._gravity(q)
         return out

@@ -44,7 +44,9 @@ class Placement(NominalPlacement):
 class DriveNoise(Section):
     """The arm's drives beyond its kinematics (cell.sim.config.DriveErrors, where the defaults'
     sources are): joint 2 and 3 stiffness [N m/rad] (0: rigid) and its spread, lost motion
-    per joint [rad], pose repeatability [rad], thermal zero drift of joints 2 and 3 [rad/s]."""
+    per joint [rad], pose repeatability [rad], thermal zero drift of joints 2 and 3 [rad/s];
+    each joint's zero shift once warm [rad], the warm-up's time constant [s] and how long the
+    arm has run when the job starts [s]."""
 
     stiffness_nm_rad: tuple[float, float] = (1.5e6, 1.0e6)
     stiffness_spread: float = Field(0.1, ge=0.0, le=1.0)
@@ -53,6 +55,9 @@ class DriveNoise(Section):
     )  # fmt: skip
     repeat_sigma_rad: float = Field(1.0e-5, ge=0.0, le=0.01)
     drift_rad_per_s: tuple[float, float] = (0.0, 0.0)
+    warmup_rad: tuple[float, float, float, float, float, float] = (0.0,) * 6
+    warmup_tau_s: float = Field(1800.0, gt=0.0, le=86400.0)
+    warm_s: float = Field(0.0, ge=0.0)
 
 
 class ToolNoise(Section):
