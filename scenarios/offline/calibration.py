@@ -65,6 +65,7 @@ from scenarios.offline.laser_latency import (
     identify_latency,
     sweep_artifact,
 )
+from scenarios.results.calibration_check_result import DriftCheck
 from scenarios.results.evaluations import CalibrationSummary
 
 
@@ -89,6 +90,8 @@ class CalibrationResult:
         fitted: every point as the identified model places it (for a picture of the fit).
         latency: the laser's latency identified on a sphere (None: not identified, its
             lines come with the encoders of their instant).
+        given: the saved calibration (its file) the job started from, and `check`: its quick
+            check (scenarios.offline.calibration_check), where it was given.
     """
 
     model: CellModel
@@ -110,6 +113,8 @@ class CalibrationResult:
     seconds: float
     fitted: FittedPoints | None = None
     latency: LatencyEstimate | None = None
+    given: str | None = None
+    check: DriftCheck | None = None
 
     @property
     def kinematics(self) -> Kinematics:
@@ -136,6 +141,8 @@ class CalibrationResult:
             ),
             laser_latency_s=None if self.latency is None else self.latency.latency_s,
             laser_latency_sigma_s=None if self.latency is None else self.latency.sigma_s,
+            given=self.given,
+            check=self.check,
         )
 
 

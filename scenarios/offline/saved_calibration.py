@@ -14,7 +14,7 @@ keeps a float64 exactly). A file of another cell, of a time to come or older tha
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -70,7 +70,8 @@ def saved(result: CalibrationResult, cell: str, now: datetime) -> SavedCalibrati
         else np.zeros(2)
     )
     return SavedCalibration(
-        FORMAT, cell, now.astimezone(UTC).isoformat(), result.summary(), compliance,
+        FORMAT, cell, now.astimezone(UTC).isoformat(),
+        replace(result.summary(), given=None, check=None), compliance,
         np.asarray(model.T_tool_laser, dtype=float), np.asarray(result.centres_table),
         result.latency,
     )  # fmt: skip

@@ -227,11 +227,16 @@ class Calibration(Section):
     latency of a laser whose lines are paired with the arm's pose by time (a controller
     across the network): `identify` (on a sphere swept both ways at two speeds,
     scenarios.offline.laser_latency), or a number [s], the sensor's data sheet's, used as
-    it is. `max_age_h`: the oldest saved calibration a job starts from (`twincell run
-    --calibration FILE`) [h]."""
+    it is. A saved calibration a job starts from (`twincell run --calibration FILE`) is at
+    most `max_age_h` old [h]; the job checks it first, viewing each sphere from
+    `check_views` poses, and calibrates anew where the spheres' largest shift since, at its
+    95 % upper bound, exceeds `check_tolerance_m` [m] (None: 30 % of the job's RMS goal, a
+    drift that adds under 5 % to it in quadrature; 0.1 mm without a goal)."""
 
     enabled: bool = True
     max_age_h: float = Field(24.0, gt=0.0)
+    check_views: int = Field(4, ge=3, le=48)
+    check_tolerance_m: float | None = Field(None, gt=0.0, le=0.01)
     latency: Literal["identify"] | Annotated[float, Field(ge=-0.5, le=0.5)] = "identify"
     table_positions_m: tuple[float, ...] = Field((-0.45, -0.25, -0.05), min_length=1)
     views_per_sphere: int = Field(48, ge=4, le=200)

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from scenarios.results.calibration_check_result import DriftCheck
+
 if TYPE_CHECKING:  # only the protocol's annotation: the results load with numpy alone
     from models.model import ObjectModel
 
@@ -83,7 +85,9 @@ class CalibrationSummary:
     what it found: each kinematic parameter's deviation ([m] or [rad]), the joints'
     stiffness [N m/rad] (inf: not modelled), the laser's mounting ([m], [rad]) and range
     scale, and the table's coefficients; the laser's latency [s] and its uncertainty [s] where
-    it was identified (a laser whose lines are paired with the arm by time), else None."""
+    it was identified (a laser whose lines are paired with the arm by time), else None; the
+    saved calibration the job was `given` (`twincell run --calibration`), else None, and its
+    quick `check` (where it failed, the figures are of the calibration made anew)."""
 
     residual_rms_before_m: float
     residual_rms_after_m: float
@@ -101,6 +105,8 @@ class CalibrationSummary:
     table_coefficients: tuple[tuple[float, ...], ...]
     laser_latency_s: float | None = None
     laser_latency_sigma_s: float | None = None
+    given: str | None = None
+    check: DriftCheck | None = None
 
 
 @dataclass(frozen=True)

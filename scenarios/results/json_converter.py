@@ -223,8 +223,10 @@ def _calibration_fields(data: JsonObject) -> JsonObject:
         mean = data.get(f"tcp_error_{label}_mean_m")
         return None if mean is None else {"mean_m": mean, "max_m": data[f"tcp_error_{label}_max_m"]}
 
-    # the laser's latency is identified across the network only; earlier runs have no key
-    latency = {k: data.get(k) for k in ("laser_latency_s", "laser_latency_sigma_s")}
+    # the laser's latency is identified across the network only, a saved calibration given
+    # and checked in some runs: earlier runs have no such key
+    optional = ("laser_latency_s", "laser_latency_sigma_s", "given", "check")
+    latency = {k: data.get(k) for k in optional}
     summary = data | latency if data["enabled"] else None
     return data | {
         "summary": summary,

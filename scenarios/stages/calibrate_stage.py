@@ -8,7 +8,12 @@ from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
+
 from scenarios.offline.calibration import CalibrationResult
+from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
+from scenarios.offline.calibration_check import Clear, check_drift
+from scenarios.offline.calibration_measurement import CalibrationPlan
 from scenarios.offline.calibration_step import calibrate_arm
 from scenarios.offline.job_cell import clear_of, job_virtual_cell, placement_uncertainty_m
 from scenarios.offline.saved_calibration import (
@@ -29,6 +34,31 @@ from scenarios.stages.state import JobState
 def calibrate_stage(ctx: StageContext) -> CalibrationResult:
     """Calibrate the arm on the spheres; every view keeps the object's footprint plus the
     fixture's tolerance clear (the virtual cell, the object at its nominal pose)."""
+    settings = ctx.settings
+    return calibrate_arm(
+        ctx.controller,
+        settings.calibration,
+        settings.seed,
+        ctx.hooks.say,
+        lambda: ctx.hooks.moved("view"),
+        _clear(ctx),
+        settings.localization.scan.period_s,
+    )
+
+
+def cell_name(ctx: StageContext) -> str:
+    """The cell as a calibration or a commissioning record names it: its arm and its seed."""
+    return f"{ctx.controller.robot.name}, seed {ctx.settings.seed}"
+
+
+#: The drift a kept calibration may have, as a share of the job's RMS goal: added in
+#: quadrature to an error at the goal, 30 % of it makes it 4.4 % larger.
+DRIFT_SHARE = 0.3
+
+
+def _clear(ctx: StageContext) -> Clear:
+    """Whether a laser view keeps the object's footprint plus the fixture's tolerance clear
+    (the virtual cell, the object at its nominal pose)."""
     settings, controller = ctx.settings, ctx.controller
     name = settings.object_name
     cell = job_virtual_cell(
@@ -37,20 +67,34 @@ def calibrate_stage(ctx: StageContext) -> CalibrationResult:
     margin = placement_uncertainty_m(
         settings.tolerance, settings.placement.lift_m, ctx.box.radius_xy
     )
-    return calibrate_arm(
-        controller,
-        settings.calibration,
-        settings.seed,
-        ctx.hooks.say,
-        lambda: ctx.hooks.moved("view"),
-        clear_of(cell, "laser", name, margin),
-        settings.localization.scan.period_s,
+    return clear_of(cell, "laser", name, margin)
+
+
+def checked(ctx: StageContext, result: CalibrationResult, path: Path) -> CalibrationResult:
+    """`result` (the calibration `path` held) with its quick check on the cell now
+    (scenarios.offline.calibration_check: the spheres from `calibration.check_views` views
+    each at the middle table position); where it fails, the cell calibrated anew."""
+    section = ctx.settings.calibration
+    positions = section.table_positions_m
+    plan = CalibrationPlan(
+        (positions[len(positions) // 2],), section.check_views, section.lines_per_view,
+        section.standoff_m, float(np.deg2rad(section.max_tilt_deg)), ctx.settings.seed + 7,
+    )  # fmt: skip
+    tolerance = section.check_tolerance_m
+    if tolerance is None:
+        goal = ctx.settings.goal_rms_m
+        tolerance = DRIFT_SHARE * goal if goal is not None else 1.0e-4
+    check = check_drift(ctx.controller, result, DEFAULT_ARTIFACT, plan, tolerance, _clear(ctx))
+    verdict = "the calibration holds" if check.passed else "calibrating anew"
+    ctx.hooks.say(
+        f"calibration check: the spheres moved {check.drift_m * 1e3:.3f} +- "
+        f"{check.sigma_m * 1e3:.3f} mm since (95 % bound {check.bound_m * 1e3:.3f} mm, "
+        f"tolerance {check.tolerance_m * 1e3:.3f} mm): {verdict}"
     )
-
-
-def cell_name(ctx: StageContext) -> str:
-    """The cell as a calibration or a commissioning record names it: its arm and its seed."""
-    return f"{ctx.controller.robot.name}, seed {ctx.settings.seed}"
+    if not check.passed:
+        ctx.controller.set_absolute_accuracy(None)
+        result = calibrate_stage(ctx)
+    return replace(result, given=str(path), check=check)
 
 
 def given_calibration(ctx: StageContext, path: Path) -> tuple[CalibrationResult, SavedCalibration]:
@@ -110,5 +154,8 @@ class Calibrate:
             kept = saved(result, cell_name(ctx), datetime.now(UTC))
         else:
             result, kept = given_calibration(ctx, self.given)
+            result = checked(ctx, result, self.given)
+            if result.check is not None and not result.check.passed:
+                kept = saved(result, cell_name(ctx), datetime.now(UTC))
         write_json(ctx.folder / CALIBRATION_FILE, to_json(kept))
         return Calibrated(result)
