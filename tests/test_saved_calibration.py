@@ -116,7 +116,7 @@ def test_a_job_from_a_saved_calibration_skips_its_cell_time(
     (`twincell run --calibration`, as a user runs it): its quick check finds the spheres
     where the calibration put them (within the tolerance, 30 % of the RMS goal, at its 95 %
     bound), so it does not calibrate (at least 50 s less cell time than the first run's,
-    the check's dozen views included), holds the first run's calibration (its file, to the
+    the check's views included), holds the first run's calibration (its file, to the
     bit), and its targets, measured against the truth, meet the goals (RMS <= 0.5 mm, max
     <= 1 mm); the arm it moved with puts the tool where the first run's did (the true TCP
     error of the calibrated arm, about 0.1 mm, the same within 10 nm: the evaluation poses

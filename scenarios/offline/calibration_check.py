@@ -11,7 +11,9 @@ The uncertainty is the views' own: each sphere's centre is fitted again leaving 
 out in turn (the jackknife), so that what the views share (the arm's pose repeatability, the
 laser's noise) sets it, together with the calibration's own centres (their views' share of
 that scatter). The check passes where the largest shift's 95 % upper bound is within the
-tolerance; else the cell is to be calibrated anew.
+tolerance; else the cell is to be calibrated anew. Where the object leaves fewer than three
+views of a sphere clear, that sphere is not measured; with fewer than two spheres measured
+the check cannot tell, and does not pass.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 
 from cell import Controller
 from scenarios.offline.calibration import CalibrationResult
-from scenarios.offline.calibration_artifact import CalibrationError, SphereArtifact
+from scenarios.offline.calibration_artifact import SphereArtifact
 from scenarios.offline.calibration_measurement import (
     CalibrationPlan,
     SphereMeasurements,
@@ -36,6 +38,10 @@ Clear = Callable[[np.ndarray, float], bool]
 #: chi distribution with 3 degrees of freedom): a shift's length is bounded by its measured
 #: length plus this many standard uncertainties.
 CHI3_95 = 2.796
+#: A sphere is measured from this many views or more (its centre and the jackknife's spread
+#: need three), and the check from this many spheres or more.
+MIN_VIEWS = 3
+MIN_SPHERES = 2
 
 
 def check_drift(
@@ -60,11 +66,8 @@ def check_drift(
     for s in range(len(was)):
         on = m.sphere == s
         views = np.unique(m.line[on])
-        if len(views) < 3:
-            raise CalibrationError(
-                f"the quick check saw sphere {s} in {len(views)} views; it needs 3 (more "
-                "views a sphere, or another table position)"
-            )
+        if len(views) < MIN_VIEWS:
+            continue  # not measured: the views the object left clear of it were too few
         centre = _centre(p_base[on], was[s], m.radius_m)
         leave_out = np.array(
             [_centre(p_base[on & (m.line != v)], centre, m.radius_m) for v in views]
@@ -75,13 +78,17 @@ def check_drift(
         # the calibration's own centre carries its views' share of the same scatter
         variances.append(jackknife * (1.0 + k / calibrated_views))
         shifts.append(centre - was[s])
-    shifts_m = np.array(shifts)
+    shifts_m = np.array(shifts).reshape(-1, 3)
+    seconds = time.perf_counter() - t0
+    if len(shifts) < MIN_SPHERES:
+        return DriftCheck(shifts_m, None, None, None, tolerance_m, False, m.views, len(p_base),
+                          seconds)  # fmt: skip
     sigma = float(np.sqrt(np.mean(variances)))
     drift = float(np.max(np.linalg.norm(shifts_m, axis=1)))
     bound = drift + CHI3_95 * sigma
     return DriftCheck(
         shifts_m, sigma, drift, bound, tolerance_m, bound <= tolerance_m, m.views, len(p_base),
-        time.perf_counter() - t0,
+        seconds,
     )  # fmt: skip
 
 

@@ -235,7 +235,7 @@ class Calibration(Section):
 
     enabled: bool = True
     max_age_h: float = Field(24.0, gt=0.0)
-    check_views: int = Field(4, ge=3, le=48)
+    check_views: int = Field(6, ge=3, le=48)
     check_tolerance_m: float | None = Field(None, gt=0.0, le=0.01)
     latency: Literal["identify"] | Annotated[float, Field(ge=-0.5, le=0.5)] = "identify"
     table_positions_m: tuple[float, ...] = Field((-0.45, -0.25, -0.05), min_length=1)

@@ -11,16 +11,18 @@ import numpy as np
 
 @dataclass(frozen=True)
 class DriftCheck:
-    """The quick check: each sphere's centre now less where the calibration found it
-    (`shifts_m` (S, 3), base frame [m]), the standard uncertainty of one shift per axis
-    (`sigma_m` [m]), the largest shift's length (`drift_m`) and its 95 % upper bound
-    (`bound_m`), the tolerance it is held to, whether it passed (else the cell was
-    calibrated anew), and what it took: views, points, wall seconds."""
+    """The quick check: each measured sphere's centre now less where the calibration found
+    it (`shifts_m` (S, 3), base frame [m]; a sphere seen in fewer than three views is not
+    measured), the standard uncertainty of one shift per axis (`sigma_m` [m]), the largest
+    shift's length (`drift_m`) and its 95 % upper bound (`bound_m`), the tolerance it is held
+    to, whether it passed (else the cell was calibrated anew), and what it took: views,
+    points, wall seconds. With fewer than two spheres measured the check has no figure
+    (None) and does not pass."""
 
     shifts_m: np.ndarray
-    sigma_m: float
-    drift_m: float
-    bound_m: float
+    sigma_m: float | None
+    drift_m: float | None
+    bound_m: float | None
     tolerance_m: float
     passed: bool
     views: int

@@ -86,11 +86,15 @@ def checked(ctx: StageContext, result: CalibrationResult, path: Path) -> Calibra
         tolerance = DRIFT_SHARE * goal if goal is not None else 1.0e-4
     check = check_drift(ctx.controller, result, DEFAULT_ARTIFACT, plan, tolerance, _clear(ctx))
     verdict = "the calibration holds" if check.passed else "calibrating anew"
-    ctx.hooks.say(
-        f"calibration check: the spheres moved {check.drift_m * 1e3:.3f} +- "
-        f"{check.sigma_m * 1e3:.3f} mm since (95 % bound {check.bound_m * 1e3:.3f} mm, "
-        f"tolerance {check.tolerance_m * 1e3:.3f} mm): {verdict}"
-    )
+    if check.drift_m is None or check.sigma_m is None or check.bound_m is None:
+        seen = f"{len(check.shifts_m)} of the spheres seen from enough views: it cannot tell"
+    else:
+        seen = (
+            f"the spheres moved {check.drift_m * 1e3:.3f} +- {check.sigma_m * 1e3:.3f} mm "
+            f"since (95 % bound {check.bound_m * 1e3:.3f} mm, tolerance "
+            f"{check.tolerance_m * 1e3:.3f} mm)"
+        )
+    ctx.hooks.say(f"calibration check: {seen}: {verdict}")
     if not check.passed:
         ctx.controller.set_absolute_accuracy(None)
         result = calibrate_stage(ctx)
