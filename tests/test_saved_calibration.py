@@ -18,9 +18,10 @@ import pytest
 
 from cell import LaserConfig
 from cell.robots import ur5
-from cell.sim import CellConfig, make_cell
+from cell.sim import CellConfig, DriveErrors, make_cell
 from scenarios.offline.calibration import calibrate
 from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
+from scenarios.offline.calibration_check import check_drift
 from scenarios.offline.calibration_measurement import CalibrationPlan
 from scenarios.offline.laser_latency import LatencyEstimate
 from scenarios.offline.saved_calibration import (
@@ -179,3 +180,27 @@ def _job(out: Path, *args: str) -> dict:
     )  # fmt: skip
     assert done.returncode in (0, 6), done.stdout + done.stderr  # 6: complete, goal at risk
     return json.loads((out / "latest" / "results.json").read_text())
+
+
+def test_the_quick_check_passes_the_cell_it_was_made_on_and_not_a_warmed_one(
+    identified,
+) -> None:
+    """The calibration of the cell of seed 3 checked on that cell again (its arm as it was)
+    and on the same cell with its arm warm (joints 2 and 3 shifted 0.5 mrad: the tool about
+    0.5 mm off): the first passes a 0.15 mm tolerance at its 95 % bound; the second sees the
+    spheres moved by more than 0.3 mm and does not pass. Ground truth: the shift the cell
+    was built with."""
+    result, _ = identified
+    plan = CalibrationPlan(table_positions_m=(-0.25,), views_per_sphere=6, lines_per_view=3)
+    checks = {}
+    for warm_s in (0.0, 1e5):
+        drives = replace(DriveErrors(), warmup_rad=(0.0, 5e-4, 5e-4, 0.0, 0.0, 0.0), warm_s=warm_s)
+        config = CellConfig(seed=3, laser=LaserConfig(sigma_m=1e-4), drives=drives,
+                            fixtures=artifact_fixtures(3))  # fmt: skip
+        controller, _ = make_cell(config)
+        controller.set_absolute_accuracy(result.kinematics)
+        checks[warm_s] = check_drift(controller, result, DEFAULT_ARTIFACT, plan, 1.5e-4)
+    same, warm = checks[0.0], checks[1e5]
+    assert same.passed and same.bound_m is not None and same.bound_m <= 1.5e-4, same
+    assert not warm.passed and warm.drift_m is not None and warm.drift_m > 3e-4, warm
+    assert len(same.shifts_m) == len(warm.shifts_m) == 3

@@ -1,6 +1,9 @@
 """The calibration: the arm, the laser's mounting and range scale and the table identified
 on the calibration spheres (scenarios.offline.calibration), the views kept clear of the
-object by the fixture's tolerance."""
+object by the fixture's tolerance; or the calibration an earlier run on the same cell saved
+(scenarios.offline.saved_calibration), kept where its quick check finds the cell where it
+was (scenarios.offline.calibration_check) and made anew where not. Either way the run keeps
+the calibration it used in its folder (calibration.json)."""
 
 from __future__ import annotations
 
