@@ -147,8 +147,9 @@ CalibrationOption = Annotated[
         "--calibration",
         "FILE",
         "The cell's calibration from an earlier run on it (its calibration.json): the job "
-        "starts from it instead of calibrating (refused if made on another cell or more "
-        "than calibration.max_age_h ago).",
+        "checks it on a few views of the spheres and keeps it, instead of calibrating, where "
+        "the cell has not moved (refused if made on another cell or more than "
+        "calibration.max_age_h ago).",
         CELL,
         exists=True,
         dir_okay=False,
