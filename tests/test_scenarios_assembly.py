@@ -97,6 +97,7 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> dict:
     return {**json.loads((folder / "results.json").read_text()), "folder": str(folder)}
 
 
+@pytest.mark.slow  # the whole assembly job
 def test_assembly_run_completes_with_both_methods(results: dict) -> None:
     assert results["status"] == "complete"
     folder = Path(results["folder"])
@@ -115,6 +116,7 @@ def test_assembly_run_completes_with_both_methods(results: dict) -> None:
     assert results["grasp_error_m"] < 2e-3
 
 
+@pytest.mark.slow  # the whole assembly job
 def test_assembly_picks_the_part_up_and_puts_it_back(results: dict) -> None:
     """The pick measured on the true part (seeds 0-3 gave a rise of 39.9-40.0 mm, slip
     0.08-0.21 mm, put down 0.06-0.42 mm and 0.03-0.19 deg from where it lay)."""
@@ -179,6 +181,7 @@ def test_pick_figures_from_known_poses() -> None:
     assert pick.placed_rotation_deg == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.mark.slow  # the whole assembly job
 def test_assembly_pose_errors_agree_with_an_independent_truth(results: dict) -> None:
     """Rebuild the real cell from the seed (same draws, the part loose on the table and
     settled as built) and compare the reported 3D pose error with one computed here from the

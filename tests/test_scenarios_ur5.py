@@ -32,6 +32,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return (out / "latest").resolve()
 
 
+@pytest.mark.slow  # the whole skull job on the UR5
 def test_the_ur5_runs_the_skull_job_within_its_goals(folder: Path) -> None:
     """Ground truth: the evaluator's true targets and the real arm (the cell's truth). The
     run says the RMS goal is at risk (the UR5's own arm figure in its budget: 0.3 mm), but
@@ -51,6 +52,7 @@ def test_the_ur5_runs_the_skull_job_within_its_goals(folder: Path) -> None:
     assert cal["residual_rms_after_m"] < 0.05e-3
 
 
+@pytest.mark.slow  # the whole skull job on the UR5
 def test_no_rapid_for_a_ur5_but_the_targets(folder: Path) -> None:
     results = json.loads((folder / "results.json").read_text())
     assert results["program_file"] is None and not (folder / "program.mod").exists()
@@ -58,6 +60,7 @@ def test_no_rapid_for_a_ur5_but_the_targets(folder: Path) -> None:
         assert (folder / name).is_file(), name
 
 
+@pytest.mark.slow  # the whole skull job on the UR5
 def test_the_exports_are_in_the_arms_own_base_frame(folder: Path) -> None:
     """The calibrated URDF's tool0 at each target's joints, with the tool's TCP, is the
     target's pose in the arm's base frame (targets.csv); mounted where targets.json says,
