@@ -88,6 +88,7 @@ def test_the_model_reads_back_to_the_bit(identified, tmp_path: Path) -> None:
         ({}, NOW - timedelta(minutes=5), "after now"),
         ({"format": 7}, NOW, "not a saved calibration (layout 7, this twincell reads 1)"),
         ({"T_tool_laser": "none"}, NOW, "not a saved calibration"),
+        ({"made_utc": "2026-12-07T11:00:00"}, NOW, "gives no time zone"),
         ({"summary": {"views": 3}}, NOW, "not a saved calibration"),
     ],
 )

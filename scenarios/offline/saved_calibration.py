@@ -116,7 +116,8 @@ def read_calibration(
         if data.get("format") != FORMAT:
             raise ValueError(f"layout {data.get('format')!r}, this twincell reads {FORMAT}")
         calibration = structure(data, SavedCalibration)
-        datetime.fromisoformat(calibration.made_utc).astimezone(UTC)
+        if datetime.fromisoformat(calibration.made_utc).tzinfo is None:
+            raise ValueError(f"made_utc {calibration.made_utc!r} gives no time zone")
     except (OSError, ValueError, KeyError, TypeError, AttributeError, BaseValidationError) as exc:
         raise ScenarioError(
             f"{what}: not a saved calibration ({exc}); give a run's {CALIBRATION_FILE}"
