@@ -187,8 +187,8 @@ def test_the_quick_check_passes_the_cell_it_was_made_on_and_not_a_warmed_one(
     identified,
 ) -> None:
     """The calibration of the cell of seed 3 checked on that cell again (its arm as it was)
-    and on the same cell with its arm warm (joints 2 and 3 shifted 0.5 mrad: the tool about
-    0.5 mm off): the first passes a 0.15 mm tolerance at its 95 % bound; the second sees the
+    and on the same cell with its arm warm (joints 2 and 3 shifted 0.5 mrad: the tool 0.5 to
+    1 mm off): the first passes a 0.15 mm tolerance at its 95 % bound; the second sees the
     spheres moved by more than 0.3 mm and does not pass. Ground truth: the shift the cell
     was built with."""
     result, _ = identified
