@@ -62,5 +62,5 @@ def _cgroup_quota() -> float | None:
             quota_us, period_us = (int(path.read_text()) for path in _CFS)
             return None if quota_us <= 0 else quota_us / period_us
     except (OSError, ValueError, ZeroDivisionError):
-        pass
+        return None  # unreadable: no quota assumed
     return None

@@ -193,8 +193,6 @@ def run(
     (run.rrd). Exit status 3 when the job refuses, 4 when it aborts, 6 when the program ran but
     its goal is at risk.
     """
-    from rich.console import Console
-
     from scenarios.jobs.runner import RunOptions, run_job
 
     if list_faults:
@@ -222,14 +220,21 @@ def run(
         ),
         cell=cell,
     )
+    _report(folder, result)
+
+
+def _report(folder: Path, result: Any) -> None:
+    """The run's table and folder; for a cell job that did not complete, why, and the exit
+    status that says so (6 at risk, 3 refused, 4 aborted)."""
+    from rich.console import Console
+
+    from scenarios.results.result_table import results_table
     from scenarios.results.run import RunResult
 
     if not isinstance(result, RunResult):  # the paper's experiments
         typer.echo(result.table)
         typer.echo(f"run folder: {folder}")
         return
-    from scenarios.results.result_table import results_table
-
     Console().print(results_table(result))
     typer.echo(f"run folder: {folder}")
     if result.status == "at_risk":

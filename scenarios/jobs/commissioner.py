@@ -17,7 +17,7 @@ from cell import Controller
 from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.job_plan import JobPlan
 from scenarios.jobs.job_run import JobRun
-from scenarios.offline.commissioning import COMMISSIONING_FILE, commission
+from scenarios.offline.commissioning import COMMISSIONING_FILE, cell_label, commission
 from scenarios.offline.tcp_check import POINTERS
 from scenarios.outputs.run_folder import write_json
 from scenarios.realcell.setup import build_job_cell
@@ -80,7 +80,7 @@ class Commissioner:
             return None
         if self._record is None:
             t0 = time.perf_counter()
-            name = f"{plan.robot.name}, seed {config.seed}"
+            name = cell_label(plan.robot.name, config.seed)
             if self._given is not None:
                 self._record = read_commissioning(self._given, name, tool)
                 made = f"from {self._given}"

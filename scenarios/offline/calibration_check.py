@@ -96,9 +96,8 @@ def _points(m: SphereMeasurements, calibration: CalibrationResult) -> np.ndarray
     """(N, 3) the measured points in the base frame as the calibrated model places them."""
     model = calibration.model
     T_lines = np.array([model.kinematics.fk(q) for q in m.q_lines])[m.line]
-    p = m.p_laser / (1.0 + model.laser_scale)
-    R, t = model.T_tool_laser[:3, :3], model.T_tool_laser[:3, 3]
-    p_tool = p @ R.T + t
+    ranges = np.linalg.norm(m.p_laser, axis=1)  # p_laser is a range times its unit ray
+    p_tool = model.laser_points(ranges, m.p_laser / ranges[:, None])
     return np.einsum("nij,nj->ni", T_lines[:, :3, :3], p_tool) + T_lines[:, :3, 3]
 
 

@@ -27,6 +27,12 @@ READINGS = 2
 SWEEP_M = 0.005
 
 
+def cell_label(robot: str, seed: int) -> str:
+    """The cell as its records name it (the commissioning, a saved calibration): its arm and
+    the seed that drew it, "irb2400, seed 5"."""
+    return f"{robot}, seed {seed}"
+
+
 def commission(
     controller: Controller, tools: tuple[str, ...], cell: str, readings: int = READINGS
 ) -> Commissioning:

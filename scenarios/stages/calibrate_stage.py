@@ -18,6 +18,7 @@ from scenarios.offline.calibration_artifact import DEFAULT_ARTIFACT
 from scenarios.offline.calibration_check import Clear, check_drift
 from scenarios.offline.calibration_measurement import CalibrationPlan
 from scenarios.offline.calibration_step import calibrate_arm
+from scenarios.offline.commissioning import cell_label
 from scenarios.offline.job_cell import clear_of, job_virtual_cell, placement_uncertainty_m
 from scenarios.offline.saved_calibration import (
     CALIBRATION_FILE,
@@ -50,8 +51,8 @@ def calibrate_stage(ctx: StageContext) -> CalibrationResult:
 
 
 def cell_name(ctx: StageContext) -> str:
-    """The cell as a calibration or a commissioning record names it: its arm and its seed."""
-    return f"{ctx.controller.robot.name}, seed {ctx.settings.seed}"
+    """The cell as its saved calibration names it (scenarios.offline.commissioning)."""
+    return cell_label(ctx.controller.robot.name, ctx.settings.seed)
 
 
 #: The drift a kept calibration may have, as a share of the job's RMS goal: added in
