@@ -405,6 +405,20 @@ def _newest(egm: EGM, timeout_s: float) -> tuple[float, Any] | None:
         state = newer
 
 
+def _stream_rate(egm: EGM, duration_s: float) -> float:
+    """The feedback's rate [Hz] over `duration_s` of the test's clock, on the controller's
+    own stamps (sequence numbers over send times)."""
+    stamps = []
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < duration_s:
+        ok, state = egm.receive_from_robot(0.1)
+        if ok:
+            header = state.robot_message.header
+            stamps.append((header.seqno, header.tm * 1e-3))
+    (seq0, tm0), (seq1, tm1) = stamps[0], stamps[-1]
+    return (seq1 - seq0) / (tm1 - tm0)
+
+
 @pytest.mark.slow
 def test_egm_feedback_rate_and_tracking(tmp_path: Path) -> None:
     port = _free_udp_port()
@@ -414,6 +428,8 @@ def test_egm_feedback_rate_and_tracking(tmp_path: Path) -> None:
         ok, first = egm.receive_from_robot(2.0)
         assert ok and first.motors_on and not first.rapid_running
         q0 = first.joint_angles.copy()
+        # standing, no reference sent: the stream keeps its 250 Hz (an IRC5's 4 ms period)
+        assert _stream_rate(egm, 1.0) >= 240.0
         amplitude = np.array([5.0, 3.0, 0, 0, 0, 0])  # deg, at 0.5 Hz
         peak_deg_s = float(np.max(amplitude) * 2 * np.pi * 0.5)
         omega = 2 * np.pi * 0.5

@@ -50,3 +50,30 @@ class WallClockPacer:
             )
             self._lagging_since = now
         self.relock(time_s)
+
+
+class StandingTicks:
+    """The control periods of a controller whose cell stands (its time does not run), kept to
+    the wall clock: each due `period_s` after the one before, so a tick that comes late is
+    made up by the next ones and the stream keeps its rate; behind by more than LAG_S, the
+    ticks start again from now."""
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self._due = time.monotonic()
+
+    def wait_s(self) -> float:
+        """How long until the next tick is due [s] (0: due now)."""
+        return max(0.0, self._due - time.monotonic())
+
+    def ticked(self) -> None:
+        """A standing tick ran: the next is due one period after this one was."""
+        now = time.monotonic()
+        self._due += self.period_s
+        if now - self._due > LAG_S:
+            self._due = now
+
+    def follow_on(self) -> None:
+        """A tick ran paced otherwise (the cell moving): the next standing one is due one
+        period from now."""
+        self._due = time.monotonic() + self.period_s

@@ -42,7 +42,7 @@ from scenarios.twin.controller_errors import ControllerError, bad_request, not_a
 from scenarios.twin.elog import EventLog
 from scenarios.twin.file_service import FileService
 from scenarios.twin.guidance import PERIOD_S, Guidance
-from scenarios.twin.pacing import WallClockPacer
+from scenarios.twin.pacing import StandingTicks, WallClockPacer
 from scenarios.twin.sensor_streams import SensorStreams
 from scenarios.twin.signals import SignalSpec, parse_value
 from scenarios.twin.snapshot import Snapshot
@@ -113,6 +113,7 @@ class TwinController:
         self._changing_tool = False
         self._closing = threading.Event()
         self.pacer = WallClockPacer(speed, controller.time_s, self._lagging)
+        self._standing = StandingTicks(PERIOD_S)
         #: The I/O signals and the devices behind them.
         self.io = CellIo(
             controller, self.elog, self.submit, self.pacer.relock, self._refresh, self._changed
@@ -140,7 +141,9 @@ class TwinController:
                 if follow:
                     command = self._commands.get_nowait()
                 else:
-                    command = self._commands.get(timeout=PERIOD_S if streaming else 0.05)
+                    command = self._commands.get(
+                        timeout=self._standing.wait_s() if streaming else 0.05
+                    )
                 guided = False
             except queue.Empty:
                 if not streaming:
@@ -174,6 +177,7 @@ class TwinController:
         self.snapshot = self._snapshot(q, self._q_ref, time_s)
         self._publish(moving=True)
         self.pacer.keep_pace(time_s)
+        self._standing.follow_on()
         if self._halt.is_set() and not self._finish_tool_change():
             return "stop requested by a client"
         return None
@@ -187,6 +191,7 @@ class TwinController:
         streams fed; the controller's time stands."""
         self.snapshot = self._snapshot(self.cell.read_joints(), self._q_ref)
         self._publish(moving=False)
+        self._standing.ticked()
 
     def _publish(self, moving: bool) -> None:
         motors_on, running = self.ctrlstate == "motoron", self.execstate == "running"
