@@ -22,6 +22,7 @@ from scenarios.cli import (
     register_command,
     run_command,
     serve_command,
+    shift_command,
 )
 from scenarios.cli.exit_status import run_command_line
 from scenarios.cli.help_format import TwincellCommand, TwincellGroup, example
@@ -70,6 +71,7 @@ COMMANDS: tuple[tuple[str, Callable[..., Any], tuple[str, ...]], ...] = (
     ("author", author_command.author, author_command.EXAMPLES),
     ("rapid", rapid_command.rapid, rapid_command.EXAMPLES),
     ("campaign", campaign_command.campaign, campaign_command.EXAMPLES),
+    ("shift", shift_command.shift, shift_command.EXAMPLES),
 )
 for command_name, function, examples in COMMANDS:
     app.command(command_name, cls=TwincellCommand, epilog=example(*examples))(function)

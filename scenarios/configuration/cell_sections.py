@@ -102,7 +102,9 @@ class ObjectSection(Section):
     part the gripper picks), at a pose drawn around the nominal one. Its operation targets
     come from the model (burr holes, screw frames), from `targets_file` (for a CT volume, a
     JSON plan made on it: models.ct.volume_plan), from a `<mesh>.targets.yaml` beside a mesh file,
-    or are generated on its upper surface."""
+    or are generated on its upper surface. `draw` is which of the seed's placements the run
+    meets: 0 is the seed's own, another number the same real cell with the object placed anew
+    (the next part of a shift, `twincell shift`)."""
 
     model: str = "skull"
     units: Literal["m", "mm"] = "mm"
@@ -110,6 +112,7 @@ class ObjectSection(Section):
     placement: Placement = Placement()
     tolerance: FixtureTolerance = FixtureTolerance()
     targets_file: str | None = None
+    draw: int = Field(0, ge=0)
 
 
 class RobotSection(Section):

@@ -19,6 +19,7 @@ from scenarios.configuration.fault_sections import (
 from scenarios.configuration.register_trial_sections import (
     RegisterTrialSection,
 )
+from scenarios.configuration.shift_section import ShiftSection
 from scenarios.offline.settings import (
     Calibration,
     LocalizationSection,
@@ -75,6 +76,7 @@ class JobConfig(Section):
     output: Output = Output()
     verify: VerifySection = VerifySection()
     faults: FaultsSection = FaultsSection()
+    shift: ShiftSection = ShiftSection()
     register_trial: RegisterTrialSection | None = None
 
     @property

@@ -231,10 +231,12 @@ class Calibration(Section):
     most `max_age_h` old [h]; the job checks it first, viewing each sphere from
     `check_views` poses, and calibrates anew where the spheres' largest shift since, at its
     95 % upper bound, exceeds `check_tolerance_m` [m] (None: 30 % of the job's RMS goal, a
-    drift that adds under 5 % to it in quadrature; 0.1 mm without a goal)."""
+    drift that adds under 5 % to it in quadrature; 0.1 mm without a goal); with `given: keep`
+    it takes the saved calibration as it is, unchecked (a cell calibrated once)."""
 
     enabled: bool = True
     max_age_h: float = Field(24.0, gt=0.0)
+    given: Literal["check", "keep"] = "check"
     check_views: int = Field(6, ge=3, le=48)
     check_tolerance_m: float | None = Field(None, gt=0.0, le=0.01)
     latency: Literal["identify"] | Annotated[float, Field(ge=-0.5, le=0.5)] = "identify"

@@ -125,7 +125,8 @@ def build_job_cell(
     rgba = (0.7, 0.72, 0.78, 1.0) if loose else (0.9, 0.85, 0.75, 1.0)
     crop_margin_m = config.localization.scan.crop_margin_m
     noise, rack_xyz, laser = config.cell.noise, config.cell.rack_xyz, config.cell.laser
-    rng = np.random.default_rng(np.random.SeedSequence([seed, stream]))
+    draw = [obj.draw] if obj.draw else []  # 0: the seed's own placement, as it always was
+    rng = np.random.default_rng(np.random.SeedSequence([seed, stream, *draw]))
     T_table_nominal = nominal_pose(placement, virtual.mesh.vertices)
     T_table_true = draw_true_pose(placement, real.mesh.vertices, rng)
     pieces = tuple(p.vertices for p in real.convex_pieces)

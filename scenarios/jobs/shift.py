@@ -1,0 +1,197 @@
+"""`twincell shift JOB --jobs N --hours H`: one real cell (the job's seed) through a shift of
+jobs, each on a part placed anew (`cell.object.draw`) and with the cell's run-to-run noise
+drawn anew (`cell.noise.draw`), while its arm warms and cools (scenarios.jobs.shift_thermal,
+the level of `shift.warmup_rad`); what each job does with the calibration is the shift's
+`policy` (scenarios.results.shift_result.POLICIES).
+
+The jobs start evenly over the shift's hours (a job that runs past its slot delays the
+next). The shift folder holds each job's run folder (jobs/), the table (shift.csv, rewritten
+as each job ends, so a shift stopped keeps the jobs it ran), and at the end the result
+(shift.json), the figure (shift.png) and the recording (shift.rrd).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from scenarios.configuration.config_files import load_config, with_overrides
+from scenarios.configuration.job_config import JobConfig
+from scenarios.jobs.runner import RunOptions, run_job
+from scenarios.jobs.shift_thermal import warm_seconds, warmed
+from scenarios.outputs.run_folder import RunFolder
+from scenarios.outputs.shift_figure import write_shift_figure
+from scenarios.outputs.shift_files import write_result, write_table
+from scenarios.outputs.shift_recording import write_shift_recording
+from scenarios.results.edge import JsonObject
+from scenarios.results.run import RunResult
+from scenarios.results.shift_result import POLICIES, Policy, ShiftJob, ShiftResult
+from scenarios.scenario_errors import ScenarioError
+
+Progress = Callable[[str], None]
+#: The file a job keeps its calibration in (scenarios.stages.calibrate_stage).
+CALIBRATION_FILE = "calibration.json"
+
+
+@dataclass(frozen=True)
+class ShiftOptions:
+    """`jobs` over `hours` of the shift's clock, the calibration `policy`; each job's own
+    recording (`rrd`) and the user's cache (`cache`), as `twincell run` takes them."""
+
+    jobs: int = 12
+    hours: float = 4.0
+    policy: Policy = "check"
+    rrd: bool = False
+    cache: bool = True
+
+    def __post_init__(self) -> None:
+        if self.jobs < 1 or not self.hours > 0.0 or self.policy not in POLICIES:
+            raise ScenarioError(
+                f"a shift takes jobs >= 1, hours > 0 and a policy of {', '.join(POLICIES)}; "
+                f"got jobs {self.jobs!r}, hours {self.hours!r}, policy {self.policy!r}"
+            )
+
+
+@dataclass(frozen=True)
+class _Clock:
+    """Where the shift is: its clock [s], the arm's warmth, the calibration the next job is
+    given (None: it calibrates)."""
+
+    time_s: float = 0.0
+    warmth: float = 0.0
+    calibration: Path | None = None
+
+
+def run_shift(
+    name: str | Path,
+    seed: int | None = None,
+    out: str | Path = "runs",
+    progress: Progress | None = None,
+    overrides: JsonObject | None = None,
+    cell: str | Path | None = None,
+    options: ShiftOptions | None = None,
+) -> tuple[Path, ShiftResult]:
+    """Run the shift of job `name` (a shipped job or a YAML, with `seed`, `overrides` and
+    `cell` as `twincell run` takes them) into a new shift folder under `out`; returns the
+    folder and the shift's result."""
+    options = options or ShiftOptions()
+    extra = dict(overrides or {}) | ({} if seed is None else {"seed": seed})
+    config = load_config(name, extra, cell)
+    if not isinstance(config, JobConfig):
+        raise ScenarioError(f"a shift runs a cell job; {name!r} is a {config.kind} job")
+    say = progress or (lambda _m: None)
+    folder = RunFolder(out, f"{config.name}-shift")
+    clock, jobs = _Clock(), []
+    slot_s = options.hours * 3600.0 / options.jobs
+    try:
+        for k in range(options.jobs):
+            job, clock = _run_one(config, k, slot_s, clock, folder.path, options, say)
+            jobs.append(job)
+            write_table(folder.file("shift.csv"), tuple(jobs))
+    finally:
+        result = ShiftResult(
+            config.name, config.seed, options.policy, options.jobs, options.hours, tuple(jobs)
+        )
+        write_result(folder.file("shift.json"), result)
+        folder.remove_partial()
+    if jobs:
+        write_shift_figure(folder.file("shift.png"), result, config.checks.target_error_rms_m)
+        write_shift_recording(folder.file("shift.rrd"), result)
+    return folder.path, result
+
+
+def _run_one(
+    config: JobConfig,
+    k: int,
+    slot_s: float,
+    clock: _Clock,
+    shift: Path,
+    options: ShiftOptions,
+    say: Progress,
+) -> tuple[ShiftJob, _Clock]:
+    """Job `k` of the shift: started at its slot (or when the job before ended), the arm
+    warmed or cooled to then; returns its row and the clock after it."""
+    tau_s = config.cell.noise.drives.warmup_tau_s
+    start_s = max(k * slot_s, clock.time_s)
+    warmth = warmed(clock.warmth, start_s - clock.time_s, config.shift.duty, tau_s)
+    overrides: JsonObject = {
+        "cell.noise.draw": k,
+        "cell.object.draw": k,
+        "cell.noise.drives.warmup_rad": list(config.shift.warmup_rad),
+        "cell.noise.drives.warm_s": warm_seconds(warmth, tau_s),
+        "calibration.given": "keep" if options.policy == "once" else "check",
+    }
+    given = None if options.policy == "every" else clock.calibration
+    run_options = RunOptions(rrd=options.rrd, cache=options.cache, calibration=given)
+    jobs_dir = shift / "jobs"
+    t0 = time.perf_counter()
+    try:
+        path, result = run_job(
+            with_overrides(config, overrides, "the shift"), out=jobs_dir,
+            progress=lambda m: say(f"[job {k}] {m}"), options=run_options,
+        )  # fmt: skip
+    except Exception as exc:  # the job stopped; the shift goes on with the next part
+        path, result = (jobs_dir / "latest").resolve(), None
+        reason = f"{exc}"
+    else:
+        reason = result.reason if isinstance(result, RunResult) else ""
+    row = _row(k, start_s, warmth, config, path, shift, result, reason, time.perf_counter() - t0)
+    say(_line(row))
+    cell_s = row.cell_time_s or 0.0
+    kept = path / CALIBRATION_FILE
+    calibration = clock.calibration
+    if kept.is_file() and (options.policy == "check" or calibration is None):
+        calibration = kept
+    return row, _Clock(start_s + cell_s, warmed(warmth, cell_s, 1.0, tau_s), calibration)
+
+
+def _row(
+    k: int,
+    start_s: float,
+    warmth: float,
+    config: JobConfig,
+    path: Path,
+    shift: Path,
+    result: object,
+    reason: str,
+    wall_s: float,
+) -> ShiftJob:
+    """The table's row of job `k` from its result (None or not a cell job's: it stopped)."""
+    warmup_j2_rad = config.shift.warmup_rad[1] * warmth
+    folder = str(path.relative_to(shift)) if path.is_relative_to(shift) else str(path)
+    if not isinstance(result, RunResult):
+        return ShiftJob(
+            k, start_s / 3600.0, warmth, warmup_j2_rad, "incomplete", reason, "failed",
+            None, None, None, None, None, None, None, None, wall_s, folder,
+        )  # fmt: skip
+    summary = result.calibration.summary
+    check = summary.check if summary is not None else None
+    if summary is None or summary.given is None:
+        decision = "calibrated"
+    else:
+        decision = "recalibrated" if check is not None and not check.passed else "kept"
+    exported = result.exported_program
+    ran = exported is not None and exported.status == "complete"
+    checks = result.checks
+    return ShiftJob(
+        k, start_s / 3600.0, warmth, warmup_j2_rad, result.status, reason, decision,
+        None if check is None else check.drift_m, None if check is None else check.bound_m,
+        result.target_error_rms_m, result.target_error_max_m,
+        exported.target_error_rms_m if ran and exported else None,
+        exported.target_error_max_m if ran and exported else None,
+        all(c.met for c in checks.values()) if checks else None,
+        result.cell_time_s, wall_s, folder,
+    )  # fmt: skip
+
+
+def _line(job: ShiftJob) -> str:
+    """The progress line of a job that ended."""
+    mm = "?" if job.target_rms_m is None else f"{job.target_rms_m * 1e3:.3f} mm"
+    bound = "" if job.check_bound_m is None else f" (check bound {job.check_bound_m * 1e3:.3f} mm)"
+    cell = "?" if job.cell_time_s is None else f"{job.cell_time_s:.0f} s"
+    return (
+        f"shift: job {job.job} at {job.start_h:.2f} h (warmth {job.warmth:.2f}): {job.status}, "
+        f"calibration {job.calibration}{bound}, targets' RMS {mm}, cell time {cell}"
+    )

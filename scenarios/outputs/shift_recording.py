@@ -1,0 +1,53 @@
+"""The shift's recording (shift.rrd): its jobs on one timeline, `shift_time` (the shift's
+clock, from its start): each job's target errors, the check's drift and bound, the arm's
+warm-up shift (truth), its cell time and what it did with the calibration, at the job's
+start. Each job's own recording (its run.rrd, on the cell's clock) is in its run folder."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+from scenarios.results.shift_result import ShiftResult
+
+SHIFT_TIME = "shift_time"
+
+
+def _mm(values: list[float | None]) -> np.ndarray:
+    return np.array([np.nan if v is None else v * 1e3 for v in values])
+
+
+def write_shift_recording(path: Path, result: ShiftResult) -> Path:
+    """The recording, written to a temporary name and moved into place."""
+    tmp = path.with_name(f".{path.name}.partial")
+    stream = rr.RecordingStream("twincell")
+    stream.save(str(tmp))
+    stream.send_recording_name(f"{result.job} shift (seed {result.seed}, policy {result.policy})")
+    stream.set_log_time_enabled(False)
+    jobs = result.jobs
+    times = rr.TimeColumn(SHIFT_TIME, duration=np.array([j.start_h * 3600.0 for j in jobs]))
+    series = {
+        "shift/target_error_mm/rms": _mm([j.target_rms_m for j in jobs]),
+        "shift/target_error_mm/max": _mm([j.target_max_m for j in jobs]),
+        "shift/target_error_mm/exported_rms": _mm([j.exported_rms_m for j in jobs]),
+        "shift/check_mm/drift": _mm([j.check_drift_m for j in jobs]),
+        "shift/check_mm/bound": _mm([j.check_bound_m for j in jobs]),
+        "shift/warmup_j2_mrad": np.array([j.warmup_j2_rad * 1e3 for j in jobs]),
+        "shift/cell_time_s": np.array([np.nan if j.cell_time_s is None else j.cell_time_s
+                                       for j in jobs]),
+    }  # fmt: skip
+    for entity, values in series.items():
+        stream.send_columns(entity, indexes=[times], columns=rr.Scalars.columns(scalars=values))
+    for job in jobs:
+        stream.set_time(SHIFT_TIME, duration=job.start_h * 3600.0)
+        stream.log(
+            "shift/jobs",
+            rr.TextLog(f"job {job.job}: {job.status}, calibration {job.calibration}: {job.folder}"),
+        )
+    stream.flush()
+    stream.disconnect()
+    os.replace(tmp, path)
+    return path
