@@ -68,6 +68,8 @@ ELSEWHERE = {
     "twincell run skull --calibration runs/latest/calibration.json": "tests/test_saved_"
         "calibration.py: the same job from the calibration of the one before it, its check and "
         "its cell time",
+    "twincell shift skull --jobs 12 --hours 4": "tests/test_shift.py: a shift of 3 jobs over an "
+        "hour, its goals, its calibrations, its files and its recording",
     "twincell run skull --cell point_laser": "tests/test_point_laser.py: the same job (without "
         "its recording), its goals, calibration and rasters checked against the truth",
     "twincell serve skull --cell point_laser --speed 10 --egm-port 6510 --laser-latency 8":

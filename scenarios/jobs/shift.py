@@ -164,7 +164,7 @@ def _row(
     if not isinstance(result, RunResult):
         return ShiftJob(
             k, start_s / 3600.0, warmth, warmup_j2_rad, "incomplete", reason, "failed",
-            None, None, None, None, None, None, None, None, wall_s, folder,
+            None, None, None, None, None, None, None, None, None, wall_s, folder,
         )  # fmt: skip
     summary = result.calibration.summary
     check = summary.check if summary is not None else None
@@ -178,6 +178,7 @@ def _row(
     return ShiftJob(
         k, start_s / 3600.0, warmth, warmup_j2_rad, result.status, reason, decision,
         None if check is None else check.drift_m, None if check is None else check.bound_m,
+        None if check is None else check.tolerance_m,
         result.target_error_rms_m, result.target_error_max_m,
         exported.target_error_rms_m if ran and exported else None,
         exported.target_error_max_m if ran and exported else None,

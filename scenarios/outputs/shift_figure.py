@@ -12,7 +12,12 @@ from models.atomic import write_atomic
 from scenarios.results.shift_result import ShiftResult
 
 #: The bars' colour by what a job did with the calibration.
-COLOURS = {"calibrated": "tab:blue", "kept": "tab:green", "recalibrated": "tab:orange"}
+COLOURS = {
+    "calibrated": "tab:blue",
+    "kept": "tab:green",
+    "recalibrated": "tab:orange",
+    "failed": "tab:red",
+}
 
 
 def _mm(values: list[float | None]) -> np.ndarray:
@@ -49,13 +54,20 @@ def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None
     twin.errorbar(
         hours, drift, yerr=[np.zeros_like(up), up], fmt="D", color="tab:purple", label=label
     )
+    tolerance = _mm([j.check_tolerance_m for j in jobs])
+    if np.isfinite(tolerance).any():
+        twin.plot(hours, tolerance, "_", color="tab:purple", ms=14, label="check's tolerance")
     twin.set_ylabel("checked drift [mm]")
+    ax.set_ylim(bottom=0.0)
+    twin.set_ylim(bottom=0.0)
     lines = ax.get_legend_handles_labels(), twin.get_legend_handles_labels()
     ax.legend(lines[0][0] + lines[1][0], lines[0][1] + lines[1][1], fontsize=8)
     ax = axes[2]
     width = 0.6 * (hours[1] - hours[0]) if len(hours) > 1 else 0.2
     for kind, colour in COLOURS.items():
         pick = [i for i, j in enumerate(jobs) if j.calibration == kind]
+        if not pick:
+            continue
         times = [jobs[i].cell_time_s or 0.0 for i in pick]
         ax.bar(hours[pick], times, width=width, color=colour, label=kind)
     ax.set_ylabel("cell time [s]")

@@ -22,8 +22,9 @@ class ShiftJob:
     [rad] (truth); how it ended (status, reason); what it did with the calibration
     (`calibrated`: made anew without one, `kept`: given and kept, `recalibrated`: given,
     checked and made anew, `failed`: the job stopped before it was settled) and the check's
-    drift and 95 % bound [m] (None: not checked); its targets' RMS and largest error [m] as
-    its own run touched them and as its exported program did (truth; None where none ran);
+    drift, its 95 % bound and the tolerance the bound was held to [m] (None: not checked);
+    its targets' RMS and largest error [m] as its own run touched them and as its exported
+    program did (truth; None where none ran);
     whether it met its goals; its cell time and wall time [s]; its run folder (relative to
     the shift's)."""
 
@@ -36,6 +37,7 @@ class ShiftJob:
     calibration: str
     check_drift_m: float | None
     check_bound_m: float | None
+    check_tolerance_m: float | None
     target_rms_m: float | None
     target_max_m: float | None
     exported_rms_m: float | None

@@ -1,0 +1,129 @@
+"""A shift on one cell (`twincell shift`, scenarios.jobs.shift): the arm's warmth over the
+shift, each job's part placed anew on the same cell, and a small shift run whole."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rerun.chunk as rc
+import yaml
+
+from scenarios.configuration.config_files import load_config
+from scenarios.jobs.job_plan import job_robot, object_models
+from scenarios.jobs.pipeline import job_cell
+from scenarios.jobs.shift import ShiftOptions, run_shift
+from scenarios.jobs.shift_thermal import warm_seconds, warmed
+from scenarios.scenario_errors import ScenarioError
+
+
+def test_the_arm_warms_and_cools_as_a_first_order_lag() -> None:
+    """Against the closed form of dw/dt = (heat - w) / tau: from cold at full heat, one time
+    constant reaches 1 - 1/e; standing (heat 0), a warm arm keeps 1/e after one; a warmth
+    and the warm_s that starts a cell at it agree both ways (1e-12)."""
+    tau = 1800.0
+    assert warmed(0.0, tau, 1.0, tau) == pytest.approx(1.0 - math.exp(-1.0), abs=1e-12)
+    assert warmed(0.8, tau, 0.0, tau) == pytest.approx(0.8 * math.exp(-1.0), abs=1e-12)
+    assert warmed(0.3, 1e9, 0.5, tau) == pytest.approx(0.5, abs=1e-12)  # settles at its duty
+    for warmth in (0.0, 0.25, 0.9):
+        warm_s = warm_seconds(warmth, tau)
+        assert -math.expm1(-warm_s / tau) == pytest.approx(warmth, abs=1e-12)
+    with pytest.raises(ValueError, match="warmth"):
+        warm_seconds(1.0, tau)
+
+
+def test_a_shift_refuses_what_it_cannot_run() -> None:
+    """No jobs, no hours, or an unknown policy: refused, naming what was given and what is
+    valid."""
+    for jobs, hours, policy in ((0, 4.0, "check"), (3, 0.0, "check"), (3, 4.0, "never")):
+        with pytest.raises(ScenarioError, match="check, once, every") as caught:
+            ShiftOptions(jobs=jobs, hours=hours, policy=policy)  # type: ignore[arg-type]
+        assert repr(policy) in str(caught.value)
+
+
+def _object_and_spheres(draw: int | None) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The real cell of seed 4 (an ellipsoid, for speed): its object's true pose and its
+    calibration spheres' poses, world frame."""
+    overrides: dict[str, object] = {"seed": 4, "cell.object.model": "ellipsoid"}
+    if draw is not None:
+        overrides["cell.object.draw"] = draw
+    config = load_config("skull", overrides)
+    virtual, real = object_models(config)
+    cell = job_cell(config, virtual, real, job_robot(config.cell.robot))
+    assert cell.evaluator is not None
+    data = cell.evaluator.mujoco_data
+
+    def pose(geom: str) -> np.ndarray:
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = data.geom(geom).xmat.reshape(3, 3), data.geom(geom).xpos
+        return T
+
+    return pose("object"), [pose(f"calibration_sphere{k}") for k in (1, 2, 3)]
+
+
+def test_another_object_draw_places_the_part_anew_on_the_same_cell() -> None:
+    """`cell.object.draw` 0 is the seed's own placement (to the bit, as without the key);
+    draw 1 places it elsewhere (over 1 mm or 0.1 deg away) while the spheres, drawn from the
+    cell's seed, stand where they stood (to the bit)."""
+    own, spheres = _object_and_spheres(None)
+    zero, spheres0 = _object_and_spheres(0)
+    other, spheres1 = _object_and_spheres(1)
+    np.testing.assert_array_equal(own, zero)
+    for a, b, c in zip(spheres, spheres0, spheres1, strict=True):
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(a, c)
+    moved_m = np.linalg.norm(other[:3, 3] - own[:3, 3])
+    turned = np.arccos(np.clip((np.trace(other[:3, :3].T @ own[:3, :3]) - 1) / 2, -1, 1))
+    assert moved_m > 1e-3 or np.rad2deg(turned) > 0.1, (moved_m, turned)
+
+
+@pytest.mark.slow
+def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
+    """Three skull jobs over an hour on one cell (seed 0) whose arm warms at the shipped
+    level, the check-driven policy: the first job calibrates; each later one is given the
+    calibration before it, checks it, and keeps it exactly where the check's 95 % bound is
+    within its tolerance. Every job meets its goals as the twin's truth measures them (RMS
+    0.5 mm, largest 1 mm), none ends complete with a goal missed. Each job met the warm arm
+    the shift says (its config.yaml: warm_s of the warmth, within 1e-9 s; a part placed by its
+    own draw), and the table, the figure and the recording (its timeline spanning the jobs'
+    starts) are written."""
+    folder, result = run_shift("skull", 0, tmp_path, options=ShiftOptions(jobs=3, hours=1.0))
+    assert [j.job for j in result.jobs] == [0, 1, 2]
+    assert result.jobs[0].calibration == "calibrated"
+    for job in result.jobs:
+        assert job.status == "complete", job.reason
+        assert job.target_rms_m is not None and job.target_rms_m <= 0.5e-3
+        assert job.target_max_m is not None and job.target_max_m <= 1.0e-3
+        if job.job:
+            assert job.check_bound_m is not None and job.check_tolerance_m is not None
+            kept = job.check_bound_m <= job.check_tolerance_m
+            assert job.calibration == ("kept" if kept else "recalibrated")
+        config = yaml.safe_load((folder / job.folder / "config.yaml").read_text())
+        drives = config["cell"]["noise"]["drives"]
+        assert drives["warm_s"] == pytest.approx(warm_seconds(job.warmth, 1800.0), abs=1e-9)
+        assert drives["warmup_rad"][1] == 5.0e-4
+        assert config["cell"]["object"]["draw"] == job.job
+    assert 0.0 == result.jobs[0].warmth < result.jobs[1].warmth < result.jobs[2].warmth < 1.0
+    assert result.missed_while_complete == 0
+    with (folder / "shift.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert [float(r["target_rms_m"]) for r in rows] == [j.target_rms_m for j in result.jobs]
+    summary = json.loads((folder / "shift.json").read_text())["summary"]
+    assert summary["jobs"] == 3 and summary["complete_with_a_goal_missed"] == 0
+    assert (folder / "shift.png").stat().st_size > 10_000
+    times = _shift_times(folder / "shift.rrd", "/shift/target_error_mm/rms")
+    assert times == pytest.approx([j.start_h * 3600.0 for j in result.jobs], abs=1e-6)
+
+
+def _shift_times(path: Path, entity: str) -> list[float]:
+    """The `shift_time` [s] of the rows of `entity` in the recording at `path`, in order."""
+    times: list[float] = []
+    for chunk in rc.RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == entity and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            times += list(batch.column("shift_time").cast("int64").to_numpy() * 1e-9)
+    return sorted(times)
