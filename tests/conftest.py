@@ -35,6 +35,7 @@ LONGEST_FIRST = (
     "test_faults.py",  # 160
     "test_scan_plan.py",  # 120
     "test_verify_curve.py",  # 75
+    "test_shift.py",  # 65: a shift of three jobs
     "test_interrupt.py",  # 70
     "test_calibration_benefit.py",  # 70
 )

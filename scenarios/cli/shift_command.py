@@ -58,7 +58,7 @@ def shift(
     Each job meets a part placed anew while the arm warms (shift.warmup_rad, shift.duty).
     The shift folder holds each job's run folder (jobs/), the table (shift.csv), the result
     (shift.json), the figure (shift.png) and the recording (shift.rrd, on the shift's
-    clock). Exit status 3 when a job ended complete with a goal missed.
+    clock). Exit status 1 when a job ended complete with a goal missed.
     """
     from scenarios.jobs.shift import ShiftOptions, run_shift
     from scenarios.results.shift_result import POLICIES
@@ -86,4 +86,4 @@ def shift(
             f"twincell: {result.missed_while_complete} job(s) ended complete with a goal missed",
             err=True,
         )
-        raise typer.Exit(3)
+        raise typer.Exit(1)
