@@ -125,15 +125,18 @@ def _run_one(
     }
     given = None if options.policy == "every" else clock.calibration
     run_options = RunOptions(rrd=options.rrd, cache=options.cache, calibration=given)
+    job_config = with_overrides(config, overrides, "the shift")  # bad input stops the shift
     jobs_dir = shift / "jobs"
+    before = set(jobs_dir.glob("*-*")) if jobs_dir.is_dir() else set()
     t0 = time.perf_counter()
     try:
         path, result = run_job(
-            with_overrides(config, overrides, "the shift"), out=jobs_dir,
-            progress=lambda m: say(f"[job {k}] {m}"), options=run_options,
+            job_config, out=jobs_dir, progress=lambda m: say(f"[job {k}] {m}"),
+            options=run_options,
         )  # fmt: skip
     except Exception as exc:  # the job stopped; the shift goes on with the next part
-        path, result = (jobs_dir / "latest").resolve(), None
+        made = sorted(set(jobs_dir.glob("*-*")) - before) if jobs_dir.is_dir() else []
+        path, result = (made[0] if made else jobs_dir), None
         reason = f"{exc}"
     else:
         reason = result.reason if isinstance(result, RunResult) else ""
