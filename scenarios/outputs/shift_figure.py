@@ -33,7 +33,8 @@ def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None
 
     jobs = result.jobs
     hours = np.array([j.start_h for j in jobs])
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
+    fig.subplots_adjust(hspace=0.3)
     ax = axes[0]
     ax.plot(hours, _mm([j.target_rms_m for j in jobs]), "o-", label="targets' RMS, the job's")
     ax.plot(hours, _mm([j.exported_rms_m for j in jobs]), "s--", label="exported program's")
@@ -61,7 +62,8 @@ def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None
     ax.set_ylim(bottom=0.0)
     twin.set_ylim(bottom=0.0)
     lines = ax.get_legend_handles_labels(), twin.get_legend_handles_labels()
-    ax.legend(lines[0][0] + lines[1][0], lines[0][1] + lines[1][1], fontsize=8)
+    ax.legend(lines[0][0] + lines[1][0], lines[0][1] + lines[1][1], fontsize=7, ncol=2,
+              loc="lower left", bbox_to_anchor=(0.0, 1.0), frameon=False)  # fmt: skip
     ax = axes[2]
     width = 0.6 * (hours[1] - hours[0]) if len(hours) > 1 else 0.2
     for kind, colour in COLOURS.items():
