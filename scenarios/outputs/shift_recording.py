@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
 
 from scenarios.results.shift_result import ShiftResult
 
@@ -20,11 +21,38 @@ def _mm(values: list[float | None]) -> np.ndarray:
     return np.array([np.nan if v is None else v * 1e3 for v in values])
 
 
+def _layout(hours: float) -> rrb.Blueprint:
+    """The viewer's layout: the target errors, the check, the warm-up and the cell time over
+    the whole shift (`hours` long), and the jobs' log."""
+    whole = rrb.archetypes.TimeAxis(
+        view_range=rr.encodings.TimeRange(
+            start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
+            end=rrb.TimeRangeBoundary.absolute(seconds=hours * 3600.0),
+        )
+    )
+
+    def plot(entity: str, name: str) -> rrb.TimeSeriesView:
+        return rrb.TimeSeriesView(origin=f"/shift/{entity}", name=name, axis_x=whole)
+
+    return rrb.Blueprint(
+        rrb.Vertical(
+            plot("target_error_mm", "target error [mm]"),
+            plot("check_mm", "check: drift and bound [mm]"),
+            rrb.Horizontal(
+                plot("warmup_j2_mrad", "joint 2 warm-up [mrad]"),
+                plot("cell_time_s", "cell time [s]"),
+            ),
+            rrb.TextLogView(origin="/shift/jobs", name="jobs"),
+        ),
+        collapse_panels=True,
+    )
+
+
 def write_shift_recording(path: Path, result: ShiftResult) -> Path:
     """The recording, written to a temporary name and moved into place."""
     tmp = path.with_name(f".{path.name}.partial")
     stream = rr.RecordingStream("twincell")
-    stream.save(str(tmp))
+    stream.save(str(tmp), default_blueprint=_layout(result.hours))
     stream.send_recording_name(f"{result.job} shift (seed {result.seed}, policy {result.policy})")
     stream.set_log_time_enabled(False)
     jobs = result.jobs
