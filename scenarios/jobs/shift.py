@@ -91,9 +91,11 @@ def run_shift(
             jobs.append(job)
             write_table(folder.file("shift.csv"), tuple(jobs))
     finally:
+        robot = Path(config.cell.robot.model).stem  # a shipped arm's name, or its file's
         result = ShiftResult(
-            config.name, config.seed, options.policy, options.jobs, options.hours, tuple(jobs)
-        )
+            config.name, robot, config.seed, options.policy, options.jobs, options.hours,
+            tuple(jobs),
+        )  # fmt: skip
         write_result(folder.file("shift.json"), result)
         folder.remove_partial()
     if jobs:

@@ -43,7 +43,7 @@ def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None
         ax.axhline(goal_rms_m * 1e3, color="red", lw=1, ls="--", label="RMS goal")
     ax.set_ylabel("target error [mm]")
     ax.legend(fontsize=8)
-    ax.set_title(f"{result.job}, seed {result.seed}: policy {result.policy}")
+    ax.set_title(f"{result.job} on the {result.robot}, seed {result.seed}: policy {result.policy}")
     ax = axes[1]
     ax.plot(hours, [j.warmup_j2_rad * 1e3 for j in jobs], "o-", color="tab:red",
             label="joint 2's warm-up shift at the job's start (truth)")  # fmt: skip

@@ -27,6 +27,7 @@ def write_result(path: Path, result: ShiftResult) -> Path:
     """The shift as JSON: its plan, its summary figures and its jobs."""
     data = {
         "job": result.job,
+        "robot": result.robot,
         "seed": result.seed,
         "policy": result.policy,
         "jobs_asked": result.jobs_asked,

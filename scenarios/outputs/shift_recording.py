@@ -53,7 +53,9 @@ def write_shift_recording(path: Path, result: ShiftResult) -> Path:
     tmp = path.with_name(f".{path.name}.partial")
     stream = rr.RecordingStream("twincell")
     stream.save(str(tmp), default_blueprint=_layout(result.hours))
-    stream.send_recording_name(f"{result.job} shift (seed {result.seed}, policy {result.policy})")
+    stream.send_recording_name(
+        f"{result.job} shift on the {result.robot} (seed {result.seed}, policy {result.policy})"
+    )
     stream.set_log_time_enabled(False)
     jobs = result.jobs
     times = rr.TimeColumn(SHIFT_TIME, duration=np.array([j.start_h * 3600.0 for j in jobs]))

@@ -55,10 +55,11 @@ class ShiftJob:
 
 @dataclass(frozen=True)
 class ShiftResult:
-    """A shift: its job, its cell (the seed), its policy, the jobs asked for over how many
-    hours, and each job run."""
+    """A shift: its job, its arm and its cell's seed, its policy, the jobs asked for over how
+    many hours, and each job run."""
 
     job: str
+    robot: str
     seed: int
     policy: Policy
     jobs_asked: int
