@@ -21,6 +21,7 @@ from scenarios.configuration.config_files import load_config, with_overrides
 from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.jobs.shift_thermal import warm_seconds, warmed
+from scenarios.offline.saved_calibration import CALIBRATION_FILE
 from scenarios.outputs.run_folder import RunFolder
 from scenarios.outputs.shift_figure import write_shift_figure
 from scenarios.outputs.shift_files import write_result, write_table
@@ -31,8 +32,6 @@ from scenarios.results.shift_result import POLICIES, Policy, ShiftJob, ShiftResu
 from scenarios.scenario_errors import ScenarioError
 
 Progress = Callable[[str], None]
-#: The file a job keeps its calibration in (scenarios.stages.calibrate_stage).
-CALIBRATION_FILE = "calibration.json"
 
 
 @dataclass(frozen=True)

@@ -20,10 +20,6 @@ COLOURS = {
 }
 
 
-def _mm(values: list[float | None]) -> np.ndarray:
-    return np.array([np.nan if v is None else v * 1e3 for v in values])
-
-
 def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None) -> Path:
     """Three panels over the shift's hours; written through a temporary file."""
     import matplotlib
@@ -32,30 +28,30 @@ def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None
     import matplotlib.pyplot as plt
 
     jobs = result.jobs
-    hours = np.array([j.start_h for j in jobs])
+    hours = result.column("start_h")
     fig, axes = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
     fig.subplots_adjust(hspace=0.3)
     ax = axes[0]
-    ax.plot(hours, _mm([j.target_rms_m for j in jobs]), "o-", label="targets' RMS, the job's")
-    ax.plot(hours, _mm([j.exported_rms_m for j in jobs]), "s--", label="exported program's")
-    ax.plot(hours, _mm([j.target_max_m for j in jobs]), "^:", label="largest target error")
+    ax.plot(hours, result.column("target_rms_m", 1e3), "o-", label="targets' RMS, the job's")
+    ax.plot(hours, result.column("exported_rms_m", 1e3), "s--", label="exported program's")
+    ax.plot(hours, result.column("target_max_m", 1e3), "^:", label="largest target error")
     if goal_rms_m is not None:
         ax.axhline(goal_rms_m * 1e3, color="red", lw=1, ls="--", label="RMS goal")
     ax.set_ylabel("target error [mm]")
     ax.legend(fontsize=8)
     ax.set_title(f"{result.job} on the {result.robot}, seed {result.seed}: policy {result.policy}")
     ax = axes[1]
-    ax.plot(hours, [j.warmup_j2_rad * 1e3 for j in jobs], "o-", color="tab:red",
+    ax.plot(hours, result.column("warmup_j2_rad", 1e3), "o-", color="tab:red",
             label="joint 2's warm-up shift at the job's start (truth)")  # fmt: skip
     ax.set_ylabel("warm-up shift [mrad]")
     twin = ax.twinx()
-    up = _mm([_half(j.check_drift_m, j.check_bound_m) for j in jobs])
+    up = result.column("check_bound_m", 1e3) - result.column("check_drift_m", 1e3)
     label = "check: spheres' drift, to its 95 % bound"
-    drift = _mm([j.check_drift_m for j in jobs])
+    drift = result.column("check_drift_m", 1e3)
     twin.errorbar(
         hours, drift, yerr=[np.zeros_like(up), up], fmt="D", color="tab:purple", label=label
     )
-    tolerance = _mm([j.check_tolerance_m for j in jobs])
+    tolerance = result.column("check_tolerance_m", 1e3)
     if np.isfinite(tolerance).any():
         twin.plot(hours, tolerance, "_", color="tab:purple", ms=14, label="check's tolerance")
     twin.set_ylabel("checked drift [mm]")
@@ -80,8 +76,3 @@ def write_shift_figure(path: Path, result: ShiftResult, goal_rms_m: float | None
     finally:
         plt.close(fig)
     return path
-
-
-def _half(drift_m: float | None, bound_m: float | None) -> float | None:
-    """The bar from the drift up to its bound [m]; None without a check."""
-    return None if drift_m is None or bound_m is None else bound_m - drift_m

@@ -8,17 +8,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
 from scenarios.results.shift_result import ShiftResult
 
 SHIFT_TIME = "shift_time"
-
-
-def _mm(values: list[float | None]) -> np.ndarray:
-    return np.array([np.nan if v is None else v * 1e3 for v in values])
 
 
 def _layout(hours: float) -> rrb.Blueprint:
@@ -57,21 +52,19 @@ def write_shift_recording(path: Path, result: ShiftResult) -> Path:
         f"{result.job} shift on the {result.robot} (seed {result.seed}, policy {result.policy})"
     )
     stream.set_log_time_enabled(False)
-    jobs = result.jobs
-    times = rr.TimeColumn(SHIFT_TIME, duration=np.array([j.start_h * 3600.0 for j in jobs]))
+    times = rr.TimeColumn(SHIFT_TIME, duration=result.column("start_h", 3600.0))
     series = {
-        "shift/target_error_mm/rms": _mm([j.target_rms_m for j in jobs]),
-        "shift/target_error_mm/max": _mm([j.target_max_m for j in jobs]),
-        "shift/target_error_mm/exported_rms": _mm([j.exported_rms_m for j in jobs]),
-        "shift/check_mm/drift": _mm([j.check_drift_m for j in jobs]),
-        "shift/check_mm/bound": _mm([j.check_bound_m for j in jobs]),
-        "shift/warmup_j2_mrad": np.array([j.warmup_j2_rad * 1e3 for j in jobs]),
-        "shift/cell_time_s": np.array([np.nan if j.cell_time_s is None else j.cell_time_s
-                                       for j in jobs]),
+        "shift/target_error_mm/rms": result.column("target_rms_m", 1e3),
+        "shift/target_error_mm/max": result.column("target_max_m", 1e3),
+        "shift/target_error_mm/exported_rms": result.column("exported_rms_m", 1e3),
+        "shift/check_mm/drift": result.column("check_drift_m", 1e3),
+        "shift/check_mm/bound": result.column("check_bound_m", 1e3),
+        "shift/warmup_j2_mrad": result.column("warmup_j2_rad", 1e3),
+        "shift/cell_time_s": result.column("cell_time_s"),
     }  # fmt: skip
     for entity, values in series.items():
         stream.send_columns(entity, indexes=[times], columns=rr.Scalars.columns(scalars=values))
-    for job in jobs:
+    for job in result.jobs:
         stream.set_time(SHIFT_TIME, duration=job.start_h * 3600.0)
         stream.log(
             "shift/jobs",

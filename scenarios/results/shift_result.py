@@ -66,6 +66,12 @@ class ShiftResult:
     hours: float
     jobs: tuple[ShiftJob, ...]
 
+    def column(self, name: str, scale: float = 1.0) -> np.ndarray:
+        """The jobs' figure `name` (a ShiftJob field), times `scale` (1e3: [m] to [mm]), NaN
+        where a job has none."""
+        values = [getattr(job, name) for job in self.jobs]
+        return np.array([np.nan if v is None else v * scale for v in values], dtype=float)
+
     @property
     def mean_cell_time_s(self) -> float | None:
         """The mean cell time per job [s] (None: no job reported one)."""

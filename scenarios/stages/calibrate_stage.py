@@ -74,8 +74,8 @@ def _clear(ctx: StageContext) -> Clear:
     return clear_of(cell, "laser", name, margin)
 
 
-def checked(ctx: StageContext, result: CalibrationResult, path: Path) -> CalibrationResult:
-    """`result` (the calibration `path` held) with its quick check on the cell now
+def checked(ctx: StageContext, result: CalibrationResult) -> CalibrationResult:
+    """`result` (a saved calibration) with its quick check on the cell now
     (scenarios.offline.calibration_check: the spheres from `calibration.check_views` views
     each at the middle table position); where it fails, the cell calibrated anew."""
     section = ctx.settings.calibration
@@ -102,7 +102,7 @@ def checked(ctx: StageContext, result: CalibrationResult, path: Path) -> Calibra
     if not check.passed:
         ctx.controller.set_absolute_accuracy(None)
         result = calibrate_stage(ctx)
-    return replace(result, given=str(path), check=check)
+    return replace(result, check=check)
 
 
 def given_calibration(ctx: StageContext, path: Path) -> tuple[CalibrationResult, SavedCalibration]:
@@ -164,9 +164,9 @@ class Calibrate:
             result, kept = given_calibration(ctx, self.given)
             if ctx.settings.calibration.given == "keep":
                 ctx.hooks.say("calibration check: none (calibration.given: keep)")
-                result = replace(result, given=str(self.given))
             else:
-                result = checked(ctx, result, self.given)
+                result = checked(ctx, result)
+            result = replace(result, given=str(self.given))
             if result.check is not None and not result.check.passed:
                 kept = saved(result, cell_name(ctx), datetime.now(UTC))
         write_json(ctx.folder / CALIBRATION_FILE, to_json(kept))
