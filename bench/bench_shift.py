@@ -25,13 +25,13 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from scenarios.jobs.shift import ShiftOptions, run_shift
+from scenarios.jobs.shift import run_shift
 from scenarios.results.shift_result import POLICIES, ShiftJob, ShiftResult
 
 
 def _shift(job: str, seed: int, policy: str, jobs: int, hours: float, out: str) -> ShiftResult:
-    options = ShiftOptions(jobs=jobs, hours=hours, policy=policy)  # type: ignore[arg-type]
-    _, result = run_shift(job, seed, Path(out) / f"{policy}-{seed}", options=options)
+    shift = {"shift.jobs": jobs, "shift.hours": hours, "shift.policy": policy}
+    _, result = run_shift(job, seed, Path(out) / f"{policy}-{seed}", overrides=shift)
     print(f"  seed {seed}, policy {policy}: {len(result.jobs)} jobs", file=sys.stderr, flush=True)
     return result
 

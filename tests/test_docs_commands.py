@@ -70,6 +70,8 @@ ELSEWHERE = {
         "its cell time",
     "twincell shift skull --jobs 12 --hours 4": "tests/test_shift.py: a shift of 3 jobs over an "
         "hour, its goals, its calibrations, its files and its recording",
+    "twincell campaign skull --stage shift --trials 20 --vary shift.policy=check,once,every "
+    "--workers 2": "tests/test_campaign_shift.py: two policies, two jobs each, on one cell",
     "twincell run skull --cell point_laser": "tests/test_point_laser.py: the same job (without "
         "its recording), its goals, calibration and rasters checked against the truth",
     "twincell serve skull --cell point_laser --speed 10 --egm-port 6510 --laser-latency 8":

@@ -14,10 +14,11 @@ import rerun.chunk as rc
 import yaml
 from conftest import SHORT_SKULL
 
+from scenarios.configuration.config_error import ConfigError
 from scenarios.configuration.config_files import load_config
 from scenarios.jobs.job_plan import job_robot, object_models
 from scenarios.jobs.pipeline import job_cell
-from scenarios.jobs.shift import ShiftOptions, run_shift
+from scenarios.jobs.shift import run_shift
 from scenarios.jobs.shift_thermal import warm_seconds, warmed
 from scenarios.scenario_errors import ScenarioError
 
@@ -37,13 +38,20 @@ def test_the_arm_warms_and_cools_as_a_first_order_lag() -> None:
         warm_seconds(1.0, tau)
 
 
-def test_a_shift_refuses_what_it_cannot_run() -> None:
-    """No jobs, no hours, or an unknown policy: refused, naming what was given and what is
-    valid."""
-    for jobs, hours, policy in ((0, 4.0, "check"), (3, 0.0, "check"), (3, 4.0, "never")):
-        with pytest.raises(ScenarioError, match="check, once, every") as caught:
-            ShiftOptions(jobs=jobs, hours=hours, policy=policy)  # type: ignore[arg-type]
-        assert repr(policy) in str(caught.value)
+def test_a_shift_refuses_what_it_cannot_run(tmp_path: Path) -> None:
+    """No jobs, no hours, or an unknown policy: refused before any job, naming the key, what
+    was given and what is valid; a job that is not a cell job: refused, naming its kind."""
+    for key, value, valid in (
+        ("shift.jobs", 0, "greater than or equal to 1"),
+        ("shift.hours", 0.0, "greater than 0"),
+        ("shift.policy", "never", "'check', 'once' or 'every'"),
+    ):
+        with pytest.raises(ConfigError, match=key) as caught:
+            run_shift("skull", overrides={key: value}, out=tmp_path)
+        assert valid in str(caught.value) and f"(got {value!r})" in str(caught.value)
+    with pytest.raises(ScenarioError, match="a shift runs a cell job; 'paper' is a paper job"):
+        run_shift("paper", out=tmp_path)
+    assert not list(tmp_path.iterdir())
 
 
 def _object_and_spheres(draw: int | None) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -95,8 +103,8 @@ def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
     spanning the jobs' starts) are written."""
     config = tmp_path / "short.yaml"
     config.write_text(SHORT_SKULL)
-    options = ShiftOptions(jobs=3, hours=1.0)
-    folder, result = run_shift(config, out=tmp_path / "runs", options=options)
+    shift = {"shift.jobs": 3, "shift.hours": 1.0}
+    folder, result = run_shift(config, out=tmp_path / "runs", overrides=shift)
     assert [j.job for j in result.jobs] == [0, 1, 2]
     assert result.jobs[0].calibration == "calibrated"
     for job in result.jobs:

@@ -40,6 +40,8 @@ from scenarios.results.edge import JsonObject
 
 Backend = Literal["local", "dask"]
 BACKENDS: tuple[str, ...] = ("local", "dask")
+#: The stages whose trials run a cell job (a job configuration, in a cell one may give).
+CELL_STAGES: tuple[str, ...] = ("full", "shift")
 
 
 @dataclass(frozen=True)
@@ -69,12 +71,14 @@ def base_config(name: str, stage: str, cell: str | None = None) -> JsonObject:
     """The base configuration of a campaign, a job configuration (JobConfig) as a plain dict
     (every key): for the register stage the default job on a built-in model (skull,
     ellipsoid, bracket, housing, lid) or a job YAML file (its `register_trial` section the
-    defaults where it has none; scenarios.campaign.register_job); for the full stage a
-    shipped job (skull, assembly) or a job YAML file, run headless, in `cell` (a shipped
-    cell by name or a cell YAML, as `twincell run --cell` takes it) if one is given."""
-    if cell is not None and stage != "full":
+    defaults where it has none; scenarios.campaign.register_job); for the full and the
+    shift stage a shipped job (skull, assembly) or a job YAML file, run headless, in `cell`
+    (a shipped cell by name or a cell YAML, as `twincell run --cell` takes it) if one is
+    given."""
+    if cell is not None and stage not in CELL_STAGES:
         raise CampaignError(
-            f"a cell ({cell!r}) is for the full stage; the {stage} stage runs no cell"
+            f"a cell ({cell!r}) is for the {' and '.join(CELL_STAGES)} stages; the {stage} "
+            "stage runs no cell"
         )
     if stage == "register":
         if name in MODELS:
@@ -88,7 +92,7 @@ def base_config(name: str, stage: str, cell: str | None = None) -> JsonObject:
         data = read_yaml_mapping(path, CampaignError)
         data.setdefault("name", path.stem)
         return parse_register_job(data, str(path)).job.model_dump(mode="json")
-    if stage == "full":
+    if stage in CELL_STAGES:
         from scenarios.configuration.config_files import load_config
 
         config = load_config(name, cell=cell).model_dump(mode="json")

@@ -12,13 +12,13 @@ import json
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from models.atomic import write_text
 from scenarios.campaign.plots import write_plots
-from scenarios.campaign.rows import CALIBRATION_GOAL, group_rows, per_target
+from scenarios.campaign.rows import CALIBRATION_GOAL, group_rows, json_ready, per_target, quantiles
+from scenarios.campaign.shift_report import SHIFT_NOTE, write_shift_report
 from scenarios.campaign.store import read_csv
 from scenarios.results.edge import JsonObject
 
@@ -29,23 +29,13 @@ STAGE_NOTES = {
         "virtual model; no cell, no robot motion, no program execution."
     ),
     "full": "Stage: full. Each trial runs the whole scenario headless in the simulated cell.",
+    "shift": SHIFT_NOTE,
 }
 
 
 def _floats(rows: list[dict[str, str]], column: str) -> np.ndarray:
     values = [float(r[column]) for r in rows if r.get(column, "") not in ("", None)]
     return np.array(values, dtype=float)
-
-
-def _quantiles(x: np.ndarray) -> dict[str, float]:
-    """Quantiles of the finite values of x (a ratio with no prediction is left out)."""
-    x = x[np.isfinite(x)]
-    if len(x) == 0:
-        return {"n": 0, "median": math.nan, "q05": math.nan, "q25": math.nan, "q75": math.nan,
-                "q95": math.nan, "max": math.nan}  # fmt: skip
-    q = np.quantile(x, [0.05, 0.25, 0.5, 0.75, 0.95])
-    return {"n": len(x), "median": float(q[2]), "q05": float(q[0]), "q25": float(q[1]),
-            "q75": float(q[3]), "q95": float(q[4]), "max": float(x.max())}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -103,10 +93,10 @@ def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
         good_accepted=len(good_accepted),
         false_accepts=sum(flag(r, "false_accept") for r in ok),
         acceptance_of_good=len(good_accepted) / len(good) if good else math.nan,
-        target_error=_quantiles(per_target(accepted, "err_t", "_m")),
-        tre_ratio=_quantiles(per_target(right_accepted, "ratio_t", "")),
-        trial_seconds=_quantiles(_floats(rows, "trial_seconds")),
-        exported_rms=_quantiles(_floats(ok, "exported_rms_m")),
+        target_error=quantiles(per_target(accepted, "err_t", "_m")),
+        tre_ratio=quantiles(per_target(right_accepted, "ratio_t", "")),
+        trial_seconds=quantiles(_floats(rows, "trial_seconds")),
+        exported_rms=quantiles(_floats(ok, "exported_rms_m")),
         exported_met=sum(
             float(r["exported_rms_m"]) <= PROGRAM_GOALS[0]
             and float(r["exported_max_m"]) <= PROGRAM_GOALS[1]
@@ -114,7 +104,7 @@ def summarize(rows: list[dict[str, str]], label: str) -> GroupSummary:
             if r.get("exported_rms_m", "") not in ("", None)
             and r.get("exported_max_m", "") not in ("", None)
         ),
-        job_rms=_quantiles(_floats(ok, "job_rms_m")),
+        job_rms=quantiles(_floats(ok, "job_rms_m")),
         faults=fault_counts(ok),
         harmed=sum(flag(r, "harmed") for r in ok),
     )
@@ -251,19 +241,11 @@ def campaign_summaries(csv_path: str | Path, keys: list[str]) -> list[GroupSumma
     return [*summaries, summarize(rows, "all")]
 
 
-def _json_ready(value: Any) -> Any:
-    """NaN becomes None (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {k: _json_ready(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_json_ready(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def write_report(folder: Path, csv_path: Path, stage: str, keys: list[str]) -> list[Path]:
-    """Write report.md, report.json and the figures of the campaign in `folder`."""
+    """Write report.md, report.json and the figures of the campaign in `folder` (a shift
+    campaign's: scenarios.campaign.shift_report)."""
+    if stage == "shift":
+        return write_shift_report(folder, read_csv(csv_path), keys)
     summaries = campaign_summaries(csv_path, keys)
     data: JsonObject = {
         "stage": stage,
@@ -273,7 +255,7 @@ def write_report(folder: Path, csv_path: Path, stage: str, keys: list[str]) -> l
     }
     files = [
         write_text(folder / "report.md", markdown(summaries, stage)),
-        write_text(folder / "report.json", json.dumps(_json_ready(data), indent=2)),
+        write_text(folder / "report.json", json.dumps(json_ready(data), indent=2)),
     ]
 
     files.extend(write_plots(folder, read_csv(csv_path), keys))

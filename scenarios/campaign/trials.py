@@ -40,6 +40,7 @@ a dataclass's fields, or the columns its module registers)."""
 STAGES: dict[str, str] = {
     "register": "scenarios.campaign.register_trial:run_register_trial",
     "full": "scenarios.campaign.full_stage:run_full_trial",
+    "shift": "scenarios.campaign.shift_stage:run_shift_trial",
 }
 """Trial function of each stage, as `module:function` (imported where the trial runs)."""
 

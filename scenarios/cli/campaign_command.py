@@ -17,6 +17,7 @@ OUTPUT = "Output"
 EXAMPLES = (
     "twincell campaign skull --trials 20 --vary cell.noise.laser_sigma_m=1e-4,3e-4",
     "twincell campaign skull --stage full --trials 20 --workers 2",
+    "twincell campaign skull --stage shift --trials 20 --vary shift.policy=check,once,every",
 )
 
 
@@ -25,16 +26,17 @@ NameArgument = Annotated[
     argument(
         "NAME",
         "register stage: a model (skull, ellipsoid, ...) or a job CONFIG.yaml (with its "
-        "register_trial section); full stage: a shipped job (skull, assembly) or a "
-        "CONFIG.yaml.",
+        "register_trial section); full and shift stages: a shipped job (skull, assembly) or "
+        "a CONFIG.yaml.",
     ),
 ]
 StageOption = Annotated[
     str,
     option(
         "--stage",
-        "[register|full]",
-        "register (matching alone) or full (the scenario).",
+        "[register|full|shift]",
+        "register (matching alone), full (the scenario) or shift (one cell through a shift "
+        "of jobs, the job's shift section).",
         TRIALS,
     ),
 ]
@@ -56,7 +58,7 @@ CellOption = Annotated[
     option(
         "--cell",
         "CELL",
-        "full stage: the cell to run each trial in, as `twincell run --cell` takes it "
+        "full and shift stages: the cell to run each trial in, as `twincell run --cell` takes it "
         "(ur5, or a cell YAML).",
         TRIALS,
     ),

@@ -3,7 +3,7 @@ calibration checked, kept or made anew by a policy."""
 
 from __future__ import annotations
 
-from typing import Annotated, cast
+from typing import Annotated
 
 import typer
 
@@ -21,13 +21,13 @@ EXAMPLES = (
 )
 
 PolicyOption = Annotated[
-    str,
+    str | None,
     option(
         "--policy",
         "[check|once|every]",
         "What each job does with the calibration: check the last one on the spheres and "
         "calibrate anew only where the cell moved (check), keep the first job's unchecked "
-        "(once), or calibrate every job (every).",
+        "(once), or calibrate every job (every). Default: the job's shift.policy (check).",
         SHIFT,
     ),
 ]
@@ -35,12 +35,20 @@ PolicyOption = Annotated[
 
 def shift(
     name: Annotated[str, argument("JOB", "A shipped cell job (skull, assembly) or a CONFIG.yaml.")],
-    jobs: Annotated[int, option("--jobs", "N", "Jobs in the shift.", SHIFT, min=1)] = 12,
+    jobs: Annotated[
+        int | None,
+        option("--jobs", "N", "Jobs in the shift. Default: the job's shift.jobs (12).", SHIFT),
+    ] = None,
     hours: Annotated[
-        float,
-        option("--hours", "H", "The shift's length on the cell's clock [h].", SHIFT, min=0.01),
-    ] = 4.0,
-    policy: PolicyOption = "check",
+        float | None,
+        option(
+            "--hours",
+            "H",
+            "The shift's length on the cell's clock [h]. Default: the job's shift.hours (4).",
+            SHIFT,
+        ),
+    ] = None,
+    policy: PolicyOption = None,
     seed: Annotated[
         int | None, option("--seed", "INTEGER", "The real cell (its seed).", SHIFT, min=0)
     ] = None,
@@ -61,7 +69,6 @@ def shift(
     clock). Exit status 1 when a job ended complete with a goal missed.
     """
     from scenarios.jobs.shift import ShiftOptions, run_shift
-    from scenarios.results.shift_result import Policy
 
     lines = progress_lines(quiet)
 
@@ -72,9 +79,10 @@ def shift(
     overrides = run_overrides(
         model=None, units="mm", targets=None, program=None, assign=assign, fault=None
     )
-    # ShiftOptions refuses a policy not in POLICIES, naming the valid ones
-    options = ShiftOptions(jobs=jobs, hours=hours, policy=cast(Policy, policy), rrd=rrd)
-    folder, result = run_shift(name, seed, out, say, overrides, cell, options)
+    # the job's shift section validates them, naming what is valid
+    given = {"shift.jobs": jobs, "shift.hours": hours, "shift.policy": policy}
+    overrides |= {key: value for key, value in given.items() if value is not None}
+    folder, result = run_shift(name, seed, out, say, overrides, cell, ShiftOptions(rrd=rrd))
     mean = result.mean_cell_time_s
     statuses = ", ".join(f"{result.count(s)} {s}" for s in sorted({j.status for j in result.jobs}))
     typer.echo(f"shift of {len(result.jobs)} jobs ({statuses}); mean cell time per job "

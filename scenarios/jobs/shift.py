@@ -28,7 +28,7 @@ from scenarios.outputs.shift_files import write_result, write_table
 from scenarios.outputs.shift_recording import write_shift_recording
 from scenarios.results.edge import JsonObject
 from scenarios.results.run import RunResult
-from scenarios.results.shift_result import POLICIES, Policy, ShiftJob, ShiftResult
+from scenarios.results.shift_result import ShiftJob, ShiftResult
 from scenarios.scenario_errors import ScenarioError
 
 Progress = Callable[[str], None]
@@ -36,21 +36,11 @@ Progress = Callable[[str], None]
 
 @dataclass(frozen=True)
 class ShiftOptions:
-    """`jobs` over `hours` of the shift's clock, the calibration `policy`; each job's own
-    recording (`rrd`) and the user's cache (`cache`), as `twincell run` takes them."""
+    """Each job's own recording (`rrd`) and the user's cache (`cache`), as `twincell run`
+    takes them (the shift itself, its jobs, hours and policy, is the job's `shift` section)."""
 
-    jobs: int = 12
-    hours: float = 4.0
-    policy: Policy = "check"
     rrd: bool = False
     cache: bool = True
-
-    def __post_init__(self) -> None:
-        if self.jobs < 1 or not self.hours > 0.0 or self.policy not in POLICIES:
-            raise ScenarioError(
-                f"a shift takes jobs >= 1, hours > 0 and a policy of {', '.join(POLICIES)}; "
-                f"got jobs {self.jobs!r}, hours {self.hours!r}, policy {self.policy!r}"
-            )
 
 
 @dataclass(frozen=True)
@@ -64,7 +54,7 @@ class _Clock:
 
 
 def run_shift(
-    name: str | Path,
+    name: str | Path | JobConfig,
     seed: int | None = None,
     out: str | Path = "runs",
     progress: Progress | None = None,
@@ -73,27 +63,32 @@ def run_shift(
     options: ShiftOptions | None = None,
 ) -> tuple[Path, ShiftResult]:
     """Run the shift of job `name` (a shipped job or a YAML, with `seed`, `overrides` and
-    `cell` as `twincell run` takes them) into a new shift folder under `out`; returns the
-    folder and the shift's result."""
+    `cell` as `twincell run` takes them; or a job's configuration, with `seed` and
+    `overrides`) into a new shift folder under `out`; its jobs, hours and policy are the
+    configuration's `shift` section. Returns the folder and the shift's result."""
     options = options or ShiftOptions()
     extra = dict(overrides or {}) | ({} if seed is None else {"seed": seed})
-    config = load_config(name, extra, cell)
+    if isinstance(name, JobConfig):
+        config: object = with_overrides(name, extra, "the shift") if extra else name
+    else:
+        config = load_config(name, extra, cell)
     if not isinstance(config, JobConfig):
-        raise ScenarioError(f"a shift runs a cell job; {name!r} is a {config.kind} job")
+        kind = getattr(config, "kind", type(config).__name__)
+        raise ScenarioError(f"a shift runs a cell job; {name!r} is a {kind} job")
     say = progress or (lambda _m: None)
     folder = RunFolder(out, f"{config.name}-shift")
     clock, jobs = _Clock(), []
-    slot_s = options.hours * 3600.0 / options.jobs
+    shift = config.shift
+    slot_s = shift.hours * 3600.0 / shift.jobs
     try:
-        for k in range(options.jobs):
+        for k in range(shift.jobs):
             job, clock = _run_one(config, k, slot_s, clock, folder.path, options, say)
             jobs.append(job)
             write_table(folder.file("shift.csv"), tuple(jobs))
     finally:
         robot = Path(config.cell.robot.model).stem  # a shipped arm's name, or its file's
         result = ShiftResult(
-            config.name, robot, config.seed, options.policy, options.jobs, options.hours,
-            tuple(jobs),
+            config.name, robot, config.seed, shift.policy, shift.jobs, shift.hours, tuple(jobs),
         )  # fmt: skip
         write_result(folder.file("shift.json"), result)
         folder.remove_partial()
@@ -114,7 +109,7 @@ def _run_one(
 ) -> tuple[ShiftJob, _Clock]:
     """Job `k` of the shift: started at its slot (or when the job before ended), the arm
     warmed or cooled to then; returns its row and the clock after it."""
-    tau_s = config.cell.noise.drives.warmup_tau_s
+    tau_s, policy = config.cell.noise.drives.warmup_tau_s, config.shift.policy
     start_s = max(k * slot_s, clock.time_s)
     warmth = warmed(clock.warmth, start_s - clock.time_s, config.shift.duty, tau_s)
     overrides: JsonObject = {
@@ -122,9 +117,9 @@ def _run_one(
         "cell.object.draw": k,
         "cell.noise.drives.warmup_rad": list(config.shift.warmup_rad),
         "cell.noise.drives.warm_s": warm_seconds(warmth, tau_s),
-        "calibration.given": "keep" if options.policy == "once" else "check",
+        "calibration.given": "keep" if policy == "once" else "check",
     }
-    given = None if options.policy == "every" else clock.calibration
+    given = None if policy == "every" else clock.calibration
     run_options = RunOptions(rrd=options.rrd, cache=options.cache, calibration=given)
     job_config = with_overrides(config, overrides, "the shift")  # bad input stops the shift
     jobs_dir = shift / "jobs"
@@ -146,7 +141,7 @@ def _run_one(
     cell_s = row.cell_time_s or 0.0
     kept = path / CALIBRATION_FILE
     calibration = clock.calibration
-    if kept.is_file() and (options.policy == "check" or calibration is None):
+    if kept.is_file() and (policy == "check" or calibration is None):
         calibration = kept
     return row, _Clock(start_s + cell_s, warmed(warmth, cell_s, 1.0, tau_s), calibration)
 
