@@ -54,11 +54,13 @@ def check_drift(
 ) -> DriftCheck:
     """View the spheres as `plan` says (one table position, a few views a sphere) with the
     controller moving with `calibration`'s arm, and measure how far each sphere's centre has
-    moved since `calibration` (see the module's docstring)."""
+    moved since `calibration` (see the module's docstring). The laser stays in hand, the arm
+    at home."""
     if len(plan.table_positions_m) != 1:
         raise ValueError(f"a quick check views one table position, got {plan.table_positions_m}")
     t0 = time.perf_counter()
-    m = measure_spheres(controller, artifact, plan, clear=clear)
+    # The laser stays in hand: the scan that follows uses it on the seat the check saw.
+    m = measure_spheres(controller, artifact, plan, clear=clear, put_back=False)
     p_base = _points(m, calibration)
     T_base_table = calibration.model.T_base_table(float(m.table_lines[0]))
     was = calibration.centres_table @ T_base_table[:3, :3].T + T_base_table[:3, 3]

@@ -339,7 +339,7 @@ def measure_spheres(
     """Fetch the laser; at each of the plan's table positions, view every sphere; points
     within the radius + 10 mm of a sphere's nominal centre (and not on its post) are kept.
     The laser ends back in its slot, put there with the kinematics that fetched it (not
-    `put_back`: it stays in hand at the last view); a laser found in hand is put back first
+    `put_back`: it stays in hand, the arm at home); a laser found in hand is put back first
     (its mounting on the flange follows from the fetch). `on_view()` is called with the arm
     at each view (e.g. to record the cell); only views `clear` of the object are taken."""
     say = progress or (lambda _msg: None)
@@ -377,8 +377,8 @@ def measure_spheres(
         f"calibration: {n_views} views of {len(artifact.centres_table)} spheres at "
         f"{len(plan.table_positions_m)} table positions, {len(q_lines)} lines"
     )
+    controller.move_joints(controller.q_home)
     if put_back:
-        controller.move_joints(controller.q_home)
         controller.return_tool()
     if not points:
         raise CalibrationError(
