@@ -115,4 +115,10 @@ def robot_from_file(
         # job does not need it; fitted, it only combines with joint 1's offset into a turn
         # about the spheres that the noise pulls about.
         np.array([k not in (1, 2, 3) for k in range(24)]),
+        # Each joint's axis position in its parent grows with the links between them (joint
+        # 1's is the arm's mount on the cell: its pedestal is not the arm's).
+        np.array(
+            [0.0] * 4
+            + [v for j in range(2, 7) for v in (0.0, *model.jointPlacements[j].translation)]
+        ),
     )

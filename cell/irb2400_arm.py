@@ -64,7 +64,13 @@ def irb2400() -> Robot:
         lengths=np.array([True] * 6 + [False] * 6),
         _kinematics=lambda d: _irb_kinematics(geometry(d)),
         _mjcf=lambda d: arm_xml(geometry(d)),
+        nominal_lengths=np.array([*_nominal_lengths(ArmGeometry()), *([0.0] * 6)]),
     )
+
+
+def _nominal_lengths(g: ArmGeometry) -> tuple[float, ...]:
+    """The six link lengths of `g` in the order of IRB_PARAMETERS [m]."""
+    return (g.d1, g.a1, g.a2, g.a3, g.d4, g.d6)
 
 
 def nominal_kinematics() -> Kinematics:

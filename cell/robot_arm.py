@@ -47,6 +47,9 @@ class Robot:
             kinematics' base frame is the cell's, the mount in the first joint's placement).
         identified: (P,) bool, the deviations an in-cell calibration identifies (default
             all); the others it holds at zero.
+        nominal_lengths: (P,) the nominal value of each length deviation's length [m] (0
+            for an angle, and for a length that does not grow with the arm): what grows with
+            the arm's temperature (`grown`). Default: none grows.
     """
 
     name: str
@@ -61,10 +64,19 @@ class Robot:
     tip_frame: str = "flange"
     T_world_base: np.ndarray = field(default_factory=lambda: np.eye(4))
     identified: np.ndarray | None = None
+    nominal_lengths: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.identified is None:
             object.__setattr__(self, "identified", np.ones(len(self.parameters), dtype=bool))
+        if self.nominal_lengths is None:
+            object.__setattr__(self, "nominal_lengths", np.zeros(len(self.parameters)))
+
+    def grown(self, strain: float) -> np.ndarray:
+        """The deviations (P,) of the arm's links grown by `strain` (relative growth, dL/L:
+        a material's expansion coefficient times its temperature rise) [m]."""
+        assert self.nominal_lengths is not None  # set by __post_init__
+        return float(strain) * self.nominal_lengths
 
     @property
     def rapid(self) -> bool:

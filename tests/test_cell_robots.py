@@ -231,3 +231,35 @@ def test_a_flange_frame_off_the_wrist_axis_is_refused(tmp_path: Path) -> None:
     with pytest.raises(CellConfigError, match=r"'wrist_3_link' has its z axis 90 deg off the "
                        r"last joint's axis.*cell\.robot\.flange.*'tool0'"):  # fmt: skip
         load_arm_model(arm, "wrist_3_link")
+
+
+def test_a_warm_arm_s_links_grow_by_its_strain() -> None:
+    """The built-in arm grown by a strain e: every link length times 1 + e, so the flange's
+    position in the base frame, at any joints, is the cold arm's times 1 + e (1e-12 m; the
+    arm's base is the cell's origin). A file arm (the UR5) grows each joint's axis position
+    in its parent but joint 1's (its mount). The real cell's arm carries the growth on top of
+    the kinematic errors it drew (`ArmErrors.thermal_strain`), and a strain of zero leaves
+    them to the bit."""
+    from cell.sim import ArmErrors
+    from cell.sim.real import draw_real_parameters
+
+    strain = 4.0e-4
+    arm = irb2400()
+    cold, warm = arm.kinematics(), arm.kinematics(arm.grown(strain))
+    for q in np.random.default_rng(0).uniform(-1.0, 1.0, (5, 6)):
+        expected = cold.fk(q)[:3, 3] * (1.0 + strain)
+        assert np.max(np.abs(warm.fk(q)[:3, 3] - expected)) < 1e-12
+    ur = ur5()
+    assert ur.nominal_lengths is not None and not ur.nominal_lengths[:4].any()
+    assert np.count_nonzero(ur.nominal_lengths) >= 5
+    for robot in (arm, ur):
+        base = CellConfig(seed=5, robot=robot)
+        drawn = draw_real_parameters(base).deviations
+        assert np.array_equal(
+            draw_real_parameters(
+                CellConfig(seed=5, robot=robot, arm=ArmErrors(thermal_strain=0.0))
+            ).deviations,
+            drawn,
+        )
+        grown = CellConfig(seed=5, robot=robot, arm=ArmErrors(thermal_strain=strain))
+        assert np.array_equal(draw_real_parameters(grown).deviations, drawn + robot.grown(strain))

@@ -98,8 +98,9 @@ def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
     it exactly where the check's 95 % bound is within its tolerance (here the second
     calibrates anew and the third keeps it). Every job meets its goals as the twin's truth
     measures them (RMS 0.5 mm, largest 1 mm); none ends complete with a goal missed. Each job
-    met the warm arm the shift says (its config.yaml: warm_s of the warmth, within 1e-9 s; a
-    part placed by its own draw), and the table, the figure and the recording (its timeline
+    met the warm arm the shift says (its config.yaml: warm_s of the warmth, within 1e-9 s;
+    its links grown by 23e-6 per K of 3 K times the warmth plus 0.5 K an hour, within 1e-15;
+    a part placed by its own draw), and the table, the figure and the recording (its timeline
     spanning the jobs' starts) are written."""
     config = tmp_path / "short.yaml"
     config.write_text(SHORT_SKULL)
@@ -119,6 +120,12 @@ def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
         drives = config["cell"]["noise"]["drives"]
         assert drives["warm_s"] == pytest.approx(warm_seconds(job.warmth, 1800.0), abs=1e-9)
         assert drives["warmup_rad"][1] == 5.0e-4
+        rise_k = 3.0 * job.warmth + 0.5 * job.start_h  # the shipped links' and ambient's
+        strain = config["cell"]["noise"]["arm_thermal_strain"]
+        assert strain == pytest.approx(2.3e-5 * rise_k, abs=1e-15) and (strain > 0.0) == (
+            job.job > 0
+        )
+        assert job.thermal_strain == strain
         assert config["cell"]["object"]["draw"] == job.job
     assert 0.0 == result.jobs[0].warmth < result.jobs[1].warmth < result.jobs[2].warmth < 1.0
     assert result.missed_while_complete == 0

@@ -35,10 +35,13 @@ class ArmErrors:
     `length_sigma_m` per length deviation (the built-in arm's six link lengths; another arm's
     joint axis positions) and `offset_sigma_rad` per joint zero offset (see cell.robot_arm).
     The defaults give an industrial arm's absolute accuracy, about 0.2-0.5 mm at the TCP.
+    `thermal_strain`: the links' growth (dL/L) since the temperature the arm's deviations
+    hold at (cell.robot_arm.Robot.grown; 0: none), for the whole run.
     """
 
     length_sigma_m: float = 1.5e-4
     offset_sigma_rad: float = 1.0e-4
+    thermal_strain: float = 0.0
 
     def __post_init__(self) -> None:
         nonneg(

@@ -55,6 +55,8 @@ def draw_real_parameters(config: CellConfig) -> RealParameters:
     deviations = config.robot.draw_deviations(
         rng, config.arm.length_sigma_m, config.arm.offset_sigma_rad
     )
+    if config.arm.thermal_strain:  # the links grown with the arm's temperature
+        deviations = deviations + config.robot.grown(config.arm.thermal_strain)
     bias = float(rng.normal(0.0, 1.0)) * config.table.bias_sigma_m
     drives = config.drives
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, 11]))

@@ -77,11 +77,14 @@ class Noise(Section):
     """Error sources of the real cell and of the model. `draw` is which draw of the cell's
     run-to-run noise a run meets (its sensors', the table's repeatability, the moves'): 0 is
     the seed's own, another number the same real cell, its object placed as it was, run
-    again."""
+    again. `arm_thermal_strain`: how much the arm's links have grown (dL/L) since the
+    temperature its kinematic errors were drawn at (a shift sets it from the arm's warmth
+    and the ambient's change; 0: none)."""
 
     laser_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     arm_length_sigma_m: float = Field(1.5e-4, ge=0.0, le=0.01)
     arm_offset_sigma_rad: float = Field(1.0e-4, ge=0.0, le=0.01)
+    arm_thermal_strain: float = Field(0.0, ge=-1.0e-3, le=1.0e-3)
     encoder_sigma_rad: float = Field(1.0e-5, ge=0.0, le=0.01)
     table_bias_sigma_m: float = Field(1.0e-4, ge=0.0, le=0.01)
     table_repeat_sigma_m: float = Field(1.0e-5, ge=0.0, le=0.01)

@@ -28,10 +28,27 @@ class ShiftSection(Section):
     calibration's spheres), the order of the warm-up drift reported for mid-size arms, whose
     repeatability cold and warm can differ tenfold (Appl. Sci. 2021, 11(22), 10813, an ABB
     IRB 1200; Int. J. Adv. Manuf. Technol. 75 (2014) 933-946, warm-up and cool-down seen on
-    reference spheres). Set the level your arm's warm-up measured."""
+    reference spheres). Set the level your arm's warm-up measured.
+
+    The links grow with their temperature too (`cell.noise.arm_thermal_strain`, each job's
+    from `thermal_strain`): `expansion_per_k` is cast aluminium's 23e-6 per K (steel's is
+    about 12e-6); the links' rise once fully warm, `link_warmup_k` (3 K), and the workshop's
+    change over the shift, `ambient_k_per_h` (+0.5 K an hour: 2 K over a 4 h shift), are
+    assumed, not measured: together about 0.1 mm at the built-in arm's TCP by the shift's
+    end. Set what your cell's thermometers read; zeros keep the links as they are."""
 
     jobs: int = Field(12, ge=1)
     hours: float = Field(4.0, gt=0.0)
     policy: Policy = "check"
     warmup_rad: Joints = (0.0, 5.0e-4, 5.0e-4, 0.0, 0.0, 0.0)
     duty: float = Field(0.5, ge=0.0, le=1.0)
+    expansion_per_k: float = Field(2.3e-5, ge=0.0, le=1.0e-4)
+    link_warmup_k: float = Field(3.0, ge=0.0, le=50.0)
+    ambient_k_per_h: float = Field(0.5, ge=-10.0, le=10.0)
+
+    def thermal_strain(self, warmth: float, hours: float) -> float:
+        """The links' growth (dL/L) of an arm `warmth` warm (0 cold, 1 fully warm), `hours`
+        into the shift: `expansion_per_k` times the links' temperature rise,
+        `link_warmup_k` times the warmth plus `ambient_k_per_h` times the hours."""
+        rise_k = self.link_warmup_k * warmth + self.ambient_k_per_h * hours
+        return self.expansion_per_k * rise_k

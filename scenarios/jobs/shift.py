@@ -117,6 +117,7 @@ def _run_one(
         "cell.object.draw": k,
         "cell.noise.drives.warmup_rad": list(config.shift.warmup_rad),
         "cell.noise.drives.warm_s": warm_seconds(warmth, tau_s),
+        "cell.noise.arm_thermal_strain": config.shift.thermal_strain(warmth, start_s / 3600.0),
         "calibration.given": "keep" if policy == "once" else "check",
     }
     given = None if policy == "every" else clock.calibration
@@ -159,10 +160,11 @@ def _row(
 ) -> ShiftJob:
     """The table's row of job `k` from its result (None or not a cell job's: it stopped)."""
     warmup_j2_rad = config.shift.warmup_rad[1] * warmth
+    strain = config.shift.thermal_strain(warmth, start_s / 3600.0)
     folder = str(path.relative_to(shift)) if path.is_relative_to(shift) else str(path)
     if not isinstance(result, RunResult):
         return ShiftJob(
-            k, start_s / 3600.0, warmth, warmup_j2_rad, "incomplete", reason, "failed",
+            k, start_s / 3600.0, warmth, warmup_j2_rad, strain, "incomplete", reason, "failed",
             None, None, None, None, None, None, None, None, None, wall_s, folder,
         )  # fmt: skip
     summary = result.calibration.summary
@@ -175,7 +177,7 @@ def _row(
     ran = exported is not None and exported.status == "complete"
     checks = result.checks
     return ShiftJob(
-        k, start_s / 3600.0, warmth, warmup_j2_rad, result.status, reason, decision,
+        k, start_s / 3600.0, warmth, warmup_j2_rad, strain, result.status, reason, decision,
         None if check is None else check.drift_m, None if check is None else check.bound_m,
         None if check is None else check.tolerance_m,
         result.target_error_rms_m, result.target_error_max_m,

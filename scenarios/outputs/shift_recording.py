@@ -17,8 +17,8 @@ SHIFT_TIME = "shift_time"
 
 
 def _layout(hours: float) -> rrb.Blueprint:
-    """The viewer's layout: the target errors, the check, the warm-up and the cell time over
-    the whole shift (`hours` long), and the jobs' log."""
+    """The viewer's layout: the target errors, the check, the warm-up, the links' growth and
+    the cell time over the whole shift (`hours` long), and the jobs' log."""
     whole = rrb.archetypes.TimeAxis(
         view_range=rr.encodings.TimeRange(
             start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
@@ -35,6 +35,7 @@ def _layout(hours: float) -> rrb.Blueprint:
             plot("check_mm", "check: drift and bound [mm]"),
             rrb.Horizontal(
                 plot("warmup_j2_mrad", "joint 2 warm-up [mrad]"),
+                plot("links_growth_um_per_m", "links' growth [um/m]"),
                 plot("cell_time_s", "cell time [s]"),
             ),
             rrb.TextLogView(origin="/shift/jobs", name="jobs"),
@@ -60,6 +61,7 @@ def write_shift_recording(path: Path, result: ShiftResult) -> Path:
         "shift/check_mm/drift": result.column("check_drift_m", 1e3),
         "shift/check_mm/bound": result.column("check_bound_m", 1e3),
         "shift/warmup_j2_mrad": result.column("warmup_j2_rad", 1e3),
+        "shift/links_growth_um_per_m": result.column("thermal_strain", 1e6),
         "shift/cell_time_s": result.column("cell_time_s"),
     }  # fmt: skip
     for entity, values in series.items():

@@ -79,7 +79,9 @@ def cell_config(
         noise_draw=noise.draw,
         robot=robot or irb2400(),
         rack_xyz=rack_xyz,
-        arm=ArmErrors(noise.arm_length_sigma_m, noise.arm_offset_sigma_rad),
+        arm=ArmErrors(
+            noise.arm_length_sigma_m, noise.arm_offset_sigma_rad, noise.arm_thermal_strain
+        ),
         drives=DriveErrors(**noise.drives.model_dump()),
         tools=ToolErrors(**noise.tools.model_dump()),
         encoder=EncoderNoise(noise.encoder_sigma_rad),

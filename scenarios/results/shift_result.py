@@ -18,20 +18,21 @@ POLICIES: tuple[Policy, ...] = ("check", "once", "every")
 @dataclass(frozen=True)
 class ShiftJob:
     """One job of a shift: its number, when it started on the shift's clock [h], the arm's
-    warmth then (0 cold, 1 fully warm; truth) and the zero shift of joint 2 that makes
-    [rad] (truth); how it ended (status, reason); what it did with the calibration
-    (`calibrated`: made anew without one, `kept`: given and kept, `recalibrated`: given,
-    checked and made anew, `failed`: the job stopped before it was settled) and the check's
-    drift, its 95 % bound and the tolerance the bound was held to [m] (None: not checked);
-    its targets' RMS and largest error [m] as its own run touched them and as its exported
-    program did (truth; None where none ran);
-    whether it met its goals; its cell time and wall time [s]; its run folder (relative to
-    the shift's)."""
+    warmth then (0 cold, 1 fully warm; truth), the zero shift of joint 2 that makes [rad]
+    and the links' growth (dL/L) with the ambient's change (truth); how it ended (status,
+    reason); what it did with the calibration (`calibrated`: made anew without one, `kept`:
+    given and kept, `recalibrated`: given, checked and made anew, `failed`: the job stopped
+    before it was settled) and the check's drift, its 95 % bound and the tolerance the bound
+    was held to [m] (None: not checked); its targets' RMS and largest error [m] as its own
+    run touched them and as its exported program did (truth; None where none ran); whether
+    it met its goals; its cell time and wall time [s]; its run folder (relative to the
+    shift's)."""
 
     job: int
     start_h: float
     warmth: float
     warmup_j2_rad: float
+    thermal_strain: float
     status: str
     reason: str
     calibration: str
