@@ -69,8 +69,6 @@ SHORT_RUNS: dict[str, tuple[bool, tuple[tuple[str, ...], ...]] | None] = {
     # the latency found through a twin served per latency: tests/test_controller_client.py
     # finds 0, 8 (in the job) and 20 ms
     "bench_laser_latency.py": None,
-    # shifts of twelve jobs per policy: tests/test_shift.py runs a shift of three
-    "bench_shift.py": None,
     # the point laser's cell: tests/test_point_laser.py runs its skull job (seed 0)
     "bench_point_laser.py": None,
     "same_figures.py": (False, (("run", "keys compared", "keys that differ"),)),
