@@ -21,7 +21,7 @@ Rows = list[dict[str, str]]
 Groups = list[tuple[str, Rows]]
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def save_png(fig: Figure, path: Path) -> Path:
     """Save a figure through a temporary file and close it."""
     import matplotlib.pyplot as plt
 
@@ -66,7 +66,7 @@ def _target_error(
     ax.set_yscale("log")
     ax.set_ylabel("target error of accepted registrations [mm]")
     ax.legend(fontsize=8)
-    return _save(fig, folder / "target_error.png")
+    return save_png(fig, folder / "target_error.png")
 
 
 def _registration_error(
@@ -93,7 +93,7 @@ def _registration_error(
         ax.set_yscale("log")
         ax.axhline(2.0, color="red", lw=1, ls="--")
     axes[0].legend(fontsize=7)
-    return _save(fig, folder / "registration_error.png")
+    return save_png(fig, folder / "registration_error.png")
 
 
 def _acceptance(
@@ -119,7 +119,7 @@ def _acceptance(
     ax.set_ylim(0, 1.1)
     ax.set_ylabel("fraction of trials")
     ax.legend(fontsize=8, loc="lower right")
-    return _save(fig, folder / "acceptance.png")
+    return save_png(fig, folder / "acceptance.png")
 
 
 def _tre_calibration(
@@ -138,7 +138,7 @@ def _tre_calibration(
     ax.set_xlabel("log10 measured / predicted TRE (per target, accepted)")
     ax.set_ylabel("targets")
     ax.legend(fontsize=8)
-    return _save(fig, folder / "tre_calibration.png")
+    return save_png(fig, folder / "tre_calibration.png")
 
 
 def _run_time(
@@ -152,4 +152,4 @@ def _run_time(
     ax.set_xlabel("trial run time [s]")
     ax.set_ylabel("trials")
     ax.legend(fontsize=7)
-    return _save(fig, folder / "run_time.png")
+    return save_png(fig, folder / "run_time.png")

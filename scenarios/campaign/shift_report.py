@@ -10,11 +10,11 @@ import json
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from models.atomic import write_atomic, write_text
+from models.atomic import write_text
+from scenarios.campaign.plots import save_png
 from scenarios.campaign.rows import group_rows, json_ready, per_target, quantiles
 
 Rows = list[dict[str, str]]
@@ -158,12 +158,4 @@ def _figure(path: Path, rows: Rows, keys: list[str]) -> Path:
     for k, mean in enumerate(means):
         right.annotate(f"{mean:.0f} s", (k, mean), ha="center", va="bottom")
     fig.tight_layout()
-    return _save(fig, path, plt)
-
-
-def _save(fig: Any, path: Path, plt: Any) -> Path:
-    try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png"))
-    finally:
-        plt.close(fig)
-    return path
+    return save_png(fig, path)
