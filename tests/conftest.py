@@ -38,6 +38,7 @@ LONGEST_FIRST = (
     "test_shift.py",  # 65: a shift of three jobs
     "test_interrupt.py",  # 70
     "test_calibration_benefit.py",  # 70
+    "test_campaign_shift.py",  # 50: two shifts of two jobs
 )
 
 
