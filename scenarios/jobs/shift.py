@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from scenarios.configuration.config_files import load_config, with_overrides
+from scenarios.configuration.config_files import cell_overrides, load_config, with_overrides
 from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.jobs.shift_thermal import warm_seconds, warmed
@@ -62,14 +62,18 @@ def run_shift(
     cell: str | Path | None = None,
     options: ShiftOptions | None = None,
 ) -> tuple[Path, ShiftResult]:
-    """Run the shift of job `name` (a shipped job or a YAML, with `seed`, `overrides` and
-    `cell` as `twincell run` takes them; or a job's configuration, with `seed` and
-    `overrides`) into a new shift folder under `out`; its jobs, hours and policy are the
-    configuration's `shift` section. Returns the folder and the shift's result."""
+    """Run the shift of job `name` (a shipped job or a YAML, or a job's configuration; with
+    `seed`, `overrides` and `cell` as `twincell run` takes them) into a new shift folder
+    under `out`; its jobs, hours and policy are the configuration's `shift` section. Returns
+    the folder and the shift's result."""
     options = options or ShiftOptions()
     extra = dict(overrides or {}) | ({} if seed is None else {"seed": seed})
     if isinstance(name, JobConfig):
-        config: object = with_overrides(name, extra, "the shift") if extra else name
+        config: object = name
+        if cell is not None:
+            config = with_overrides(name, cell_overrides(cell), f"cell {cell}")
+        if extra and isinstance(config, JobConfig):
+            config = with_overrides(config, extra, "the shift")
     else:
         config = load_config(name, extra, cell)
     if not isinstance(config, JobConfig):
