@@ -2,7 +2,8 @@
 table alone: per sweep point (a policy, say) and over all shifts, how the jobs ended, what
 they did with the calibration, the jobs that ended complete with a goal missed, the targets'
 RMS of the jobs' own runs and of their exported programs over every job (the twin's truth),
-and the mean cell time per job; one figure of the last two per group."""
+and the mean cell time per job; one figure of the targets' RMS and the cell time per
+group."""
 
 from __future__ import annotations
 
@@ -133,8 +134,8 @@ def write_shift_report(folder: Path, rows: Rows, keys: list[str]) -> list[Path]:
 
 
 def _figure(path: Path, rows: Rows, keys: list[str]) -> Path:
-    """Per group: box plots of every job's exported program's targets' RMS, and the mean
-    cell time per job."""
+    """Per group: box plots of every job's targets' RMS, of its own run and of its exported
+    program (where one ran), against the job's RMS goal; and the mean cell time per job."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -144,11 +145,25 @@ def _figure(path: Path, rows: Rows, keys: list[str]) -> Path:
     groups = group_rows(ok, keys) if keys else [("all", ok)]
     labels = [label.replace(", ", "\n") for label, _ in groups]
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
-    rms = [per_target(g, "exported_rms_j", "_m") * 1e3 for _, g in groups]
-    left.boxplot([x[np.isfinite(x)] for x in rms], whis=(5, 95))
-    left.set_xticks(range(1, len(labels) + 1), labels)
-    left.set_ylabel("exported program's target RMS [mm]")
-    left.set_title("every job's exported program (whiskers q05-q95)")
+    for prefix, side, color, name in (
+        ("job_rms_j", -0.18, "tab:blue", "the job's own run"),
+        ("exported_rms_j", 0.18, "tab:orange", "its exported program"),
+    ):
+        values = [per_target(g, prefix, "_m") * 1e3 for _, g in groups]
+        at = [k + side for k, v in enumerate(values) if np.isfinite(v).any()]
+        if at:
+            shown = [v[np.isfinite(v)] for v in values if np.isfinite(v).any()]
+            box = left.boxplot(shown, positions=at, widths=0.3, whis=(5, 95), patch_artist=True)
+            for patch in box["boxes"]:
+                patch.set_facecolor(color)
+            left.plot([], [], "s", color=color, label=name)
+    goals = {float(r["goal_rms_m"]) for r in ok if r.get("goal_rms_m", "") not in ("", None)}
+    for goal in goals:
+        left.axhline(goal * 1e3, color="red", lw=1, ls="--", label="RMS goal")
+    left.set_xticks(range(len(labels)), labels)
+    left.set_ylabel("targets' RMS per job [mm]")
+    left.set_title("every job's targets (truth; whiskers q05-q95)")
+    left.legend(fontsize=8)
     times = [per_target(g, "cell_time_j", "_s") for _, g in groups]
     means = [float(np.mean(t)) if len(t) else 0.0 for t in times]
     right.bar(range(len(labels)), means, color="tab:blue")

@@ -40,11 +40,13 @@ PER_JOB = (
 
 @dataclass(frozen=True, eq=False)
 class ShiftRow:
-    """The row of one shift trial: the shift's result and the trial's wall time [s]; the
-    results' converter flattens it to the table's columns (`shift_row`, then trial_seconds)."""
+    """The row of one shift trial: the shift's result, the trial's wall time [s] and its
+    job's RMS goal [m] (None: none); the results' converter flattens it to the table's
+    columns (`shift_row`, then trial_seconds and goal_rms_m)."""
 
     result: ShiftResult
     trial_seconds: float
+    goal_rms_m: float | None = None
 
 
 def run_shift_trial(config: JsonObject, seed: int) -> ShiftRow:
@@ -64,7 +66,7 @@ def run_shift_trial(config: JsonObject, seed: int) -> ShiftRow:
         raise ScenarioError(f"the shift stage runs a cell job; this trial's is a {job.kind} job")
     with tempfile.TemporaryDirectory(prefix="twincell-shift-") as tmp:
         _, result = run_shift(job, out=tmp, options=ShiftOptions(rrd=False))
-    return ShiftRow(result, time.perf_counter() - t0)
+    return ShiftRow(result, time.perf_counter() - t0, job.checks.target_error_rms_m)
 
 
 def shift_row(result: ShiftResult) -> JsonObject:
@@ -90,7 +92,7 @@ def shift_row(result: ShiftResult) -> JsonObject:
 
 register_writer(
     ShiftRow,
-    keys="... trial_seconds",
+    keys="... trial_seconds goal_rms_m",
     derived=lambda r: shift_row(r.result),
     result=override(omit=True),
 )
