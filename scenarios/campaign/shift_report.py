@@ -153,7 +153,10 @@ def _figure(path: Path, rows: Rows, keys: list[str]) -> Path:
         at = [k + side for k, v in enumerate(values) if np.isfinite(v).any()]
         if at:
             shown = [v[np.isfinite(v)] for v in values if np.isfinite(v).any()]
-            box = left.boxplot(shown, positions=at, widths=0.3, whis=(5, 95), patch_artist=True)
+            box = left.boxplot(
+                shown, positions=at, widths=0.3, whis=(5, 95), patch_artist=True,
+                medianprops={"color": "black"},
+            )  # fmt: skip
             for patch in box["boxes"]:
                 patch.set_facecolor(color)
             left.plot([], [], "s", color=color, label=name)
