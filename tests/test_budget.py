@@ -9,6 +9,7 @@ states; never the budget's own figures."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ from models.model import ObjectModel
 from scenarios.offline.error_budget import MIN_LOCAL_POINTS, error_budget, local_model_error
 from scenarios.offline.settings import PlanningSettings
 from scenarios.results.budget_result import ErrorBudget, TargetBudget
+from scenarios.results.calibration_check_result import DriftCheck
 from scenarios.results.json_converter import structure, unstructure
 from scenarios.results.results_file import read_results
 
@@ -156,3 +158,24 @@ def test_the_faults_page_holds_the_kept_campaigns_coverage() -> None:
     skull = next(r for r in rows if r.startswith("| skull |"))
     targets, runs = (float(x.strip().rstrip("%")) for x in skull.split("|")[3:5])
     assert targets >= 95.0 and runs >= 95.0
+
+
+def test_a_kept_calibration_carries_the_drift_its_check_measured() -> None:
+    """A calibration kept because its quick check passed carries the spheres' shifts since,
+    with the check's own uncertainty: the RMS of the shifts' lengths and three axes of the
+    check's sigma, in quadrature (hand-computed here, 1e-15 m); the budget's arm term adds
+    it in quadrature to the arm's budget. A check that failed (the cell calibrated anew) or
+    has no figure carries nothing."""
+    shifts = np.array([[0.03e-3, 0.04e-3, 0.0], [0.0, 0.0, 0.12e-3]])  # 0.05 and 0.12 mm
+    check = DriftCheck(shifts, 0.01e-3, 0.12e-3, 0.148e-3, 0.15e-3, True, 18, 900, 1.0)
+    expected = np.sqrt((0.05e-3**2 + 0.12e-3**2) / 2 + 3 * 0.01e-3**2)
+    assert check.kept_error_m == pytest.approx(expected, abs=1e-15)
+    assert replace(check, passed=False).kept_error_m is None
+    assert replace(check, sigma_m=None, passed=False).kept_error_m is None
+    settings = _settings(0.5e-3, 1.0e-3, 0.2e-3)
+    arm = settings.verify.arm_accuracy_m
+    names, tre, local = ("a",), np.array([0.1e-3]), np.array([np.nan])
+    kept = error_budget(names, tre, local, 0.03e-3, None, settings, check.kept_error_m)
+    assert kept.targets[0].arm_m == pytest.approx(np.hypot(arm, expected), abs=1e-15)
+    fresh = error_budget(names, tre, local, 0.03e-3, None, settings)
+    assert fresh.targets[0].arm_m == arm and kept.rms_bound_m > fresh.rms_bound_m

@@ -7,7 +7,9 @@ Four terms at each target, each a standard error (an RMS length) [m], add in qua
 - `arm`: the calibrated arm's error at a target: the job's budget for it
   (`verify.arm_accuracy_m`, a data sheet's figure, or the cell's own `verify.budget.arm_m`
   where its campaigns show its arm worse), or the calibration's own point residual if it
-  fits worse than that;
+  fits worse than that; a calibration an earlier job made, kept because its quick check
+  passed, adds in quadrature the drift the check measured since, with its uncertainty
+  (scenarios.results.calibration_check_result.DriftCheck.kept_error_m);
 - `tool`: what the tool's check at the beam left: its reading and, per axis, its own
   standard deviation;
 - `model`: how far the real surface lies from the model there: the RMS of the scan's
@@ -82,14 +84,18 @@ def error_budget(
     tool_m: float,
     calibration_residual_m: float | None,
     settings: PlanningSettings,
+    kept_drift_m: float | None = None,
 ) -> ErrorBudget:
     """The budget of the targets `names` (K,): their predicted TRE (K,) [m], the scan's
     model error near each (K,) [m] (NaN: not seen), the tool's term [m], the calibration's
-    point residual [m] (None: the arm was not calibrated), held to the job's goals."""
+    point residual [m] (None: the arm was not calibrated) and the drift a kept calibration
+    carries [m] (None: made in this job), held to the job's goals."""
     verify = settings.verify
     arm = verify.arm_accuracy_m if verify.budget.arm_m is None else verify.budget.arm_m
     if calibration_residual_m is not None:
         arm = max(arm, calibration_residual_m)
+    if kept_drift_m is not None:
+        arm = float(np.hypot(arm, kept_drift_m))
     stated = settings.model_tolerance_m / 2.0
     k = verify.budget
     targets = []

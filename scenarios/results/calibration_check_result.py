@@ -28,3 +28,14 @@ class DriftCheck:
     views: int
     points: int
     seconds: float
+
+    @property
+    def kept_error_m(self) -> float | None:
+        """The error a calibration kept by this check carries at the spheres, as a standard
+        error [m]: the RMS of the spheres' shifts with each shift's own uncertainty (three
+        axes of `sigma_m`); None where the check did not pass (the calibration was made
+        anew) or has no figure."""
+        if not self.passed or self.sigma_m is None or len(self.shifts_m) == 0:
+            return None
+        shift_sq = float(np.mean(np.sum(self.shifts_m**2, axis=1)))
+        return float(np.sqrt(shift_sq + 3.0 * self.sigma_m**2))

@@ -71,7 +71,9 @@ def budget(ctx: StageContext, check: TcpCheck | None) -> ErrorBudget | None:
     targets = np.array([h.p_entry for h in holes])
     tre = pose.localization.result.predicted_tre(targets).tre
     local = local_model_error(ctx.virtual, pose.T_table_object, scanned.points_table, targets)
-    residual = None if state.calibration is None else state.calibration.residual_rms_after_m
+    calibration = state.calibration
+    residual = None if calibration is None else calibration.residual_rms_after_m
+    kept = None if calibration is None or calibration.check is None else calibration.check
     return error_budget(
         tuple(h.name for h in holes),
         np.asarray(tre, float),
@@ -79,6 +81,7 @@ def budget(ctx: StageContext, check: TcpCheck | None) -> ErrorBudget | None:
         tool_term(check, tool_tolerance(ctx.settings)),
         residual,
         ctx.settings,
+        None if kept is None else kept.kept_error_m,
     )
 
 
