@@ -19,6 +19,7 @@ import math
 import tempfile
 import time
 from dataclasses import dataclass
+from typing import Any
 
 from cattrs.gen import override
 
@@ -81,17 +82,24 @@ class FullRow:
         )
 
 
-def run_full_trial(config: JsonObject, seed: int) -> FullRow:
-    """Run the scenario `config` (a scenario config dict) with `seed`, without recording or
-    figures; its row, from the run's results.json read back."""
+def headless_config(config: JsonObject, seed: int) -> Any:
+    """The trial's configuration (scenarios.configuration): `config` (a config dict) with
+    `seed`, without recording or figures."""
     from scenarios.configuration.config_files import parse_config
-    from scenarios.jobs.runner import RunOptions, run_job
 
-    t0 = time.perf_counter()
     data = {**config, "seed": int(seed)}
     if "output" in data:
         data["output"] = {**data["output"], "rrd": False, "plots": False}
-    scenario = parse_config(data, "campaign trial")
+    return parse_config(data, "campaign trial")
+
+
+def run_full_trial(config: JsonObject, seed: int) -> FullRow:
+    """Run the scenario `config` (a scenario config dict) with `seed`, without recording or
+    figures; its row, from the run's results.json read back."""
+    from scenarios.jobs.runner import RunOptions, run_job
+
+    t0 = time.perf_counter()
+    scenario = headless_config(config, seed)
     with tempfile.TemporaryDirectory(prefix="twincell-trial-") as tmp:
         folder, _ = run_job(scenario, out=tmp, options=RunOptions(rrd=False, spawn=False))
         result = read_results(folder)

@@ -17,6 +17,7 @@ import numpy as np
 from models.atomic import write_text
 from scenarios.campaign.plots import save_png
 from scenarios.campaign.rows import group_rows, json_ready, per_target, quantiles
+from scenarios.campaign.shift_stage import DECISIONS, STATUSES
 
 Rows = list[dict[str, str]]
 
@@ -26,10 +27,6 @@ SHIFT_NOTE = (
     "cools, doing with the calibration what `shift.policy` says. A trial's seed is the same "
     "cell at every sweep point."
 )
-
-#: The job counts a row carries (scenarios.campaign.shift_stage): statuses, decisions.
-STATUS_COLUMNS = ("complete", "at_risk", "refused", "aborted", "incomplete")
-DECISION_COLUMNS = ("calibrated", "kept", "recalibrated", "failed")
 
 
 @dataclass(frozen=True)
@@ -68,8 +65,8 @@ def summarize_shifts(rows: Rows, label: str) -> ShiftSummary:
         errors=sum(r.get("status") == "error" for r in rows),
         crashes=sum(r.get("status") == "crash" for r in rows),
         jobs=_count(ok, "jobs"),
-        statuses={s: _count(ok, f"jobs_{s}") for s in STATUS_COLUMNS},
-        decisions={d: _count(ok, f"calibration_{d}") for d in DECISION_COLUMNS},
+        statuses={s: _count(ok, f"jobs_{s}") for s in STATUSES},
+        decisions={d: _count(ok, f"calibration_{d}") for d in DECISIONS},
         missed_while_complete=_count(ok, "missed_while_complete"),
         job_rms=quantiles(per_target(ok, "job_rms_j", "_m")),
         exported_rms=quantiles(per_target(ok, "exported_rms_j", "_m")),

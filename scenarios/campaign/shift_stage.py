@@ -52,16 +52,13 @@ class ShiftRow:
 def run_shift_trial(config: JsonObject, seed: int) -> ShiftRow:
     """Run the shift of the job `config` (a job configuration dict) on the cell `seed`,
     without the jobs' recordings; its row."""
-    from scenarios.configuration.config_files import parse_config
+    from scenarios.campaign.full_stage import headless_config
     from scenarios.configuration.job_config import JobConfig
     from scenarios.jobs.shift import ShiftOptions, run_shift
     from scenarios.scenario_errors import ScenarioError
 
     t0 = time.perf_counter()
-    data = {**config, "seed": int(seed)}
-    if "output" in data:
-        data["output"] = {**data["output"], "rrd": False, "plots": False}
-    job = parse_config(data, "campaign trial")
+    job = headless_config(config, seed)
     if not isinstance(job, JobConfig):
         raise ScenarioError(f"the shift stage runs a cell job; this trial's is a {job.kind} job")
     with tempfile.TemporaryDirectory(prefix="twincell-shift-") as tmp:
