@@ -3,16 +3,16 @@ display, screenshots of its views during the scan's last pass, at the end of the
 the ICP's timeline, and their pixels checked.
 
     python bench/viewer_check.py RUN_FOLDER [--shots DIR]
-    python bench/viewer_check.py --short [--out DIR]
+    python bench/viewer_check.py --short [RUN_FOLDER] [--out DIR]
 
 Needs what the viewer needs without a display: Xvfb and Mesa's software Vulkan driver
 (Debian: xvfb mesa-vulkan-drivers libvulkan1 libegl1 libgl1 libxkbcommon-x11-0). Not part
 of the default test command for that reason (the slow tier runs --short, skipped without
 Xvfb).
 
---short: runs `twincell run skull --seed 0` into DIR (default: a temporary folder) and checks
-its recording, taking only the screenshots that are checked (five, not eight; kept in
-DIR/shots unless --shots).
+--short: takes only the screenshots that are checked (five, not eight); without a RUN_FOLDER it
+first runs `twincell run skull --seed 0` into DIR (default: a temporary folder) and checks
+its recording (the screenshots kept in DIR/shots unless --shots).
 
 The viewer is driven through rerun's ViewerClient (open the file, set the time, take a
 screenshot of one view), so no click depends on where the panels are. Each check counts
@@ -109,15 +109,17 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run_folder", type=Path, nargs="?", default=None)
     parser.add_argument("--shots", type=Path, default=None, help="keep the screenshots here")
-    parser.add_argument("--short", action="store_true", help="make a run, checked shots only")
+    parser.add_argument(
+        "--short", action="store_true", help="checked shots only; no RUN_FOLDER: make a run"
+    )
     parser.add_argument("--out", type=Path, default=None, help="--short's run goes here")
     args = parser.parse_args()
-    if (args.run_folder is None) != args.short:
-        parser.error("give a RUN_FOLDER, or --short (which makes its own run)")
+    if args.run_folder is None and not args.short:
+        parser.error("give a RUN_FOLDER, or --short (which makes its own run without one)")
     if shutil.which("Xvfb") is None:
         print("cannot check: no Xvfb")
         return 2
-    if args.short:
+    if args.run_folder is None:
         out = args.out or Path(tempfile.mkdtemp(prefix="viewer-run-"))
         args.run_folder = make_run(out)
         args.shots = args.shots or out / "shots"

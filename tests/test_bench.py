@@ -100,14 +100,18 @@ def test_the_readme_and_docs_name_only_these_scripts() -> None:
 
 
 @pytest.mark.parametrize("script", sorted(k for k, v in SHORT_RUNS.items() if v is not None))
-def test_short_run(script: str, tmp_path: Path) -> None:
+def test_short_run(script: str, tmp_path: Path, request: pytest.FixtureRequest) -> None:
     run = SHORT_RUNS[script]
     assert run is not None
     takes_out, headers = run
-    if script == "viewer_check.py" and shutil.which("Xvfb") is None:
-        pytest.skip("no Xvfb: the rerun viewer needs a virtual display server on this machine")
     command = [sys.executable, str(BENCH / script), "--short"]
     command += ["--out", str(tmp_path / "out")] if takes_out else []
+    if script == "viewer_check.py":
+        if shutil.which("Xvfb") is None:
+            pytest.skip("no Xvfb: the rerun viewer needs a virtual display server here")
+        # The recording of the session's short skull run (tests/conftest.py), not a run of
+        # its own: a fresh `twincell run` recording all the same.
+        command.append(str(request.getfixturevalue("short_skull_run")))
     # Wide enough that rich's tables keep each header on one line; the scripts' temporary
     # folders in the test's own.
     env = {**os.environ, "COLUMNS": "240", "TMPDIR": str(tmp_path)}

@@ -69,17 +69,20 @@ def test_a_cell_is_refused_where_the_stage_runs_none() -> None:
 
 
 @pytest.mark.slow
-def test_two_policies_on_the_same_cell(tmp_path: Path) -> None:
-    """`--vary shift.policy=once,every` on one cell, two jobs each. The first job of both
-    shifts is the same job on the same cell (both calibrate): its figures agree bit for bit.
-    The second job keeps the first's calibration unchecked under `once` (no check bound) and
-    calibrates anew under `every`. Every job meets the skull's goals by the twin's truth (RMS
-    <= 0.5 mm), and the report and its figure are written."""
+def test_calibrating_once_fails_visibly_where_calibrating_every_job_holds(tmp_path: Path) -> None:
+    """`--vary shift.policy=once,every` on one cell, two jobs each over 4 h with the arm at
+    work between them (`shift.duty` 1: the second job meets it fully warm, its joints 2 and
+    3 shifted by the shipped 0.5 mrad). The first job of both shifts is the same job on the
+    same cell (both calibrate cold): its figures agree bit for bit, and it meets the skull's
+    RMS goal (0.5 mm) by the twin's truth. The second job keeps the first's calibration
+    unchecked under `once` (no check bound) and misses the goal by the truth; under `every` it
+    calibrates anew and meets it. Neither ends complete with the goal missed, and the report
+    and its figure are written."""
     config = tmp_path / "short.yaml"
     config.write_text(SHORT_SKULL)
     spec = plan_campaign(
         str(config), stage="shift", trials=1, seed=11,
-        vary=["shift.policy=once,every", "shift.jobs=2"],
+        vary=["shift.policy=once,every", "shift.jobs=2", "shift.hours=4", "shift.duty=1"],
     )  # fmt: skip
     outcome = run_campaign(spec, tmp_path / "campaign", progress=False)
     once, every = outcome.rows
@@ -90,11 +93,10 @@ def test_two_policies_on_the_same_cell(tmp_path: Path) -> None:
     assert (once["calibration_calibrated"], once["calibration_kept"]) == (1, 1)
     assert once["check_bound_j1_m"] is None
     assert (every["calibration_calibrated"], every["calibration_kept"]) == (2, 0)
-    for row in (once, every):
-        for k in (0, 1):
-            assert row[f"job_rms_j{k}_m"] <= 0.5e-3
-        assert row["missed_while_complete"] == 0
+    assert once["job_rms_j0_m"] <= 0.5e-3 and every["job_rms_j1_m"] <= 0.5e-3
+    assert once["job_rms_j1_m"] > 0.5e-3, once["job_rms_j1_m"]
+    assert once["missed_while_complete"] == every["missed_while_complete"] == 0
     report = (outcome.folder / "report.md").read_text()
-    assert "| shift.policy=once, shift.jobs=2 | 1 | 2 |" in report
+    assert "| shift.policy=once, shift.jobs=2, shift.hours=4, shift.duty=1 | 1 | 2 |" in report
     assert "1 calibrated, 1 kept" in report and "| all | 2 | 4 |" in report
     assert (outcome.folder / "shift_policies.png").stat().st_size > 10_000
