@@ -145,17 +145,6 @@ def test_a_job_from_a_saved_calibration_skips_its_cell_time(
         assert again["calibration"][key] == pytest.approx(first["calibration"][key], abs=1e-8)
 
 
-def _job(out: Path, *args: str) -> dict:
-    """results.json of `twincell run skull --seed 5 ARGS` into `out` (no recording)."""
-    done = subprocess.run(
-        [sys.executable, "-m", "scenarios.cli", "run", "skull", "--seed", "5", *args,
-         "--out", str(out), "--no-rrd", "--quiet"],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
-    assert done.returncode in (0, 6), done.stdout + done.stderr  # 6: complete, goal at risk
-    return json.loads((out / "latest" / "results.json").read_text())
-
-
 def test_the_quick_check_passes_the_cell_it_was_made_on_and_not_a_warmed_one(
     identified,
 ) -> None:
