@@ -14,6 +14,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
+from datetime import UTC, datetime
 
 import numpy as np
 
@@ -237,6 +238,11 @@ class Controller(ABC):
     @abstractmethod
     def time_s(self) -> float:
         """The controller's clock [s]."""
+
+    def clock_utc(self) -> datetime:
+        """The controller's date and time (aware, UTC): this computer's clock; a simulated
+        cell's own where it keeps one (cell.sim.sim_controller)."""
+        return datetime.now(UTC)
 
     @abstractmethod
     def read_joints(self) -> np.ndarray:

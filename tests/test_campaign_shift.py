@@ -50,7 +50,9 @@ def test_the_report_pools_every_job_of_every_shift_per_policy() -> None:
         "shift.policy=once", "shift.policy=every", "all",
     )  # fmt: skip
     assert once.jobs == 3 and once.statuses["complete"] == 2 and once.statuses["at_risk"] == 1
-    assert once.decisions == {"calibrated": 1, "kept": 2, "recalibrated": 0, "failed": 0}
+    assert once.decisions == {
+        "calibrated": 1, "kept": 2, "recalibrated": 0, "expired": 0, "failed": 0,
+    }  # fmt: skip
     assert (once.missed_while_complete, every.missed_while_complete) == (1, 0)
     assert once.exported_rms["n"] == 3 and every.exported_rms["n"] == 2
     assert once.exported_rms["median"] == pytest.approx(5e-4, abs=1e-12)

@@ -4,6 +4,7 @@ sensors against known geometry, and bad input refused with clear messages."""
 from __future__ import annotations
 
 from dataclasses import replace
+from datetime import UTC, datetime
 
 import mujoco
 import numpy as np
@@ -128,6 +129,22 @@ def _same_parameters(a: RealParameters, b: RealParameters) -> None:
     assert a.T_tool_tcp.keys() == b.T_tool_tcp.keys()
     for tool, T in a.T_tool_tcp.items():
         np.testing.assert_array_equal(T, b.T_tool_tcp[tool], err_msg=tool)
+
+
+def test_the_controller_s_clock_is_the_cell_s_where_it_keeps_one() -> None:
+    """A cell started at a given date and time: its controller's clock is that plus the
+    simulated time, as the arm moves (1 us); a cell without one reads this computer's clock
+    (within the seconds the test takes); a start without a time zone is refused."""
+    start = datetime(2026, 1, 5, 8, 0, tzinfo=UTC)
+    controller, _ = make_cell(CellConfig(seed=2, clock_start_utc=start))
+    controller.move_table(0.3)
+    assert controller.time_s > 0.5
+    ahead = (controller.clock_utc() - start).total_seconds()
+    assert ahead == pytest.approx(controller.time_s, abs=1e-6)
+    own, _ = make_cell(CellConfig(seed=2))
+    assert abs((own.clock_utc() - datetime.now(UTC)).total_seconds()) < 60.0
+    with pytest.raises(CellConfigError, match="no time zone"):
+        CellConfig(clock_start_utc=datetime(2026, 1, 5, 8, 0))
 
 
 def test_table_error_is_hidden_from_the_readout() -> None:

@@ -70,6 +70,8 @@ def test_bad_value_is_named_with_what_was_given() -> None:
         parse_config({"operations": {"tool": "drill"}})
     with pytest.raises(ConfigError, match=r"'kind' must be one of .*'welding'"):
         parse_config({"kind": "welding"})
+    with pytest.raises(ConfigError, match=r"cell\.clock_utc: .*timezone.*'2026-01-05T08:00:00'"):
+        parse_config({"cell": {"clock_utc": "2026-01-05T08:00:00"}})
     assert isinstance(ConfigError("x"), ValueError)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from datetime import datetime, timedelta
 from pathlib import Path
 
 import numpy as np
@@ -16,10 +17,13 @@ from conftest import SHORT_SKULL
 
 from scenarios.configuration.config_error import ConfigError
 from scenarios.configuration.config_files import load_config
+from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.job_plan import job_robot, object_models
 from scenarios.jobs.pipeline import job_cell
+from scenarios.jobs.runner import RunOptions
 from scenarios.jobs.shift import run_shift
 from scenarios.jobs.shift_thermal import warm_seconds, warmed
+from scenarios.offline.saved_calibration import CALIBRATION_FILE
 from scenarios.scenario_errors import ScenarioError
 
 
@@ -52,6 +56,51 @@ def test_a_shift_refuses_what_it_cannot_run(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match="a shift runs a cell job; 'paper' is a paper job"):
         run_shift("paper", out=tmp_path)
     assert not list(tmp_path.iterdir())
+
+
+def test_a_calibration_older_than_its_limit_on_the_shift_s_clock_is_not_given(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each job runs on the shift's clock (its cell.clock_utc: the shift's start plus the
+    job's slot, 30 min apart); a job is given the calibration the job before saved only
+    while it is at most calibration.max_age_h old on that clock. The jobs here are stand-ins
+    that save a calibration made 100 s into their cell time and stop (the shift goes on):
+    each later calibration is 1700 s (0.47 h) old when the next job starts, so a 0.5 h
+    limit gives it and a 0.4 h one does not; with `every` none is given. Against times
+    made by hand here (1 us)."""
+    config = tmp_path / "short.yaml"
+    config.write_text(SHORT_SKULL)
+    calls: list[tuple[datetime, Path | None]] = []
+
+    def stand_in(job: JobConfig, out: Path, progress: object, options: RunOptions) -> None:
+        clock = job.cell.clock_utc
+        assert clock is not None
+        calls.append((clock, options.calibration))
+        folder = out / f"job-{len(calls):02d}"
+        folder.mkdir(parents=True)
+        made = (clock + timedelta(seconds=100.0)).isoformat()
+        (folder / CALIBRATION_FILE).write_text(json.dumps({"made_utc": made}))
+        raise ScenarioError("a stand-in job")
+
+    monkeypatch.setattr("scenarios.jobs.shift.run_job", stand_in)
+    for policy, max_age_h, given in (("check", 0.5, True), ("check", 0.4, False),
+                                     ("once", 0.4, False), ("every", 24.0, False)):  # fmt: skip
+        calls.clear()
+        overrides = {"shift.jobs": 3, "shift.hours": 1.5, "shift.policy": policy,
+                     "calibration.max_age_h": max_age_h}  # fmt: skip
+        out = tmp_path / f"{policy}-{max_age_h}"
+        _, result = run_shift(config, out=out, overrides=overrides)
+        start = calls[0][0]
+        assert [(c - start).total_seconds() for c, _ in calls] == pytest.approx(
+            [0.0, 1800.0, 3600.0], abs=1e-6
+        )
+        assert calls[0][1] is None
+        for k in (1, 2):
+            if given:
+                assert calls[k][1] is not None and calls[k][1].parent.name == f"job-{k:02d}"
+            else:
+                assert calls[k][1] is None, (policy, max_age_h, calls)
+        assert [j.status for j in result.jobs] == ["incomplete"] * 3
 
 
 def _object_and_spheres(draw: int | None) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -101,8 +150,9 @@ def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
     measures them (RMS 0.5 mm, largest 1 mm); none ends complete with a goal missed. Each job
     met the warm arm the shift says (its config.yaml: warm_s of the warmth, within 1e-9 s;
     its links grown by 23e-6 per K of 3 K times the warmth plus 0.5 K an hour, within 1e-15;
-    a part placed by its own draw), and the table, the figure and the recording (its timeline
-    spanning the jobs' starts) are written."""
+    a part placed by its own draw; the shift's clock, 20 min a job, within 1 us, and a
+    calibration it made dated within its cell time by that clock), and the table, the figure
+    and the recording (its timeline spanning the jobs' starts) are written."""
     config = tmp_path / "short.yaml"
     config.write_text(SHORT_SKULL)
     shift = {"shift.jobs": 3, "shift.hours": 1.0}
@@ -119,6 +169,7 @@ def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
             assert job.calibration == ("kept" if kept else "recalibrated")
     one = result.jobs[1]
     assert one.calibration == "recalibrated"
+    clocks: list[datetime] = []
     assert one.check_drift_m is not None and one.check_tolerance_m is not None
     assert one.check_drift_m > one.check_tolerance_m, one  # the shift itself, not its bound
     for job in result.jobs:
@@ -133,6 +184,16 @@ def test_a_small_shift_keeps_its_goals(tmp_path: Path) -> None:
         )
         assert job.thermal_strain == strain
         assert config["cell"]["object"]["draw"] == job.job
+        # the job ran on the shift's clock, and a calibration it made is dated by it
+        clock = datetime.fromisoformat(config["cell"]["clock_utc"])
+        clocks.append(clock)
+        made = json.loads((folder / job.folder / CALIBRATION_FILE).read_text())["made_utc"]
+        if job.calibration != "kept":
+            assert job.cell_time_s is not None
+            since_s = (datetime.fromisoformat(made) - clock).total_seconds()
+            assert 0.0 < since_s < job.cell_time_s, (job.job, since_s)
+    after_s = [(clock - clocks[0]).total_seconds() for clock in clocks]
+    assert after_s == pytest.approx([j.start_h * 3600.0 for j in result.jobs], abs=1e-6)
     assert 0.0 == result.jobs[0].warmth < result.jobs[1].warmth < result.jobs[2].warmth < 1.0
     assert result.missed_while_complete == 0
     with (folder / "shift.csv").open() as handle:

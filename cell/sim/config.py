@@ -8,6 +8,7 @@ Values are SI: [m], [rad].
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from datetime import datetime
 
 import numpy as np
 
@@ -222,7 +223,9 @@ class CellConfig:
     rack stands (`rack_xyz` [m], the rack frame; the slots are 0.25 m apart along x and 0.8 m
     above it), the error sources, the objects on the table, the faults it will have
     (cell.sim.faults). `seed` draws the real cell's errors; `noise_draw` its run-to-run noise
-    (its sensors', the table's repeatability, the moves'), 0 being the seed's own draw."""
+    (its sensors', the table's repeatability, the moves'), 0 being the seed's own draw.
+    `clock_start_utc`: the controller's date and time as the simulation starts (None: its
+    clock is this computer's); it draws nothing."""
 
     seed: int = 0
     noise_draw: int = 0
@@ -238,9 +241,15 @@ class CellConfig:
     fixtures: tuple[FixedMesh | FixedPrimitive, ...] = ()
     parts: tuple[LoosePart | LooseMesh, ...] = ()
     faults: tuple[Fault, ...] = ()
+    clock_start_utc: datetime | None = None
 
     def __post_init__(self) -> None:
         self.layout()  # checks the rack and the objects
+        if self.clock_start_utc is not None and self.clock_start_utc.tzinfo is None:
+            raise CellConfigError(
+                f"clock_start_utc {self.clock_start_utc.isoformat()} gives no time zone: "
+                "give an aware date and time (UTC)"
+            )
 
     def layout(self) -> CellLayout:
         """The cell's layout: the arm, the rack, the laser, the objects (no error source)."""

@@ -80,6 +80,7 @@ def make_cell(config: CellConfig | None = None) -> tuple[SimController, CellTrut
         Devices(encoders, table, laser, ir, drives, changer),
         config.robot,
         config.rack_xyz,
+        clock_start_utc=config.clock_start_utc,
     )
     for fault in config.faults:  # what stands in the cell from the start
         if fault.name in ("obstacle", "payload") and fault.stage is None:

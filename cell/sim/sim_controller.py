@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from datetime import datetime, timedelta
 from typing import TypeVar
 
 import numpy as np
@@ -69,8 +70,10 @@ class SimController(Controller):
         robot: Robot | None = None,
         rack_xyz: tuple[float, float, float] = RACK_POS,
         limits: SupervisionLimits | None = None,
+        clock_start_utc: datetime | None = None,
     ) -> None:
         changer = devices.changer
+        self._clock_start = clock_start_utc
         super().__init__(robot or irb2400(), kinematics, rack_xyz, devices.laser.config, limits)
         self._sim = sim
         self._contacts = ContactSensing(sim, lambda: changer.held)
@@ -91,6 +94,14 @@ class SimController(Controller):
     @property
     def time_s(self) -> float:
         return self._sim.time
+
+    def clock_utc(self) -> datetime:
+        """The cell's clock where its configuration starts one (`clock_start_utc`, the
+        date and time at the simulation's start; a shift's jobs run on the shift's clock,
+        not the computer's), advanced by the simulated time; else this computer's."""
+        if self._clock_start is None:
+            return super().clock_utc()
+        return self._clock_start + timedelta(seconds=self._sim.time)
 
     def read_joints(self) -> np.ndarray:
         for attempt in range(2):

@@ -27,7 +27,7 @@ from scenarios.results.shift_result import ShiftResult
 #: The statuses and calibration decisions a row counts (a job's status is one of the run's;
 #: its decision one of ShiftJob.calibration's).
 STATUSES = ("complete", "at_risk", "refused", "aborted", "incomplete")
-DECISIONS = ("calibrated", "kept", "recalibrated", "failed")
+DECISIONS = ("calibrated", "kept", "recalibrated", "expired", "failed")
 
 #: Per job k: the row's column and the ShiftJob field it holds.
 PER_JOB = (

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from pydantic import (
+    AwareDatetime,
     Field,
     field_validator,
     model_validator,
@@ -170,13 +171,17 @@ class RobotSection(Section):
 class CellSection(Section):
     """The cell: its robot, where the tool rack stands (`rack_xyz` [m]: the rack frame, the
     slots 0.25 m apart along x from it and 0.8 m above it), its laser, the object, and the
-    error sources of the real cell and of the model."""
+    error sources of the real cell and of the model. `clock_utc`: the simulated cell's
+    controller clock as the job starts (ISO 8601 with its zone: a shift's jobs run on the
+    shift's clock, so that a saved calibration ages with the shift); none: this computer's
+    clock."""
 
     robot: RobotSection = RobotSection()
     rack_xyz: tuple[float, float, float] = (0.0, -0.85, 0.0)
     laser: LaserSection = LaserSection()
     object: ObjectSection = ObjectSection()
     noise: Noise = Noise()
+    clock_utc: AwareDatetime | None = None
 
 
 class CTSection(Section):

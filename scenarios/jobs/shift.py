@@ -14,14 +14,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 from scenarios.configuration.config_files import cell_overrides, load_config, with_overrides
 from scenarios.configuration.job_config import JobConfig
 from scenarios.jobs.runner import RunOptions, run_job
 from scenarios.jobs.shift_thermal import warm_seconds, warmed
-from scenarios.offline.saved_calibration import CALIBRATION_FILE
+from scenarios.offline.saved_calibration import CALIBRATION_FILE, made_utc
 from scenarios.outputs.run_folder import RunFolder
 from scenarios.outputs.shift_figure import write_shift_figure
 from scenarios.outputs.shift_files import write_result, write_table
@@ -45,9 +46,10 @@ class ShiftOptions:
 
 @dataclass(frozen=True)
 class _Clock:
-    """Where the shift is: its clock [s], the arm's warmth, the calibration the next job is
-    given (None: it calibrates)."""
+    """Where the shift is: its date and time at its start (UTC), its clock since [s], the
+    arm's warmth, the calibration the next job is given (None: it calibrates)."""
 
+    start_utc: datetime
     time_s: float = 0.0
     warmth: float = 0.0
     calibration: Path | None = None
@@ -81,7 +83,7 @@ def run_shift(
         raise ScenarioError(f"a shift runs a cell job; {name!r} is a {kind} job")
     say = progress or (lambda _m: None)
     folder = RunFolder(out, f"{config.name}-shift")
-    clock, jobs = _Clock(), []
+    clock, jobs = _Clock(datetime.now(UTC)), []
     shift = config.shift
     slot_s = shift.hours * 3600.0 / shift.jobs
     try:
@@ -112,11 +114,24 @@ def _run_one(
     say: Progress,
 ) -> tuple[ShiftJob, _Clock]:
     """Job `k` of the shift: started at its slot (or when the job before ended), the arm
-    warmed or cooled to then; returns its row and the clock after it."""
+    warmed or cooled to then, the cell's clock the shift's; the last calibration given
+    unless the policy calibrates every job or it is older than `calibration.max_age_h` on
+    the shift's clock (expired); returns its row and the clock after it."""
     tau_s, policy = config.cell.noise.drives.warmup_tau_s, config.shift.policy
     start_s = max(k * slot_s, clock.time_s)
     warmth = warmed(clock.warmth, start_s - clock.time_s, config.shift.duty, tau_s)
+    now = clock.start_utc + timedelta(seconds=start_s)
+    given = None if policy == "every" else clock.calibration
+    expired = given is not None and _age_h(given, now) > config.calibration.max_age_h
+    if given is not None and expired:
+        say(
+            f"[job {k}] the calibration {given.relative_to(shift)} is {_age_h(given, now):.1f} h "
+            f"old, more than calibration.max_age_h = {config.calibration.max_age_h:g} h: the "
+            "job calibrates anew"
+        )
+        given = None
     overrides: JsonObject = {
+        "cell.clock_utc": now.isoformat(),
         "cell.noise.draw": k,
         "cell.object.draw": k,
         "cell.noise.drives.warmup_rad": list(config.shift.warmup_rad),
@@ -124,7 +139,6 @@ def _run_one(
         "cell.noise.arm_thermal_strain": config.shift.thermal_strain(warmth, start_s / 3600.0),
         "calibration.given": "keep" if policy == "once" else "check",
     }
-    given = None if policy == "every" else clock.calibration
     run_options = RunOptions(rrd=options.rrd, cache=options.cache, calibration=given)
     job_config = with_overrides(config, overrides, "the shift")  # bad input stops the shift
     jobs_dir = shift / "jobs"
@@ -141,14 +155,16 @@ def _run_one(
         reason = f"{exc}"
     else:
         reason = result.reason if isinstance(result, RunResult) else ""
-    row = _row(k, start_s, warmth, config, path, shift, result, reason, time.perf_counter() - t0)
+    wall_s = time.perf_counter() - t0
+    row = _row(k, start_s, warmth, config, path, shift, result, reason, wall_s, expired)
     say(_line(row))
     cell_s = row.cell_time_s or 0.0
     kept = path / CALIBRATION_FILE
     calibration = clock.calibration
-    if kept.is_file() and (policy == "check" or calibration is None):
+    if kept.is_file() and (policy == "check" or calibration is None or expired):
         calibration = kept
-    return row, _Clock(start_s + cell_s, warmed(warmth, cell_s, 1.0, tau_s), calibration)
+    after = warmed(warmth, cell_s, 1.0, tau_s)
+    return row, replace(clock, time_s=start_s + cell_s, warmth=after, calibration=calibration)
 
 
 def _row(
@@ -161,8 +177,10 @@ def _row(
     result: object,
     reason: str,
     wall_s: float,
+    expired: bool = False,
 ) -> ShiftJob:
-    """The table's row of job `k` from its result (None or not a cell job's: it stopped)."""
+    """The table's row of job `k` from its result (None or not a cell job's: it stopped);
+    `expired`: the last calibration was too old to be given."""
     warmup_j2_rad = config.shift.warmup_rad[1] * warmth
     strain = config.shift.thermal_strain(warmth, start_s / 3600.0)
     folder = str(path.relative_to(shift)) if path.is_relative_to(shift) else str(path)
@@ -174,7 +192,7 @@ def _row(
     summary = result.calibration.summary
     check = summary.check if summary is not None else None
     if summary is None or summary.given is None:
-        decision = "calibrated"
+        decision = "expired" if expired else "calibrated"
     else:
         decision = "recalibrated" if check is not None and not check.passed else "kept"
     exported = result.exported_program
@@ -190,6 +208,11 @@ def _row(
         all(c.met for c in checks.values()) if checks else None,
         result.cell_time_s, wall_s, folder,
     )  # fmt: skip
+
+
+def _age_h(calibration: Path, now: datetime) -> float:
+    """The age [h] at `now` of the calibration saved in `calibration`."""
+    return (now - made_utc(calibration)).total_seconds() / 3600.0
 
 
 def _line(job: ShiftJob) -> str:

@@ -104,6 +104,20 @@ def to_json(calibration: SavedCalibration) -> dict[str, object]:
     return data
 
 
+def made_utc(path: Path) -> datetime:
+    """When the calibration in `path` (a run's calibration.json) was made; ScenarioError for a
+    file that is not one."""
+    try:
+        made = datetime.fromisoformat(
+            json.loads(Path(path).read_text(encoding="utf-8"))["made_utc"]
+        )
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ScenarioError(
+            f"{path}: not a saved calibration ({exc}); give a run's {CALIBRATION_FILE}"
+        ) from None
+    return made
+
+
 def read_calibration(
     path: Path, cell: str, robot: Robot, max_age_h: float, now: datetime
 ) -> SavedCalibration:

@@ -16,6 +16,7 @@ COLOURS = {
     "calibrated": "tab:blue",
     "kept": "tab:green",
     "recalibrated": "tab:orange",
+    "expired": "tab:purple",
     "failed": "tab:red",
 }
 

@@ -150,7 +150,7 @@ def build_job_cell(
             name, mesh.vertices, mesh.faces, T_table_true, convex_pieces=pieces, rgba=rgba
         )
         real_cell = cell_config(noise, seed, (fixed, *spheres), robot, rack_xyz, faults, laser)
-    controller, truth = make_cell(real_cell)
+    controller, truth = make_cell(replace(real_cell, clock_start_utc=config.cell.clock_utc))
     evaluator = Evaluator(truth, real, name)
     log = CellLog(recording, controller, evaluator, name, virtual.name)
     if recording is not None:

@@ -21,12 +21,13 @@ class ShiftJob:
     warmth then (0 cold, 1 fully warm; truth), the zero shift of joint 2 that makes [rad]
     and the links' growth (dL/L) with the ambient's change (truth); how it ended (status,
     reason); what it did with the calibration (`calibrated`: made anew without one, `kept`:
-    given and kept, `recalibrated`: given, checked and made anew, `failed`: the job stopped
-    before it was settled) and the check's drift, its 95 % bound and the tolerance the bound
-    was held to [m] (None: not checked); its targets' RMS and largest error [m] as its own
-    run touched them and as its exported program did (truth; None where none ran); whether
-    it met its goals; its cell time and wall time [s]; its run folder (relative to the
-    shift's)."""
+    given and kept, `recalibrated`: given, checked and made anew, `expired`: the last one
+    older than `calibration.max_age_h` on the shift's clock, so none given and made anew,
+    `failed`: the job stopped before it was settled) and the check's drift, its 95 % bound
+    and the tolerance the bound was held to [m] (None: not checked); its targets' RMS and
+    largest error [m] as its own run touched them and as its exported program did (truth;
+    None where none ran); whether it met its goals; its cell time and wall time [s]; its run
+    folder (relative to the shift's)."""
 
     job: int
     start_h: float

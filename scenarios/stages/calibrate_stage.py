@@ -8,7 +8,6 @@ the calibration it used in its folder (calibration.json)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -110,7 +109,7 @@ def given_calibration(ctx: StageContext, path: Path) -> tuple[CalibrationResult,
     arm, its age), given to the controller as `calibrate_stage` gives its own: the
     calibrated arm, and the laser's latency where the controller pairs lines by time."""
     controller, settings = ctx.controller, ctx.settings
-    now = datetime.now(UTC)
+    now = ctx.controller.clock_utc()
     kept = read_calibration(
         path, cell_name(ctx), controller.robot, settings.calibration.max_age_h, now
     )
@@ -159,7 +158,7 @@ class Calibrate:
         (calibration.json) for later jobs on the same cell."""
         if self.given is None:
             result = calibrate_stage(ctx)
-            kept = saved(result, cell_name(ctx), datetime.now(UTC))
+            kept = saved(result, cell_name(ctx), ctx.controller.clock_utc())
         else:
             result, kept = given_calibration(ctx, self.given)
             if ctx.settings.calibration.given == "keep":
@@ -168,6 +167,6 @@ class Calibrate:
                 result = checked(ctx, result)
             result = replace(result, given=str(self.given))
             if result.check is not None and not result.check.passed:
-                kept = saved(result, cell_name(ctx), datetime.now(UTC))
+                kept = saved(result, cell_name(ctx), ctx.controller.clock_utc())
         write_json(ctx.folder / CALIBRATION_FILE, to_json(kept))
         return Calibrated(result)
