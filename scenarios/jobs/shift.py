@@ -125,9 +125,9 @@ def _run_one(
     expired = given is not None and _age_h(given, now) > config.calibration.max_age_h
     if given is not None and expired:
         say(
-            f"[job {k}] the calibration {given.relative_to(shift)} is {_age_h(given, now):.1f} h "
-            f"old, more than calibration.max_age_h = {config.calibration.max_age_h:g} h: the "
-            "job calibrates anew"
+            f"shift: job {k}: the calibration {given.relative_to(shift)} is "
+            f"{_age_h(given, now):.2f} h old, more than calibration.max_age_h = "
+            f"{config.calibration.max_age_h:g} h: the job calibrates anew"
         )
         given = None
     overrides: JsonObject = {
