@@ -122,12 +122,13 @@ def _run_one(
     warmth = warmed(clock.warmth, start_s - clock.time_s, config.shift.duty, tau_s)
     now = clock.start_utc + timedelta(seconds=start_s)
     given = None if policy == "every" else clock.calibration
-    expired = given is not None and _age_h(given, now) > config.calibration.max_age_h
+    age_h = None if given is None else (now - made_utc(given)).total_seconds() / 3600.0
+    expired = age_h is not None and age_h > config.calibration.max_age_h
     if given is not None and expired:
         say(
-            f"shift: job {k}: the calibration {given.relative_to(shift)} is "
-            f"{_age_h(given, now):.2f} h old, more than calibration.max_age_h = "
-            f"{config.calibration.max_age_h:g} h: the job calibrates anew"
+            f"shift: job {k}: the calibration {given.relative_to(shift)} is {age_h:.2f} h old, "
+            f"more than calibration.max_age_h = {config.calibration.max_age_h:g} h: the job "
+            "calibrates anew"
         )
         given = None
     overrides: JsonObject = {
@@ -208,11 +209,6 @@ def _row(
         all(c.met for c in checks.values()) if checks else None,
         result.cell_time_s, wall_s, folder,
     )  # fmt: skip
-
-
-def _age_h(calibration: Path, now: datetime) -> float:
-    """The age [h] at `now` of the calibration saved in `calibration`."""
-    return (now - made_utc(calibration)).total_seconds() / 3600.0
 
 
 def _line(job: ShiftJob) -> str:
